@@ -1,0 +1,30 @@
+// One entry point for everything on the robot's CAN bus: a frame in, a typed message (or a reason) out.
+//
+// Standard (11-bit) ids are SAUL frames (saul_can.hpp). Extended (29-bit) ids are VESC frames (vesc.hpp).
+// Firmware, saulctl and the simulator all call decode_bus_frame(), so they agree on every frame.
+#pragma once
+
+#include <variant>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/result.hpp"
+#include "saulproto/core/saul_can.hpp"
+
+namespace saul {
+
+/// Every message type the bus carries. Each alternative has kName and fields(visitor), which the
+/// host formatters use to print any message without knowing its type.
+using BusMessage = std::variant<saulcan::VelocityCmd, saulcan::PidGain, saulcan::ModeCmd, saulcan::ConfigCmd,
+                                saulcan::TelemetryA, saulcan::TelemetryB, saulcan::CommandAck>;
+
+/// Decodes any frame seen on the bus. Fails with error_frame, unknown_id, or the codec's own reason
+/// (wrong_dlc, remote_frame, out_of_range, ...). O(1), no allocation.
+Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept;
+
+/// The message's short name, e.g. "velocity_cmd".
+const char* name_of(const BusMessage& message) noexcept;
+
+/// Encodes any bus message into the frame that carries it.
+CanFrame encode_bus_message(const BusMessage& message) noexcept;
+
+}  // namespace saul

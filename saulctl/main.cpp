@@ -1,0 +1,47 @@
+// saulctl: the bench tool for the SAUL-TEE robot. This file only parses arguments and hands over to a verb.
+#include <fmt/core.h>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "saulctl - bench tool for the SAUL-TEE robot: decode, sniff and drive its CAN bus and serial links.\n"
+      "\n"
+      "Examples:\n"
+      "  saulctl decode captures/robot_bus.log          decode every frame of a candump log\n"
+      "  saulctl decode --json run.log | jq .           one JSON object per frame, for scripts\n"
+      "  saulctl decode --id 0x400,0x401 run.log        only telemetry\n"
+      "\n"
+      "Exit codes: 0 ok, 1 failure, 2 usage error, 3 timeout or no answer.",
+      "saulctl"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "saulctl 0.1.0");
+
+  saulctl::Runner run;
+  saulctl::add_decode_command(app, run);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    fmt::print("{}", app.help());
+    return saulctl::kOk;
+  } catch (const CLI::CallForAllHelp&) {
+    fmt::print("{}", app.help("", CLI::AppFormatMode::All));
+    return saulctl::kOk;
+  } catch (const CLI::CallForVersion& e) {
+    fmt::print("{}\n", e.what());
+    return saulctl::kOk;
+  } catch (const CLI::ParseError& e) {
+    // Subcommand help (--help after a verb) arrives here as CallForHelp of the subcommand too.
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    fmt::print(stderr, "saulctl: {} (see saulctl --help)\n", e.what());
+    return saulctl::kUsage;
+  }
+  if (!run) return saulctl::kUsage;
+  try {
+    return run();
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "saulctl: {}\n", e.what());
+    return saulctl::kFailure;
+  }
+}

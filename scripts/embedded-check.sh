@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Builds libsaulproto's core for a Cortex-M4 with arm-none-eabi-g++ (standing in for the ESP32-S3's xtensa
+# toolchain, which Debian does not package), links it into a small program, and prints the sizes.
+# Fails if the core stops compiling without exceptions/RTTI or needs anything a microcontroller lacks.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+out=${1:-$root/build/embedded}
+CXX=${ARM_CXX:-arm-none-eabi-g++}
+command -v "$CXX" >/dev/null || { echo "embedded-check: $CXX not found; run scripts/setup.sh" >&2; exit 1; }
+mkdir -p "$out"
+# Headers of the core are what firmware includes: no allocation-based or stream containers in them.
+if grep -nE '#include <(string|vector|map|memory|iostream|sstream|fstream|functional|list|deque)>' \
+     "$root"/libsaulproto/include/saulproto/core/*.hpp; then
+  echo "embedded-check: FAIL: a core header includes a heap or iostream header (above)" >&2
+  exit 1
+fi
+flags=(-std=c++20 -mcpu=cortex-m4 -mthumb -Os -fno-exceptions -fno-rtti -ffunction-sections -fdata-sections
+       -Wall -Wextra -Werror -I "$root/libsaulproto/include")
+objs=()
+for src in "$root"/libsaulproto/src/core/*.cpp; do
+  obj="$out/$(basename "${src%.cpp}").o"
+  "$CXX" "${flags[@]}" -c "$src" -o "$obj"
+  objs+=("$obj")
+done
+rm -f "$out/libsaulproto_core.a"
+arm-none-eabi-ar rcs "$out/libsaulproto_core.a" "${objs[@]}"
+"$CXX" "${flags[@]}" --specs=nano.specs --specs=nosys.specs -Wl,--gc-sections \
+  "$root/tests/embedded/link_check.cpp" "$out/libsaulproto_core.a" -o "$out/link_check.elf"
+echo "embedded-check: core objects (arm-none-eabi, cortex-m4, -Os):"
+arm-none-eabi-size -t "${objs[@]}" | sed "s#$out/##"
+echo "embedded-check: linked test program:"
+arm-none-eabi-size "$out/link_check.elf" | sed "s#$out/##"
+# The core must not drag in exception or RTTI support.
+if arm-none-eabi-nm -C "$out/link_check.elf" | grep -E '__cxa_throw|__cxa_allocate_exception|typeinfo for' >/dev/null; then
+  echo "embedded-check: FAIL: exception or RTTI symbols linked into the core" >&2
+  exit 1
+fi
+echo "embedded-check: ok"

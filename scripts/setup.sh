@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Install what this project needs from Debian's packages, only what is missing.
+# Safe to run again: it does nothing when everything is there.
+#   scripts/setup.sh            build + test dependencies
+#   SAUL_SKIP_EMBEDDED=1 ...    leave out the arm-none-eabi cross compiler (saves ~50 s)
+set -euo pipefail
+
+packages=(
+  cmake ninja-build g++ pkg-config
+  libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev
+  catch2 libbenchmark-dev
+)
+if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
+  packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)
+fi
+packages+=("$@")
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+sudo=""
+if [[ $(id -u) != 0 ]]; then
+  command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done"

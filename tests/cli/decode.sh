@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# saulctl decode end to end. Expected values come from the story in captures/make_robot_bus.py and from
+# captures/glitches.log, written by hand; none are produced by saulctl itself.
+set -uo pipefail
+saulctl=$1
+root=$2
+fails=0
+check() {  # check DESCRIPTION COMMAND...
+  local what=$1; shift
+  if "$@"; then echo "ok   $what"; else echo "FAIL $what"; fails=$((fails + 1)); fi
+}
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+
+"$saulctl" decode "$root/captures/robot_bus.log" >"$out/text" 2>"$out/err"
+check "sample decodes with exit 0" test $? -eq 0
+check "mode balance while OFF is acknowledged not_allowed" \
+  grep -q '^(1763800000.100400) can0 402#020002 *command_ack command=2 sequence=0 result=rejected_not_allowed$' "$out/text"
+check "PID gains decode to 1.5 0.25 0.05" \
+  bash -c "grep -c 'pid_gain gain=kp sequence=1 value=1.5\$\|pid_gain gain=ki sequence=1 value=0.25\$\|pid_gain gain=kd sequence=1 value=0.05\$' '$out/text' | grep -qx 3"
+check "config 20.00 deg / 1200 mm/s" grep -q 'config_cmd tilt_limit_x100=2000 max_speed_mmps=1200$' "$out/text"
+check "velocity reaches 400 mm/s" grep -q '300#90010000 *velocity_cmd speed_mmps=400 steer_mrad=0$' "$out/text"
+check "telemetry shows BALANCE after arming" grep -q 'telemetry_a .* state=BALANCE$' "$out/text"
+check "summary on stderr counts 452 frames" grep -q '^saulctl decode: 452 frames' "$out/err"
+check "no SAUL frame of the sample is rejected" bash -c "! grep -E '^\\(.* (30[0-3]|40[0-2])#.*!' '$out/text'"
+
+"$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/json" 2>/dev/null
+check "--json gives one object per frame" test "$(wc -l <"$out/json")" -eq 452
+check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit_x100":2000,"type":"config_cmd"}' "$out/json"
+
+"$saulctl" decode --id 0x300 --time delta "$root/captures/robot_bus.log" >"$out/delta" 2>/dev/null
+check "--id filters to 0x300 only" bash -c "! grep -v ' 300#' '$out/delta'"
+check "--time delta shows the 50 ms period" grep -q '^(   0.050000) can0 300#' "$out/delta"
+
+"$saulctl" decode "$root/captures/glitches.log" >"$out/g" 2>"$out/gerr"
+check "a log with corrupt lines still exits 0" test $? -eq 0
+check "wrong DLC is named" grep -q '300#E8030C .*!wrong_dlc$' "$out/g"
+check "unknown id is named" grep -q '123#0102 .*!unknown_id$' "$out/g"
+check "remote frame is named" grep -q '400#R .*!remote_frame$' "$out/g"
+check "error frame is named" grep -q '20000004#0000080000000000 .*!error_frame$' "$out/g"
+check "mode 7 is out of range" grep -q '302#07 .*!out_of_range$' "$out/g"
+check "bad hex id reported with file, line and column" \
+  grep -q "glitches.log:8:27: id is not hexadecimal (line skipped)" "$out/gerr"
+check "missing ')' reported with its line" grep -q "glitches.log:11:1: timestamp has no closing ')'" "$out/gerr"
+check "frames after a corrupt line still decode" grep -q '402#010703 .*command_ack command=1 sequence=7 result=rejected_incomplete$' "$out/g"
+check "29-bit id 0x300 is not taken for a SAUL frame" grep -q '00000300#E8030CFE' "$out/g"
+
+"$saulctl" decode "$out/does-not-exist.log" 2>"$out/nf"
+check "missing file exits 1" test $? -eq 1
+check "missing file error names the file" grep -q "cannot open '.*does-not-exist.log'" "$out/nf"
+"$saulctl" decode --format xml "$root/captures/robot_bus.log" >/dev/null 2>&1
+check "bad option value exits 2" test $? -eq 2
+"$saulctl" >/dev/null 2>&1
+check "no verb exits 2" test $? -eq 2
+"$saulctl" decode --help >"$out/help"
+check "decode --help exits 0 and shows examples" grep -q 'Examples:' "$out/help"
+
+echo "$fails failed"
+exit $((fails > 0))
