@@ -23,10 +23,25 @@ check "velocity reaches 400 mm/s" grep -q '300#90010000 *velocity_cmd speed_mmps
 check "telemetry shows BALANCE after arming" grep -q 'telemetry_a .* state=BALANCE$' "$out/text"
 check "summary on stderr counts 452 frames" grep -q '^saulctl decode: 452 frames' "$out/err"
 check "no SAUL frame of the sample is rejected" bash -c "! grep -E '^\\(.* (30[0-3]|40[0-2])#.*!' '$out/text'"
+# VESC frames (29-bit ids, big-endian). At 1.50 s the Orin asks for 200 mm/s: round(0.2 / (pi x 0.2) x 60) = 19
+# mechanical rpm x 7 pole pairs = 133 ERPM = 0x85. At 1.55 s: 220 mm/s -> 21 rpm -> 147 ERPM = 0x93, current
+# 12 -> 1.2 A, duty int(220 / 20) = 11 -> 0.011; STATUS_5 tachometer 155 x 3 = 465 = 0x1D1, 396 -> 39.6 V.
+check "VESC SET_RPM to 68 decodes to 133 ERPM" \
+  grep -q '^(1763800001.500200) can0 00000344#00000085 *vesc_set_rpm controller_id=68 erpm=133$' "$out/text"
+check "VESC STATUS from 68 decodes ERPM, current and duty" \
+  grep -q '^(1763800001.550500) can0 00000944#00000093000C000B *vesc_status_1 controller_id=68 erpm=147 current_a=1.2 duty=0.011$' "$out/text"
+check "VESC STATUS_5 from 56 decodes tachometer and voltage" \
+  grep -q '00001B38#000001D1018C0000 *vesc_status_5 controller_id=56 tachometer=465 voltage_in_v=39.6$' "$out/text"
+check "all 340 VESC frames decode (250 SET_RPM, 60 STATUS, 30 STATUS_5)" \
+  test "$(grep -c ' vesc_\(set_rpm\|status_1\|status_5\) controller_id=' "$out/text")" -eq 340
+check "the sample has 0 unknown ids and no rejected frame" \
+  bash -c "grep -q '^saulctl decode: 452 frames: 452 decoded, 0 unknown id, 0 rejected' '$out/err' && ! grep -q '!' '$out/text'"
 
 "$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/json" 2>/dev/null
 check "--json gives one object per frame" test "$(wc -l <"$out/json")" -eq 452
 check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit_x100":2000,"type":"config_cmd"}' "$out/json"
+check "--json carries VESC values as plain decimals" \
+  grep -q '"message":{"controller_id":68,"current_a":1.2,"duty":0.011,"erpm":147,"type":"vesc_status_1"}' "$out/json"
 
 "$saulctl" decode --id 0x300 --time delta "$root/captures/robot_bus.log" >"$out/delta" 2>/dev/null
 check "--id filters to 0x300 only" bash -c "! grep -v ' 300#' '$out/delta'"
@@ -43,7 +58,9 @@ check "bad hex id reported with file, line and column" \
   grep -q "glitches.log:8:27: id is not hexadecimal (line skipped)" "$out/gerr"
 check "missing ')' reported with its line" grep -q "glitches.log:11:1: timestamp has no closing ')'" "$out/gerr"
 check "frames after a corrupt line still decode" grep -q '402#010703 .*command_ack command=1 sequence=7 result=rejected_incomplete$' "$out/g"
-check "29-bit id 0x300 is not taken for a SAUL frame" grep -q '00000300#E8030CFE' "$out/g"
+# 29-bit 0x300 is VESC command 3 (SET_RPM) to controller 0; 0xE8030CFE big-endian = 3892514046 - 2^32.
+check "29-bit id 0x300 is not taken for a SAUL frame" \
+  grep -q '00000300#E8030CFE *vesc_set_rpm controller_id=0 erpm=-402453250$' "$out/g"
 
 "$saulctl" decode "$out/does-not-exist.log" 2>"$out/nf"
 check "missing file exits 1" test $? -eq 1

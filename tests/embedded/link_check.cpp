@@ -20,6 +20,8 @@ int main() {
   if (auto r = saul::decode_bus_frame(f)) {
     if (auto* g = std::get_if<saul::saulcan::PidGain>(&r.value())) g_sink = static_cast<std::uint8_t>(stager.accept(*g, 0).kind);
   }
+  const saul::CanFrame v = saul::encode_bus_message(saul::vesc::SetRpm{saul::vesc::kLeftId, 1500});
+  if (auto r = saul::decode_bus_frame(v)) g_sink = static_cast<std::uint8_t>(r.value().index());
   g_sink = static_cast<std::uint8_t>(*saul::to_string(saul::Reason::bad_crc));
   return 0;
 }

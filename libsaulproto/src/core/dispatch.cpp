@@ -15,7 +15,7 @@ Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept {
   if (frame.error) return Reason::error_frame;
   if (!frame.valid()) return Reason::invalid_frame;
   if (!frame.extended) return widen(saulcan::decode(frame));
-  return Reason::unknown_id;
+  return widen(vesc::decode(frame));
 }
 
 const char* name_of(const BusMessage& message) noexcept {
@@ -23,7 +23,9 @@ const char* name_of(const BusMessage& message) noexcept {
 }
 
 CanFrame encode_bus_message(const BusMessage& message) noexcept {
-  return std::visit([](const auto& m) { return saulcan::encode(m); }, message);
+  // Unqualified on purpose: argument-dependent lookup picks saulcan::encode or vesc::encode by the message's
+  // namespace, so a new codec only has to provide encode() next to its types.
+  return std::visit([](const auto& m) { return encode(m); }, message);
 }
 
 }  // namespace saul
