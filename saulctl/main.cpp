@@ -19,6 +19,11 @@ int main(int argc, char** argv) {
 
   saulctl::Runner run;
   saulctl::add_decode_command(app, run);
+  saulctl::add_sniff_command(app, run);
+  saulctl::add_monitor_command(app, run);
+  saulctl::add_command_commands(app, run);
+  saulctl::add_drive_command(app, run);
+  saulctl::add_ports_command(app, run);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,86 @@
+// A live CAN bus, whatever the adapter: SocketCAN (the CANable2 with candleLight firmware, vcan, any Linux
+// CAN driver) or slcan over a serial port (the CANable2 with its slcan firmware, the simulated robot).
+//
+// One small interface so that commands, the simulator and tests do not care which. Errors are LinkError
+// exceptions with a one-line message naming the device and the likely fix.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+
+namespace saul::host {
+
+class LinkError : public std::runtime_error {
+ public:
+  enum class Kind { not_found, permission, busy, down, gone, unsupported, timeout, io };
+  LinkError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  [[nodiscard]] Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+/// CAN controller error state, as the kernel or adapter reports it.
+enum class ControllerState : std::uint8_t { unknown, active, warning, passive, bus_off };
+const char* to_string(ControllerState s);
+
+/// Where a received frame's timestamp came from.
+enum class TimestampSource : std::uint8_t {
+  kernel,     ///< SocketCAN SO_TIMESTAMPNS (CLOCK_REALTIME at reception in the kernel)
+  device,     ///< the adapter's own clock (slcan Z1/Z2), anchored to the host's realtime clock at first use
+  host_read,  ///< the host's realtime clock when read() returned: the stock CANable firmwares send no stamps
+};
+const char* to_string(TimestampSource s);
+
+struct LinkStats {
+  std::uint64_t rx_frames = 0;
+  std::uint64_t tx_frames = 0;
+  std::uint64_t rx_dropped = 0;      ///< frames the kernel or adapter lost (SO_RXQ_OVFL, overflow flags)
+  std::uint64_t error_frames = 0;    ///< error frames received
+  std::uint64_t bus_off_events = 0;  ///< transitions into bus-off
+  std::uint64_t recoveries = 0;      ///< restarts after bus-off
+  std::uint64_t tx_retries = 0;      ///< sends that met a full queue (ENOBUFS) and waited
+  std::uint64_t rejected_input = 0;  ///< adapter output that could not be parsed (slcan)
+  ControllerState state = ControllerState::unknown;
+};
+
+/// Filter: a frame passes when (frame.id & mask) == (id & mask) and its format (extended) matches.
+struct CanFilter {
+  std::uint32_t id = 0;
+  std::uint32_t mask = 0;
+  bool extended = false;
+};
+
+class CanLink {
+ public:
+  virtual ~CanLink() = default;
+  /// Queues a frame for the bus; waits (back-pressure) up to timeout when the transmit queue is full, then
+  /// throws LinkError(timeout). Error frames and invalid frames are refused (LinkError(unsupported)).
+  virtual void send(const CanFrame& frame, std::chrono::milliseconds timeout) = 0;
+  /// The next frame (error frames included), or nullopt when none came within timeout.
+  /// Throws LinkError(gone/down) when the adapter disappears.
+  virtual std::optional<CanFrame> receive(std::chrono::milliseconds timeout) = 0;
+  /// Restricts what receive() returns (where the transport can, in the kernel). Empty = everything.
+  virtual void set_filters(const std::vector<CanFilter>& filters) = 0;
+  /// Tries to leave bus-off (netlink restart for SocketCAN needs root: returns false with a hint instead;
+  /// slcan closes and reopens the channel). Counted in stats().recoveries.
+  virtual bool recover(std::string& hint) = 0;
+  [[nodiscard]] virtual LinkStats stats() const = 0;
+  [[nodiscard]] virtual const std::string& name() const = 0;
+  [[nodiscard]] virtual TimestampSource timestamp_source() const = 0;
+};
+
+/// Software filter check, shared by the transports that cannot filter in hardware.
+bool passes(const std::vector<CanFilter>& filters, const CanFrame& frame);
+
+/// Realtime clock now, in ns since the Unix epoch.
+std::uint64_t realtime_ns();
+
+}  // namespace saul::host

@@ -1,0 +1,92 @@
+// Serial ports: the boards' USB consoles, the inter-board UART tap, CRSF, the Pride link, slcan adapters.
+//
+// Two implementations behind one interface:
+//  - libserialport, for real devices (what users plug in): USB identity, modem lines;
+//  - POSIX termios, which is what works on a pseudo-terminal (libserialport looks ports up in sysfs, which ptys
+//    lack, and needs modem-line ioctls that ptys refuse). Tests and the simulated robot use ptys.
+// SerialBackend::automatic picks termios for /dev/pts/* (and anything libserialport cannot find), libserialport
+// otherwise.
+//
+// Errors are SerialError exceptions whose message is one line naming the device and the likely fix.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace saul::host {
+
+enum class Parity : std::uint8_t { none, even, odd };
+
+struct SerialSettings {
+  std::uint32_t baud = 115200;
+  std::uint8_t data_bits = 8;
+  Parity parity = Parity::none;
+  std::uint8_t stop_bits = 1;
+};
+
+/// "8N1", "8E1", ...
+std::string to_string(const SerialSettings& s);
+/// Parses "8N1" / "8E1" / "7O2" into s (baud untouched); false when malformed.
+bool parse_frame_format(const std::string& text, SerialSettings& s);
+
+class SerialError : public std::runtime_error {
+ public:
+  enum class Kind { not_found, permission, busy, gone, io, config };
+  SerialError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  [[nodiscard]] Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+class SerialPort {
+ public:
+  virtual ~SerialPort() = default;
+  /// Reads whatever is available (at most buf.size() bytes), waiting up to timeout for the first byte.
+  /// Returns 0 on timeout. Throws SerialError(gone) when the device disappeared.
+  virtual std::size_t read(std::span<std::uint8_t> buf, std::chrono::milliseconds timeout) = 0;
+  /// Writes all bytes or throws (gone, or io when the port would not take them within timeout).
+  virtual void write(std::span<const std::uint8_t> data, std::chrono::milliseconds timeout) = 0;
+  /// Sets the DTR and RTS modem lines (a no-op on a pseudo-terminal, which has none).
+  virtual void set_modem_lines(bool dtr, bool rts) = 0;
+  [[nodiscard]] virtual const std::string& path() const = 0;
+  /// What was requested (a pty silently drops parity, so do not trust a read-back there).
+  [[nodiscard]] virtual const SerialSettings& settings() const = 0;
+  /// "termios" or "libserialport".
+  [[nodiscard]] virtual const char* backend() const = 0;
+
+  void write(const std::string& text, std::chrono::milliseconds timeout) {
+    write(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()), timeout);
+  }
+};
+
+enum class SerialBackend : std::uint8_t { automatic, termios, libserialport };
+
+std::unique_ptr<SerialPort> open_serial(const std::string& path, const SerialSettings& settings,
+                                        SerialBackend backend = SerialBackend::automatic);
+
+/// A serial port as the system sees it, with what we recognise it to be.
+struct PortInfo {
+  std::string path;
+  std::string description;
+  std::string manufacturer;
+  std::string product;
+  std::string serial_number;
+  int usb_vid = -1;
+  int usb_pid = -1;
+  std::string role;  ///< e.g. "CANable2 (slcan firmware)", "ESP32-S3 USB-Serial/JTAG (IO board)", or empty
+};
+
+/// What a USB vendor/product pair is on this bench, or "" when unknown.
+std::string recognise_usb_device(int vid, int pid);
+
+/// Lists serial ports via libserialport (real devices only; ptys are not listed).
+std::vector<PortInfo> list_serial_ports();
+
+}  // namespace saul::host

@@ -1,0 +1,202 @@
+// saulctl mode / estop / pid / config: one command frame (or set), then its 0x402 acknowledgement.
+#include <fmt/core.h>
+
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <memory>
+
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/host/robot_client.hpp"
+
+namespace saulctl {
+namespace {
+
+using saul::host::CommandOutcome;
+using namespace std::chrono;
+
+struct CommandOptions {
+  std::string link;
+  std::string timeout = "1s";
+  bool json = false;
+  bool yes = false;
+  std::string mode;
+  std::vector<double> gains;
+  double tilt_limit = -1;
+  int max_speed = -1;
+};
+
+std::string hint_for(saul::saulcan::AckResult r, std::uint8_t command) {
+  using saul::saulcan::AckResult;
+  switch (r) {
+    case AckResult::applied: return "";
+    case AckResult::out_of_range:
+      return command == 0x01 ? "gains must be finite and not negative"
+                             : "tilt limit must be 5..25 deg and max speed within the current cap";
+    case AckResult::not_allowed: return "the robot must be armed first (3 s button hold while upright, or console 'arm')";
+    case AckResult::incomplete: return "the three gains did not all arrive within 100 ms; check bus load and retry";
+  }
+  return "";
+}
+
+int report(const CommandOptions& opt, const std::string& what, const saul::host::CanLink& link,
+           const CommandOutcome& out, std::uint8_t command, milliseconds timeout) {
+  const double ms = static_cast<double>(out.latency.count()) / 1000.0;
+  if (opt.json) {
+    nlohmann::json j;
+    j["command"] = what;
+    j["link"] = link.name();
+    j["status"] = saul::host::to_string(out.status);
+    if (out.status != CommandOutcome::Status::no_answer) {
+      j["result"] = saul::saulcan::to_string(out.result);
+      j["latency_ms"] = ms;
+    }
+    fmt::print("{}\n", j.dump());
+  } else if (out.status == CommandOutcome::Status::applied) {
+    fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
+  } else if (out.status == CommandOutcome::Status::rejected) {
+    fmt::print(stderr, "saulctl: {}: {} - {}\n", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
+  } else {
+    fmt::print(stderr,
+               "saulctl: {}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
+               "'saulctl sniff' shows the traffic)\n",
+               what, timeout.count(), link.name());
+  }
+  switch (out.status) {
+    case CommandOutcome::Status::applied: return kOk;
+    case CommandOutcome::Status::rejected: return kFailure;
+    case CommandOutcome::Status::no_answer: return kTimeout;
+  }
+  return kFailure;
+}
+
+int run_mode(const CommandOptions& opt) {
+  static const std::map<std::string, saul::saulcan::Mode> kModes = {{"off", saul::saulcan::Mode::off},
+                                                                     {"balance", saul::saulcan::Mode::balance},
+                                                                     {"manual", saul::saulcan::Mode::manual},
+                                                                     {"estop", saul::saulcan::Mode::estop}};
+  const auto mode = kModes.at(opt.mode);
+  const bool moves = mode == saul::saulcan::Mode::balance || mode == saul::saulcan::Mode::manual;
+  const auto spec = resolve_link(opt.link);
+  if (moves && !confirm_motion(opt.yes, "send mode " + opt.mode + " on " + spec.text())) return kUsage;
+  const auto timeout = parse_duration(opt.timeout);
+  auto link = saul::host::open_can_link(spec);
+  saul::host::RobotClient client(*link);
+  if (mode == saul::saulcan::Mode::estop) client.send_estop();
+  const auto out = mode == saul::saulcan::Mode::estop
+                       ? client.wait_for_ack(0x02, std::nullopt, steady_clock::now(), timeout)
+                       : client.set_mode(mode, timeout);
+  return report(opt, "mode " + opt.mode, *link, out, 0x02, timeout);
+}
+
+int run_estop(const CommandOptions& opt) {
+  // No confirmation, no delay: open, send, then report whether BALANCE acknowledged.
+  const auto spec = resolve_link(opt.link);
+  const auto timeout = parse_duration(opt.timeout);
+  auto link = saul::host::open_can_link(spec);
+  saul::host::RobotClient client(*link);
+  const auto t0 = steady_clock::now();
+  client.send_estop();
+  const auto out = client.wait_for_ack(0x02, std::nullopt, t0, timeout);
+  return report(opt, "estop", *link, out, 0x02, timeout);
+}
+
+int run_pid(const CommandOptions& opt) {
+  for (double g : opt.gains)
+    if (!std::isfinite(g) || g < 0) throw CLI::ValidationError("gains", "gains must be finite and not negative");
+  const auto spec = resolve_link(opt.link);
+  const auto timeout = parse_duration(opt.timeout);
+  auto link = saul::host::open_can_link(spec);
+  saul::host::RobotClient client(*link);
+  const auto out = client.set_pid(static_cast<float>(opt.gains[0]), static_cast<float>(opt.gains[1]),
+                                  static_cast<float>(opt.gains[2]), timeout);
+  return report(opt, fmt::format("pid kp={:g} ki={:g} kd={:g} (set {})", opt.gains[0], opt.gains[1], opt.gains[2],
+                                 client.last_sequence()),
+                *link, out, 0x01, timeout);
+}
+
+int run_config(const CommandOptions& opt) {
+  if (opt.tilt_limit < 5.0 || opt.tilt_limit > 25.0)
+    throw CLI::ValidationError("--tilt-limit", "tilt limit must be 5..25 degrees");
+  const auto spec = resolve_link(opt.link);
+  const auto timeout = parse_duration(opt.timeout);
+  auto link = saul::host::open_can_link(spec);
+  saul::host::RobotClient client(*link);
+  const auto tilt = static_cast<std::uint16_t>(std::lround(opt.tilt_limit * 100));
+  const auto out = client.set_config(tilt, static_cast<std::uint16_t>(opt.max_speed), timeout);
+  return report(opt, fmt::format("config tilt_limit={:.2f} max_speed={}", opt.tilt_limit, opt.max_speed), *link, out,
+                0x03, timeout);
+}
+
+void common(CLI::App* cmd, CommandOptions& o) {
+  add_link_option(cmd, o.link);
+  cmd->add_option("--timeout", o.timeout, "how long to wait for the 0x402 acknowledgement")->capture_default_str();
+  cmd->add_flag("--json", o.json, "one JSON object with the outcome");
+}
+
+template <class F>
+void bind(CLI::App* cmd, const std::shared_ptr<CommandOptions>& o, Runner& run, F f) {
+  cmd->callback([o, &run, f] {
+    run = [o, f]() -> int {
+      install_signal_handlers();
+      try {
+        return f(*o);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+        return kUsage;
+      } catch (const std::exception& e) {
+        return report_link_error(e);
+      }
+    };
+  });
+}
+
+}  // namespace
+
+void add_command_commands(CLI::App& app, Runner& run) {
+  const char* exits = "\nExit codes: 0 applied, 1 rejected or error, 2 usage or not confirmed, 3 no acknowledgement.\n";
+  {
+    auto o = std::make_shared<CommandOptions>();
+    auto* cmd = app.add_subcommand("mode", "Set the robot's mode (0x302) and wait for its acknowledgement");
+    cmd->add_option("mode", o->mode, "off | balance | manual | estop")
+        ->required()
+        ->check(CLI::IsMember({"off", "balance", "manual", "estop"}));
+    cmd->add_flag("-y,--yes", o->yes, "confirm a mode that can move the motors (balance, manual) without asking");
+    common(cmd, *o);
+    cmd->footer(std::string("\nbalance and manual can move the motors: saulctl asks on a terminal and needs --yes in "
+                            "scripts. They are only accepted when the robot is already armed.\n"
+                            "\nExamples:\n  saulctl mode off --link can0\n"
+                            "  saulctl mode balance --yes --link slcan:/dev/ttyACM0\n") + exits);
+    bind(cmd, o, run, run_mode);
+  }
+  {
+    auto o = std::make_shared<CommandOptions>();
+    auto* cmd = app.add_subcommand("estop", "Emergency stop: send mode 3 at once, no questions");
+    common(cmd, *o);
+    cmd->footer(std::string("\nSent immediately, never asks. Leaving ESTOP needs disarm and a fresh arming.\n") + exits);
+    bind(cmd, o, run, run_estop);
+  }
+  {
+    auto o = std::make_shared<CommandOptions>();
+    auto* cmd = app.add_subcommand("pid", "Send a PID gain set (three 0x301 frames) and wait for 0x402");
+    cmd->add_option("gains", o->gains, "KP KI KD")->required()->expected(3);
+    common(cmd, *o);
+    cmd->footer(std::string("\nThe robot applies all three gains together or none (within 100 ms).\n"
+                            "\nExample:\n  saulctl pid 1.5 0.25 0.05 --link can0\n") + exits);
+    bind(cmd, o, run, run_pid);
+  }
+  {
+    auto o = std::make_shared<CommandOptions>();
+    auto* cmd = app.add_subcommand("config", "Send tilt limit and max speed (0x303) and wait for 0x402");
+    cmd->add_option("--tilt-limit", o->tilt_limit, "tilt cutoff in degrees, 5..25")->required();
+    cmd->add_option("--max-speed", o->max_speed, "speed limit in mm/s (cannot raise the speed cap)")
+        ->required()
+        ->check(CLI::Range(0, 65535));
+    common(cmd, *o);
+    cmd->footer(std::string("\nExample:\n  saulctl config --tilt-limit 20 --max-speed 800 --link can0\n") + exits);
+    bind(cmd, o, run, run_config);
+  }
+}
+
+}  // namespace saulctl

@@ -1,0 +1,195 @@
+// saulctl sniff: live decode of everything on a CAN link or a serial byte link.
+#include <fmt/core.h>
+
+#include <memory>
+
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/core/interboard.hpp"
+#include "saulproto/host/format.hpp"
+#include "saulproto/host/frame_text.hpp"
+#include "saulproto/host/socketcan.hpp"
+
+namespace saulctl {
+namespace {
+
+using namespace std::chrono;
+
+struct SniffOptions {
+  std::string link;
+  std::vector<std::string> filters;
+  std::uint64_t count = 0;
+  std::string duration;
+  std::string time = "abs";
+  std::string protocol = "interboard";
+  bool json = false;
+  bool listen_only = false;
+};
+
+saul::host::CanFilter parse_filter(const std::string& text) {
+  // ID or ID:MASK, hex with 0x or plain hex; more than 3 digits or an id above 0x7FF means 29-bit.
+  const auto colon = text.find(':');
+  auto num = [&](const std::string& s) {
+    std::size_t used = 0;
+    unsigned long v = 0;
+    try {
+      v = std::stoul(s, &used, 16);
+    } catch (...) {
+      used = 0;
+    }
+    if (used == 0 || used != s.size()) throw CLI::ValidationError("--id", "bad id filter '" + text + "' (use 300 or 300:7F0)");
+    return static_cast<std::uint32_t>(v);
+  };
+  std::string id_text = text.substr(0, colon);
+  if (id_text.rfind("0x", 0) == 0 || id_text.rfind("0X", 0) == 0) id_text = id_text.substr(2);
+  saul::host::CanFilter f;
+  f.id = num(id_text);
+  f.extended = id_text.size() > 3 || f.id > 0x7FF;
+  f.mask = colon == std::string::npos ? (f.extended ? 0x1FFFFFFFU : 0x7FFU) : num(text.substr(colon + 1));
+  return f;
+}
+
+saul::host::TimeMode time_mode(const std::string& t) {
+  return t == "rel" ? saul::host::TimeMode::relative
+                    : t == "delta" ? saul::host::TimeMode::delta : saul::host::TimeMode::absolute;
+}
+
+int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
+  auto link = saul::host::open_can_link(spec, opt.listen_only);
+  std::vector<saul::host::CanFilter> filters;
+  for (const auto& t : opt.filters) filters.push_back(parse_filter(t));
+  link->set_filters(filters);
+  const bool limited = !opt.duration.empty();
+  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
+  const auto start = steady_clock::now();
+  saul::host::TimeColumn column(time_mode(opt.time));
+  std::uint64_t shown = 0;
+  auto state = link->stats().state;
+  if (!opt.json)
+    fmt::print(stderr, "sniff: listening on {} (timestamps: {}); Ctrl-C to stop\n", link->name(),
+               saul::host::to_string(link->timestamp_source()));
+  int status = kOk;
+  try {
+    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
+      auto wait = milliseconds(200);
+      if (limited) {
+        const auto left = duration_cast<milliseconds>(duration - (steady_clock::now() - start));
+        if (left.count() <= 0) break;
+        wait = std::min(wait, left);
+      }
+      const auto f = link->receive(wait);
+      const auto now_state = link->stats().state;
+      if (now_state != state) {
+        // Controller state changes are always shown, loudly, with the time they were seen.
+        fmt::print(stderr, "sniff: {} controller state {} -> {}\n", column(saul::host::realtime_ns()),
+                   saul::host::to_string(state), saul::host::to_string(now_state));
+        state = now_state;
+      }
+      if (!f) continue;
+      const std::string t = column(f->timestamp_ns.value_or(saul::host::realtime_ns()));
+      if (opt.json) {
+        fmt::print("{}\n", saul::host::frame_record(t, link->name(), *f).dump());
+      } else {
+        fmt::print("{}\n", saul::host::frame_line(t, link->name(), *f));
+      }
+      std::fflush(stdout);
+      ++shown;
+    }
+  } catch (const std::exception& e) {
+    status = report_link_error(e);
+  }
+  const auto s = link->stats();
+  fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}\n", shown,
+             s.rx_frames, s.tx_frames, s.rx_dropped, s.error_frames, s.bus_off_events, saul::host::to_string(s.state));
+  return status;
+}
+
+int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
+  auto port = saul::host::open_serial(spec.device, spec.serial, spec.backend);
+  const bool limited = !opt.duration.empty();
+  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
+  const auto start = steady_clock::now();
+  saul::host::TimeColumn column(time_mode(opt.time));
+  saul::interboard::StreamDecoder decoder;
+  std::uint64_t shown = 0;
+  int status = kOk;
+  if (!opt.json)
+    fmt::print(stderr, "sniff: {} bytes on {} ({} {}); Ctrl-C to stop\n", opt.protocol, port->path(),
+               spec.serial.baud, saul::host::to_string(spec.serial));
+  try {
+    std::array<std::uint8_t, 4096> buf{};
+    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
+      auto wait = milliseconds(200);
+      if (limited) {
+        const auto left = duration_cast<milliseconds>(duration - (steady_clock::now() - start));
+        if (left.count() <= 0) break;
+        wait = std::min(wait, left);
+      }
+      const std::size_t n = port->read(buf, wait);
+      const std::string t = column(saul::host::realtime_ns());
+      for (std::size_t i = 0; i < n && (opt.count == 0 || shown < opt.count); ++i) {
+        const auto m = decoder.push(buf[i]);
+        if (!m) continue;
+        ++shown;
+        if (opt.json) {
+          nlohmann::json j{{"time", saul::host::TimeColumn::bare(t)}, {"link", spec.text()},
+                           {"message", saul::host::to_json(*m)}};
+          fmt::print("{}\n", j.dump());
+        } else {
+          fmt::print("{} {} {}\n", t, port->path(), saul::host::describe(*m));
+        }
+      }
+      std::fflush(stdout);
+    }
+  } catch (const std::exception& e) {
+    status = report_link_error(e);
+  }
+  const auto& c = decoder.counters();
+  fmt::print(stderr, "sniff: {} frames; crc errors {}, length errors {}, unknown types {}, bytes skipped {}\n",
+             c.frames, c.crc_errors, c.length_errors, c.unknown_types, c.bytes_skipped);
+  return status;
+}
+
+int run_sniff(const SniffOptions& opt) {
+  const auto spec = resolve_link(opt.link);
+  return spec.is_can() ? sniff_can(opt, spec) : sniff_serial(opt, spec);
+}
+
+}  // namespace
+
+void add_sniff_command(CLI::App& app, Runner& run) {
+  auto o = std::make_shared<SniffOptions>();
+  auto* cmd = app.add_subcommand("sniff", "Live decode of a CAN bus or a serial link");
+  cmd->add_option("link", o->link, "can0 | slcan:/dev/ttyACM0 | serial:/dev/ttyUSB0@460800 (default: $SAUL_LINK)");
+  cmd->add_option("--id", o->filters, "only ids matching ID[:MASK] (hex), repeatable; 29-bit when > 3 digits")
+      ->delimiter(',');
+  cmd->add_option("-n,--count", o->count, "stop after this many frames");
+  cmd->add_option("--duration", o->duration, "stop after this long (500ms, 10s, 1m)");
+  cmd->add_option("-t,--time", o->time, "abs | rel | delta")->check(CLI::IsMember({"abs", "rel", "delta"}))->capture_default_str();
+  cmd->add_option("--protocol", o->protocol, "what a serial link carries")
+      ->check(CLI::IsMember({"interboard"}))
+      ->capture_default_str();
+  cmd->add_flag("--json", o->json, "JSON Lines, one object per frame");
+  cmd->add_flag("--listen-only", o->listen_only, "slcan: open the adapter silent (no ACKs on the bus)");
+  cmd->footer(
+      "\nOne line per frame, the same format as 'saulctl decode'. Controller state changes (error-warning, "
+      "error-passive, bus-off) and drop counts are printed on stderr.\n"
+      "\nExamples:\n  saulctl sniff can0\n  saulctl sniff slcan:/dev/ttyACM0 --id 400,401 --count 20\n"
+      "  saulctl sniff can0 --id 00000900:0000FF00     all VESC STATUS frames\n"
+      "  saulctl sniff serial:/dev/ttyUSB0@460800 --protocol interboard\n");
+  cmd->callback([o, &run] {
+    run = [o]() -> int {
+      install_signal_handlers();
+      try {
+        return run_sniff(*o);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+        return kUsage;
+      } catch (const std::exception& e) {
+        return report_link_error(e);
+      }
+    };
+  });
+}
+
+}  // namespace saulctl
