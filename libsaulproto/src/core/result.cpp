@@ -21,6 +21,10 @@ const char* to_string(Reason reason) noexcept {
     case Reason::unknown_type: return "unknown_type";
     case Reason::truncated: return "truncated";
     case Reason::syntax: return "syntax";
+    case Reason::unknown_command: return "unknown_command";
+    case Reason::missing_argument: return "missing_argument";
+    case Reason::extra_argument: return "extra_argument";
+    case Reason::not_a_number: return "not_a_number";
   }
   return "unknown_reason";
 }

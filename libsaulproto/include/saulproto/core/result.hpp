@@ -30,6 +30,11 @@ enum class Reason : std::uint8_t {
   truncated,         ///< input ended inside a field
   // text
   syntax,            ///< text that does not follow the grammar
+  // command lines (console.hpp)
+  unknown_command,   ///< the first word of a command line names no command
+  missing_argument,  ///< a command line has fewer arguments than its command takes
+  extra_argument,    ///< a command line has more arguments than its command takes
+  not_a_number,      ///< an argument that must be a number is not one
 };
 
 /// A short, stable, lower-case name for a reason ("wrong_dlc"), for logs, JSON and tests.
