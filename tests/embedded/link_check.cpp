@@ -2,9 +2,13 @@
 // lacks (no exceptions, RTTI, heap or iostreams pulled in). Touches every codec so nothing is dropped early.
 #include <cstdint>
 
+#include "saulproto/core/console.hpp"
+#include "saulproto/core/crsf.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/pid_stager.hpp"
+#include "saulproto/core/pride.hpp"
+#include "saulproto/core/rc_input.hpp"
 
 volatile std::uint8_t g_sink;
 
@@ -23,5 +27,38 @@ int main() {
   const saul::CanFrame v = saul::encode_bus_message(saul::vesc::SetRpm{saul::vesc::kLeftId, 1500});
   if (auto r = saul::decode_bus_frame(v)) g_sink = static_cast<std::uint8_t>(r.value().index());
   g_sink = static_cast<std::uint8_t>(*saul::to_string(saul::Reason::bad_crc));
+  saul::pride::StreamDecoder pride;
+  saul::pride::EchoFilter echo;
+  std::uint8_t pbuf[saul::pride::kFrameSize];
+  if (saul::pride::encode(saul::pride::VcuCommand{1, 10, -10}, pbuf).ok() && echo.sent(pbuf))
+    for (std::uint8_t b : pbuf)
+      if (auto kept = echo.push(b))
+        if (auto m = pride.push(*kept)) g_sink = static_cast<std::uint8_t>(saul::pride::direction_of(*m));
+  g_sink = static_cast<std::uint8_t>(saul::pride::check_layout(pbuf).headers[0].best_length);
+
+  char reply[saul::console::kMaxKvLine];
+  const auto cmd = saul::console::parse("tilt_limit 12.5");
+  if (cmd) g_sink = static_cast<std::uint8_t>(saul::console::verb_of(cmd.command));
+  if (auto n = saul::console::format_kv(saul::console::StatusReport{}, reply)) g_sink = static_cast<std::uint8_t>(*n);
+  if (auto s = saul::console::parse_status(reply)) g_sink = static_cast<std::uint8_t>(s->speed_limit_pct);
+
+  std::uint8_t cbuf[saul::crsf::kMaxFrameSize];
+  saul::crsf::RcChannels rc;
+  rc.ticks.fill(saul::crsf::kTicksMid);
+  saul::crsf::StreamDecoder crsf;
+  saul::rc::ReceiverSelector receivers;
+  if (auto cn = saul::crsf::encode(rc, cbuf))
+    crsf.push(std::span<const std::uint8_t>(cbuf, *cn), [&](const saul::crsf::Frame& frame) {
+      if (auto m = saul::crsf::decode(frame))
+        if (auto* ch = std::get_if<saul::crsf::RcChannels>(&m.value())) {
+          receivers.on_frame(saul::rc::Source::crsf, 0);
+          const auto rc_cmd = saul::rc::to_rc_cmd(saul::rc::map_channels(saul::crsf::channels_us(*ch)));
+          g_sink = static_cast<std::uint8_t>(rc_cmd.flags | static_cast<std::uint8_t>(receivers.active()));
+        }
+    });
+  if (auto cn = saul::crsf::encode(saul::crsf::Attitude{1, 2, 3}, cbuf)) g_sink = static_cast<std::uint8_t>(*cn);
+  if (auto cn = saul::crsf::encode(saul::crsf::BatterySensor{1, 2, 3, 4}, cbuf)) g_sink = static_cast<std::uint8_t>(*cn);
+  if (auto mode = saul::crsf::make_flight_mode("BAL"))
+    if (auto cn = saul::crsf::encode(*mode, cbuf)) g_sink = static_cast<std::uint8_t>(*cn);
   return 0;
 }
