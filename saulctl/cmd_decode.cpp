@@ -1,9 +1,6 @@
 // saulctl decode: every frame of a capture file, decoded.
 #include <fmt/core.h>
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -12,6 +9,7 @@
 #include "commands.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/candump.hpp"
+#include "saulproto/host/capture.hpp"
 #include "saulproto/host/format.hpp"
 
 namespace saulctl {
@@ -65,26 +63,27 @@ int run_decode(const DecodeOptions& opt) {
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
 
   for (const auto& path : opt.files) {
-    std::ifstream file;
-    std::istream* in = &std::cin;
-    if (path != "-") {
-      file.open(path, std::ios::binary);
-      if (!file) {
-        fmt::print(stderr, "saulctl decode: cannot open '{}': {} (check the path)\n", path, std::strerror(errno));
+    // '-' is candump text from standard input; files are any capture format, told by their content.
+    std::unique_ptr<saul::host::CaptureReader> opened;
+    if (path == "-") {
+      opened = std::make_unique<saul::host::CandumpReader>(std::cin);
+    } else {
+      try {
+        opened = saul::host::open_capture_reader(path);
+      } catch (const saul::host::CaptureOpenError& e) {
+        fmt::print(stderr, "saulctl decode: {}\n", e.what());
         status = kFailure;
         continue;
       }
-      in = &file;
     }
-    saul::host::CandumpReader reader(*in);
+    saul::host::CaptureReader& reader = *opened;
     std::optional<std::uint64_t> first, previous;
     for (;;) {
       const auto st = reader.next();
-      if (st == saul::host::CandumpReader::Status::end) break;
-      if (st == saul::host::CandumpReader::Status::corrupt) {
+      if (st == saul::host::CaptureReader::Status::end) break;
+      if (st == saul::host::CaptureReader::Status::corrupt) {
         ++corrupt;
-        fmt::print(stderr, "saulctl decode: {}:{}:{}: {} (line skipped)\n", path, reader.line_number(),
-                   reader.error().column + 1, reader.error().message);
+        fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, reader.error()));
         continue;
       }
       const saul::CanFrame& f = reader.frame();
@@ -139,18 +138,22 @@ int run_decode(const DecodeOptions& opt) {
 
 void add_decode_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<DecodeOptions>();
-  CLI::App* cmd = app.add_subcommand("decode", "Decode every frame of capture files (candump logs)");
+  CLI::App* cmd = app.add_subcommand("decode", "Decode every frame of capture files (candump, pcap, pcapng, ASC)");
   cmd->footer(
       "\nOutput (text): one line per frame, greppable:\n"
       "  (1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
       "A frame that does not decode shows '!' and the reason, e.g. '!wrong_dlc' or '!unknown_id'.\n"
-      "Corrupt lines are reported on stderr as FILE:LINE:COLUMN and skipped; the rest still decodes.\n"
+      "Corrupt lines are reported on stderr as FILE:LINE:COLUMN (FILE: byte OFFSET in pcap/pcapng) and\n"
+      "skipped; the rest still decodes. The format of a file is told by its content (docs/captures.md).\n"
       "\nExamples:\n"
       "  saulctl decode captures/robot_bus.log\n"
       "  saulctl decode --time delta --id 0x300 run.log     gaps between velocity commands\n"
       "  saulctl decode --format csv run.log > run.csv\n"
+      "  saulctl decode bench.pcapng                        pcap, pcapng and Vector ASC work the same\n"
       "  candump -L can0 | saulctl decode -                 decode live from can-utils\n");
-  cmd->add_option("files", opt->files, "candump log files ('-' = standard input)")->required();
+  cmd->add_option("files", opt->files,
+                  "capture files: candump, pcap, pcapng or ASC ('-' = candump text on standard input)")
+      ->required();
   cmd->add_option("--format", opt->format, "text, jsonl or csv")
       ->check(CLI::IsMember({"text", "jsonl", "csv"}))
       ->capture_default_str();

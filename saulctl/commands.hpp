@@ -18,6 +18,7 @@ enum ExitCode : int {
 using Runner = std::function<int()>;
 
 void add_decode_command(CLI::App& app, Runner& run);
+void add_convert_command(CLI::App& app, Runner& run);
 void add_command_commands(CLI::App& app, Runner& run);  // mode, estop, pid, config
 void add_drive_command(CLI::App& app, Runner& run);
 void add_sniff_command(CLI::App& app, Runner& run);

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
 
   saulctl::Runner run;
   saulctl::add_decode_command(app, run);
+  saulctl::add_convert_command(app, run);
   saulctl::add_sniff_command(app, run);
   saulctl::add_monitor_command(app, run);
   saulctl::add_command_commands(app, run);
@@ -42,7 +43,10 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "saulctl: {} (see saulctl --help)\n", e.what());
     return saulctl::kUsage;
   }
-  if (!run) return saulctl::kUsage;
+  if (!run) {
+    fmt::print(stderr, "saulctl: no verb to run (see saulctl --help)\n");
+    return saulctl::kUsage;
+  }
   try {
     return run();
   } catch (const std::exception& e) {

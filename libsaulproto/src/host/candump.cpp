@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <stdexcept>
 
 namespace saul::host {
 namespace {
@@ -148,9 +149,33 @@ CandumpReader::Status CandumpReader::next() {
     ++line_number_;
     if (line_.empty() || line_[0] != '(') continue;  // comment or blank, as canplayer does
     if (parse_candump_line(line_, current_, error_)) return Status::frame;
+    error_.kind = PositionKind::line;
+    error_.position = line_number_;
+    error_.recovery = Recovery::next_line;
     return Status::corrupt;
   }
   return Status::end;
+}
+
+void CandumpWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("candump writer: write after close");
+  check_writable(frame);
+  if (interface.empty()) interface = "can0";
+  if (interface.find_first_of(" \t\r\n") != std::string_view::npos)
+    throw std::invalid_argument(fmt::format("candump: interface name '{}' contains white space", interface));
+  out_ << format_candump_line(frame, interface) << '\n';
+  if (!out_) throw std::runtime_error("candump: write failed");
+}
+
+void CandumpWriter::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error("candump: write failed");
+}
+
+void CandumpWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  flush();
 }
 
 }  // namespace saul::host

@@ -4,14 +4,17 @@
 // Frame syntax: 3 hex digits = 11-bit id, 8 = 29-bit id; "#R" or "#R<len>" remote; an id with the error flag
 // (0x20000000) is an error frame. Lines that do not start with '(' are comments to canplayer and are skipped.
 // CAN FD lines ("##") are recognised and reported as unsupported: the robot's bus is classic CAN.
+// CandumpReader and CandumpWriter are the candump members of the capture interface (capture.hpp).
 #pragma once
 
 #include <cstdint>
 #include <istream>
+#include <ostream>
 #include <string>
 #include <string_view>
 
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture.hpp"
 
 namespace saul::host {
 
@@ -20,11 +23,9 @@ struct CandumpLine {
   std::string_view interface;  ///< points into the parsed line
 };
 
-/// Why a line did not parse, with the 0-based column where the problem starts.
-struct CandumpError {
-  std::size_t column = 0;
-  std::string message;
-};
+/// Why a line did not parse: column (0-based, where the problem starts) and message. The reader also fills
+/// the line number in position.
+using CandumpError = CaptureError;
 
 /// Parses one line (without its newline). On failure returns false and fills error.
 bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& error);
@@ -38,17 +39,17 @@ std::string format_candump_frame(const CanFrame& frame);
 
 /// Reads a candump log line by line in constant memory. Comment lines are skipped; a corrupt line is
 /// reported through next()'s error and the reader carries on with the next line.
-class CandumpReader {
+class CandumpReader final : public CaptureReader {
  public:
   explicit CandumpReader(std::istream& in) : in_(in) {}
 
-  enum class Status { frame, corrupt, end };
   /// Advances to the next frame. On Status::corrupt, error() and line_number() describe the bad line.
-  Status next();
+  Status next() override;
 
-  [[nodiscard]] const CanFrame& frame() const { return current_.frame; }
-  [[nodiscard]] std::string_view interface() const { return current_.interface; }
-  [[nodiscard]] const CandumpError& error() const { return error_; }
+  [[nodiscard]] const CanFrame& frame() const override { return current_.frame; }
+  [[nodiscard]] std::string_view interface() const override { return current_.interface; }
+  [[nodiscard]] const CandumpError& error() const override { return error_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
   /// 1-based number of the line last read.
   [[nodiscard]] std::uint64_t line_number() const { return line_number_; }
   [[nodiscard]] const std::string& line() const { return line_; }
@@ -59,6 +60,22 @@ class CandumpReader {
   CandumpLine current_;
   CandumpError error_;
   std::uint64_t line_number_ = 0;
+};
+
+/// Writes `candump -l` lines ("(sec.usec) iface ID#DATA", LF), which canplayer replays and candump's tools read.
+/// Microsecond resolution. Interface names must not contain spaces.
+class CandumpWriter final : public CaptureWriter {
+ public:
+  explicit CandumpWriter(std::ostream& out) : out_(out) {}
+
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
+
+ private:
+  std::ostream& out_;
+  bool closed_ = false;
 };
 
 }  // namespace saul::host

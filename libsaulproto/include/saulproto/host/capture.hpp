@@ -1,0 +1,153 @@
+// Capture files of CAN traffic, whatever their format: one reader and one writer interface, format detection by
+// content, and factories that open files. The formats themselves live in candump.hpp, pcap.hpp, pcapng.hpp and
+// asc.hpp; docs/captures.md says what each keeps and loses.
+//
+// Readers stream: each next() reads one record (a line, a pcap record, a pcapng block), so memory stays constant
+// whatever the file size. A corrupt record is reported with its position (line number for text formats, byte
+// offset for binary ones) and, where the format allows, the reader carries on after it.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <istream>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+
+namespace saul::host {
+
+enum class CaptureFormat : std::uint8_t {
+  candump,  ///< can-utils log lines, "(1700000000.000000) can0 123#1122"
+  pcap,     ///< libpcap file, LINKTYPE_CAN_SOCKETCAN (227)
+  pcapng,   ///< pcapng, interfaces with LINKTYPE_CAN_SOCKETCAN
+  asc,      ///< Vector ASC text, as log2asc and python-can write it
+};
+
+/// "candump", "pcap", "pcapng", "asc".
+std::string_view to_string(CaptureFormat format) noexcept;
+/// The inverse of to_string; also accepts "log" for candump. Case-sensitive.
+std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept;
+/// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc (case-insensitive); nullopt otherwise.
+std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
+/// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
+/// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump), a line starting
+/// "date ", "base " or "Begin Triggerblock" (ASC). nullopt when none matches.
+std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t> head) noexcept;
+
+/// What a format can carry, so callers (and tests) know what a round trip keeps.
+struct CaptureTraits {
+  std::uint64_t resolution_ns;  ///< timestamps are truncated to a multiple of this
+  bool interface_names;         ///< names survive (candump, pcapng); otherwise see channel_order
+  bool channel_order;           ///< only the order of first appearance survives (ASC channel N reads as can<N-1>)
+  bool error_details;           ///< an error frame keeps its class bits and data bytes (not in ASC)
+};
+CaptureTraits capture_traits(CaptureFormat format) noexcept;
+
+/// Where a record is: text formats count lines, binary formats count bytes.
+enum class PositionKind : std::uint8_t { line, byte_offset };
+/// What the reader does after a corrupt record.
+enum class Recovery : std::uint8_t { next_line, next_record, next_block, stop };
+
+/// A corrupt record. The first two members keep the layout of the former CandumpError (column, message).
+struct CaptureError {
+  std::size_t column = 0;  ///< text formats: 0-based column where the problem starts; 0 for binary formats
+  std::string message;     ///< what is wrong, e.g. "id is not hexadecimal"
+  PositionKind kind = PositionKind::line;
+  std::uint64_t position = 0;  ///< 1-based line number, or byte offset of the record or block from the file start
+  Recovery recovery = Recovery::next_line;
+};
+
+/// "FILE:LINE:COLUMN: message (line skipped)" for text, "FILE: byte OFFSET: message (record skipped)" for binary
+/// formats ("(block skipped)", "(reading stopped)").
+std::string format_capture_error(std::string_view path, const CaptureError& error);
+
+/// A file that cannot be opened or is not the format it claims (bad magic, unsupported link type).
+class CaptureOpenError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads frames one at a time.
+class CaptureReader {
+ public:
+  enum class Status { frame, corrupt, end };
+
+  CaptureReader() = default;
+  CaptureReader(const CaptureReader&) = delete;
+  CaptureReader& operator=(const CaptureReader&) = delete;
+  virtual ~CaptureReader() = default;
+
+  /// Advances to the next frame. On Status::frame, frame() and interface() describe it; on Status::corrupt,
+  /// error() does (a Recovery::stop error is followed by Status::end). Never throws for bad content.
+  virtual Status next() = 0;
+  /// The frame last read; timestamp_ns is set whenever the format has one (all four do).
+  [[nodiscard]] virtual const CanFrame& frame() const = 0;
+  /// Interface or channel name of the frame last read (valid until the next call of next()). Formats without
+  /// names report "can0" (pcap), "can<N-1>" for ASC channel N, "can<i>" for a pcapng interface with no if_name.
+  [[nodiscard]] virtual std::string_view interface() const = 0;
+  [[nodiscard]] virtual const CaptureError& error() const = 0;
+  [[nodiscard]] virtual CaptureFormat format() const = 0;
+};
+
+/// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own
+/// their file and close it (without throwing) when destroyed if close() was not called.
+class CaptureWriter {
+ public:
+  CaptureWriter() = default;
+  CaptureWriter(const CaptureWriter&) = delete;
+  CaptureWriter& operator=(const CaptureWriter&) = delete;
+  virtual ~CaptureWriter() = default;
+
+  /// Appends one frame seen on `interface` ("" means "can0"). A frame without a timestamp is written at time 0.
+  /// Throws std::invalid_argument for a frame that is not valid() (or both remote and error) and
+  /// std::runtime_error when the output fails or the writer is closed.
+  virtual void write(const CanFrame& frame, std::string_view interface) = 0;
+  /// Pushes what is buffered to the file; throws std::runtime_error when that fails.
+  virtual void flush() = 0;
+  /// Writes what the format needs at its end and flushes: the file is complete and readable. Idempotent.
+  virtual void close() = 0;
+  [[nodiscard]] virtual CaptureFormat format() const = 0;
+};
+
+/// Opens a capture file for reading. The format is `format` when given, else detected from the content
+/// (detect_capture_format), else from the extension. Throws CaptureOpenError when the file cannot be opened, its
+/// format cannot be told, or its header is not usable. Works on pipes too (nothing is seeked).
+std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
+                                                   std::optional<CaptureFormat> format = std::nullopt);
+/// A reader of `format` over a stream the caller keeps alive. Throws CaptureOpenError for a bad binary header.
+std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format);
+
+/// Creates (truncates) a capture file. The format is `format` when given, else from the extension; throws
+/// CaptureOpenError when neither says or the file cannot be created.
+std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
+                                                   std::optional<CaptureFormat> format = std::nullopt);
+/// A writer of `format` onto a stream the caller keeps alive (and closes).
+std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFormat format);
+
+/// What copy_frames saw.
+struct CopyStats {
+  std::uint64_t frames = 0;
+  std::uint64_t corrupt = 0;
+  std::uint64_t error_frames = 0;
+  std::vector<std::string> interfaces;  ///< distinct names, in order of first appearance
+};
+
+/// Copies every frame of `in` to `out` (out is not closed). Corrupt records are passed to on_corrupt (may be
+/// empty) and skipped. Cost O(frames); memory O(distinct interfaces).
+CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
+                      const std::function<void(const CaptureError&)>& on_corrupt);
+
+/// Sentences saying what a copy into `format` lost (interface names, error-frame details); empty when nothing.
+std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat format);
+
+/// Throws std::invalid_argument when `frame` cannot be written to any capture format.
+void check_writable(const CanFrame& frame);
+
+}  // namespace saul::host

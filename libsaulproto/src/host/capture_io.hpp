@@ -1,0 +1,66 @@
+// Private helpers of the binary capture formats (pcap, pcapng): byte-order loads and stores, and reading that
+// counts the offset and skips without seeking (so pipes work). Not installed, not part of the API.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <istream>
+#include <limits>
+#include <ostream>
+
+namespace saul::host::detail {
+
+inline std::uint16_t load_u16(const std::uint8_t* p, bool big) noexcept {
+  return big ? static_cast<std::uint16_t>(p[0] << 8 | p[1]) : static_cast<std::uint16_t>(p[1] << 8 | p[0]);
+}
+
+inline std::uint32_t load_u32(const std::uint8_t* p, bool big) noexcept {
+  if (big)
+    return std::uint32_t{p[0]} << 24 | std::uint32_t{p[1]} << 16 | std::uint32_t{p[2]} << 8 | std::uint32_t{p[3]};
+  return std::uint32_t{p[3]} << 24 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[1]} << 8 | std::uint32_t{p[0]};
+}
+
+inline std::uint64_t load_u64(const std::uint8_t* p, bool big) noexcept {
+  const std::uint64_t a = load_u32(p, big);
+  const std::uint64_t b = load_u32(p + 4, big);
+  return big ? (a << 32 | b) : (b << 32 | a);
+}
+
+/// Little-endian stores into a byte buffer (our writers always write little-endian files).
+inline void store_u16le(std::uint8_t* p, std::uint16_t v) noexcept {
+  p[0] = static_cast<std::uint8_t>(v);
+  p[1] = static_cast<std::uint8_t>(v >> 8);
+}
+
+inline void store_u32le(std::uint8_t* p, std::uint32_t v) noexcept {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+
+inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n) {
+  out.write(reinterpret_cast<const char*>(p), static_cast<std::streamsize>(n));
+}
+
+/// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end).
+inline std::size_t read_counted(std::istream& in, std::uint8_t* dst, std::size_t n, std::uint64_t& offset) {
+  in.read(reinterpret_cast<char*>(dst), static_cast<std::streamsize>(n));
+  const auto got = static_cast<std::size_t>(in.gcount());
+  offset += got;
+  return got;
+}
+
+/// Skips up to n bytes without seeking (pipes work), adding what was skipped to `offset`; returns that count.
+inline std::uint64_t skip_counted(std::istream& in, std::uint64_t n, std::uint64_t& offset) {
+  std::uint64_t done = 0;
+  constexpr std::uint64_t kChunk = std::numeric_limits<std::int32_t>::max();
+  while (done < n && in) {
+    const std::uint64_t want = n - done < kChunk ? n - done : kChunk;
+    in.ignore(static_cast<std::streamsize>(want));
+    const auto got = static_cast<std::uint64_t>(in.gcount());
+    done += got;
+    if (got < want) break;
+  }
+  offset += done;
+  return done;
+}
+
+}  // namespace saul::host::detail

@@ -1,0 +1,65 @@
+// saulctl convert: rewrite a capture file in another format (candump, pcap, pcapng, Vector ASC).
+// All the work is in the host library (saulproto/host/capture.hpp); this file parses arguments and reports.
+#include <fmt/core.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.hpp"
+#include "saulproto/host/capture.hpp"
+
+namespace saulctl {
+namespace {
+
+struct ConvertOptions {
+  std::string in;
+  std::string out;
+  std::string format;  // output format; empty = from OUT's extension
+};
+
+int run_convert(const ConvertOptions& opt) {
+  using namespace saul::host;
+  std::optional<CaptureFormat> format;
+  if (!opt.format.empty()) format = capture_format_from_name(opt.format);
+  std::unique_ptr<CaptureReader> reader;
+  std::unique_ptr<CaptureWriter> writer;
+  try {
+    reader = open_capture_reader(opt.in);
+    writer = open_capture_writer(opt.out, format);
+  } catch (const CaptureOpenError& e) {
+    fmt::print(stderr, "saulctl convert: {}\n", e.what());
+    return kFailure;
+  }
+  const CopyStats stats = copy_frames(*reader, *writer, [&opt](const CaptureError& error) {
+    fmt::print(stderr, "saulctl convert: {}\n", format_capture_error(opt.in, error));
+  });
+  writer->close();
+  for (const auto& note : conversion_losses(stats, writer->format()))
+    fmt::print(stderr, "saulctl convert: note: {}\n", note);
+  fmt::print(stderr, "saulctl convert: {} frames from {} ({}) to {} ({}); {} corrupt records skipped\n", stats.frames,
+             opt.in, to_string(reader->format()), opt.out, to_string(writer->format()), stats.corrupt);
+  return kOk;
+}
+
+}  // namespace
+
+void add_convert_command(CLI::App& app, Runner& run) {
+  auto opt = std::make_shared<ConvertOptions>();
+  CLI::App* cmd = app.add_subcommand("convert", "Convert a capture file between candump, pcap, pcapng and ASC");
+  cmd->footer(
+      "\nThe input format is told by the file's content; the output format by OUT's extension\n"
+      "(.log .pcap .pcapng .asc) unless --format says. What each format keeps: docs/captures.md.\n"
+      "Corrupt input records are reported on stderr and skipped, as in decode.\n"
+      "\nExamples:\n"
+      "  saulctl convert captures/robot_bus.log run.pcapng     open it in Wireshark\n"
+      "  saulctl convert run.pcap run.asc                       for CANalyzer/CANoe or python-can\n"
+      "  saulctl convert vector.asc run.log && canplayer -I run.log\n");
+  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng or ASC)")->required();
+  cmd->add_option("OUT", opt->out, "file to write (replaced if it exists)")->required();
+  cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng or asc")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc"}));
+  cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
+}
+
+}  // namespace saulctl
