@@ -50,7 +50,7 @@ int run_drive(const DriveOptions& opt) {
   const auto start = steady_clock::now();
   try {
     // Absolute deadlines (start + k * period): a late wake-up does not shift every later frame.
-    for (std::uint64_t k = 0;; ++k) {
+    for (std::int64_t k = 0;; ++k) {
       const auto due = start + k * kPeriod;
       if (limited && due - start >= duration) break;
       while (!g_interrupted) {
