@@ -10,8 +10,9 @@ command -v "$CXX" >/dev/null || { echo "embedded-check: $CXX not found; run scri
 mkdir -p "$out"
 # Headers of the core are what firmware includes: no allocation-based or stream containers in them.
 if grep -nE '#include <(string|vector|map|memory|iostream|sstream|fstream|functional|list|deque)>' \
-     "$root"/libsaulproto/include/saulproto/core/*.hpp; then
-  echo "embedded-check: FAIL: a core header includes a heap or iostream header (above)" >&2
+     "$root"/libsaulproto/include/saulproto/core/*.hpp "$root"/firmware/logic/include/saulfw/*.hpp \
+     "$root"/firmware/logic/*.cpp; then
+  echo "embedded-check: FAIL: a core or firmware logic file includes a heap or iostream header (above)" >&2
   exit 1
 fi
 flags=(-std=c++20 -mcpu=cortex-m4 -mthumb -Os -fno-exceptions -fno-rtti -ffunction-sections -fdata-sections
@@ -33,6 +34,32 @@ arm-none-eabi-size "$out/link_check.elf" | sed "s#$out/##"
 # The core must not drag in exception or RTTI support.
 if arm-none-eabi-nm -C "$out/link_check.elf" | grep -E '__cxa_throw|__cxa_allocate_exception|typeinfo for' >/dev/null; then
   echo "embedded-check: FAIL: exception or RTTI symbols linked into the core" >&2
+  exit 1
+fi
+# The firmware logic of both boards (firmware/logic), built the same way on top of the core, then linked with
+# stub hardware (tests/embedded/firmware_check.cpp): no exceptions, no RTTI, and no heap at all.
+fw_objs=()
+for src in "$root"/firmware/logic/*.cpp; do
+  obj="$out/firmware_$(basename "${src%.cpp}").o"
+  "$CXX" "${flags[@]}" -I "$root/firmware/logic/include" -c "$src" -o "$obj"
+  fw_objs+=("$obj")
+done
+rm -f "$out/libsaul_firmware_logic.a"
+arm-none-eabi-ar rcs "$out/libsaul_firmware_logic.a" "${fw_objs[@]}"
+"$CXX" "${flags[@]}" -I "$root/firmware/logic/include" --specs=nano.specs --specs=nosys.specs -Wl,--gc-sections \
+  "$root/tests/embedded/firmware_check.cpp" "$out/libsaul_firmware_logic.a" "$out/libsaulproto_core.a" \
+  -o "$out/firmware_check.elf"
+echo "embedded-check: firmware logic objects (arm-none-eabi, cortex-m4, -Os):"
+arm-none-eabi-size -t "${fw_objs[@]}" | sed "s#$out/##"
+echo "embedded-check: linked firmware program (BALANCE and IO logic on stub hardware):"
+arm-none-eabi-size "$out/firmware_check.elf" | sed "s#$out/##"
+if arm-none-eabi-nm -C "$out/firmware_check.elf" | grep -E '__cxa_throw|__cxa_allocate_exception|typeinfo for' >/dev/null; then
+  echo "embedded-check: FAIL: exception or RTTI symbols linked into the firmware logic" >&2
+  exit 1
+fi
+# (newlib's own abort and atexit bring _malloc_r into any program, so look at what our objects ask for.)
+if arm-none-eabi-nm -C -u "${fw_objs[@]}" "${objs[@]}" | grep -E ' (malloc|calloc|realloc|free|_malloc_r|operator new)' >/dev/null; then
+  echo "embedded-check: FAIL: the firmware logic or the core calls the heap" >&2
   exit 1
 fi
 echo "embedded-check: ok"

@@ -5,6 +5,7 @@
 #include "saulproto/core/console.hpp"
 #include "saulproto/core/crsf.hpp"
 #include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/esp_loader.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/pid_stager.hpp"
 #include "saulproto/core/pride.hpp"
@@ -60,5 +61,15 @@ int main() {
   if (auto cn = saul::crsf::encode(saul::crsf::BatterySensor{1, 2, 3, 4}, cbuf)) g_sink = static_cast<std::uint8_t>(*cn);
   if (auto mode = saul::crsf::make_flight_mode("BAL"))
     if (auto cn = saul::crsf::encode(*mode, cbuf)) g_sink = static_cast<std::uint8_t>(*cn);
+  std::uint8_t esp_packet[64];
+  std::uint8_t esp_frame[2 * sizeof esp_packet + 2];
+  std::uint8_t esp_storage[64];
+  saul::esp::SlipDecoder slip(esp_storage);
+  if (auto en = saul::esp::build_spi_flash_md5(0x10000, 0x1000, esp_packet))
+    if (auto fn = saul::esp::slip_encode(std::span<const std::uint8_t>(esp_packet, *en), esp_frame))
+      for (std::size_t i = 0; i < *fn; ++i)
+        if (auto p = slip.push(esp_frame[i]))
+          if (auto req = saul::esp::parse_request(*p)) g_sink = req->op;
+  g_sink = static_cast<std::uint8_t>(saul::esp::parse_image_header(esp_packet).reason());
   return 0;
 }

@@ -1,0 +1,582 @@
+#include "saulfw/balance.hpp"
+
+#include <cmath>
+#include <variant>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/vesc.hpp"
+
+namespace saul::fw {
+
+using saulcan::AckResult;
+using saulcan::RobotState;
+namespace fault = saulcan::fault;
+
+namespace {
+
+constexpr std::int16_t saturate16(std::int64_t v) noexcept {
+  return static_cast<std::int16_t>(v > 32767 ? 32767 : (v < -32768 ? -32768 : v));
+}
+
+/// A float wheel speed as whole mm/s within +-cap, truncated toward zero; NaN gives 0.
+std::int32_t whole_mmps(float v, std::int32_t cap) noexcept {
+  if (!std::isfinite(v)) return 0;
+  const auto c = static_cast<float>(cap);
+  if (v > c) return cap;
+  if (v < -c) return -cap;
+  auto i = static_cast<std::int32_t>(v);
+  return i > cap ? cap : (i < -cap ? -cap : i);
+}
+
+constexpr std::uint8_t kAckPid = static_cast<std::uint8_t>(saulcan::kPidGainId & 0xFFU);
+constexpr std::uint8_t kAckMode = static_cast<std::uint8_t>(saulcan::kModeCmdId & 0xFFU);
+constexpr std::uint8_t kAckConfig = static_cast<std::uint8_t>(saulcan::kConfigCmdId & 0xFFU);
+static_assert(kAckPid == 0x01 && kAckMode == 0x02 && kAckConfig == 0x03);
+
+constexpr std::uint16_t clamp_tilt(std::uint16_t x100) noexcept {
+  return x100 < saulcan::ConfigCmd::kMinTiltX100
+             ? saulcan::ConfigCmd::kMinTiltX100
+             : (x100 > saulcan::ConfigCmd::kMaxTiltX100 ? saulcan::ConfigCmd::kMaxTiltX100 : x100);
+}
+
+}  // namespace
+
+BalanceBoard::BalanceBoard(const Hardware& hw, const BalanceConfig& config, ResetReason reset) noexcept
+    : hw_(hw),
+      config_(config),
+      reset_(reset),
+      filter_(config.filter_tau_s),
+      pid_(config.gains, config.integral_limit),
+      tilt_limit_x100_(clamp_tilt(config.tilt_limit_x100)),
+      motor_tx_(config.motor_period_us),
+      telemetry_tx_(config.telemetry_period_us),
+      state_tx_(config.state_period_us),
+      led_tx_(config.led_period_us),
+      display_tx_(config.display_period_us) {}
+
+// ---- the loop ---------------------------------------------------------------------------------------------------
+
+void BalanceBoard::boot(TimeUs now) noexcept {
+  started_ = true;
+  boot_us_ = now;
+  last_step_us_ = now;
+  imu_ok_us_ = now;
+  control_us_ = now;
+  if (reset_ == ResetReason::watchdog) {
+    state_ = RobotState::fault;
+    latched_faults_ = fault::kWatchdogReset;
+    disarmed_since_latch_ = false;
+  }
+  published_state_ = state_;
+}
+
+void BalanceBoard::step(TimeUs now) noexcept {
+  if (!started_) {
+    boot(now);
+  } else if (age(now, last_step_us_) > config_.hang_us && armed()) {
+    latch(RobotState::fault, fault::kWatchdogReset);  // the loop stood still: never carry on as if nothing happened
+  }
+  last_step_us_ = now;
+  estop_this_iteration_ = false;
+
+  read_imu(now);
+  read_link(now);
+  read_can(now);
+  update_live(now);
+  supervise(now);
+  if (io_arm_request_) {
+    io_arm_request_ = false;
+    (void)try_arm();
+  }
+  read_console(now);
+  control(now);
+  publish(now);
+  if (!imu_stalled_) hw_.watchdog.feed();
+}
+
+void BalanceBoard::read_imu(TimeUs now) noexcept {
+  ImuSample sample;
+  bool accepted = false;
+  for (int i = 0; i < 16 && hw_.imu.read(sample); ++i)
+    if (filter_.update(sample)) accepted = true;
+  if (accepted) {  // freshness by the sample's own timestamp: a backlog read late is not fresh data
+    imu_ok_us_ = filter_.last_us() > now ? now : filter_.last_us();
+    imu_ever_ = true;
+  }
+}
+
+// ---- inter-board link ---------------------------------------------------------------------------------------------
+
+void BalanceBoard::read_link(TimeUs now) noexcept {
+  std::uint8_t buffer[64];
+  for (int round = 0; round < 8; ++round) {
+    const std::size_t n = hw_.link.read(buffer);
+    if (n == 0) break;
+    for (std::size_t i = 0; i < n && i < sizeof buffer; ++i)
+      if (auto m = link_rx_.push(buffer[i])) on_link_message(*m, now);
+  }
+}
+
+void BalanceBoard::on_link_message(const interboard::Message& message, TimeUs now) noexcept {
+  if (const auto* rc = std::get_if<interboard::RcCmd>(&message)) {
+    rc_ = *rc;
+    rc_us_ = now;
+    rc_seen_ = true;
+    if (rc->kill()) estop();
+    if (rc->armed()) {
+      if (io_armed_ == Tri::no) io_arm_request_ = true;  // a fresh arming: 0 -> 1 seen on two valid RC_CMDs
+      io_armed_ = Tri::yes;
+    } else {
+      if (io_armed_ == Tri::yes || latched()) disarm();
+      io_armed_ = Tri::no;
+    }
+  } else if (const auto* f = std::get_if<interboard::Fault>(&message)) {
+    io_faults_ = f->flags;
+    if ((f->flags & interboard::Fault::kEstop) != 0) estop();
+  } else if (const auto* s = std::get_if<interboard::Sensor>(&message)) {
+    sensor_ = *s;
+  }
+  // STATE, LED_CMD and BUZZER travel the other way; one arriving here is ignored.
+}
+
+// ---- CAN ------------------------------------------------------------------------------------------------------------
+
+void BalanceBoard::read_can(TimeUs now) noexcept {
+  CanFrame frame;
+  for (int i = 0; i < 32 && hw_.can.receive(frame); ++i) on_can_frame(frame, now);
+  on_stager(stager_.poll(now));
+}
+
+void BalanceBoard::on_can_frame(const CanFrame& frame, TimeUs now) noexcept {
+  const auto decoded = decode_bus_frame(frame);
+  if (!decoded) {
+    // A well-formed 0x302 with a mode that does not exist is a handled command: refuse it out loud.
+    if (decoded.reason() == Reason::out_of_range && !frame.extended && frame.id == saulcan::kModeCmdId)
+      send_ack(kAckMode, 0, AckResult::out_of_range);
+    return;
+  }
+  const BusMessage& m = *decoded;
+  if (const auto* v = std::get_if<saulcan::VelocityCmd>(&m)) {
+    velocity_ = *v;
+    velocity_us_ = now;
+    velocity_seen_ = true;
+  } else if (const auto* g = std::get_if<saulcan::PidGain>(&m)) {
+    on_stager(stager_.accept(*g, now));
+  } else if (const auto* mode = std::get_if<saulcan::ModeCmd>(&m)) {
+    on_mode(mode->mode);
+  } else if (const auto* c = std::get_if<saulcan::ConfigCmd>(&m)) {
+    on_config(*c);
+  } else if (const auto* s1 = std::get_if<vesc::Status1>(&m)) {
+    Vesc* wheel =
+        s1->controller_id == vesc::kLeftId ? &left_ : (s1->controller_id == vesc::kRightId ? &right_ : nullptr);
+    if (wheel != nullptr) {
+      wheel->erpm = s1->erpm;
+      wheel->status_us = now;
+      wheel->status_seen = true;
+    }
+  } else if (const auto* s5 = std::get_if<vesc::Status5>(&m)) {
+    if ((s5->controller_id == vesc::kLeftId || s5->controller_id == vesc::kRightId) && s5->voltage_in_x10 > 0) {
+      const std::int32_t mv = static_cast<std::int32_t>(s5->voltage_in_x10) * 100;
+      battery_mv_ = static_cast<std::uint16_t>(mv > 65535 ? 65535 : mv);
+    }
+  }
+}
+
+void BalanceBoard::on_mode(saulcan::Mode mode) noexcept {
+  switch (mode) {
+    case saulcan::Mode::off:
+      disarm();
+      send_ack(kAckMode, 0, AckResult::applied);
+      return;
+    case saulcan::Mode::estop:
+      estop();
+      send_ack(kAckMode, 0, AckResult::applied);
+      return;
+    case saulcan::Mode::balance:
+    case saulcan::Mode::manual: {
+      if (!armed()) {  // the mode frame never arms the robot
+        send_ack(kAckMode, 0, AckResult::not_allowed);
+        return;
+      }
+      const RobotState to = mode == saulcan::Mode::balance ? RobotState::balance : RobotState::manual;
+      if (state_ != to) {
+        state_ = to;
+        pid_.reset();
+      }
+      send_ack(kAckMode, 0, AckResult::applied);
+      return;
+    }
+  }
+}
+
+void BalanceBoard::on_config(const saulcan::ConfigCmd& config) noexcept {
+  if (config.tilt_limit_x100 < saulcan::ConfigCmd::kMinTiltX100 ||
+      config.tilt_limit_x100 > saulcan::ConfigCmd::kMaxTiltX100) {
+    send_ack(kAckConfig, 0, AckResult::out_of_range);  // never clamped; neither field is applied
+    return;
+  }
+  tilt_limit_x100_ = config.tilt_limit_x100;
+  orin_max_speed_mmps_ = config.max_speed_mmps;  // can only lower the cap: see speed_cap_mmps()
+  send_ack(kAckConfig, 0, AckResult::applied);
+}
+
+void BalanceBoard::on_stager(const saulcan::StagerOutcome& outcome) noexcept {
+  using Kind = saulcan::StagerOutcome::Kind;
+  if (outcome.kind == Kind::none) return;
+  if (outcome.kind == Kind::applied) pid_.set_gains(outcome.gains);
+  send_ack(kAckPid, outcome.sequence, outcome.result);
+}
+
+// ---- supervision ------------------------------------------------------------------------------------------------
+
+void BalanceBoard::update_live(TimeUs now) noexcept {
+  std::uint8_t live = 0;
+  const bool link = rc_seen_ && age(now, rc_us_) <= config_.io_link_timeout_us;
+  if (!link) {
+    live |= fault::kIoLinkLoss;
+    io_armed_ = Tri::unknown;  // the next arming needs a 0 seen first
+    io_arm_request_ = false;
+  } else {
+    if ((io_faults_ & interboard::Fault::kRcLoss) != 0) live |= fault::kRcLoss;
+    if ((io_faults_ & interboard::Fault::kMotorFault) != 0) live |= fault::kMotorFault;
+    if (rc_.kill() || (io_faults_ & interboard::Fault::kEstop) != 0) live |= fault::kEstop;
+  }
+  if (!velocity_seen_ || age(now, velocity_us_) > config_.orin_timeout_us) live |= fault::kOrinTimeout;
+  for (const Vesc* v : {&left_, &right_})
+    if (v->status_seen && age(now, v->status_us) > config_.vesc_status_timeout_us) live |= fault::kMotorFault;
+  if (battery_mv_ != 0 && battery_mv_ < config_.low_battery_mv) live |= fault::kLowBattery;
+  const TimeUs stall_limit = imu_ever_ ? config_.imu_stall_us : config_.imu_startup_us;
+  imu_stalled_ = age(now, imu_ok_us_) > stall_limit;
+  live_faults_ = live;
+}
+
+void BalanceBoard::supervise(TimeUs /*now*/) noexcept {
+  if (estop_input() && state_ != RobotState::estop) estop();
+  if (!armed()) return;
+  std::uint8_t causes = live_faults_ & (fault::kIoLinkLoss | fault::kRcLoss | fault::kMotorFault);
+  if (imu_stalled_) causes |= fault::kWatchdogReset;
+  const bool tilted = !imu_stalled_ && filter_.valid() &&
+                      std::fabs(filter_.pitch_deg()) * 100.0F > static_cast<float>(tilt_limit_x100_);
+  if (tilted) latch(RobotState::tilt_cutoff, fault::kTiltCutoff);
+  if (causes != 0) latch(RobotState::fault, causes);
+}
+
+bool BalanceBoard::armed() const noexcept { return state_ == RobotState::balance || state_ == RobotState::manual; }
+
+bool BalanceBoard::latched() const noexcept {
+  return state_ == RobotState::estop || state_ == RobotState::tilt_cutoff || state_ == RobotState::fault;
+}
+
+bool BalanceBoard::estop_input() const noexcept { return (live_faults_ & fault::kEstop) != 0; }
+
+void BalanceBoard::estop() noexcept {
+  estop_this_iteration_ = true;
+  latch(RobotState::estop, fault::kEstop);
+}
+
+void BalanceBoard::latch(RobotState to, std::uint8_t cause) noexcept {
+  latched_faults_ |= cause;
+  if (latched() && to != RobotState::estop) return;  // the first latched state stays; only ESTOP overrides
+  state_ = to;
+  disarmed_since_latch_ = false;
+  io_arm_request_ = false;
+}
+
+void BalanceBoard::disarm() noexcept {
+  io_arm_request_ = false;
+  if (armed()) {
+    state_ = RobotState::off;
+  } else if (latched()) {
+    disarmed_since_latch_ = true;
+  }
+}
+
+const char* BalanceBoard::try_arm() noexcept {
+  if (armed()) return "already armed";
+  if (estop_this_iteration_ || estop_input()) return "emergency stop active";
+  if (latched() && !disarmed_since_latch_) return "latched: disarm first, then arm";
+  if (reboot_requested_) return "reboot pending";
+  if (imu_stalled_ || !filter_.valid()) return "no pitch from the IMU";
+  if (std::fabs(filter_.pitch_deg()) * 100.0F > static_cast<float>(config_.upright_x100))
+    return "not upright (|pitch| must be 5 degrees or less)";
+  if ((live_faults_ & fault::kIoLinkLoss) != 0) return "no link to the IO board";
+  if ((live_faults_ & fault::kRcLoss) != 0) return "RC link lost";
+  if ((live_faults_ & fault::kMotorFault) != 0) return "motor fault";
+  state_ = RobotState::balance;
+  latched_faults_ = 0;
+  pid_.reset();
+  return nullptr;
+}
+
+// ---- console ------------------------------------------------------------------------------------------------------
+
+void BalanceBoard::read_console(TimeUs now) noexcept {
+  std::uint8_t buffer[64];
+  for (int round = 0; round < 4; ++round) {
+    const std::size_t n = hw_.console.read(buffer);
+    if (n == 0) break;
+    for (std::size_t i = 0; i < n && i < sizeof buffer; ++i)
+      console_in_.push(buffer[i], [&](std::string_view line, bool overflowed) { on_console_line(line, overflowed, now); });
+  }
+}
+
+void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {
+  SerialPort& out = hw_.console;
+  if (overflowed) {
+    write_formatted(out, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch_), scratch_);
+    return;
+  }
+  const auto parsed = console::parse(line);
+  if (!parsed) {
+    if (parsed.error.reason == Reason::syntax) return;  // a blank line: just nothing
+    write_formatted(out, console::format_error(parsed.error, scratch_), scratch_);
+    return;
+  }
+  const auto ok = [&] { write_formatted(out, console::format_ok(scratch_), scratch_); };
+  using console::Verb;
+  switch (console::verb_of(parsed.command)) {
+    case Verb::help:
+      write_formatted(out, console::format_help(scratch_), scratch_);
+      ok();
+      return;
+    case Verb::status: {
+      console::StatusReport r;
+      r.board = console::Board::balance;
+      r.state = state_;
+      r.pitch_x100 = pitch_x100();
+      r.pid_out = pid_out_;
+      r.kp = pid_.gains().kp;
+      r.ki = pid_.gains().ki;
+      r.kd = pid_.gains().kd;
+      r.tilt_limit_x100 = tilt_limit_x100_;
+      r.speed_limit_pct = speed_limit_pct_;
+      r.faults = faults();
+      r.battery_mv = battery_mv_;
+      r.uptime_ms = static_cast<std::uint32_t>(age(now, boot_us_) / 1000U);
+      write_status(out, r, hw_.can.stats(), console::UartStats::from(link_rx_.counters()), scratch_);
+      return;
+    }
+    case Verb::pid: {
+      if (const auto* p = std::get_if<console::PidCmd>(&parsed.command)) pid_.set_gains({p->kp, p->ki, p->kd});
+      ok();
+      return;
+    }
+    case Verb::arm:
+      if (const char* why = try_arm()) {
+        write_refusal(out, why);
+      } else {
+        ok();
+      }
+      return;
+    case Verb::disarm:
+      disarm();
+      ok();
+      return;
+    case Verb::estop:
+      estop();
+      ok();
+      return;
+    case Verb::tilt_limit:
+      if (const auto* t = std::get_if<console::TiltLimitCmd>(&parsed.command)) tilt_limit_x100_ = t->tilt_limit_x100;
+      ok();
+      return;
+    case Verb::speed_limit: {
+      const auto* limit = std::get_if<console::SpeedLimitCmd>(&parsed.command);
+      const std::uint8_t pct = limit != nullptr ? limit->percent : speed_limit_pct_;
+      if (pct > speed_limit_pct_ + console::SpeedLimitCmd::kStep) {
+        write_refusal(out, "raise the speed limit one 10 % step at a time");
+        return;
+      }
+      speed_limit_pct_ = pct;
+      ok();
+      return;
+    }
+    case Verb::can_stats: {
+      const auto s = hw_.can.stats();
+      write_formatted(out, console::format_human(s, scratch_), scratch_);
+      write_formatted(out, console::format_kv(s, scratch_), scratch_);
+      ok();
+      return;
+    }
+    case Verb::uart_stats: {
+      const auto s = console::UartStats::from(link_rx_.counters());
+      write_formatted(out, console::format_human(s, scratch_), scratch_);
+      write_formatted(out, console::format_kv(s, scratch_), scratch_);
+      ok();
+      return;
+    }
+    case Verb::reboot:
+      if (armed()) {
+        write_refusal(out, "disarm before rebooting");
+        return;
+      }
+      reboot_requested_ = true;
+      ok();
+      return;
+  }
+}
+
+// ---- control ------------------------------------------------------------------------------------------------------
+
+std::uint16_t BalanceBoard::speed_cap_mmps() const noexcept {
+  const std::uint32_t pct_cap = static_cast<std::uint32_t>(config_.hard_max_speed_mmps) * speed_limit_pct_ / 100U;
+  const std::uint32_t cap = pct_cap < orin_max_speed_mmps_ ? pct_cap : orin_max_speed_mmps_;
+  return static_cast<std::uint16_t>(cap);
+}
+
+std::int32_t BalanceBoard::erpm_of(std::int32_t mmps) const noexcept {
+  if (config_.wheel_circumference_mm == 0) return 0;
+  const std::int64_t e = static_cast<std::int64_t>(mmps) * 60 * config_.pole_pairs / config_.wheel_circumference_mm;
+  return static_cast<std::int32_t>(e);
+}
+
+void BalanceBoard::control(TimeUs now) noexcept {
+  float dt = static_cast<float>(age(now, control_us_)) * 1e-6F;
+  if (dt > 0.02F) dt = 0.02F;
+  control_us_ = now;
+
+  const bool drive = armed() && !imu_stalled_ && filter_.valid();
+  const auto cap = static_cast<std::int32_t>(speed_cap_mmps());
+  float left = 0.0F;
+  float right = 0.0F;
+  if (drive) {
+    const auto hard_max = static_cast<float>(config_.hard_max_speed_mmps);
+    const auto max_steer = static_cast<float>(config_.max_steer_mrad);
+    float v = 0.0F;
+    float steer = 0.0F;
+    if (orin_active()) {
+      v = static_cast<float>(velocity_.speed_mmps);
+      steer = static_cast<float>(velocity_.steer_mrad);
+    } else if ((live_faults_ & fault::kIoLinkLoss) == 0) {  // RC only
+      v = static_cast<float>(rc_.throttle) * hard_max / 1000.0F;
+      steer = static_cast<float>(rc_.steer) * max_steer / 1000.0F;
+    }
+    if (steer > max_steer) steer = max_steer;
+    if (steer < -max_steer) steer = -max_steer;
+    float base = v;
+    if (state_ == RobotState::balance) {
+      const float out =
+          pid_.update(config_.pitch_setpoint_deg - filter_.pitch_deg(), filter_.rate_dps(), dt);
+      pid_out_ = static_cast<std::int16_t>(std::lround(out));
+      base += out * hard_max / 1000.0F;
+    } else {
+      pid_.reset();
+      pid_out_ = 0;
+    }
+    // Steering angle -> wheel speed difference (bicycle model: yaw rate = v tan(steer) / wheelbase).
+    const float diff = config_.wheelbase_mm == 0
+                           ? 0.0F
+                           : base * std::tan(steer / 1000.0F) * static_cast<float>(config_.track_mm) /
+                                 (2.0F * static_cast<float>(config_.wheelbase_mm));
+    left = base - diff;
+    right = base + diff;
+    const float biggest = std::fabs(left) > std::fabs(right) ? std::fabs(left) : std::fabs(right);
+    if (biggest > static_cast<float>(cap)) {  // scale both: the turn keeps its shape, the cap holds
+      const float k = static_cast<float>(cap) / biggest;
+      left *= k;
+      right *= k;
+    }
+  } else {
+    pid_.reset();
+    pid_out_ = 0;
+  }
+  wheel_left_mmps_ = whole_mmps(left, cap);
+  wheel_right_mmps_ = whole_mmps(right, cap);
+
+  const bool change = drive != wheels_driving_;  // starting or, above all, stopping: at once
+  wheels_driving_ = drive;
+  if (motor_tx_.due(now) || change) {
+    const std::int32_t l = erpm_of(wheel_left_mmps_);
+    const std::int32_t r = erpm_of(wheel_right_mmps_);
+    send_wheels(config_.invert_left ? -l : l, config_.invert_right ? -r : r);
+  }
+}
+
+void BalanceBoard::send_wheels(std::int32_t left_erpm, std::int32_t right_erpm) noexcept {
+  (void)hw_.can.send(vesc::encode(vesc::SetRpm{vesc::kLeftId, left_erpm}));
+  (void)hw_.can.send(vesc::encode(vesc::SetRpm{vesc::kRightId, right_erpm}));
+}
+
+// ---- outputs ------------------------------------------------------------------------------------------------------
+
+std::int16_t BalanceBoard::pitch_x100() const noexcept {
+  if (!filter_.valid()) return 32767;  // unknown: never "upright"
+  return saturate16(std::lround(filter_.pitch_deg() * 100.0F));  // single precision: the S3's FPU has no double
+}
+
+LcdView BalanceBoard::view() const noexcept {
+  LcdView v;
+  v.pitch_x100 = pitch_x100();
+  v.speed_mmps = saturate16((static_cast<std::int64_t>(wheel_left_mmps_) + wheel_right_mmps_) / 2);
+  v.battery_known = battery_mv_ != 0;
+  v.battery_mv = battery_mv_;
+  if (v.battery_known && config_.battery_full_mv > config_.battery_empty_mv) {
+    const std::int32_t span = config_.battery_full_mv - config_.battery_empty_mv;
+    std::int32_t pct = (static_cast<std::int32_t>(battery_mv_) - config_.battery_empty_mv) * 100 / span;
+    pct = pct < 0 ? 0 : (pct > 100 ? 100 : pct);
+    v.battery_pct = static_cast<std::uint8_t>(pct);
+  }
+  v.state = state_;
+  v.faults = faults();
+  v.speed_limit_pct = speed_limit_pct_;
+  v.tilt_limit_x100 = tilt_limit_x100_;
+  v.orin_active = orin_active();
+  return v;
+}
+
+void BalanceBoard::send_ack(std::uint8_t command, std::uint8_t sequence, AckResult result) noexcept {
+  (void)hw_.can.send(saulcan::encode(saulcan::CommandAck{command, sequence, result}));
+}
+
+void BalanceBoard::send_link(const interboard::Message& message) noexcept {
+  std::uint8_t buffer[interboard::kMaxFrameSize];
+  const auto n = interboard::encode(message, buffer);
+  if (n) (void)hw_.link.write(std::span<const std::uint8_t>(buffer, *n));
+}
+
+void BalanceBoard::send_state() noexcept {
+  send_link(interboard::State{pitch_x100(), pid_out_, static_cast<std::uint8_t>(state_)});
+}
+
+void BalanceBoard::send_led() noexcept {
+  const LedCommand c = led_for_state(state_);
+  send_link(interboard::LedCmd{static_cast<std::uint8_t>(c.pattern), c.color.r, c.color.g, c.color.b});
+}
+
+void BalanceBoard::publish(TimeUs now) noexcept {
+  if (state_ != published_state_) {
+    const bool was_armed = published_state_ == RobotState::balance || published_state_ == RobotState::manual;
+    if (latched()) {
+      send_link(interboard::Buzzer{static_cast<std::uint8_t>(Tone::alarm), 1000});
+    } else if (armed() && !was_armed) {
+      send_link(interboard::Buzzer{static_cast<std::uint8_t>(Tone::armed), 200});
+    } else if (state_ == RobotState::off) {
+      send_link(interboard::Buzzer{static_cast<std::uint8_t>(Tone::disarmed), 150});
+    }
+    published_state_ = state_;
+    state_tx_.trigger();
+    led_tx_.trigger();
+  }
+  if (state_tx_.due(now)) send_state();
+  if (led_tx_.due(now)) send_led();
+  if (telemetry_tx_.due(now)) {
+    // Speed: the wheels' measured average when both VESCs report, else what is commanded.
+    std::int64_t speed = (static_cast<std::int64_t>(wheel_left_mmps_) + wheel_right_mmps_) / 2;
+    const auto measured_rpm = [&](const Vesc& v, bool invert) -> std::int64_t {
+      const std::int64_t e = invert ? -static_cast<std::int64_t>(v.erpm) : v.erpm;
+      return config_.pole_pairs == 0 ? 0 : e / config_.pole_pairs;
+    };
+    const bool fresh = left_.status_seen && right_.status_seen &&
+                       age(now, left_.status_us) <= config_.vesc_status_timeout_us &&
+                       age(now, right_.status_us) <= config_.vesc_status_timeout_us;
+    const std::int64_t l_rpm = left_.status_seen ? measured_rpm(left_, config_.invert_left) : 0;
+    const std::int64_t r_rpm = right_.status_seen ? measured_rpm(right_, config_.invert_right) : 0;
+    if (fresh) speed = (l_rpm + r_rpm) * config_.wheel_circumference_mm / 120;  // mean RPM x circumference / 60 s
+    (void)hw_.can.send(saulcan::encode(saulcan::TelemetryA{pitch_x100(), pid_out_, saturate16(speed), state_}));
+    (void)hw_.can.send(
+        saulcan::encode(saulcan::TelemetryB{saturate16(l_rpm), saturate16(r_rpm), battery_mv_, faults()}));
+  }
+  if (display_tx_.due(now)) hw_.display.show(view());
+}
+
+}  // namespace saul::fw

@@ -1,0 +1,222 @@
+// The BALANCE board (Waveshare ESP32-S3 Touch LCD 1.28): IMU -> pitch -> balance PID -> VESC SET_RPM, the Orin's
+// CAN commands with their 0x402 acknowledgements, telemetry, the inter-board link to the IO board, the robot state
+// machine with its fault bits, the LCD view and the USB console.
+//
+// The board is driven entirely by step(now_us), called once per IMU data-ready interrupt (1 kHz) by the glue or a
+// simulator. One call is one loop iteration, in this order:
+//   1. IMU samples -> complementary filter (pitch, pitch rate)
+//   2. inter-board bytes in (RC_CMD, SENSOR, FAULT): an RC kill flag or a FAULT estop bit latches ESTOP at once
+//   3. CAN frames in (0x300..0x303, VESC status): mode 3 latches ESTOP at once; each 0x301 set, 0x302 and 0x303
+//      gets its 0x402 in this same iteration
+//   4. supervision: link timeouts, tilt, faults -> latched states (ESTOP > TILT_CUTOFF > FAULT)
+//   5. an arming request from the IO board (RC_CMD armed flag going 0 -> 1), refused if any estop input was seen in
+//      this iteration or is still active
+//   6. console lines (a console estop latches at once; arm is checked like 5)
+//   7. control: PID and wheel speeds from the state as it stands after 1..6, so an estop, a cutoff or a fault
+//      seen anywhere in the iteration zeroes the wheels in this iteration; SET_RPM to both VESCs every 10 ms and
+//      at once when the wheels must stop
+//   8. telemetry 0x400/0x401 (10 Hz), STATE (50 Hz and on every state change), LED_CMD, BUZZER, LCD view
+//   9. watchdog feed, only if the newest IMU sample (by its own timestamp) is at most imu_stall_us old: the loop
+//      really ran on fresh data. A silent IMU while armed also latches FAULT (watchdog_reset) and stops the wheels.
+//
+// State machine (docs/protocol.md section 4):
+//   OFF -(arming)-> BALANCE <-(0x302 mode 1/2)-> MANUAL
+//   BALANCE/MANUAL -(disarm: IO armed flag 1 -> 0, console disarm, 0x302 mode 0)-> OFF
+//   any -(estop: RC_CMD kill, FAULT estop, 0x302 mode 3, console estop)-> ESTOP
+//   BALANCE/MANUAL -(|pitch| > tilt limit)-> TILT_CUTOFF
+//   BALANCE/MANUAL -(IO link loss, RC loss, motor fault, IMU stall, loop hang)-> FAULT; power-on after a watchdog
+//   reset -> FAULT
+//   ESTOP/TILT_CUTOFF/FAULT stay until a disarm (any of the above, or the IO armed flag seen at 0) followed by a
+//   fresh arming.
+// Arming (IO flag edge, console arm): only from OFF or a disarmed latched state, with a valid pitch |pitch| <= 5
+// degrees, the IO link alive, no RC loss, no motor fault and no estop input; it clears the latched fault bits.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+
+#include "saulfw/common.hpp"
+#include "saulfw/hal.hpp"
+#include "saulproto/core/console.hpp"
+#include "saulproto/core/interboard.hpp"
+#include "saulproto/core/pid_stager.hpp"
+#include "saulproto/core/saul_can.hpp"
+
+namespace saul::fw {
+
+struct BalanceConfig {
+  // control
+  saulcan::PidGains gains{25.0F, 0.0F, 0.5F};  ///< power-on gains (permille/deg, permille/(deg s), permille/(deg/s))
+  float integral_limit = 300.0F;               ///< permille
+  float filter_tau_s = 0.5F;                   ///< complementary filter time constant
+  float pitch_setpoint_deg = 0.0F;             ///< the balance point
+  // limits
+  std::uint16_t tilt_limit_x100 = 2500;        ///< power-on tilt cutoff, 5.00..25.00 degrees
+  std::uint16_t upright_x100 = 500;            ///< |pitch| for arming
+  std::uint16_t hard_max_speed_mmps = 2000;    ///< 100 % of the speed cap; pid_out 1000 = this wheel speed
+  std::uint16_t max_steer_mrad = 600;          ///< steering angle at full RC stick, and the clamp for 0x300
+  // drive train
+  std::uint16_t wheel_circumference_mm = 628;  ///< 200 mm wheels
+  std::uint8_t pole_pairs = 7;                 ///< ERPM = mechanical RPM x pole pairs
+  std::uint16_t track_mm = 460;                ///< distance between the left and right wheels
+  std::uint16_t wheelbase_mm = 700;            ///< for the steering angle -> wheel speed difference
+  bool invert_left = false;                    ///< a motor mounted mirrored turns the other way for "forward"
+  bool invert_right = false;
+  // battery (from the VESCs' STATUS_5 input voltage)
+  std::uint16_t battery_empty_mv = 33000;
+  std::uint16_t battery_full_mv = 42000;
+  std::uint16_t low_battery_mv = 34000;
+  // timing
+  TimeUs motor_period_us = 10'000;        ///< SET_RPM to both VESCs, 100 Hz
+  TimeUs telemetry_period_us = 100'000;   ///< 0x400 and 0x401, 10 Hz
+  TimeUs state_period_us = 20'000;        ///< STATE to IO, 50 Hz
+  TimeUs led_period_us = 1'000'000;       ///< LED_CMD refresh (also sent on every state change)
+  TimeUs display_period_us = 100'000;     ///< LCD view, 10 Hz
+  TimeUs io_link_timeout_us = 100'000;    ///< no valid RC_CMD for longer: io_link_loss
+  TimeUs orin_timeout_us = 500'000;       ///< no 0x300 for longer: orin_timeout, RC only
+  TimeUs imu_stall_us = 10'000;           ///< no IMU sample for longer: stop feeding the watchdog, motors zero
+  TimeUs imu_startup_us = 500'000;        ///< the same before the first sample after power-on
+  TimeUs hang_us = 50'000;                ///< a gap between two step() calls longer than this: the loop hung
+  TimeUs vesc_status_timeout_us = 500'000;  ///< a VESC that sent STATUS and then stopped: motor_fault
+};
+
+class BalanceBoard {
+ public:
+  struct Hardware {
+    Imu& imu;
+    CanPort& can;
+    SerialPort& link;     ///< inter-board UART to the IO board
+    SerialPort& console;  ///< USB console
+    Watchdog& watchdog;
+    Display& display;
+  };
+
+  BalanceBoard(const Hardware& hw, const BalanceConfig& config, ResetReason reset) noexcept;
+
+  /// One loop iteration at time now_us (monotonic). See the file comment for what it does.
+  void step(TimeUs now_us) noexcept;
+
+  // ---- observers (glue, simulator, tests) ----
+  [[nodiscard]] saulcan::RobotState state() const noexcept { return state_; }
+  /// The 0x401 fault bits: live conditions and the causes latched since the last arming.
+  [[nodiscard]] std::uint8_t faults() const noexcept { return live_faults_ | latched_faults_; }
+  [[nodiscard]] bool pitch_valid() const noexcept { return filter_.valid(); }
+  [[nodiscard]] float pitch_deg() const noexcept { return filter_.pitch_deg(); }
+  [[nodiscard]] std::int16_t pitch_x100() const noexcept;
+  [[nodiscard]] std::int16_t pid_out() const noexcept { return pid_out_; }
+  [[nodiscard]] const saulcan::PidGains& gains() const noexcept { return pid_.gains(); }
+  [[nodiscard]] std::uint16_t tilt_limit_x100() const noexcept { return tilt_limit_x100_; }
+  [[nodiscard]] std::uint8_t speed_limit_pct() const noexcept { return speed_limit_pct_; }
+  /// The wheel speed limit now: the speed_limit percentage of hard_max_speed_mmps, lowered by 0x303.
+  [[nodiscard]] std::uint16_t speed_cap_mmps() const noexcept;
+  /// ERPM of a wheel speed, as sent in SET_RPM (before inversion); truncated toward zero.
+  [[nodiscard]] std::int32_t erpm_of(std::int32_t mmps) const noexcept;
+  [[nodiscard]] bool orin_active() const noexcept { return (live_faults_ & saulcan::fault::kOrinTimeout) == 0; }
+  [[nodiscard]] bool reboot_requested() const noexcept { return reboot_requested_; }
+  [[nodiscard]] LcdView view() const noexcept;
+  [[nodiscard]] const interboard::Counters& uart_counters() const noexcept { return link_rx_.counters(); }
+
+ private:
+  enum class Tri : std::uint8_t { unknown, no, yes };
+
+  void boot(TimeUs now) noexcept;
+  void read_imu(TimeUs now) noexcept;
+  void read_link(TimeUs now) noexcept;
+  void on_link_message(const interboard::Message& message, TimeUs now) noexcept;
+  void read_can(TimeUs now) noexcept;
+  void on_can_frame(const CanFrame& frame, TimeUs now) noexcept;
+  void on_mode(saulcan::Mode mode) noexcept;
+  void on_config(const saulcan::ConfigCmd& config) noexcept;
+  void on_stager(const saulcan::StagerOutcome& outcome) noexcept;
+  void update_live(TimeUs now) noexcept;
+  void supervise(TimeUs now) noexcept;
+  void read_console(TimeUs now) noexcept;
+  void on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept;
+  void control(TimeUs now) noexcept;
+  void publish(TimeUs now) noexcept;
+
+  void estop() noexcept;
+  void latch(saulcan::RobotState to, std::uint8_t cause) noexcept;
+  void disarm() noexcept;
+  /// nullptr when armed, else why not (a short text for the console).
+  const char* try_arm() noexcept;
+  [[nodiscard]] bool armed() const noexcept;
+  [[nodiscard]] bool latched() const noexcept;
+  [[nodiscard]] bool estop_input() const noexcept;
+
+  void send_ack(std::uint8_t command, std::uint8_t sequence, saulcan::AckResult result) noexcept;
+  void send_link(const interboard::Message& message) noexcept;
+  void send_wheels(std::int32_t left_erpm, std::int32_t right_erpm) noexcept;
+  void send_state() noexcept;
+  void send_led() noexcept;
+
+  Hardware hw_;
+  BalanceConfig config_;
+  ResetReason reset_;
+
+  ComplementaryFilter filter_;
+  BalancePid pid_;
+  saulcan::PidStager stager_;
+  interboard::StreamDecoder link_rx_;
+  LineAssembler console_in_;
+
+  // state machine
+  saulcan::RobotState state_ = saulcan::RobotState::off;
+  std::uint8_t latched_faults_ = 0;
+  std::uint8_t live_faults_ = saulcan::fault::kIoLinkLoss | saulcan::fault::kOrinTimeout;
+  bool disarmed_since_latch_ = true;
+  bool estop_this_iteration_ = false;
+  bool reboot_requested_ = false;
+
+  // IO board
+  interboard::RcCmd rc_{};
+  TimeUs rc_us_ = 0;
+  bool rc_seen_ = false;
+  Tri io_armed_ = Tri::unknown;
+  bool io_arm_request_ = false;
+  std::uint8_t io_faults_ = 0;
+  interboard::Sensor sensor_{};
+
+  // Orin
+  saulcan::VelocityCmd velocity_{};
+  TimeUs velocity_us_ = 0;
+  bool velocity_seen_ = false;
+  std::uint16_t tilt_limit_x100_;
+  std::uint8_t speed_limit_pct_ = 10;
+  std::uint16_t orin_max_speed_mmps_ = 0xFFFF;
+
+  // VESCs
+  struct Vesc {
+    std::int32_t erpm = 0;
+    TimeUs status_us = 0;
+    bool status_seen = false;
+  };
+  Vesc left_{};
+  Vesc right_{};
+  std::uint16_t battery_mv_ = 0;
+
+  // IMU and control
+  TimeUs imu_ok_us_ = 0;
+  bool imu_ever_ = false;
+  bool imu_stalled_ = false;
+  std::int16_t pid_out_ = 0;
+  TimeUs control_us_ = 0;
+  std::int32_t wheel_left_mmps_ = 0;
+  std::int32_t wheel_right_mmps_ = 0;
+  bool wheels_driving_ = false;
+
+  // schedules and change detection
+  Every motor_tx_;
+  Every telemetry_tx_;
+  Every state_tx_;
+  Every led_tx_;
+  Every display_tx_;
+  saulcan::RobotState published_state_ = saulcan::RobotState::off;
+  bool started_ = false;
+  TimeUs boot_us_ = 0;
+  TimeUs last_step_us_ = 0;
+
+  char scratch_[console::kMaxReply]{};
+};
+
+}  // namespace saul::fw

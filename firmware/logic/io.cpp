@@ -1,0 +1,498 @@
+#include "saulfw/io.hpp"
+
+#include <variant>
+
+namespace saul::fw {
+
+using saulcan::RobotState;
+
+namespace {
+
+bool is_latched(std::uint8_t state) noexcept {
+  return state == static_cast<std::uint8_t>(RobotState::estop) ||
+         state == static_cast<std::uint8_t>(RobotState::tilt_cutoff) ||
+         state == static_cast<std::uint8_t>(RobotState::fault);
+}
+
+bool is_armed_state(std::uint8_t state) noexcept {
+  return state == static_cast<std::uint8_t>(RobotState::balance) ||
+         state == static_cast<std::uint8_t>(RobotState::manual);
+}
+
+std::int16_t clamp_permille(std::int32_t v) noexcept {
+  return static_cast<std::int16_t>(v > 1000 ? 1000 : (v < -1000 ? -1000 : v));
+}
+
+const char* flight_mode_name(std::uint8_t state) noexcept {
+  switch (static_cast<RobotState>(state)) {
+    case RobotState::off: return "OFF";
+    case RobotState::balance: return "BALANCE";
+    case RobotState::manual: return "MANUAL";
+    case RobotState::estop: return "ESTOP";
+    case RobotState::tilt_cutoff: return "TILT";
+    case RobotState::fault: return "FAULT";
+  }
+  return "?";
+}
+
+}  // namespace
+
+IoBoard::IoBoard(const Hardware& hw, const IoConfig& config) noexcept
+    : hw_(hw),
+      config_(config),
+      rc_cmd_tx_(config.rc_cmd_period_us),
+      sensor_tx_(config.sensor_period_us),
+      fault_tx_(config.fault_period_us),
+      telemetry_tx_(config.telemetry_period_us),
+      led_tx_(config.led_period_us),
+      refresh_(config.output_refresh_us) {
+  if (config_.led_count > kMaxLeds) config_.led_count = kMaxLeds;
+}
+
+void IoBoard::boot(TimeUs now) noexcept {
+  started_ = true;
+  boot_us_ = now;
+  motors_off();  // power-on: drivers disabled before anything else happens
+}
+
+// ---- the loop ---------------------------------------------------------------------------------------------------
+
+void IoBoard::step(TimeUs now) noexcept {
+  if (!started_) boot(now);
+  if (refresh_.due(now)) outputs_known_ = false;  // rewrite every output this iteration
+
+  check_estop(now);  // first, every iteration
+  read_receiver(crsf_, hw_.crsf, rc::Source::crsf, now);
+  read_receiver(elrs_, hw_.elrs, rc::Source::elrs, now);
+  selector_.update(now);
+  check_estop(now);  // receivers that went silent no longer count
+
+  read_link(now);
+  read_console(now);
+  arming(now);
+  drive_motors(now);
+  to_balance(now);
+  telemetry(now);
+  outputs(now);
+  outputs_known_ = true;
+  hw_.watchdog.feed();
+}
+
+void IoBoard::check_estop(TimeUs now) noexcept {
+  bool rc_estop = false;
+  for (const Receiver* r : {&crsf_, &elrs_})
+    if (r->seen && age(now, r->last_us) <= rc::ReceiverSelector::kSilenceUs && r->command.estop) rc_estop = true;
+  estop_level_ = hw_.gpio.read(InputPin::kill_switch) || rc_estop;
+  if (console_estop_ && age(now, console_estop_us_) > config_.console_estop_us) console_estop_ = false;
+  if (estop_level_ || console_estop_) {
+    motors_off();
+    disarm();
+  }
+  if (fault_flags() != sent_faults_) {  // an ESTOP (or RC loss) goes to BALANCE at once, before anything else
+    send_fault();
+    send_rc_cmd();
+  }
+}
+
+// ---- receivers ----------------------------------------------------------------------------------------------------
+
+void IoBoard::read_receiver(Receiver& receiver, SerialPort& port, rc::Source source, TimeUs now) noexcept {
+  std::uint8_t buffer[64];
+  for (int round = 0; round < 4; ++round) {
+    const std::size_t n = port.read(buffer);
+    if (n == 0) break;
+    receiver.decoder.push(std::span<const std::uint8_t>(buffer, n < sizeof buffer ? n : sizeof buffer),
+                          [&](const crsf::Frame& frame) {
+                            if (frame.type != static_cast<std::uint8_t>(crsf::Type::rc_channels_packed)) return;
+                            const auto m = crsf::decode(frame);
+                            if (!m) return;
+                            const auto* channels = std::get_if<crsf::RcChannels>(&m.value());
+                            if (channels == nullptr) return;
+                            receiver.us = crsf::channels_us(*channels);
+                            receiver.command = rc::map_channels(receiver.us);  // ESTOP evaluated first in there
+                            receiver.last_us = now;
+                            receiver.seen = true;
+                            selector_.on_frame(source, now);
+                            if (receiver.command.estop) check_estop(now);  // at once, inside the receive loop
+                          });
+  }
+}
+
+const rc::Command* IoBoard::active_command() const noexcept {
+  switch (selector_.active()) {
+    case rc::Source::crsf: return &crsf_.command;
+    case rc::Source::elrs: return &elrs_.command;
+    case rc::Source::none: break;
+  }
+  return nullptr;
+}
+
+std::uint8_t IoBoard::fault_flags() const noexcept {
+  std::uint8_t f = 0;
+  if (selector_.rc_loss()) f |= interboard::Fault::kRcLoss;
+  if (estop_level_ || console_estop_) f |= interboard::Fault::kEstop;
+  return f;
+}
+
+// ---- BALANCE link -------------------------------------------------------------------------------------------------
+
+void IoBoard::read_link(TimeUs now) noexcept {
+  std::uint8_t buffer[64];
+  for (int round = 0; round < 8; ++round) {
+    const std::size_t n = hw_.link.read(buffer);
+    if (n == 0) break;
+    for (std::size_t i = 0; i < n && i < sizeof buffer; ++i) {
+      const auto m = link_rx_.push(buffer[i]);
+      if (!m) continue;
+      if (const auto* s = std::get_if<interboard::State>(&*m)) {
+        const bool was_latched = state_seen_ && is_latched(state_.error_state);
+        state_ = *s;
+        state_us_ = now;
+        state_seen_ = true;
+        // BALANCE just latched ESTOP, TILT_CUTOFF or FAULT: re-arming takes a fresh 3 s hold.
+        if (is_latched(s->error_state) && !was_latched) disarm();
+      } else if (const auto* l = std::get_if<interboard::LedCmd>(&*m)) {
+        led_cmd_ = *l;
+        led_cmd_us_ = now;
+        led_cmd_seen_ = true;
+      } else if (const auto* b = std::get_if<interboard::Buzzer>(&*m)) {
+        buzzer_tone_ = b->tone_id;
+        buzzer_until_us_ = now + static_cast<TimeUs>(b->duration_ms) * 1000U;
+      }
+    }
+  }
+}
+
+bool IoBoard::state_fresh(TimeUs now) const noexcept {
+  return state_seen_ && age(now, state_us_) <= config_.state_timeout_us;
+}
+
+bool IoBoard::balance_armed(TimeUs now) const noexcept { return state_fresh(now) && is_armed_state(state_.error_state); }
+
+// ---- arming -------------------------------------------------------------------------------------------------------
+
+void IoBoard::disarm() noexcept {
+  armed_ = false;
+  hold_active_ = false;
+}
+
+void IoBoard::arming(TimeUs now) noexcept {
+  const rc::Command* cmd = active_command();
+  const bool arm_switch = cmd != nullptr && cmd->armed;
+  const bool estop = estop_level_ || console_estop_;
+  const bool rc_ok = !selector_.rc_loss();
+  const bool fresh = state_fresh(now);
+  const std::int32_t pitch = state_.pitch_x100;
+  const bool upright = fresh && (pitch < 0 ? -pitch : pitch) <= config_.upright_x100;
+
+  if (armed_) {
+    if (!arm_switch || estop || !rc_ok) {
+      disarm();
+    } else if (fresh && !is_armed_state(state_.error_state) && age(now, armed_us_) > config_.arm_confirm_us) {
+      disarm();  // BALANCE did not take the arming (not upright by its own IMU, a fault, ...)
+    }
+  }
+
+  const bool pressed = hw_.gpio.read(InputPin::arm_button);
+  if (!pressed) {
+    need_release_ = false;
+    hold_active_ = false;
+    return;
+  }
+  if (armed_ || need_release_) return;
+  const bool can_hold = arm_switch && upright && !estop && rc_ok;
+  if (!can_hold) {  // pressed while not allowed, or a condition failed during the hold: release and start over
+    hold_active_ = false;
+    need_release_ = true;
+    return;
+  }
+  if (!hold_active_) {
+    hold_active_ = true;
+    hold_start_us_ = now;
+    return;
+  }
+  if (age(now, hold_start_us_) >= config_.arm_hold_us) {
+    armed_ = true;
+    armed_us_ = now;
+    hold_active_ = false;
+    need_release_ = true;
+    send_rc_cmd();  // BALANCE sees the rising armed flag now, not at the next 10 ms slot
+  }
+}
+
+// ---- motors -------------------------------------------------------------------------------------------------------
+
+void IoBoard::set_pwm(PwmChannel channel, std::uint16_t permille) noexcept {
+  const auto i = static_cast<std::size_t>(channel);
+  if (outputs_known_ && pwm_out_[i] == permille) return;
+  pwm_out_[i] = permille;
+  hw_.pwm.set(channel, permille);
+}
+
+void IoBoard::set_pin(OutputPin pin, bool on) noexcept {
+  const auto i = static_cast<std::size_t>(pin);
+  if (outputs_known_ && pin_out_[i] == on) return;
+  pin_out_[i] = on;
+  hw_.gpio.write(pin, on);
+}
+
+void IoBoard::set_side(PwmChannel forward, PwmChannel reverse, OutputPin r_en, OutputPin l_en,
+                       std::int16_t permille, bool enabled) noexcept {
+  if (!enabled) {  // enables first: the half bridges go high-impedance at once
+    set_pin(r_en, false);
+    set_pin(l_en, false);
+    set_pwm(forward, 0);
+    set_pwm(reverse, 0);
+    return;
+  }
+  const std::uint16_t fwd = permille > 0 ? static_cast<std::uint16_t>(permille) : 0;
+  const std::uint16_t rev = permille < 0 ? static_cast<std::uint16_t>(-permille) : 0;
+  set_pwm(fwd > 0 ? reverse : forward, 0);  // never both directions at once, not even between two writes
+  set_pwm(forward, fwd);
+  set_pwm(reverse, rev);
+  set_pin(r_en, true);
+  set_pin(l_en, true);
+}
+
+void IoBoard::motors_off() noexcept {
+  motors_enabled_ = false;
+  left_permille_ = 0;
+  right_permille_ = 0;
+  set_side(PwmChannel::left_rpwm, PwmChannel::left_lpwm, OutputPin::left_r_en, OutputPin::left_l_en, 0, false);
+  set_side(PwmChannel::right_rpwm, PwmChannel::right_lpwm, OutputPin::right_r_en, OutputPin::right_l_en, 0, false);
+}
+
+void IoBoard::drive_motors(TimeUs now) noexcept {
+  const rc::Command* cmd = active_command();
+  const bool enable = armed_ && balance_armed(now) && !estop_level_ && !console_estop_ && cmd != nullptr;
+  if (!enable) {
+    motors_off();
+    return;
+  }
+  motors_enabled_ = true;
+  left_permille_ = clamp_permille(static_cast<std::int32_t>(cmd->throttle) - cmd->steer);
+  right_permille_ = clamp_permille(static_cast<std::int32_t>(cmd->throttle) + cmd->steer);
+  set_side(PwmChannel::left_rpwm, PwmChannel::left_lpwm, OutputPin::left_r_en, OutputPin::left_l_en, left_permille_,
+           true);
+  set_side(PwmChannel::right_rpwm, PwmChannel::right_lpwm, OutputPin::right_r_en, OutputPin::right_l_en,
+           right_permille_, true);
+}
+
+// ---- to BALANCE ---------------------------------------------------------------------------------------------------
+
+void IoBoard::send_link(const interboard::Message& message) noexcept {
+  std::uint8_t buffer[interboard::kMaxFrameSize];
+  const auto n = interboard::encode(message, buffer);
+  if (n) (void)hw_.link.write(std::span<const std::uint8_t>(buffer, *n));
+}
+
+void IoBoard::send_fault() noexcept {
+  sent_faults_ = fault_flags();
+  send_link(interboard::Fault{sent_faults_});
+}
+
+void IoBoard::send_rc_cmd() noexcept {
+  interboard::RcCmd m{};
+  const rc::Command* cmd = active_command();
+  const bool estop = estop_level_ || console_estop_;
+  if (cmd != nullptr && !estop) {
+    m.throttle = cmd->throttle;
+    m.steer = cmd->steer;
+  }
+  m.flags = static_cast<std::uint8_t>((armed_ ? interboard::RcCmd::kArmed : 0) |
+                                      (estop ? interboard::RcCmd::kKill : 0));
+  send_link(m);
+}
+
+void IoBoard::to_balance(TimeUs now) noexcept {
+  // FAULT first, so BALANCE learns of an RC loss before the RC_CMD that has lost its armed flag.
+  if (fault_flags() != sent_faults_) {
+    send_fault();
+    fault_tx_.trigger();
+    (void)fault_tx_.due(now);  // the periodic repeat counts from now
+  } else if (fault_tx_.due(now)) {
+    send_fault();
+  }
+  if (rc_cmd_tx_.due(now)) send_rc_cmd();
+  if (sensor_tx_.due(now)) {
+    readings_ = hw_.sensors.read();
+    interboard::Sensor s{};
+    s.tof_mm = readings_.tof_valid ? readings_.tof_mm : 0xFFFF;
+    if (readings_.pressure_valid) {
+      if (!baro_reference_set_) {  // the pressure at the first reading is the reference
+        baro_reference_set_ = true;
+        baro_reference_pa_ = readings_.pressure_pa;
+      }
+      const std::int32_t d = readings_.pressure_pa - baro_reference_pa_;
+      s.baro_delta_pa = static_cast<std::int16_t>(d > 32767 ? 32767 : (d < -32768 ? -32768 : d));
+    }
+    s.nfc_present = readings_.nfc_present ? 1 : 0;
+    send_link(s);
+  }
+}
+
+// ---- CRSF telemetry -----------------------------------------------------------------------------------------------
+
+void IoBoard::telemetry(TimeUs now) noexcept {
+  if (!telemetry_tx_.due(now)) return;
+  SerialPort& port = selector_.active() == rc::Source::elrs ? hw_.elrs : hw_.crsf;
+  std::uint8_t frame[crsf::kMaxFrameSize];
+  Result<std::size_t> n = Reason::out_of_range;
+  const bool fresh = state_fresh(now);
+  for (int tries = 0; tries < 3 && !n.ok(); ++tries) {
+    const std::uint8_t slot = telemetry_slot_;
+    telemetry_slot_ = static_cast<std::uint8_t>((telemetry_slot_ + 1U) % 3U);
+    if (slot == 0) {
+      if (!fresh || state_.pitch_x100 == 32767) continue;  // pitch unknown: skip
+      // degrees x 100 -> radians x 10000: x pi / 180 x 100
+      std::int32_t rad = static_cast<std::int32_t>(state_.pitch_x100) * 174533 / 100000;
+      rad = rad > crsf::Attitude::kLimit ? crsf::Attitude::kLimit : (rad < -crsf::Attitude::kLimit ? -crsf::Attitude::kLimit : rad);
+      n = crsf::encode(crsf::Attitude{static_cast<std::int16_t>(rad), 0, 0}, frame);
+    } else if (slot == 1) {
+      const char* name = estop_level_ || console_estop_ ? "KILL" : (!fresh ? "NO LINK" : flight_mode_name(state_.error_state));
+      if (const auto mode = crsf::make_flight_mode(name)) n = crsf::encode(*mode, frame);
+    } else {
+      if (readings_.battery_mv == 0) continue;  // no pack voltage on this board: nothing to say
+      crsf::BatterySensor b{};
+      b.voltage_x10 = static_cast<std::uint16_t>(readings_.battery_mv / 100U);
+      n = crsf::encode(b, frame);
+    }
+  }
+  if (n) (void)port.write(std::span<const std::uint8_t>(frame, *n));
+}
+
+// ---- LEDs, horn, headlight, fan -----------------------------------------------------------------------------------
+
+void IoBoard::outputs(TimeUs now) noexcept {
+  const rc::Channels* us = selector_.active() == rc::Source::crsf   ? &crsf_.us
+                           : selector_.active() == rc::Source::elrs ? &elrs_.us
+                                                                    : nullptr;
+  const auto channel_on = [&](std::uint8_t index) {
+    return us != nullptr && index < rc::kChannelCount && (*us)[index] > rc::kMidUs;
+  };
+
+  if (led_tx_.due(now)) {
+    LedCommand c;
+    if (estop_level_ || console_estop_) {
+      c = {LedPattern::blink, {255, 0, 0}};
+    } else if (hold_active_) {
+      c = {LedPattern::chase, {0, 255, 0}};  // arming in progress
+    } else if (!state_fresh(now)) {
+      c = {LedPattern::blink, {255, 0, 255}};  // BALANCE silent
+    } else if (led_cmd_seen_ && age(now, led_cmd_us_) <= config_.led_cmd_timeout_us) {
+      c = {static_cast<LedPattern>(led_cmd_.pattern), {led_cmd_.r, led_cmd_.g, led_cmd_.b}};
+    } else {
+      c = led_for_state(static_cast<RobotState>(state_.error_state));
+    }
+    const auto pixels = std::span<Rgb>(pixels_, config_.led_count);
+    render(c.pattern, c.color, now, pixels);
+    hw_.leds.show(pixels);
+  }
+
+  std::uint16_t hz = 0;
+  if (channel_on(config_.horn_channel)) {
+    hz = config_.horn_hz;
+  } else if (now < buzzer_until_us_) {
+    hz = tone_hz(buzzer_tone_);
+  }
+  if (hz != horn_hz_out_ || !outputs_known_) {
+    horn_hz_out_ = hz;
+    hw_.horn.tone(hz);
+  }
+
+  const bool robot_armed = balance_armed(now);
+  set_pwm(PwmChannel::headlight, channel_on(config_.headlight_channel) || robot_armed ? 1000 : 0);
+  if (!config_.elrs_fitted) set_pin(OutputPin::fan, armed_ || robot_armed || motors_enabled_);
+}
+
+// ---- console ------------------------------------------------------------------------------------------------------
+
+void IoBoard::read_console(TimeUs now) noexcept {
+  std::uint8_t buffer[64];
+  for (int round = 0; round < 4; ++round) {
+    const std::size_t n = hw_.console.read(buffer);
+    if (n == 0) break;
+    for (std::size_t i = 0; i < n && i < sizeof buffer; ++i)
+      console_in_.push(buffer[i], [&](std::string_view line, bool overflowed) { on_console_line(line, overflowed, now); });
+  }
+}
+
+void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {
+  SerialPort& out = hw_.console;
+  if (overflowed) {
+    write_formatted(out, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch_), scratch_);
+    return;
+  }
+  const auto parsed = console::parse(line);
+  if (!parsed) {
+    if (parsed.error.reason == Reason::syntax) return;
+    write_formatted(out, console::format_error(parsed.error, scratch_), scratch_);
+    return;
+  }
+  const auto ok = [&] { write_formatted(out, console::format_ok(scratch_), scratch_); };
+  using console::Verb;
+  switch (console::verb_of(parsed.command)) {
+    case Verb::help:
+      write_formatted(out, console::format_help(scratch_), scratch_);
+      ok();
+      return;
+    case Verb::status: {
+      console::StatusReport r;
+      r.board = console::Board::io;
+      const bool fresh = state_fresh(now);
+      r.state = fresh ? static_cast<RobotState>(state_.error_state) : RobotState::off;
+      r.pitch_x100 = fresh ? state_.pitch_x100 : 32767;
+      r.pid_out = fresh ? state_.pid_out : 0;
+      const rc::Command* cmd = active_command();
+      r.speed_limit_pct = cmd != nullptr ? cmd->speed_cap_pct : 10;
+      r.faults = fault_flags();  // bits 0..2 are the 0x401 bits
+      r.battery_mv = readings_.battery_mv;
+      r.uptime_ms = static_cast<std::uint32_t>(age(now, boot_us_) / 1000U);
+      write_status(out, r, console::CanStats{}, console::UartStats::from(link_rx_.counters()), scratch_);
+      return;
+    }
+    case Verb::arm:
+      write_refusal(out, "hold the arming button for 3 s (or use the BALANCE console)");
+      return;
+    case Verb::disarm:
+      disarm();
+      send_rc_cmd();
+      ok();
+      return;
+    case Verb::estop:
+      console_estop_ = true;
+      console_estop_us_ = now;
+      check_estop(now);
+      ok();
+      return;
+    case Verb::pid:
+    case Verb::tilt_limit:
+    case Verb::speed_limit:
+      write_refusal(out, "set on the BALANCE board");
+      return;
+    case Verb::can_stats: {
+      const console::CanStats none{};  // no CAN controller on the IO board
+      write_formatted(out, console::format_human(none, scratch_), scratch_);
+      write_formatted(out, console::format_kv(none, scratch_), scratch_);
+      ok();
+      return;
+    }
+    case Verb::uart_stats: {
+      const auto s = console::UartStats::from(link_rx_.counters());
+      write_formatted(out, console::format_human(s, scratch_), scratch_);
+      write_formatted(out, console::format_kv(s, scratch_), scratch_);
+      ok();
+      return;
+    }
+    case Verb::reboot:
+      if (armed_ || motors_enabled_) {
+        write_refusal(out, "disarm before rebooting");
+        return;
+      }
+      reboot_requested_ = true;
+      ok();
+      return;
+  }
+}
+
+}  // namespace saul::fw
