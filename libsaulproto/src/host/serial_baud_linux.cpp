@@ -17,4 +17,11 @@ bool set_custom_baud(int fd, std::uint32_t baud) {
   return ::ioctl(fd, TCSETS2, &t) == 0;
 }
 
+// The rate the driver really runs at (the kernel keeps it in c_ospeed for every rate), 0 when unknown.
+std::uint32_t driver_baud(int fd) {
+  struct termios2 t {};
+  if (::ioctl(fd, TCGETS2, &t) != 0) return 0;
+  return t.c_ospeed;
+}
+
 }  // namespace saul::host

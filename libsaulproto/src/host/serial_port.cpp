@@ -17,6 +17,7 @@ namespace saul::host {
 
 // Defined in serial_baud_linux.cpp (it needs <asm/termbits.h>, which clashes with <termios.h>).
 bool set_custom_baud(int fd, std::uint32_t baud);
+std::uint32_t driver_baud(int fd);
 
 namespace {
 
@@ -41,6 +42,17 @@ SerialError open_error(const std::string& path, int err) {
     default:
       return {SerialError::Kind::io, fmt::format("{}: cannot open: {}", path, std::strerror(err))};
   }
+}
+
+// A driver that cannot do a rate does not fail: it keeps another one (an 8250 UART asked for more than its
+// baud_base keeps the previous rate). Read back what it set; empty when that is the rate asked for (within 2 %).
+std::string baud_mismatch(int fd, const std::string& path, std::uint32_t want) {
+  const std::uint32_t got = driver_baud(fd);
+  const std::uint32_t diff = got > want ? got - want : want - got;
+  if (got == 0 || std::uint64_t{diff} * 50 <= want) return {};
+  return fmt::format("{}: asked for {} baud, the driver set {}: this port cannot do that rate (a 16550 UART needs a "
+                     "faster clock: setserial {} baud_base 921600)",
+                     path, want, got, path);
 }
 
 SerialError gone_error(const std::string& path) {
@@ -117,6 +129,10 @@ class TermiosPort final : public SerialPort {
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, s.baud));
     }
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
+      ::close(fd_);
+      throw SerialError(SerialError::Kind::config, why);
+    }
   }
   ~TermiosPort() override {
     if (fd_ >= 0) ::close(fd_);
@@ -155,6 +171,26 @@ class TermiosPort final : public SerialPort {
     bits = dtr ? (bits | TIOCM_DTR) : (bits & ~TIOCM_DTR);
     bits = rts ? (bits | TIOCM_RTS) : (bits & ~TIOCM_RTS);
     ::ioctl(fd_, TIOCMSET, &bits);
+  }
+
+  void set_baud(std::uint32_t baud) override {
+    termios t{};
+    if (::tcgetattr(fd_, &t) != 0)
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: cannot read settings: {}", path_, std::strerror(errno)));
+    const speed_t sp = standard_speed(baud);
+    if (sp != 0) {
+      ::cfsetispeed(&t, sp);
+      ::cfsetospeed(&t, sp);
+      if (::tcsetattr(fd_, TCSADRAIN, &t) != 0)
+        throw SerialError(SerialError::Kind::config,
+                          fmt::format("{}: cannot set {} baud: {}", path_, baud, std::strerror(errno)));
+    } else if (!set_custom_baud(fd_, baud)) {
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, baud));
+    }
+    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+    settings_.baud = baud;
   }
 
   [[nodiscard]] const std::string& path() const override { return path_; }
@@ -196,6 +232,11 @@ class LibSerialPort final : public SerialPort {
                         fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), text));
     }
     sp_get_port_handle(port_, &fd_);
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
+      sp_close(port_);
+      sp_free_port(port_);
+      throw SerialError(SerialError::Kind::config, why);
+    }
   }
   ~LibSerialPort() override {
     sp_close(port_);
@@ -222,6 +263,13 @@ class LibSerialPort final : public SerialPort {
   void set_modem_lines(bool dtr, bool rts) override {
     sp_set_dtr(port_, dtr ? SP_DTR_ON : SP_DTR_OFF);
     sp_set_rts(port_, rts ? SP_RTS_ON : SP_RTS_OFF);
+  }
+
+  void set_baud(std::uint32_t baud) override {
+    if (sp_drain(port_) != SP_OK || sp_set_baudrate(port_, static_cast<int>(baud)) != SP_OK)
+      throw SerialError(SerialError::Kind::config, fmt::format("{}: cannot set {} baud", path_, baud));
+    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+    settings_.baud = baud;
   }
 
   [[nodiscard]] const std::string& path() const override { return path_; }

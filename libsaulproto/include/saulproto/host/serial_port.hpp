@@ -55,6 +55,12 @@ class SerialPort {
   virtual void write(std::span<const std::uint8_t> data, std::chrono::milliseconds timeout) = 0;
   /// Sets the DTR and RTS modem lines (a no-op on a pseudo-terminal, which has none).
   virtual void set_modem_lines(bool dtr, bool rts) = 0;
+  /// Changes the baud rate of an open port (the ESP bootloader's CHANGE_BAUDRATE needs it without a reopen,
+  /// which would toggle the modem lines). Throws SerialError(config) when the driver refuses the rate; the
+  /// default is for ports that cannot change it.
+  virtual void set_baud(std::uint32_t baud) {
+    throw SerialError(SerialError::Kind::config, path() + ": cannot change the baud rate to " + std::to_string(baud));
+  }
   [[nodiscard]] virtual const std::string& path() const = 0;
   /// What was requested (a pty silently drops parity, so do not trust a read-back there).
   [[nodiscard]] virtual const SerialSettings& settings() const = 0;
