@@ -1,4 +1,5 @@
-// saulctl decode: every frame of a capture file, decoded.
+// saulctl decode: every frame of a capture file, decoded: CAN captures frame by frame, serial byte captures (our
+// serial log, sigrok/PulseView UART exports) through the streaming decoder of each link's protocol.
 #include <fmt/core.h>
 
 #include <iostream>
@@ -6,11 +7,14 @@
 #include <optional>
 #include <set>
 
+#include "capture_cli.hpp"
 #include "commands.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/candump.hpp"
 #include "saulproto/host/capture.hpp"
 #include "saulproto/host/format.hpp"
+#include "saulproto/host/serial_capture.hpp"
+#include "saulproto/host/serial_decode.hpp"
 
 namespace saulctl {
 namespace {
@@ -21,6 +25,7 @@ struct DecodeOptions {
   std::string time = "abs";
   std::vector<std::string> ids;
   bool json = false;
+  SerialCliOptions serial;
 };
 
 std::uint32_t parse_id(const std::string& s) {
@@ -53,12 +58,70 @@ std::string csv_quote(const std::string& s) {
   return q + '"';
 }
 
+/// Decodes the chunks of one serial capture file; returns the number of messages printed.
+std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
+                            saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt) {
+  using namespace saul::host;
+  std::optional<std::uint64_t> first, previous;
+  std::uint64_t messages = 0;
+  std::uint64_t untimed = 0;
+  SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
+  const SerialCaptureDecoder::Callback print = [&](const SerialChunk& chunk, SerialProtocol protocol,
+                                                   const SerialMessage& m) {
+    ++messages;
+    const std::string stamp = time_text(opt.time, chunk.timestamp_ns.value_or(0), first, previous);
+    const std::string bare = stamp.substr(1, stamp.size() - 2);
+    if (format == "jsonl") {
+      nlohmann::json j;
+      j["time"] = bare;
+      j["link"] = chunk.link;
+      j["protocol"] = std::string(to_string(protocol));
+      if (is_decode_error(m)) {
+        j["error"] = to_json(m);
+      } else {
+        j["message"] = to_json(m);
+      }
+      fmt::print("{}\n", j.dump());
+    } else if (format == "csv") {
+      const std::string name = name_of(m);
+      std::string fields = describe(m);
+      fields = fields.starts_with(name) ? fields.substr(std::min(fields.size(), name.size() + 1)) : fields;
+      fmt::print("{},{},,,,,,{},{}\n", bare, chunk.link, name, csv_quote(fields));
+    } else {
+      fmt::print("{} {} {}\n", stamp, chunk.link, describe(m));
+    }
+  };
+  for (;;) {
+    const auto st = reader.next();
+    if (st == SerialCaptureReader::Status::end) break;
+    if (st == SerialCaptureReader::Status::corrupt) {
+      ++corrupt;
+      fmt::print(stderr, "saulctl decode: {}\n", format_capture_error(path, reader.error()));
+      continue;
+    }
+    if (!reader.chunk().timestamp_ns) ++untimed;
+    decoder.add(reader.chunk(), print);
+  }
+  decoder.finish(print);
+  if (untimed > 0)
+    fmt::print(stderr, "saulctl decode: {}: {} chunks carry no time (sample numbers need --samplerate; sigrok-cli "
+                       "prints them with --protocol-decoder-samplenum)\n", path, untimed);
+  for (const auto& link : decoder.links())
+    fmt::print(stderr, "saulctl decode: {}: {} ({}{}): {}\n", path, link.name, to_string(link.protocol),
+               link.guessed ? ", guessed from the bytes" : "", link.counters_text);
+  return messages;
+}
+
 int run_decode(const DecodeOptions& opt) {
   const std::string format = opt.json ? "jsonl" : opt.format;
   std::set<std::uint32_t> ids;
   for (const auto& s : opt.ids) ids.insert(parse_id(s));
+  const saul::host::SerialReadOptions serial_options = serial_read_options(opt.serial);
 
   std::uint64_t frames = 0, decoded = 0, unknown = 0, rejected = 0, errors = 0, corrupt = 0;
+  std::uint64_t messages = 0;
+  bool any_can = false;
+  bool any_serial = false;
   int status = kOk;
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
 
@@ -69,13 +132,20 @@ int run_decode(const DecodeOptions& opt) {
       opened = std::make_unique<saul::host::CandumpReader>(std::cin);
     } else {
       try {
-        opened = saul::host::open_capture_reader(path);
+        auto any = saul::host::open_capture(path, serial_options);
+        if (any.chunks) {
+          any_serial = true;
+          messages += decode_serial(opt, format, path, *any.chunks, corrupt);
+          continue;
+        }
+        opened = std::move(any.frames);
       } catch (const saul::host::CaptureOpenError& e) {
         fmt::print(stderr, "saulctl decode: {}\n", e.what());
         status = kFailure;
         continue;
       }
     }
+    any_can = true;
     saul::host::CaptureReader& reader = *opened;
     std::optional<std::uint64_t> first, previous;
     for (;;) {
@@ -129,8 +199,12 @@ int run_decode(const DecodeOptions& opt) {
       }
     }
   }
-  fmt::print(stderr, "saulctl decode: {} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines\n",
-             frames, decoded, unknown, rejected, errors, corrupt);
+  if (any_can || !any_serial)
+    fmt::print(stderr,
+               "saulctl decode: {} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines\n",
+               frames, decoded, unknown, rejected, errors, corrupt);
+  if (any_serial)
+    fmt::print(stderr, "saulctl decode: {} serial messages; {} corrupt lines\n", messages, corrupt);
   return status;
 }
 
@@ -138,7 +212,8 @@ int run_decode(const DecodeOptions& opt) {
 
 void add_decode_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<DecodeOptions>();
-  CLI::App* cmd = app.add_subcommand("decode", "Decode every frame of capture files (candump, pcap, pcapng, ASC)");
+  CLI::App* cmd = app.add_subcommand(
+      "decode", "Decode every frame of capture files (candump, pcap, pcapng, ASC, serial logs, sigrok/PulseView UART)");
   cmd->footer(
       "\nOutput (text): one line per frame, greppable:\n"
       "  (1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
@@ -150,9 +225,15 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "  saulctl decode --time delta --id 0x300 run.log     gaps between velocity commands\n"
       "  saulctl decode --format csv run.log > run.csv\n"
       "  saulctl decode bench.pcapng                        pcap, pcapng and Vector ASC work the same\n"
-      "  candump -L can0 | saulctl decode -                 decode live from can-utils\n");
+      "  candump -L can0 | saulctl decode -                 decode live from can-utils\n"
+      "  saulctl decode captures/pride_uart.serial          serial byte captures: each link's own decoder\n"
+      "  sigrok-cli -i la.vcd -P uart:rx=rx:baudrate=38400:parity=even -A uart=rx-data \\\n"
+      "      --protocol-decoder-samplenum > la.txt\n"
+      "  saulctl decode --protocol pride --samplerate 1M la.txt   a logic analyser's UART decode\n"
+      "Serial captures end with each link's decoder counters on stderr (frames, CRC errors, bytes skipped).\n");
   cmd->add_option("files", opt->files,
-                  "capture files: candump, pcap, pcapng or ASC ('-' = candump text on standard input)")
+                  "capture files: candump, pcap, pcapng, ASC, serial log, sigrok/PulseView UART export "
+                  "('-' = candump text on standard input)")
       ->required();
   cmd->add_option("--format", opt->format, "text, jsonl or csv")
       ->check(CLI::IsMember({"text", "jsonl", "csv"}))
@@ -162,7 +243,17 @@ void add_decode_command(CLI::App& app, Runner& run) {
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();
   cmd->add_option("--id", opt->ids, "only these CAN ids (hex 0x300 or decimal), comma separated")->delimiter(',');
-  cmd->callback([opt, &run] { run = [opt] { return run_decode(*opt); }; });
+  add_serial_read_options(cmd, opt->serial);
+  cmd->callback([opt, &run] {
+    run = [opt] {
+      try {
+        return run_decode(*opt);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl decode: {}\n", e.what());
+        return static_cast<int>(kUsage);
+      }
+    };
+  });
 }
 
 }  // namespace saulctl

@@ -19,10 +19,17 @@ using Runner = std::function<int()>;
 
 void add_decode_command(CLI::App& app, Runner& run);
 void add_convert_command(CLI::App& app, Runner& run);
+void add_stats_command(CLI::App& app, Runner& run);
+void add_record_command(CLI::App& app, Runner& run);
+void add_replay_command(CLI::App& app, Runner& run);
+void add_plot_command(CLI::App& app, Runner& run);
 void add_command_commands(CLI::App& app, Runner& run);  // mode, estop, pid, config
 void add_drive_command(CLI::App& app, Runner& run);
 void add_sniff_command(CLI::App& app, Runner& run);
 void add_monitor_command(CLI::App& app, Runner& run);
 void add_ports_command(CLI::App& app, Runner& run);
+void add_sim_command(CLI::App& app, Runner& run);
+void add_test_command(CLI::App& app, Runner& run);
+void add_flash_command(CLI::App& app, Runner& run);
 
 }  // namespace saulctl

@@ -20,11 +20,18 @@ int main(int argc, char** argv) {
   saulctl::Runner run;
   saulctl::add_decode_command(app, run);
   saulctl::add_convert_command(app, run);
+  saulctl::add_stats_command(app, run);
+  saulctl::add_record_command(app, run);
+  saulctl::add_replay_command(app, run);
+  saulctl::add_plot_command(app, run);
   saulctl::add_sniff_command(app, run);
   saulctl::add_monitor_command(app, run);
   saulctl::add_command_commands(app, run);
   saulctl::add_drive_command(app, run);
   saulctl::add_ports_command(app, run);
+  saulctl::add_sim_command(app, run);
+  saulctl::add_test_command(app, run);
+  saulctl::add_flash_command(app, run);
 
   try {
     app.parse(argc, argv);

@@ -10,6 +10,8 @@ packages=(
   libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev
   catch2 libbenchmark-dev
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
+  sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)
+  qemu-system-x86 busybox-static cpio kmod  # the real-kernel harness (tests/vm; can-utils too)
 )
 if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)

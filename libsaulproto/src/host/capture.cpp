@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cctype>
 #include <cstring>
 #include <fstream>
 #include <streambuf>
@@ -12,6 +13,7 @@
 #include "saulproto/host/candump.hpp"
 #include "saulproto/host/pcap.hpp"
 #include "saulproto/host/pcapng.hpp"
+#include "saulproto/host/serial_capture.hpp"
 
 namespace saul::host {
 namespace {
@@ -73,6 +75,83 @@ class FileReader final : public CaptureReader {
   std::unique_ptr<CaptureReader> inner_;
 };
 
+/// A serial reader that owns its file.
+class FileSerialReader final : public SerialCaptureReader {
+ public:
+  FileSerialReader(std::unique_ptr<FileSource> source, std::unique_ptr<SerialCaptureReader> inner)
+      : source_(std::move(source)), inner_(std::move(inner)) {}
+  Status next() override { return inner_->next(); }
+  [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
+  [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+
+ private:
+  std::unique_ptr<FileSource> source_;
+  std::unique_ptr<SerialCaptureReader> inner_;
+};
+
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/// "uart-1: ..." (a sigrok-cli decoder instance) or "START-END NAME: ..." (sample numbers first).
+bool looks_like_sigrok_annotation(std::string_view line) {
+  std::size_t i = 0;
+  if (!line.empty() && is_digit(line[0])) {
+    while (i < line.size() && is_digit(line[i])) ++i;
+    if (i >= line.size() || line[i] != '-') return false;
+    const std::size_t start = ++i;
+    while (i < line.size() && is_digit(line[i])) ++i;
+    if (i == start || i >= line.size() || line[i] != ' ') return false;
+    ++i;
+    const std::size_t colon = line.find(':', i);
+    if (colon == std::string_view::npos || colon == i) return false;
+    const std::string_view name = line.substr(i, colon - i);
+    return name.find(' ') == std::string_view::npos && colon + 1 < line.size() && line[colon + 1] == ' ';
+  }
+  while (i < line.size() && (std::isalnum(static_cast<unsigned char>(line[i])) || line[i] == '_')) ++i;
+  if (i == 0 || i >= line.size() || line[i] != '-') return false;
+  const std::size_t digits = ++i;
+  while (i < line.size() && is_digit(line[i])) ++i;
+  return i > digits && i + 1 < line.size() && line[i] == ':' && line[i + 1] == ' ';
+}
+
+/// A candump line has '#' in its third word; our serial log has the protocol name there.
+CaptureFormat candump_or_serial(std::string_view line) {
+  std::size_t pos = 0;
+  for (int word = 0; word < 2; ++word) {
+    pos = line.find(' ', pos);
+    if (pos == std::string_view::npos) return CaptureFormat::candump;
+    while (pos < line.size() && line[pos] == ' ') ++pos;
+  }
+  std::size_t end = line.find(' ', pos);
+  if (end == std::string_view::npos) end = line.size();
+  const std::string_view third = line.substr(pos, end - pos);
+  if (third.find('#') != std::string_view::npos || third.empty()) return CaptureFormat::candump;
+  return CaptureFormat::serial;
+}
+
+/// Opens a file and works out its format from its first bytes (or `format`, or the extension).
+std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<CaptureFormat>& format) {
+  auto source = std::make_unique<FileSource>();
+  if (!source->file.open(path, std::ios::in | std::ios::binary))
+    throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
+  std::string head(kHeadBytes, '\0');
+  const std::streamsize got = source->file.sgetn(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
+  if (!format) {
+    format = detect_capture_format(
+        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(head.data()), head.size()));
+  }
+  if (!format) format = capture_format_from_extension(path);
+  if (!format)
+    throw CaptureOpenError(fmt::format(
+        "cannot tell the format of '{}': its content is not pcap, pcapng, candump, ASC, a serial log or a "
+        "sigrok/PulseView UART export, and its extension is none of .pcap .pcapng .log .asc .serial",
+        path));
+  source->replay = std::make_unique<ReplayBuf>(source->file, std::move(head));
+  source->stream.rdbuf(source->replay.get());
+  return source;
+}
+
 /// A writer that owns its file and closes it.
 class FileWriter final : public CaptureWriter {
  public:
@@ -133,6 +212,14 @@ std::string_view to_string(CaptureFormat format) noexcept {
       return "pcapng";
     case CaptureFormat::asc:
       return "asc";
+    case CaptureFormat::serial:
+      return "serial";
+    case CaptureFormat::sigrok:
+      return "sigrok";
+    case CaptureFormat::sigrok_json:
+      return "sigrok-json";
+    case CaptureFormat::pulseview_csv:
+      return "pulseview-csv";
   }
   return "?";
 }
@@ -142,6 +229,10 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
   if (name == "pcap") return CaptureFormat::pcap;
   if (name == "pcapng") return CaptureFormat::pcapng;
   if (name == "asc") return CaptureFormat::asc;
+  if (name == "serial") return CaptureFormat::serial;
+  if (name == "sigrok") return CaptureFormat::sigrok;
+  if (name == "sigrok-json") return CaptureFormat::sigrok_json;
+  if (name == "pulseview-csv") return CaptureFormat::pulseview_csv;
   return std::nullopt;
 }
 
@@ -159,6 +250,7 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   if (x == "pcap" || x == "cap") return CaptureFormat::pcap;
   if (x == "pcapng" || x == "ntar") return CaptureFormat::pcapng;
   if (x == "asc") return CaptureFormat::asc;
+  if (x == "serial") return CaptureFormat::serial;
   return std::nullopt;
 }
 
@@ -182,10 +274,15 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     std::string_view line = text.substr(pos, end - pos);
     pos = end + 1;
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
-    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return CaptureFormat::candump;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return candump_or_serial(line);
     if (starts_with_nocase(line, "date ") || starts_with_nocase(line, "base ") ||
         starts_with_nocase(line, "begin triggerblock"))
       return CaptureFormat::asc;
+    if (line.starts_with("{\"traceEvents\"")) return CaptureFormat::sigrok_json;
+    if (line.starts_with("Sample,Time,Decoder,") || line.starts_with("\"Sample\",\"Time\",\"Decoder\","))
+      return CaptureFormat::pulseview_csv;
+    if (looks_like_sigrok_annotation(line)) return CaptureFormat::sigrok;
   }
   return std::nullopt;
 }
@@ -200,6 +297,12 @@ CaptureTraits capture_traits(CaptureFormat format) noexcept {
       return {1, true, false, true};
     case CaptureFormat::asc:
       return {1000, false, true, false};
+    case CaptureFormat::serial:
+      return {1000, true, false, false};
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      return {1, true, false, false};
   }
   return {1000, false, false, false};
 }
@@ -235,6 +338,11 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
       return std::make_unique<PcapngReader>(in);
     case CaptureFormat::asc:
       return std::make_unique<AscReader>(in);
+    case CaptureFormat::serial:
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      throw CaptureOpenError(fmt::format("this is a {} file of serial bytes, not CAN frames", to_string(format)));
   }
   throw std::invalid_argument("unknown capture format");
 }
@@ -249,29 +357,19 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
       return std::make_unique<PcapngWriter>(out);
     case CaptureFormat::asc:
       return std::make_unique<AscWriter>(out);
+    case CaptureFormat::serial:
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      break;
   }
-  throw std::invalid_argument("unknown capture format");
+  throw std::invalid_argument(fmt::format("{} is not a CAN capture format", to_string(format)));
 }
 
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std::optional<CaptureFormat> format) {
-  auto source = std::make_unique<FileSource>();
-  if (!source->file.open(path, std::ios::in | std::ios::binary))
-    throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
-  std::string head(kHeadBytes, '\0');
-  const std::streamsize got = source->file.sgetn(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
-  if (!format) {
-    format = detect_capture_format(
-        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(head.data()), head.size()));
-  }
-  if (!format) format = capture_format_from_extension(path);
-  if (!format)
-    throw CaptureOpenError(fmt::format(
-        "cannot tell the format of '{}': its content is not pcap, pcapng, candump or ASC and its extension "
-        "is none of .pcap .pcapng .log .asc",
-        path));
-  source->replay = std::make_unique<ReplayBuf>(source->file, std::move(head));
-  source->stream.rdbuf(source->replay.get());
+  auto source = open_source(path, format);
+  if (holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("'{}' holds serial bytes ({}), not CAN frames", path, to_string(*format)));
   try {
     auto inner = make_capture_reader(source->stream, *format);
     return std::make_unique<FileReader>(std::move(source), std::move(inner));
@@ -280,11 +378,43 @@ std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std:
   }
 }
 
+std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
+                                                                const SerialReadOptions& options,
+                                                                std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  if (!holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("'{}' holds CAN frames ({}), not serial bytes", path, to_string(*format)));
+  auto inner = make_serial_capture_reader(source->stream, *format, options);
+  return std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+}
+
+OpenedCapture open_capture(const std::string& path, const SerialReadOptions& options,
+                           std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  OpenedCapture opened;
+  opened.format = *format;
+  if (holds_serial_bytes(*format)) {
+    auto inner = make_serial_capture_reader(source->stream, *format, options);
+    opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+    return opened;
+  }
+  try {
+    auto inner = make_capture_reader(source->stream, *format);
+    opened.frames = std::make_unique<FileReader>(std::move(source), std::move(inner));
+  } catch (const CaptureOpenError& e) {
+    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
+  }
+  return opened;
+}
+
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
   if (!format) format = capture_format_from_extension(path);
   if (!format)
     throw CaptureOpenError(fmt::format(
         "cannot tell which format to write to '{}': name it .log, .pcap, .pcapng or .asc, or give the format", path));
+  if (holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
+                                       to_string(*format)));
   auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
   return std::make_unique<FileWriter>(path, std::move(file), *format);

@@ -63,10 +63,23 @@ std::string describe(const BusMessage& message) {
 std::string describe(const interboard::Message& message) {
   return std::visit([](const auto& m) { return describe_one(m); }, message);
 }
+std::string describe(const crsf::Message& message) {
+  return std::visit([](const auto& m) { return describe_one(m); }, message);
+}
+std::string describe(const pride::Message& message) {
+  return std::visit([](const auto& m) { return describe_one(m); }, message);
+}
 nlohmann::json to_json(const BusMessage& message) {
   return std::visit([](const auto& m) { return json_one(m); }, message);
 }
 nlohmann::json to_json(const interboard::Message& message) {
+  return std::visit([](const auto& m) { return json_one(m); }, message);
+}
+
+nlohmann::json to_json(const crsf::Message& message) {
+  return std::visit([](const auto& m) { return json_one(m); }, message);
+}
+nlohmann::json to_json(const pride::Message& message) {
   return std::visit([](const auto& m) { return json_one(m); }, message);
 }
 

@@ -1,6 +1,8 @@
 // Capture files of CAN traffic, whatever their format: one reader and one writer interface, format detection by
 // content, and factories that open files. The formats themselves live in candump.hpp, pcap.hpp, pcapng.hpp and
-// asc.hpp; docs/captures.md says what each keeps and loses.
+// asc.hpp; docs/captures.md says what each keeps and loses. Byte captures of the serial links share the format
+// enum and its detection; their reader interface and open_capture(), which opens either kind, are in
+// serial_capture.hpp.
 //
 // Readers stream: each next() reads one record (a line, a pcap record, a pcapng block), so memory stays constant
 // whatever the file size. A corrupt record is reported with its position (line number for text formats, byte
@@ -28,17 +30,27 @@ enum class CaptureFormat : std::uint8_t {
   pcap,     ///< libpcap file, LINKTYPE_CAN_SOCKETCAN (227)
   pcapng,   ///< pcapng, interfaces with LINKTYPE_CAN_SOCKETCAN
   asc,      ///< Vector ASC text, as log2asc and python-can write it
+  // Byte captures of the UART links (serial_capture.hpp, uart_export.hpp): not CAN, read as SerialChunks.
+  serial,         ///< saulctl's serial log, "(1700000000.000000) serial:/dev/ttyUSB0@460800:8N1 interboard AA05..."
+  sigrok,         ///< sigrok-cli UART annotation text ("uart-1: AA", "1023-1195 uart-1: AA"), PulseView's export
+  sigrok_json,    ///< sigrok-cli --protocol-decoder-jsontrace (Google Trace Event JSON)
+  pulseview_csv,  ///< PulseView's decoder table saved as CSV ("Sample","Time","Decoder","Ann Row",...)
 };
 
-/// "candump", "pcap", "pcapng", "asc".
+/// True for the formats that hold serial bytes rather than CAN frames.
+constexpr bool holds_serial_bytes(CaptureFormat format) noexcept { return format >= CaptureFormat::serial; }
+
+/// "candump", "pcap", "pcapng", "asc", "serial", "sigrok", "sigrok-json", "pulseview-csv".
 std::string_view to_string(CaptureFormat format) noexcept;
 /// The inverse of to_string; also accepts "log" for candump. Case-sensitive.
 std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept;
-/// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc (case-insensitive); nullopt otherwise.
+/// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .serial (case-insensitive); nullopt otherwise.
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
 /// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
-/// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump), a line starting
-/// "date ", "base " or "Begin Triggerblock" (ASC). nullopt when none matches.
+/// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
+/// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),
+/// '{"traceEvents"' (sigrok JSON), a "Sample,Time,Decoder" header (PulseView CSV), or a sigrok annotation line
+/// ("uart-1: ..." or "START-END NAME: ..."). nullopt when none matches.
 std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t> head) noexcept;
 
 /// What a format can carry, so callers (and tests) know what a round trip keeps.
@@ -118,14 +130,16 @@ class CaptureWriter {
 
 /// Opens a capture file for reading. The format is `format` when given, else detected from the content
 /// (detect_capture_format), else from the extension. Throws CaptureOpenError when the file cannot be opened, its
-/// format cannot be told, or its header is not usable. Works on pipes too (nothing is seeked).
+/// format cannot be told, or its header is not usable, or it holds serial bytes (see open_capture). Works on
+/// pipes too (nothing is seeked).
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// A reader of `format` over a stream the caller keeps alive. Throws CaptureOpenError for a bad binary header.
 std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format);
 
 /// Creates (truncates) a capture file. The format is `format` when given, else from the extension; throws
-/// CaptureOpenError when neither says or the file cannot be created.
+/// CaptureOpenError when neither says, when it is a serial format (open_serial_capture_writer), or the file cannot
+/// be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// A writer of `format` onto a stream the caller keeps alive (and closes).

@@ -1,0 +1,50 @@
+#include "capture_cli.hpp"
+
+#include <cmath>
+
+namespace saulctl {
+
+void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
+  cmd->add_option("--protocol", options.protocol,
+                  "serial captures: protocol of links the file does not name (sigrok/PulseView exports): "
+                  "interboard, crsf, pride or raw (default: guessed from the first 4 KiB)")
+      ->check(CLI::IsMember({"interboard", "crsf", "pride", "raw"}));
+  cmd->add_option("--samplerate", options.samplerate,
+                  "logic-analyser exports with sample numbers: the capture's sample rate (10M, 1MHz, 1000000), "
+                  "to turn samples into time");
+}
+
+std::uint64_t parse_rate_hz(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (...) {
+    used = 0;
+  }
+  std::string unit = text.substr(used);
+  if (unit.size() >= 2 && (unit.substr(unit.size() - 2) == "Hz" || unit.substr(unit.size() - 2) == "hz"))
+    unit.resize(unit.size() - 2);
+  double scale = 0;
+  if (unit.empty()) scale = 1;
+  if (unit == "k" || unit == "K") scale = 1e3;
+  if (unit == "M") scale = 1e6;
+  if (unit == "G") scale = 1e9;
+  if (used == 0 || scale == 0 || !(v > 0) || v * scale > 1e12)
+    throw CLI::ValidationError("--samplerate", "bad sample rate '" + text + "' (use e.g. 10M, 1MHz, 1000000)");
+  return static_cast<std::uint64_t>(std::llround(v * scale));
+}
+
+saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options) {
+  saul::host::SerialReadOptions r;
+  r.protocol = fallback_protocol(options);
+  if (!options.samplerate.empty()) r.samplerate_hz = parse_rate_hz(options.samplerate);
+  return r;
+}
+
+std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options) {
+  if (options.protocol.empty()) return std::nullopt;
+  return saul::host::serial_protocol_from_name(options.protocol);
+}
+
+}  // namespace saulctl

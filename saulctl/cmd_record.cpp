@@ -1,0 +1,274 @@
+// saulctl record: a live CAN bus or serial link into capture files, with rotation, and nothing lost on Ctrl-C.
+// Writing and rotation are in the host library (saulproto/host/recorder.hpp); this file runs the receive loop.
+#include <fmt/core.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <optional>
+
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/host/can_link.hpp"
+#include "saulproto/host/link_spec.hpp"
+#include "saulproto/host/recorder.hpp"
+#include "saulproto/host/serial_port.hpp"
+
+namespace saulctl {
+namespace {
+
+using namespace std::chrono;
+
+struct RecordOptions {
+  std::string link;
+  std::string output;
+  std::string format;
+  std::string rotate_size;
+  std::string rotate_time;
+  std::string duration;
+  std::uint64_t count = 0;
+  std::string interface;
+  std::string protocol;
+  bool listen_only = false;
+  bool quiet = false;
+};
+
+/// Progress on stderr: a line rewritten in place on a terminal, nothing in between otherwise.
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled && ::isatty(STDERR_FILENO)) {}
+  void update(std::uint64_t frames, const char* unit, const std::string& file, std::uint64_t bytes) {
+    if (!enabled_) return;
+    const auto now = steady_clock::now();
+    if (now - last_ < milliseconds(500)) return;
+    const double secs = duration<double>(now - start_).count();
+    const double window = duration<double>(now - last_).count();
+    const double rate = window > 0 ? static_cast<double>(frames - last_frames_) / window : 0;
+    fmt::print(stderr, "\rrecord: {} {} ({:.0f}/s) in {:.0f} s, {} ({:.1f} KiB)   ", frames, unit, rate, secs, file,
+               static_cast<double>(bytes) / 1024.0);
+    last_ = now;
+    last_frames_ = frames;
+    shown_ = true;
+  }
+  void done() {
+    if (shown_) fmt::print(stderr, "\n");
+  }
+
+ private:
+  bool enabled_;
+  bool shown_ = false;
+  steady_clock::time_point start_ = steady_clock::now();
+  steady_clock::time_point last_ = start_;
+  std::uint64_t last_frames_ = 0;
+};
+
+saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
+  saul::host::RotationOptions r;
+  try {
+    if (!opt.rotate_size.empty()) r.max_bytes = saul::host::parse_size(opt.rotate_size);
+  } catch (const std::invalid_argument& e) {
+    throw CLI::ValidationError("--rotate-size", e.what());
+  }
+  if (!opt.rotate_time.empty()) {
+    const auto d = parse_duration(opt.rotate_time);
+    if (d.count() <= 0) throw CLI::ValidationError("--rotate-time", "must be at least 1 ms");
+    r.max_duration_ns = static_cast<std::uint64_t>(d.count()) * 1'000'000ULL;
+  }
+  return r;
+}
+
+/// After Ctrl-C: what the adapter already delivered is still read and written, until it is quiet for 50 ms
+/// (at most one second), so frames that were on their way are not lost.
+template <class ReadOne>
+void drain(ReadOne&& read_one) {
+  const auto until = steady_clock::now() + seconds(1);
+  while (steady_clock::now() < until && read_one(milliseconds(50))) {
+  }
+}
+
+int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
+  using namespace saul::host;
+  std::optional<CaptureFormat> format;
+  if (!opt.format.empty()) format = capture_format_from_name(opt.format);
+  if (!format) format = capture_format_from_extension(opt.output);
+  if (!format)
+    throw CLI::ValidationError("-o", "cannot tell the format of '" + opt.output +
+                                         "': name it .log, .pcap, .pcapng or .asc, or give --format");
+  if (holds_serial_bytes(*format))
+    throw CLI::ValidationError("--format", std::string(to_string(*format)) + " holds serial bytes; " + spec.text() +
+                                               " is a CAN link: use candump, pcap, pcapng or asc");
+  const bool limited = !opt.duration.empty();
+  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
+  const std::string iface =
+      !opt.interface.empty() ? opt.interface : spec.kind == LinkSpec::Kind::socketcan ? spec.device : "can0";
+
+  auto link = open_can_link(spec, opt.listen_only);
+  RotatingCaptureWriter writer(opt.output, *format, rotation_of(opt), [&](const std::string& path) {
+    if (!opt.quiet) fmt::print(stderr, "record: writing {} ({})\n", path, to_string(*format));
+  });
+  if (!opt.quiet)
+    fmt::print(stderr, "record: {} as {} (timestamps: {}); Ctrl-C to stop\n", link->name(), iface,
+               to_string(link->timestamp_source()));
+  Progress progress(!opt.quiet);
+  std::uint64_t frames = 0;
+  auto last_flush = steady_clock::now();
+  const auto start = steady_clock::now();
+  auto take = [&](milliseconds wait) {
+    const auto f = link->receive(wait);
+    if (!f) {
+      writer.flush();  // the bus is idle: put everything on disk
+      last_flush = steady_clock::now();
+      return false;
+    }
+    writer.write(*f, iface);
+    ++frames;
+    if (steady_clock::now() - last_flush > milliseconds(100)) {
+      writer.flush();
+      last_flush = steady_clock::now();
+    }
+    return true;
+  };
+  int status = kOk;
+  try {
+    while (!g_interrupted && (opt.count == 0 || frames < opt.count)) {
+      auto wait = milliseconds(200);
+      if (limited) {
+        const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
+        if (left.count() <= 0) break;
+        wait = std::min(wait, left);
+      }
+      take(wait);
+      progress.update(frames, "frames", writer.current_path(), writer.bytes_in_file());
+    }
+    if (g_interrupted) drain([&](milliseconds wait) { return (opt.count == 0 || frames < opt.count) && take(wait); });
+  } catch (const LinkError& e) {
+    status = report_link_error(e);
+  }
+  progress.done();
+  writer.close();  // complete and readable, whatever happened above
+  const auto s = link->stats();
+  const double secs = duration<double>(steady_clock::now() - start).count();
+  fmt::print(stderr, "record: {} frames in {:.1f} s into {} file(s), last {}; link dropped {}, error frames {}\n",
+             frames, secs, writer.files(), writer.current_path(), s.rx_dropped, s.error_frames);
+  return status;
+}
+
+int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
+  using namespace saul::host;
+  if (!opt.format.empty() && opt.format != "serial")
+    throw CLI::ValidationError("--format", spec.text() + " is a serial link: its bytes are written as a serial log "
+                                                         "(--format serial)");
+  const bool limited = !opt.duration.empty();
+  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
+  SerialChunk chunk;
+  chunk.link = spec.text();
+  chunk.protocol = opt.protocol.empty() ? protocol_for_baud(spec.serial.baud) : *serial_protocol_from_name(opt.protocol);
+
+  auto port = open_serial(spec.device, spec.serial, spec.backend);
+  RotatingSerialWriter writer(opt.output, rotation_of(opt), [&](const std::string& path) {
+    if (!opt.quiet) fmt::print(stderr, "record: writing {} (serial)\n", path);
+  });
+  if (!opt.quiet)
+    fmt::print(stderr, "record: {} bytes on {} ({} {}); Ctrl-C to stop\n", to_string(chunk.protocol), port->path(),
+               spec.serial.baud, to_string(spec.serial));
+  Progress progress(!opt.quiet);
+  std::uint64_t bytes = 0;
+  std::uint64_t chunks = 0;
+  auto last_flush = steady_clock::now();
+  const auto start = steady_clock::now();
+  std::array<std::uint8_t, 4096> buf{};
+  auto take = [&](milliseconds wait) {
+    const std::size_t n = port->read(buf, wait);
+    if (n == 0) {
+      writer.flush();
+      last_flush = steady_clock::now();
+      return false;
+    }
+    chunk.timestamp_ns = realtime_ns();
+    chunk.bytes.assign(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
+    writer.write(chunk);
+    bytes += n;
+    ++chunks;
+    if (steady_clock::now() - last_flush > milliseconds(100)) {
+      writer.flush();
+      last_flush = steady_clock::now();
+    }
+    return true;
+  };
+  int status = kOk;
+  try {
+    while (!g_interrupted && (opt.count == 0 || bytes < opt.count)) {
+      auto wait = milliseconds(200);
+      if (limited) {
+        const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
+        if (left.count() <= 0) break;
+        wait = std::min(wait, left);
+      }
+      take(wait);
+      progress.update(bytes, "bytes", writer.current_path(), writer.bytes_in_file());
+    }
+    if (g_interrupted) drain(take);
+  } catch (const std::exception& e) {
+    status = report_link_error(e);
+  }
+  progress.done();
+  writer.close();
+  const double secs = duration<double>(steady_clock::now() - start).count();
+  fmt::print(stderr, "record: {} bytes in {} chunks in {:.1f} s into {} file(s), last {}\n", bytes, chunks, secs,
+             writer.files(), writer.current_path());
+  return status;
+}
+
+int run_record(const RecordOptions& opt) {
+  const auto spec = resolve_link(opt.link);
+  return spec.is_can() ? record_can(opt, spec) : record_serial(opt, spec);
+}
+
+}  // namespace
+
+void add_record_command(CLI::App& app, Runner& run) {
+  auto o = std::make_shared<RecordOptions>();
+  auto* cmd = app.add_subcommand("record", "Record a CAN bus or a serial link into capture files");
+  cmd->add_option("LINK", o->link, "can0 | slcan:/dev/ttyACM0 | serial:/dev/ttyUSB0@460800 (default: $SAUL_LINK)");
+  cmd->add_option("-o,--output", o->output, "file to write (replaced); with rotation NAME-000.EXT, NAME-001.EXT, ...")
+      ->required();
+  cmd->add_option("--format", o->format, "candump, pcap, pcapng, asc (CAN) or serial (default: from the extension)")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "serial"}));
+  cmd->add_option("--rotate-size", o->rotate_size, "start a new file when this one holds this much (100M, 1G, 64k)");
+  cmd->add_option("--rotate-time", o->rotate_time, "start a new file after this long (10m, 30s)");
+  cmd->add_option("--duration", o->duration, "stop after this long (500ms, 10s, 1m)");
+  cmd->add_option("-n,--count", o->count, "stop after this many frames (serial: bytes)");
+  cmd->add_option("--interface", o->interface, "CAN: interface name written in the file (default: can0, or the "
+                                               "SocketCAN interface's own name)");
+  cmd->add_option("--protocol", o->protocol, "serial: what the link carries (default: by baud rate: 460800 "
+                                             "interboard, 420000 crsf, 38400 pride, else raw)")
+      ->check(CLI::IsMember({"interboard", "crsf", "pride", "raw"}));
+  cmd->add_flag("--listen-only", o->listen_only, "slcan: open the adapter silent (no ACKs on the bus)");
+  cmd->add_flag("-q,--quiet", o->quiet, "no progress and no file names on stderr, only the summary");
+  cmd->footer(
+      "\nEvery file is complete and readable at any time after a flush (at most 100 ms behind while frames\n"
+      "arrive, at once when the bus is idle) and after Ctrl-C: the frames already received are written and the\n"
+      "file is closed properly. Progress (frames, rate, file) is shown on stderr when it is a terminal.\n"
+      "\nExamples:\n"
+      "  saulctl record can0 -o run.pcapng                        open it in Wireshark\n"
+      "  saulctl record slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
+      "  saulctl record serial:/dev/ttyUSB0@460800 -o uart.serial  inter-board bytes; saulctl decode uart.serial\n");
+  cmd->callback([o, &run] {
+    run = [o]() -> int {
+      install_signal_handlers();
+      try {
+        return run_record(*o);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+        return kUsage;
+      } catch (const saul::host::CaptureOpenError& e) {
+        fmt::print(stderr, "saulctl record: {}\n", e.what());
+        return kFailure;
+      } catch (const std::exception& e) {
+        return report_link_error(e);
+      }
+    };
+  });
+}
+
+}  // namespace saulctl

@@ -1,0 +1,118 @@
+// saulctl stats: what a capture holds, in one streaming pass: per id (or serial message type) counts, rates and
+// longest silences, error frames, decode errors, bus load from each frame's real length on the wire.
+// The arithmetic lives in the host library (saulproto/host/bus_stats.hpp).
+#include <fmt/core.h>
+
+#include "capture_cli.hpp"
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/host/bus_stats.hpp"
+#include "saulproto/host/capture.hpp"
+#include "saulproto/host/serial_capture.hpp"
+
+namespace saulctl {
+namespace {
+
+struct StatsOptions {
+  std::string file;
+  bool json = false;
+  std::string bitrate = "500k";
+  std::string window = "100ms";
+  SerialCliOptions serial;
+};
+
+int run_stats(const StatsOptions& opt) {
+  using namespace saul::host;
+  BusStatsOptions bus;
+  const std::uint64_t bitrate = parse_rate_hz(opt.bitrate);
+  if (bitrate > 1'000'000) throw CLI::ValidationError("--bitrate", "classic CAN runs at 1 Mbit/s at most");
+  bus.bitrate = static_cast<std::uint32_t>(bitrate);
+  const auto window = parse_duration(opt.window);
+  if (window.count() <= 0) throw CLI::ValidationError("--window", "the window must be at least 1 ms");
+  bus.window_ns = static_cast<std::uint64_t>(window.count()) * 1'000'000ULL;
+
+  OpenedCapture opened;
+  try {
+    opened = open_capture(opt.file, serial_read_options(opt.serial));
+  } catch (const CaptureOpenError& e) {
+    fmt::print(stderr, "saulctl stats: {}\n", e.what());
+    return kFailure;
+  }
+  auto report_corrupt = [&](const CaptureError& error) {
+    fmt::print(stderr, "saulctl stats: {}\n", format_capture_error(opt.file, error));
+  };
+  if (opened.frames) {
+    BusStats stats(bus);
+    for (;;) {
+      const auto st = opened.frames->next();
+      if (st == CaptureReader::Status::end) break;
+      if (st == CaptureReader::Status::corrupt) {
+        stats.add_corrupt();
+        report_corrupt(opened.frames->error());
+        continue;
+      }
+      stats.add(opened.frames->frame(), opened.frames->interface());
+    }
+    if (opt.json) {
+      fmt::print("{}\n", stats.json(opt.file).dump());
+    } else {
+      fmt::print("{}", stats.text(opt.file));
+    }
+    return kOk;
+  }
+  SerialStats stats(fallback_protocol(opt.serial));
+  for (;;) {
+    const auto st = opened.chunks->next();
+    if (st == SerialCaptureReader::Status::end) break;
+    if (st == SerialCaptureReader::Status::corrupt) {
+      stats.add_corrupt();
+      report_corrupt(opened.chunks->error());
+      continue;
+    }
+    stats.add(opened.chunks->chunk());
+  }
+  stats.finish();
+  if (opt.json) {
+    fmt::print("{}\n", stats.json(opt.file).dump());
+  } else {
+    fmt::print("{}", stats.text(opt.file));
+  }
+  return kOk;
+}
+
+}  // namespace
+
+void add_stats_command(CLI::App& app, Runner& run) {
+  auto opt = std::make_shared<StatsOptions>();
+  CLI::App* cmd = app.add_subcommand("stats", "Counts, rates, silences, errors and bus load of a capture file");
+  cmd->footer(
+      "\nCAN captures: per id the count, rate, mean and longest gap (and when it began), jitter, the frame's bits\n"
+      "on the wire and decode failures; error frames by kind; decode errors by reason; bus load at --bitrate\n"
+      "from every frame's real length: worst-case stuff bits (as canbusload), exact stuff bits (the frame's own\n"
+      "bits and CRC, as canbusload -e) and none; the busiest --window; and how often 0x300 fell silent for\n"
+      "longer than the BALANCE board's 500 ms Orin timeout.\n"
+      "Serial captures: per link the bytes, byte rate, line load, the decoder's counters, and per message type\n"
+      "the count, rate and longest gap.\n"
+      "One pass, constant memory in the number of frames. Corrupt records are reported on stderr and counted.\n"
+      "\nExamples:\n"
+      "  saulctl stats captures/robot_bus.log\n"
+      "  saulctl stats --json run.pcapng | jq '.ids[] | select(.id_hex == \"300\") | .max_gap_s'\n"
+      "  saulctl stats captures/interboard_uart.serial\n");
+  cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
+  cmd->add_flag("--json", opt->json, "one JSON object instead of the text report");
+  cmd->add_option("--bitrate", opt->bitrate, "CAN bit rate for the load (500k, 1M, 250000)")->capture_default_str();
+  cmd->add_option("--window", opt->window, "window of the peak load (100ms, 1s)")->capture_default_str();
+  add_serial_read_options(cmd, opt->serial);
+  cmd->callback([opt, &run] {
+    run = [opt]() -> int {
+      try {
+        return run_stats(*opt);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl stats: {}\n", e.what());
+        return kUsage;
+      }
+    };
+  });
+}
+
+}  // namespace saulctl
