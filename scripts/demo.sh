@@ -1,14 +1,33 @@
 #!/usr/bin/env bash
-# Sets up, builds saulctl, and runs the main job on the bundled capture: every frame of three seconds of
-# the robot's CAN bus, decoded. Pass other saulctl arguments to run something else, e.g.
-#   scripts/demo.sh decode --json captures/robot_bus.log
+# The main job on a machine with no robot: sets up, builds saulctl, starts the simulated SAUL-TEE (both boards'
+# firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), arms it with the virtual button,
+# puts it in balance mode and shows it balancing in `saulctl monitor`.
+#   scripts/demo.sh                 20 s of live telemetry (SAUL_DEMO_SECONDS to change)
+#   scripts/demo.sh decode FILE     any other saulctl command instead (e.g. decode captures/robot_bus.log)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 SAUL_SKIP_EMBEDDED=1 scripts/setup.sh
 cmake --preset default -DSAUL_BUILD_TESTS=OFF -DSAUL_BUILD_BENCH=OFF >/dev/null
 cmake --build --preset default --target saulctl
-if (($# == 0)); then
-  set -- decode captures/robot_bus.log
+saulctl=build/saulctl/saulctl
+if (($# > 0)); then
+  exec "$saulctl" "$@"
 fi
-exec build/saulctl/saulctl "$@"
+
+paths=build/sim.paths
+rm -f "$paths"
+"$saulctl" sim --quiet --paths-file "$paths" >build/sim.log 2>&1 &
+sim=$!
+trap 'kill $sim 2>/dev/null; wait $sim 2>/dev/null || true' EXIT
+for _ in $(seq 100); do [[ -s $paths ]] && break; sleep 0.05; done
+can=$(sed -n 's/^can=//p' "$paths")
+control=$(sed -n 's/^control=//p' "$paths")
+echo "simulated robot: CAN on slcan:$can, control console $control (see build/sim.log)"
+
+sleep 1                              # BALANCE reports itself upright to IO
+echo "button down" >"$control"       # the arming button: held 3 s while upright
+sleep 3.2
+echo "button up" >"$control"
+"$saulctl" mode balance --yes --link "slcan:$can"
+"$saulctl" monitor --link "slcan:$can" --duration "${SAUL_DEMO_SECONDS:-20}s"

@@ -5,6 +5,6 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 scripts/setup.sh
-cmake --preset default >/dev/null
+cmake --preset default -DSAUL_BUILD_TESTS=ON -DSAUL_BUILD_BENCH=ON >/dev/null
 cmake --build --preset default
 ctest --preset default -j "$(nproc)"
