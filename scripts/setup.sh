@@ -12,6 +12,7 @@ packages=(
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)
   qemu-system-x86 busybox-static cpio kmod  # the real-kernel harness (tests/vm; can-utils too)
+  clang libclang-rt-14-dev  # libFuzzer + ASan/UBSan runtimes of the fuzz targets (tests/fuzz/run.sh)
 )
 if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)

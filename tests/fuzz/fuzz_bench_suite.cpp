@@ -1,0 +1,18 @@
+// Bench-test suite parser (parse_suite over a std::istringstream): ParseError is the only thing it may throw.
+#include <sstream>
+#include <string>
+
+#include "fuzz_util.hpp"
+#include "saulproto/host/bench_test.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace saul::host::benchtest;
+  std::string text(reinterpret_cast<const char*>(data), size);
+  std::istringstream in(text);
+  try {
+    (void)parse_suite(in, "fuzz.saul");
+  } catch (const ParseError&) {
+  }
+  (void)parse_duration_us(text.substr(0, 32));
+  return 0;
+}

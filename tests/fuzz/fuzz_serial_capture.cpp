@@ -1,0 +1,28 @@
+// Serial capture readers (serial log and the sigrok / PulseView imports) over a std::istringstream, one binary per
+// format: built with -DSAUL_FUZZ_FORMAT=serial|sigrok|sigrok_json|pulseview_csv.
+#include <sstream>
+#include <string>
+
+#include "fuzz_util.hpp"
+#include "saulproto/host/serial_capture.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace saul::host;
+  std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
+  SerialReadOptions options;
+  options.samplerate_hz = size & 1 ? 1'000'000 : 0;
+  std::unique_ptr<SerialCaptureReader> reader;
+  try {
+    reader = make_serial_capture_reader(in, CaptureFormat::SAUL_FUZZ_FORMAT, options);
+  } catch (const CaptureOpenError&) {
+    return 0;
+  }
+  std::size_t records = 0;
+  for (;;) {
+    auto status = reader->next();
+    if (status == SerialCaptureReader::Status::end) break;
+    if (status == SerialCaptureReader::Status::corrupt) (void)format_capture_error("fuzz", reader->error());
+    if (++records > size + 1) saul::fuzz::fail();
+  }
+  return 0;
+}

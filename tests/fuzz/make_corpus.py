@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Regenerates the seed corpora in tests/fuzz/corpus/<target>/ from the golden vectors of the unit tests and from
+captures/. Needs a built saulctl for the pcap/pcapng/asc seeds: make_corpus.py [path/to/saulctl]."""
+import os, re, struct, subprocess, sys, tempfile
+
+root = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+out = os.path.join(root, "tests", "fuzz", "corpus")
+
+
+def put(target, name, data):
+    d = os.path.join(out, target)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+
+
+def read(path):
+    with open(os.path.join(root, path), "rb") as f:
+        return f.read()
+
+
+def byte_arrays(test, limit=12):
+    """Brace lists of 0xNN bytes in a unit test, as written by hand there."""
+    text = read("tests/unit/" + test).decode()
+    arrays = [bytes(int(b, 16) for b in re.findall(r"0x([0-9A-Fa-f]{2})\b", m))
+              for m in re.findall(r"\{\s*(?:0x[0-9A-Fa-f]{2}\s*,\s*){3,}0x[0-9A-Fa-f]{2}\s*,?\s*\}", text)]
+    return arrays[:limit]
+
+
+def strings(test, pattern, limit=24):
+    text = read("tests/unit/" + test).decode()
+    found = [s.encode().decode("unicode_escape") for s in re.findall(r'"((?:[^"\\]|\\.)*)"', text)]
+    return [s for s in found if re.match(pattern, s)][:limit]
+
+
+def serial_bytes(path):
+    """The hex bytes of a saulctl serial log, concatenated."""
+    data = b""
+    for line in read(path).decode().splitlines():
+        words = line.split()
+        if len(words) >= 4:
+            try:
+                data += bytes.fromhex(words[-1])
+            except ValueError:
+                pass
+    return data
+
+
+for i, a in enumerate(byte_arrays("test_interboard.cpp")):
+    put("interboard", f"unit{i}", a)
+put("interboard", "capture", serial_bytes("captures/interboard_uart.serial"))
+for i, a in enumerate(byte_arrays("test_pride.cpp")):
+    put("pride", f"unit{i}", a)
+put("pride", "capture", serial_bytes("captures/pride_uart.serial"))
+for i, a in enumerate(byte_arrays("test_crsf.cpp")):
+    put("crsf", f"unit{i}", a)
+for i, a in enumerate(byte_arrays("test_esp_loader.cpp")):
+    put("esp_slip", f"unit{i}", a)
+for i, s in enumerate(strings("test_console.cpp", r"^[a-z]")):
+    put("console", f"unit{i}", s + "\n")
+for i, s in enumerate(strings("test_slcan.cpp", r"^[TtRrFfVvNZ]")):
+    put("slcan", f"unit{i}", s + "\r")
+
+# CAN dispatch: the frames of the robot bus capture, 13 bytes each (id LE, flags|dlc, 8 data).
+frames = b""
+for line in read("captures/robot_bus.log").decode().splitlines()[:200]:
+    m = re.match(r"\(\S+\) \S+ ([0-9A-Fa-f]+)#(R?)([0-9A-Fa-f]*)", line)
+    if not m:
+        continue
+    ident, data = int(m.group(1), 16), bytes.fromhex(m.group(3))
+    flags = (0x80 if len(m.group(1)) > 3 else 0x10) | (0x40 if m.group(2) else 0) | len(data)
+    frames += struct.pack("<IB", ident, flags) + data.ljust(8, b"\0")
+for i in range(0, min(len(frames), 13 * 80), 13 * 16):
+    put("dispatch", f"bus{i // 13}", frames[i:i + 13 * 16])
+
+bus = read("captures/robot_bus.log").decode().splitlines()
+put("capture_candump", "robot_bus_head", "\n".join(bus[:40]) + "\n")
+put("capture_candump", "glitches", read("captures/glitches.log"))
+saulctl = sys.argv[1] if len(sys.argv) > 1 else os.path.join(root, "build", "saulctl", "saulctl")
+with tempfile.TemporaryDirectory() as tmp:
+    head = os.path.join(tmp, "head.log")
+    with open(head, "w") as f:
+        f.write("\n".join(bus[:20]) + "\n")
+    for fmt in ("pcap", "pcapng", "asc"):
+        dst = os.path.join(tmp, "head." + fmt)
+        if subprocess.run([saulctl, "convert", head, dst], capture_output=True).returncode == 0:
+            with open(dst, "rb") as f:
+                put("capture_" + fmt, "robot_bus_head", f.read())
+
+put("serial_serial", "interboard", read("captures/interboard_uart.serial"))
+put("serial_serial", "pride", read("captures/pride_uart.serial"))
+put("serial_sigrok", "interboard", read("captures/interboard_uart.sigrok.txt"))
+put("serial_sigrok", "pride", read("captures/pride_uart.sigrok.txt"))
+put("serial_sigrok_json", "pride", read("captures/pride_uart.sigrok.json"))
+text = read("tests/host/test_serial_capture.cpp").decode()
+m = re.search(r'"(Sample,Time,Decoder[^"]*)"((?:\s*"[^"]*")*)', text)
+if m:
+    csv = m.group(1) + "".join(re.findall(r'"([^"]*)"', m.group(2)))
+    put("serial_pulseview_csv", "unit", csv.encode().decode("unicode_escape"))
+put("serial_pulseview_csv", "minimal", 'Sample,Time,Decoder,Ann Row,Ann Class,Value\n1,0.0001,UART,RX,RX data,AA\n')
+
+for name in sorted(os.listdir(os.path.join(root, "tests", "bench"))):
+    if name.endswith(".saul"):
+        put("bench_suite", name[:-5], read("tests/bench/" + name))
