@@ -25,6 +25,7 @@ struct DecodeOptions {
   std::string time = "abs";
   std::vector<std::string> ids;
   bool json = false;
+  bool strict = false;
   SerialCliOptions serial;
 };
 
@@ -60,7 +61,8 @@ std::string csv_quote(const std::string& s) {
 
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
-                            saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt) {
+                            saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt,
+                            std::uint64_t& records) {
   using namespace saul::host;
   std::optional<std::uint64_t> first, previous;
   std::uint64_t messages = 0;
@@ -99,6 +101,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
       fmt::print(stderr, "saulctl decode: {}\n", format_capture_error(path, reader.error()));
       continue;
     }
+    ++records;
     if (!reader.chunk().timestamp_ns) ++untimed;
     decoder.add(reader.chunk(), print);
   }
@@ -120,6 +123,7 @@ int run_decode(const DecodeOptions& opt) {
 
   std::uint64_t frames = 0, decoded = 0, unknown = 0, rejected = 0, errors = 0, corrupt = 0;
   std::uint64_t messages = 0;
+  std::uint64_t records = 0;  // frames and chunks read, before --id
   bool any_can = false;
   bool any_serial = false;
   int status = kOk;
@@ -135,7 +139,7 @@ int run_decode(const DecodeOptions& opt) {
         auto any = saul::host::open_capture(path, serial_options);
         if (any.chunks) {
           any_serial = true;
-          messages += decode_serial(opt, format, path, *any.chunks, corrupt);
+          messages += decode_serial(opt, format, path, *any.chunks, corrupt, records);
           continue;
         }
         opened = std::move(any.frames);
@@ -156,6 +160,7 @@ int run_decode(const DecodeOptions& opt) {
         fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, reader.error()));
         continue;
       }
+      ++records;
       const saul::CanFrame& f = reader.frame();
       if (!ids.empty() && !ids.count(f.id)) continue;
       ++frames;
@@ -205,6 +210,16 @@ int run_decode(const DecodeOptions& opt) {
                frames, decoded, unknown, rejected, errors, corrupt);
   if (any_serial)
     fmt::print(stderr, "saulctl decode: {} serial messages; {} corrupt lines\n", messages, corrupt);
+  // Exit 1 when nothing at all could be read (every file unopenable, or only corrupt records), or with --strict
+  // when any record was corrupt; otherwise corrupt records are reported above and the exit stays 0.
+  if (records == 0 && corrupt > 0) {
+    fmt::print(stderr, "saulctl decode: nothing could be read\n");
+    status = kFailure;
+  }
+  if (opt.strict && corrupt > 0) {
+    fmt::print(stderr, "saulctl decode: --strict: {} corrupt record(s)\n", corrupt);
+    status = kFailure;
+  }
   return status;
 }
 
@@ -220,6 +235,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "A frame that does not decode shows '!' and the reason, e.g. '!wrong_dlc' or '!unknown_id'.\n"
       "Corrupt lines are reported on stderr as FILE:LINE:COLUMN (FILE: byte OFFSET in pcap/pcapng) and\n"
       "skipped; the rest still decodes. The format of a file is told by its content (docs/captures.md).\n"
+      "Exit 0 even with corrupt lines, unless --strict is given or nothing at all could be read (then 1).\n"
       "\nExamples:\n"
       "  saulctl decode captures/robot_bus.log\n"
       "  saulctl decode --time delta --id 0x300 run.log     gaps between velocity commands\n"
@@ -239,6 +255,8 @@ void add_decode_command(CLI::App& app, Runner& run) {
       ->check(CLI::IsMember({"text", "jsonl", "csv"}))
       ->capture_default_str();
   cmd->add_flag("--json", opt->json, "same as --format jsonl");
+  cmd->add_flag("--strict", opt->strict,
+                "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
   cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous)")
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();

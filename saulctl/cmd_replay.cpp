@@ -60,7 +60,7 @@ int run_replay(const ReplayCliOptions& opt) {
   }
   if (!opt.max_gap.empty())
     options.max_gap_ns = static_cast<std::uint64_t>(parse_duration(opt.max_gap).count()) * 1'000'000ULL;
-  if (opt.yes && opt.no_motion) throw CLI::ValidationError("--no-motion", "give --yes or --no-motion, not both");
+  if (opt.yes && opt.no_motion) throw CLI::ValidationError("--no-motion", "give --yes (--allow-motion) or --no-motion, not both");
 
   auto open_pass = [&opt]() { return open_capture_reader(opt.file); };
   ReplayPreview preview;
@@ -74,12 +74,16 @@ int run_replay(const ReplayCliOptions& opt) {
   if (preview.motion > 0) {
     if (opt.no_motion) {
       options.allow_motion = false;
+      if (!opt.json)
+        fmt::print(stderr, "replay: --no-motion: dropping {} frame(s) that can move motors ({} per pass)\n",
+                   preview.motion * opt.loops, preview.motion);
     } else if (confirm_motion(opt.yes, fmt::format("replay {} frame(s) that can move motors (0x300, 0x302 "
                                                    "balance/manual, VESC set commands)",
                                                    preview.motion * opt.loops))) {
       options.allow_motion = true;
     } else {
-      fmt::print(stderr, "saulctl replay: or add --no-motion to replay everything else\n");
+      fmt::print(stderr, "saulctl replay: add --allow-motion (--yes) to send them, or --no-motion to replay "
+                         "everything else\n");
       return kUsage;
     }
   }
@@ -170,7 +174,7 @@ void add_replay_command(CLI::App& app, Runner& run) {
   cmd->add_option("--map", o->maps, "send id FROM as id TO, hex (--map 300=310); repeatable")->delimiter(',');
   cmd->add_option("--max-gap", o->max_gap, "shorten longer silences of the file to this (1s)");
   cmd->add_flag("--step", o->step, "one frame per Enter (q quits); no timing");
-  cmd->add_flag("-y,--yes", o->yes, "send frames that can move motors without asking");
+  cmd->add_flag("-y,--yes,--allow-motion", o->yes, "send frames that can move motors without asking");
   cmd->add_flag("--no-motion", o->no_motion, "drop frames that can move motors and say how many");
   cmd->add_flag("--json", o->json, "the final report as one JSON object on stdout");
   cmd->footer(
@@ -178,7 +182,8 @@ void add_replay_command(CLI::App& app, Runner& run) {
       "relative to the frame before, so timing does not drift. At the end: how late frames left (p50, p99, max,\n"
       "and how many later than 1 ms).\n"
       "Frames that can move motors (0x300, 0x302 balance/manual, VESC set commands: 29-bit ids with command\n"
-      "0..4 or 10..13) need --yes, or a typed 'yes' on a terminal; --no-motion drops them instead.\n"
+      "0..4 or 10..13) need --allow-motion (same as --yes), or a typed 'yes' on a terminal; --no-motion drops\n"
+      "them instead, and the report says how many were dropped.\n"
       "Filters apply to the ids in the file, then --map, then the motion rule (to what goes out).\n"
       "\nExamples:\n"
       "  saulctl replay run.log --to can0 --no-motion           telemetry and acks only\n"

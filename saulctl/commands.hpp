@@ -30,6 +30,7 @@ void add_monitor_command(CLI::App& app, Runner& run);
 void add_ports_command(CLI::App& app, Runner& run);
 void add_sim_command(CLI::App& app, Runner& run);
 void add_test_command(CLI::App& app, Runner& run);
+void add_dbc_command(CLI::App& app, Runner& run);
 void add_flash_command(CLI::App& app, Runner& run);
 
 }  // namespace saulctl

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   saulctl::add_ports_command(app, run);
   saulctl::add_sim_command(app, run);
   saulctl::add_test_command(app, run);
+  saulctl::add_dbc_command(app, run);
   saulctl::add_flash_command(app, run);
 
   try {

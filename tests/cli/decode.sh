@@ -49,6 +49,15 @@ check "--time delta shows the 50 ms period" grep -q '^(   0.050000) can0 300#' "
 
 "$saulctl" decode "$root/captures/glitches.log" >"$out/g" 2>"$out/gerr"
 check "a log with corrupt lines still exits 0" test $? -eq 0
+"$saulctl" decode --strict "$root/captures/glitches.log" >/dev/null 2>"$out/gstrict"
+check "--strict exits 1 on corrupt lines" test $? -eq 1
+check "--strict says why" grep -q -- '--strict: 2 corrupt record(s)' "$out/gstrict"
+"$saulctl" decode --strict "$root/captures/robot_bus.log" >/dev/null 2>&1
+check "--strict on a clean log exits 0" test $? -eq 0
+printf '(1.0) can0 3G0#01\nnot a frame but a comment\n(2.0 can0 300#00\n' >"$out/allbad.log"
+"$saulctl" decode "$out/allbad.log" >/dev/null 2>"$out/allbad.err"
+check "a log of only corrupt lines exits 1 (nothing could be read)" test $? -eq 1
+check "... and says so" grep -q 'nothing could be read' "$out/allbad.err"
 check "wrong DLC is named" grep -q '300#E8030C .*!wrong_dlc$' "$out/g"
 check "unknown id is named" grep -q '123#0102 .*!unknown_id$' "$out/g"
 check "remote frame is named" grep -q '400#R .*!remote_frame$' "$out/g"
