@@ -1,11 +1,15 @@
 // saulctl sniff: live decode of everything on a CAN link or a serial byte link.
 #include <fmt/core.h>
 
+#include <unistd.h>
+
+#include <map>
 #include <memory>
 
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/interboard.hpp"
+#include "saulproto/host/bus_stats.hpp"
 #include "saulproto/host/format.hpp"
 #include "saulproto/host/frame_text.hpp"
 #include "saulproto/host/socketcan.hpp"
@@ -24,6 +28,7 @@ struct SniffOptions {
   std::string protocol = "interboard";
   bool json = false;
   bool listen_only = false;
+  bool top = false;
 };
 
 saul::host::CanFilter parse_filter(const std::string& text) {
@@ -104,6 +109,108 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   return status;
 }
 
+
+// --top: one row per id, redrawn in place on a terminal (twice a second); otherwise printed once at the end.
+struct TopRow {
+  std::array<std::uint8_t, 8> data{};
+  std::array<std::uint8_t, 8> previous{};
+  std::uint8_t dlc = 0;
+  bool seen_before = false;  ///< a frame before the last one (so changes can be marked)
+  bool has = false;
+};
+
+std::string top_table(const saul::host::BusStats& stats, const std::map<saul::host::BusStats::IdKey, TopRow>& rows,
+                      const std::string& link_name, double recent_load, bool colour) {
+  std::string out;
+  double load = 0;
+  for (const auto& [name, l] : stats.interfaces()) load = stats.load_percent(l, saul::host::StuffBits::worst_case);
+  out += fmt::format("{}: {} frames, {} error frames, bus load {:.1f} % (whole run), {:.1f} % (last interval), "
+                     "stuff bits worst case at {} bit/s\n",
+                     link_name, stats.frames(), stats.error_frames(), load, recent_load, stats.options().bitrate);
+  out += fmt::format("{:>8}  {:<18} {:>8} {:>8} {:>10} {:>10}  {}\n", "ID", "TYPE", "COUNT", "RATE/Hz", "PERIOD/ms",
+                     "JITTER/ms", "LAST DATA (* changed)");
+  for (const auto& [key, st] : stats.ids()) {
+    const auto it = rows.find(key);
+    std::string data;
+    if (it != rows.end()) {
+      const TopRow& r = it->second;
+      for (std::size_t i = 0; i < r.dlc && i < 8; ++i) {
+        const bool changed = r.seen_before && r.data[i] != r.previous[i];
+        if (!data.empty()) data += ' ';
+        if (changed && colour) data += fmt::format("\x1b[1;7m{:02X}\x1b[0m", r.data[i]);
+        else data += fmt::format("{:02X}{}", r.data[i], changed ? "*" : "");
+      }
+    }
+    const auto& c = st.cadence;
+    out += fmt::format("{:>8}  {:<18} {:>8} {:>8.1f} {:>10.2f} {:>10.2f}  {}\n",
+                       key.first ? fmt::format("{:08X}", key.second) : fmt::format("{:03X}", key.second), st.type,
+                       c.count, c.rate_hz(), c.mean_gap_ns / 1e6, c.jitter_ns() / 1e6, data);
+  }
+  return out;
+}
+
+int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
+  auto link = saul::host::open_can_link(spec, opt.listen_only);
+  std::vector<saul::host::CanFilter> filters;
+  for (const auto& t : opt.filters) filters.push_back(parse_filter(t));
+  link->set_filters(filters);
+  const bool limited = !opt.duration.empty();
+  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
+  const bool tty = ::isatty(STDOUT_FILENO) != 0;
+  saul::host::BusStatsOptions bo;
+  bo.bitrate = spec.kind == saul::host::LinkSpec::Kind::slcan ? spec.bitrate : 500'000;
+  saul::host::BusStats stats(bo);
+  std::map<saul::host::BusStats::IdKey, TopRow> rows;
+  const auto start = steady_clock::now();
+  auto interval_start = start;
+  auto next_draw = start + milliseconds(500);
+  std::uint64_t interval_bits = 0;
+  double recent_load = 0;
+  std::uint64_t shown = 0;
+  int status = kOk;
+  try {
+    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
+      auto wait = milliseconds(100);
+      const auto now = steady_clock::now();
+      if (limited) {
+        const auto left = duration_cast<milliseconds>(duration - (now - start));
+        if (left.count() <= 0) break;
+        wait = std::min(wait, left);
+      }
+      if (now >= next_draw) {
+        const double secs = std::chrono::duration<double>(now - interval_start).count();
+        recent_load = secs > 0 ? 100.0 * static_cast<double>(interval_bits) / (secs * static_cast<double>(bo.bitrate)) : 0;
+        interval_bits = 0;
+        interval_start = now;
+        next_draw = now + milliseconds(500);
+        if (tty) {
+          fmt::print("\x1b[H\x1b[2J{}", top_table(stats, rows, link->name(), recent_load, true));
+          std::fflush(stdout);
+        }
+      }
+      auto f = link->receive(wait);
+      if (!f) continue;
+      if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
+      stats.add(*f, link->name());
+      ++shown;
+      if (f->error) continue;
+      interval_bits += saul::host::can_frame_bits(*f, saul::host::StuffBits::worst_case);
+      TopRow& r = rows[{f->extended, f->id}];
+      r.seen_before = r.has;
+      r.has = true;
+      r.previous = r.data;
+      r.data = f->data;
+      r.dlc = f->remote ? 0 : f->dlc;
+    }
+  } catch (const std::exception& e) {
+    status = report_link_error(e);
+  }
+  if (tty) fmt::print("\x1b[H\x1b[2J");
+  fmt::print("{}", top_table(stats, rows, link->name(), recent_load, tty));
+  std::fflush(stdout);
+  return status;
+}
+
 int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   auto port = saul::host::open_serial(spec.device, spec.serial, spec.backend);
   const bool limited = !opt.duration.empty();
@@ -152,6 +259,10 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
 
 int run_sniff(const SniffOptions& opt) {
   const auto spec = resolve_link(opt.link);
+  if (opt.top) {
+    if (!spec.is_can()) throw CLI::ValidationError("--top", "--top is for CAN links (can0, slcan:...)");
+    return sniff_top(opt, spec);
+  }
   return spec.is_can() ? sniff_can(opt, spec) : sniff_serial(opt, spec);
 }
 
@@ -170,13 +281,17 @@ void add_sniff_command(CLI::App& app, Runner& run) {
       ->check(CLI::IsMember({"interboard"}))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "JSON Lines, one object per frame");
+  cmd->add_flag("--top", o->top,
+                "per-id view redrawn in place: count, rate, period, jitter, last data (changed bytes marked), bus "
+                "load; printed once at the end when stdout is no terminal");
   cmd->add_flag("--listen-only", o->listen_only, "slcan: open the adapter silent (no ACKs on the bus)");
   cmd->footer(
       "\nOne line per frame, the same format as 'saulctl decode'. Controller state changes (error-warning, "
       "error-passive, bus-off) and drop counts are printed on stderr.\n"
       "\nExamples:\n  saulctl sniff can0\n  saulctl sniff slcan:/dev/ttyACM0 --id 400,401 --count 20\n"
       "  saulctl sniff can0 --id 00000900:0000FF00     all VESC STATUS frames\n"
-      "  saulctl sniff serial:/dev/ttyUSB0@460800 --protocol interboard\n");
+      "  saulctl sniff serial:/dev/ttyUSB0@460800 --protocol interboard\n"
+      "  saulctl sniff can0 --top                      per-id table with rates, jitter and bus load\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

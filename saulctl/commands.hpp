@@ -30,7 +30,11 @@ void add_monitor_command(CLI::App& app, Runner& run);
 void add_ports_command(CLI::App& app, Runner& run);
 void add_sim_command(CLI::App& app, Runner& run);
 void add_test_command(CLI::App& app, Runner& run);
-void add_dbc_command(CLI::App& app, Runner& run);
 void add_flash_command(CLI::App& app, Runner& run);
+void add_console_command(CLI::App& app, Runner& run);
+void add_pride_command(CLI::App& app, Runner& run);
+void add_doctor_command(CLI::App& app, Runner& run);
+void add_completion_command(CLI::App& app, Runner& run);  // keep last in main(): it walks the others
+void add_dbc_command(CLI::App& app, Runner& run);
 
 }  // namespace saulctl

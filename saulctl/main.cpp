@@ -31,8 +31,12 @@ int main(int argc, char** argv) {
   saulctl::add_ports_command(app, run);
   saulctl::add_sim_command(app, run);
   saulctl::add_test_command(app, run);
-  saulctl::add_dbc_command(app, run);
   saulctl::add_flash_command(app, run);
+  saulctl::add_console_command(app, run);
+  saulctl::add_pride_command(app, run);
+  saulctl::add_doctor_command(app, run);
+  saulctl::add_completion_command(app, run);
+  saulctl::add_dbc_command(app, run);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,209 @@
+// saulctl console: the boards' USB debug console (core/console.hpp): one command line out, reply lines back
+// until the board's "ok" or "error: ..." line.
+#include <fmt/core.h>
+#include <unistd.h>
+
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <type_traits>
+
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/core/console.hpp"
+#include "saulproto/host/serial_port.hpp"
+
+namespace saulctl {
+namespace {
+
+using namespace std::chrono;
+
+struct ConsoleOptions {
+  std::string port;
+  std::vector<std::string> command;
+  std::string timeout = "2s";
+  std::uint32_t baud = 115200;
+  bool json = false;
+};
+
+struct Reply {
+  enum class End { ok, error, none } end = End::none;
+  std::vector<std::string> lines;  ///< everything before the final line
+  std::string final_line;
+};
+
+/// Reads reply lines until "ok" / "error: ..." or the deadline. Lines equal to the command (a board or terminal
+/// echoing what was typed) are left out.
+Reply read_reply(saul::host::SerialPort& port, const std::string& command, milliseconds timeout, std::string& pending) {
+  Reply r;
+  const auto deadline = steady_clock::now() + timeout;
+  std::array<std::uint8_t, 512> buf{};
+  while (!g_interrupted) {
+    std::size_t nl;
+    while ((nl = pending.find('\n')) != std::string::npos) {
+      std::string line = pending.substr(0, nl);
+      pending.erase(0, nl + 1);
+      while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
+      if (line == command) continue;
+      if (line == "ok") {
+        r.end = Reply::End::ok;
+        r.final_line = line;
+        return r;
+      }
+      if (line.rfind("error:", 0) == 0) {
+        r.end = Reply::End::error;
+        r.final_line = line;
+        return r;
+      }
+      r.lines.push_back(line);
+    }
+    const auto now = steady_clock::now();
+    if (now >= deadline) break;
+    const std::size_t n = port.read(buf, ceil<milliseconds>(deadline - now));
+    pending.append(reinterpret_cast<const char*>(buf.data()), n);
+  }
+  return r;
+}
+
+template <class Report>
+nlohmann::json report_json(const Report& report) {
+  nlohmann::json j = nlohmann::json::object();
+  report.fields([&](const char* key, const auto& v) {
+    using T = std::decay_t<decltype(v)>;
+    if constexpr (std::is_same_v<T, saul::console::Board>) j[key] = saul::console::to_string(v);
+    else if constexpr (std::is_same_v<T, saul::saulcan::RobotState>) j[key] = saul::saulcan::to_string(v);
+    else j[key] = v;
+  });
+  return j;
+}
+
+/// The report line of a status / can_stats / uart_stats reply as JSON, or a JSON error object.
+nlohmann::json parse_report(saul::console::Verb verb, const Reply& reply) {
+  for (const auto& line : reply.lines) {
+    if (line.rfind("report=", 0) != 0) continue;
+    switch (verb) {
+      case saul::console::Verb::status:
+        if (auto r = saul::console::parse_status(line)) return report_json(*r);
+        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
+      case saul::console::Verb::can_stats:
+        if (auto r = saul::console::parse_can_stats(line)) return report_json(*r);
+        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
+      case saul::console::Verb::uart_stats:
+        if (auto r = saul::console::parse_uart_stats(line)) return report_json(*r);
+        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
+      default: break;
+    }
+  }
+  return nullptr;
+}
+
+int exit_code(const Reply& r) {
+  switch (r.end) {
+    case Reply::End::ok: return kOk;
+    case Reply::End::error: return kFailure;
+    case Reply::End::none: return kTimeout;
+  }
+  return kFailure;
+}
+
+/// Sends one line, prints the reply; returns the exit code.
+int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const std::string& line,
+                milliseconds timeout, std::string& pending) {
+  port.write(line + "\r\n", milliseconds(1000));
+  const Reply reply = read_reply(port, line, timeout, pending);
+  const auto parsed = saul::console::parse(line);
+  if (opt.json) {
+    nlohmann::json j{{"command", line}, {"port", port.path()}};
+    j["status"] = reply.end == Reply::End::ok ? "ok" : reply.end == Reply::End::error ? "error" : "no_answer";
+    j["lines"] = reply.lines;
+    if (reply.end == Reply::End::error) j["error"] = reply.final_line.substr(6 + (reply.final_line.size() > 6));
+    if (parsed) {
+      const auto verb = saul::console::verb_of(parsed.command);
+      if (verb == saul::console::Verb::status || verb == saul::console::Verb::can_stats ||
+          verb == saul::console::Verb::uart_stats) {
+        auto rep = parse_report(verb, reply);
+        if (!rep.is_null()) j["report"] = rep;
+      }
+    }
+    fmt::print("{}\n", j.dump());
+  } else {
+    for (const auto& l : reply.lines) fmt::print("{}\n", l);
+    if (reply.end == Reply::End::ok) fmt::print("ok\n");
+    else if (reply.end == Reply::End::error) fmt::print(stderr, "saulctl: {}: {}\n", port.path(), reply.final_line);
+    else
+      fmt::print(stderr,
+                 "saulctl: {}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
+                 "and is the board running? try 'saulctl ports')\n",
+                 port.path(), line, timeout.count());
+  }
+  std::fflush(stdout);
+  return exit_code(reply);
+}
+
+std::string join(const std::vector<std::string>& words) {
+  std::string s;
+  for (const auto& w : words) s += (s.empty() ? "" : " ") + w;
+  return s;
+}
+
+int run_console(const ConsoleOptions& opt) {
+  const auto timeout = parse_duration(opt.timeout);
+  saul::host::SerialSettings settings;
+  settings.baud = opt.baud;
+  auto port = saul::host::open_serial(opt.port, settings);
+  std::string pending;
+  if (!opt.command.empty()) return one_command(opt, *port, join(opt.command), timeout, pending);
+
+  // A line loop: interactive on a terminal (with a prompt), else one command per stdin line.
+  const bool tty = ::isatty(STDIN_FILENO) != 0;
+  if (tty) fmt::print(stderr, "console on {} ({} baud); 'help' lists commands, Ctrl-D leaves\n", port->path(), opt.baud);
+  int worst = kOk;
+  std::string line;
+  while (!g_interrupted) {
+    if (tty) {
+      fmt::print(stderr, "> ");
+      std::fflush(stderr);
+    }
+    if (!std::getline(std::cin, line)) break;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (line.empty()) continue;
+    if (tty && (line == "quit" || line == "exit")) break;
+    const int code = one_command(opt, *port, line, timeout, pending);
+    if (code > worst) worst = code;
+  }
+  if (tty) fmt::print(stderr, "\n");
+  return tty ? kOk : worst;
+}
+
+}  // namespace
+
+void add_console_command(CLI::App& app, Runner& run) {
+  auto o = std::make_shared<ConsoleOptions>();
+  auto* cmd = app.add_subcommand("console", "The boards' USB debug console: one command, or a line loop");
+  cmd->add_option("port", o->port, "the board's USB serial device, e.g. /dev/ttyACM1")->required();
+  cmd->add_option("command", o->command, "command line to send (help, status, pid 1.5 0.2 0.05, ...)");
+  cmd->add_option("--timeout", o->timeout, "how long to wait for the 'ok' / 'error:' line")->capture_default_str();
+  cmd->add_option("--baud", o->baud, "baud rate")->capture_default_str();
+  cmd->add_flag("--json", o->json, "one JSON object per command; status, can_stats, uart_stats reports parsed");
+  cmd->footer(
+      "\nWith a COMMAND: sends it, prints the reply up to the board's 'ok' or 'error: ...' line. Without one: a line\n"
+      "loop (a prompt on a terminal; one command per line from a pipe).\n"
+      "\nExamples:\n  saulctl console /dev/ttyACM1 status\n  saulctl console /dev/ttyACM1 status --json | jq .report\n"
+      "  saulctl console /dev/ttyACM1 pid 1.5 0.25 0.05\n  saulctl console /dev/ttyACM1\n"
+      "\nExit codes: 0 ok, 1 error reply or port error, 2 usage, 3 no answer within --timeout.\n");
+  cmd->callback([o, &run] {
+    run = [o]() -> int {
+      install_signal_handlers();
+      try {
+        return run_console(*o);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+        return kUsage;
+      } catch (const std::exception& e) {
+        return report_link_error(e);
+      }
+    };
+  });
+}
+
+}  // namespace saulctl

@@ -1,0 +1,206 @@
+// saulctl doctor: checks what usually goes wrong at a bench, one line per check, and the single most likely fix
+// for each failure. Only host-library calls (list_serial_ports, open_serial, open_can_link).
+#include <fmt/core.h>
+
+#include <memory>
+#include <optional>
+
+#include "commands.hpp"
+#include "live.hpp"
+#include "saulproto/host/can_link.hpp"
+#include "saulproto/host/link_spec.hpp"
+#include "saulproto/host/serial_port.hpp"
+
+namespace saulctl {
+namespace {
+
+using namespace std::chrono;
+using saul::host::LinkError;
+using saul::host::SerialError;
+
+struct DoctorOptions {
+  std::string link;
+  std::string wait = "1s";
+};
+
+struct Checks {
+  int failures = 0;
+  void ok(const std::string& what, const std::string& detail) { fmt::print("ok   {}: {}\n", what, detail); }
+  void fail(const std::string& what, const std::string& detail, const std::string& fix) {
+    ++failures;
+    fmt::print("FAIL {}: {}\n     fix: {}\n", what, detail, fix);
+  }
+  void skip(const std::string& what, const std::string& why) { fmt::print("-    {}: {}\n", what, why); }
+};
+
+void check_ports(Checks& c, bool needed) {
+  std::vector<saul::host::PortInfo> ports;
+  try {
+    ports = saul::host::list_serial_ports();
+  } catch (const std::exception& e) {
+    c.fail("serial ports", e.what(), "check that libserialport can read /sys/class/tty");
+    return;
+  }
+  if (ports.empty()) {
+    if (needed)
+      c.fail("serial ports", "none found",
+             "plug in the CANable2 / the boards' USB cables (a data cable, not a charge-only one); dmesg shows them");
+    else
+      c.skip("serial ports", "none found (not needed for a SocketCAN link)");
+    return;
+  }
+  std::string list;
+  for (const auto& p : ports)
+    list += fmt::format("{}{}{}", list.empty() ? "" : ", ", p.path, p.role.empty() ? "" : " (" + p.role + ")");
+  c.ok("serial ports", fmt::format("{} found: {}", ports.size(), list));
+}
+
+void check_traffic(Checks& c, saul::host::CanLink& link, milliseconds wait) {
+  const auto deadline = steady_clock::now() + wait;
+  std::uint64_t frames = 0;
+  while (!g_interrupted) {
+    const auto now = steady_clock::now();
+    if (now >= deadline) break;
+    if (auto f = link.receive(ceil<milliseconds>(deadline - now))) {
+      ++frames;
+      break;
+    }
+  }
+  if (frames > 0)
+    c.ok("bus traffic", fmt::format("frames seen on {}", link.name()));
+  else
+    c.fail("bus traffic", fmt::format("no frame on {} within {} ms", link.name(), wait.count()),
+           "power the robot and check CAN_H/CAN_L wiring, the 120 ohm termination and the bitrate (500 kbit/s)");
+  const auto state = link.stats().state;
+  using saul::host::ControllerState;
+  if (state == ControllerState::bus_off || state == ControllerState::passive)
+    c.fail("error state", fmt::format("controller is {}", saul::host::to_string(state)),
+           "wrong bitrate or wiring: every node must run 500 kbit/s and the bus needs termination at both ends");
+  else if (state == ControllerState::warning)
+    c.fail("error state", "controller in error-warning",
+           "errors on the bus: check termination and CAN_H/CAN_L, then 'saulctl sniff' for error frames");
+  else
+    c.ok("error state", saul::host::to_string(state));
+}
+
+void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait) {
+  const std::string& dev = spec.device;
+  try {
+    auto port = saul::host::open_serial(dev, saul::host::SerialSettings{}, spec.backend);
+    c.ok("port exists", dev);
+    c.ok("permission", "can open " + dev);
+    c.ok("not busy", dev + " is free");
+  } catch (const SerialError& e) {
+    switch (e.kind()) {
+      case SerialError::Kind::not_found:
+        c.fail("port exists", dev + " not found",
+               "plug in the CANable2 (slcan firmware) and find its path with 'saulctl ports'");
+        return;
+      case SerialError::Kind::permission:
+        c.ok("port exists", dev);
+        c.fail("permission", "permission denied on " + dev,
+               "sudo usermod -aG dialout $USER, then log out and in again");
+        return;
+      case SerialError::Kind::busy:
+        c.ok("port exists", dev);
+        c.ok("permission", "can open " + dev);
+        c.fail("not busy", dev + " is held by another program", "find and stop it: fuser -v " + dev);
+        return;
+      default:
+        c.fail("port exists", e.what(), "unplug and replug the adapter; dmesg shows what the kernel says");
+        return;
+    }
+  }
+  try {
+    auto link = saul::host::open_can_link(spec);
+    c.ok("slcan channel", fmt::format("opened at {} bit/s", spec.bitrate));
+    check_traffic(c, *link, wait);
+  } catch (const std::exception& e) {
+    c.fail("slcan channel", e.what(),
+           "is this a CANable2 with slcan firmware? candleLight firmware shows up as a network interface (ip link)");
+  }
+}
+
+void check_socketcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait) {
+  const std::string& ifname = spec.device;
+  try {
+    auto link = saul::host::open_can_link(spec);
+    c.ok("interface exists", ifname);
+    c.ok("interface up", ifname);
+    check_traffic(c, *link, wait);
+  } catch (const LinkError& e) {
+    switch (e.kind()) {
+      case LinkError::Kind::not_found:
+        c.fail("interface exists", ifname + " not found",
+               "plug in the CANable2 (candleLight firmware); 'ip link' lists CAN interfaces, 'saulctl ports' slcan ones");
+        return;
+      case LinkError::Kind::down:
+        c.ok("interface exists", ifname);
+        c.fail("interface up", ifname + " is down", "sudo ip link set " + ifname + " up type can bitrate 500000");
+        return;
+      case LinkError::Kind::unsupported:
+        c.fail("interface exists", e.what(), "this kernel has no CAN support: sudo modprobe can-raw");
+        return;
+      default:
+        c.fail("interface exists", e.what(), "check 'ip -details link show " + ifname + "'");
+        return;
+    }
+  }
+}
+
+int run_doctor(const DoctorOptions& opt) {
+  const auto wait = parse_duration(opt.wait);
+  std::optional<saul::host::LinkSpec> spec;
+  try {
+    spec = resolve_link(opt.link);
+  } catch (const CLI::ValidationError&) {
+    if (!opt.link.empty()) throw;
+  }
+  Checks c;
+  check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
+  if (!spec) {
+    c.skip("link", "none given (--link or SAUL_LINK); link checks skipped");
+  } else if (spec->kind == saul::host::LinkSpec::Kind::slcan) {
+    check_slcan(c, *spec, wait);
+  } else if (spec->kind == saul::host::LinkSpec::Kind::socketcan) {
+    check_socketcan(c, *spec, wait);
+  } else {
+    try {
+      auto port = saul::host::open_serial(spec->device, spec->serial, spec->backend);
+      c.ok("serial link", spec->device + " opens");
+    } catch (const std::exception& e) {
+      c.fail("serial link", e.what(), "see 'saulctl ports' for the path; dialout group for permission");
+    }
+  }
+  fmt::print("{}\n", c.failures == 0 ? "all checks passed" : fmt::format("{} check(s) failed", c.failures));
+  return c.failures == 0 ? kOk : kFailure;
+}
+
+}  // namespace
+
+void add_doctor_command(CLI::App& app, Runner& run) {
+  auto o = std::make_shared<DoctorOptions>();
+  auto* cmd = app.add_subcommand("doctor", "Check the bench setup and print the most likely fix for each problem");
+  add_link_option(cmd, o->link);
+  cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str();
+  cmd->footer(
+      "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); for slcan: port exists, permission, busy,\n"
+      "channel opens, bus traffic, error state; for SocketCAN: interface exists, up, bus traffic, error state.\n"
+      "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
+      "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");
+  cmd->callback([o, &run] {
+    run = [o]() -> int {
+      install_signal_handlers();
+      try {
+        return run_doctor(*o);
+      } catch (const CLI::ValidationError& e) {
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+        return kUsage;
+      } catch (const std::exception& e) {
+        return report_link_error(e);
+      }
+    };
+  });
+}
+
+}  // namespace saulctl
