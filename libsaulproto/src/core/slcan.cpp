@@ -1,3 +1,4 @@
+#include "saulproto/core/hex.hpp"
 #include "saulproto/core/slcan.hpp"
 
 namespace saul::slcan {
@@ -5,19 +6,12 @@ namespace {
 
 constexpr char kHex[] = "0123456789ABCDEF";
 
-int hex_value(char c) noexcept {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 // Parses n hex digits at s; false if any is not hex.
 bool parse_hex(std::string_view s, std::size_t n, std::uint32_t& value) noexcept {
   if (s.size() < n) return false;
   value = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const int v = hex_value(s[i]);
+    const int v = hex::value(s[i]);
     if (v < 0) return false;
     value = (value << 4) | static_cast<std::uint32_t>(v);
   }

@@ -1,3 +1,4 @@
+#include "saulproto/core/hex.hpp"
 #include "saulproto/host/candump.hpp"
 
 #include <fmt/format.h>
@@ -7,13 +8,6 @@
 
 namespace saul::host {
 namespace {
-
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
 
 bool fail(CandumpError& error, std::size_t column, std::string message) {
   error.column = column;
@@ -64,7 +58,7 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   if (hash != 3 && hash != 8) return fail(error, frame_start, "id must be 3 hex digits (11-bit) or 8 (29-bit)");
   std::uint32_t id = 0;
   for (std::size_t i = 0; i < hash; ++i) {
-    const int v = hex_value(text[i]);
+    const int v = hex::value(text[i]);
     if (v < 0) return fail(error, frame_start + i, "id is not hexadecimal");
     id = (id << 4) | static_cast<std::uint32_t>(v);
   }
@@ -103,8 +97,8 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
         continue;
       }
       if (i + 1 >= data.size()) return fail(error, data_col + i, "data has an odd number of hex digits");
-      const int hi = hex_value(data[i]);
-      const int lo = hex_value(data[i + 1]);
+      const int hi = hex::value(data[i]);
+      const int lo = hex::value(data[i + 1]);
       if (hi < 0 || lo < 0) return fail(error, data_col + i, "data is not hexadecimal");
       if (n == 8) return fail(error, data_col + i, "more than 8 data bytes");
       f.data[n++] = static_cast<std::uint8_t>(hi << 4 | lo);

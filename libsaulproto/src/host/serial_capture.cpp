@@ -1,3 +1,4 @@
+#include "saulproto/core/hex.hpp"
 #include "saulproto/host/serial_capture.hpp"
 
 #include <fmt/format.h>
@@ -12,13 +13,6 @@
 
 namespace saul::host {
 namespace {
-
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
 
 bool fail(CaptureError& error, std::size_t column, std::string message) {
   error.column = column;
@@ -144,8 +138,8 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
   if (data != "-") {
     if (data.size() % 2 != 0) return fail(error, start, "bytes have an odd number of hex digits");
     for (std::size_t i = 0; i < data.size(); i += 2) {
-      const int hi = hex_value(data[i]);
-      const int lo = hex_value(data[i + 1]);
+      const int hi = hex::value(data[i]);
+      const int lo = hex::value(data[i + 1]);
       if (hi < 0 || lo < 0) return fail(error, start + i, "bytes are not hexadecimal");
       out.bytes.push_back(static_cast<std::uint8_t>(hi << 4 | lo));
     }

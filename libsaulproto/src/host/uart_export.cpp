@@ -1,3 +1,4 @@
+#include "saulproto/core/hex.hpp"
 #include "saulproto/host/uart_export.hpp"
 
 #include <nlohmann/json.hpp>
@@ -23,13 +24,6 @@ std::string_view unquote(std::string_view s) {
 bool parse_u64(std::string_view s, std::uint64_t& v) {
   s = trim(s);
   return !s.empty() && std::from_chars(s.data(), s.data() + s.size(), v).ptr == s.data() + s.size();
-}
-
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
 }
 
 bool starts_with_nocase(std::string_view s, std::string_view prefix) {
@@ -77,8 +71,8 @@ std::optional<std::uint8_t> byte_of(const UartAnnotation& a) {
   }
   const std::string_view t = a.text;
   if (t.size() != 2) return std::nullopt;
-  const int hi = hex_value(t[0]);
-  const int lo = hex_value(t[1]);
+  const int hi = hex::value(t[0]);
+  const int lo = hex::value(t[1]);
   if (hi < 0 || lo < 0) return std::nullopt;
   return static_cast<std::uint8_t>(hi << 4 | lo);
 }
