@@ -408,13 +408,7 @@ void IoBoard::outputs(TimeUs now) noexcept {
 // ---- console ------------------------------------------------------------------------------------------------------
 
 void IoBoard::read_console(TimeUs now) noexcept {
-  std::uint8_t buffer[64];
-  for (int round = 0; round < 4; ++round) {
-    const std::size_t n = hw_.console.read(buffer);
-    if (n == 0) break;
-    for (std::size_t i = 0; i < n && i < sizeof buffer; ++i)
-      console_in_.push(buffer[i], [&](std::string_view line, bool overflowed) { on_console_line(line, overflowed, now); });
-  }
+  console_in_.pump(hw_.console, [&](std::string_view line, bool overflowed) { on_console_line(line, overflowed, now); });
 }
 
 void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {

@@ -155,6 +155,17 @@ class LineAssembler {
     }
   }
 
+ /// Reads what the port has (a bounded number of chunks, so a flood cannot stall the control loop) and feeds it.
+  template <class Port, class F>
+  void pump(Port& port, F&& on_line) noexcept {
+    std::uint8_t chunk[64];
+    for (int round = 0; round < 4; ++round) {
+      const std::size_t n = port.read(chunk);
+      if (n == 0) break;
+      for (std::size_t i = 0; i < n && i < sizeof chunk; ++i) push(chunk[i], on_line);
+    }
+  }
+
  private:
   char buffer_[kMaxLine]{};
   std::size_t length_ = 0;
