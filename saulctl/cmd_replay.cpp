@@ -1,11 +1,14 @@
-// saulctl replay: a CAN capture back onto a bus with its original timing. Scheduling, filters, remapping, the
-// motion rule and the lateness statistics are in the host library (saulproto/host/replay.hpp); this file asks,
-// opens the link and reports.
+// saulctl replay: a CAN capture back onto a bus, or a serial capture back onto a serial port, with its original
+// timing. Scheduling, filters, remapping, the motion rules, the cutting of serial bytes into frames and the lateness
+// statistics are in the host library (saulproto/host/replay.hpp, serial_replay.hpp); this file asks, opens the link
+// and reports.
 #include <fmt/core.h>
 #include <unistd.h>
 
 #include <iostream>
+#include <optional>
 
+#include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/host/candump.hpp"
@@ -13,6 +16,9 @@
 #include "saulproto/host/frame_text.hpp"
 #include "saulproto/host/link_spec.hpp"
 #include "saulproto/host/replay.hpp"
+#include "saulproto/host/serial_capture.hpp"
+#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/serial_replay.hpp"
 
 namespace saulctl {
 namespace {
@@ -30,9 +36,173 @@ struct ReplayCliOptions {
   bool yes = false;
   bool no_motion = false;
   bool json = false;
+  std::string from;           ///< serial captures: the captured link to replay
+  SerialCliOptions serial;    ///< serial captures: --protocol, --samplerate
 };
 
 std::string micros(std::uint64_t ns) { return fmt::format("{:.0f} us", static_cast<double>(ns) / 1e3); }
+
+std::string hex_bytes(std::span<const std::uint8_t> bytes) {
+  std::string s;
+  s.reserve(bytes.size() * 2);
+  for (auto b : bytes) s += fmt::format("{:02X}", b);
+  return s;
+}
+
+nlohmann::json lateness_json(const saul::host::LatenessStats& l, const char* unit) {
+  return {{unit, l.count()},
+          {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
+          {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
+          {"max_us", static_cast<double>(l.max_ns()) / 1e3},
+          {"later_than_1ms", l.over_1ms()}};
+}
+
+void print_lateness(const saul::host::LatenessStats& l, const char* unit) {
+  if (l.count() > 0)
+    fmt::print(stderr, "replay: lateness p50 {}, p99 {}, max {}; {} of {} {} later than 1 ms\n",
+               micros(l.percentile_ns(50)), micros(l.percentile_ns(99)), micros(l.max_ns()), l.over_1ms(), l.count(),
+               unit);
+}
+
+/// A serial capture onto a serial port. `link_text` is --to as given (serial:...), or the resolved link's name.
+int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptions& can_options,
+                      std::unique_ptr<saul::host::SerialCaptureReader> first_pass, const std::string& link_text) {
+  using namespace saul::host;
+  if (!opt.ids.empty() || !opt.exclude.empty() || !opt.maps.empty())
+    throw CLI::ValidationError("--id/--exclude-id/--map", opt.file + " holds serial bytes, not CAN ids; pick one of "
+                                                                     "its links with --from");
+  const SerialReadOptions read_options = serial_read_options(opt.serial);
+  const SerialReplayPreview preview = preview_serial_replay(*first_pass, read_options.protocol);
+  first_pass.reset();
+  if (preview.links.empty()) {
+    fmt::print(stderr, "replay: {} holds no serial bytes; nothing to send\n", opt.file);
+    return kOk;
+  }
+  const SerialLinkPreview* link = nullptr;
+  auto names = [&preview] {
+    std::string all;
+    for (const auto& l : preview.links) all += (all.empty() ? "" : ", ") + l.name;
+    return all;
+  };
+  if (!opt.from.empty()) {
+    link = preview.find(opt.from);
+    if (link == nullptr)
+      throw CLI::ValidationError("--from",
+                                 fmt::format("{} has no link '{}'; its links: {}", opt.file, opt.from, names()));
+  } else if (preview.links.size() > 1) {
+    throw CLI::ValidationError("--from", fmt::format("{} holds {} links ({}); pick the one to replay with --from LINK",
+                                                     opt.file, preview.links.size(), names()));
+  } else {
+    link = &preview.links.front();
+  }
+  if (link->protocol == SerialProtocol::raw && !opt.yes)
+    throw CLI::ValidationError(
+        "--protocol", fmt::format("cannot tell which bytes of {} can move motors: the capture names no protocol and "
+                                  "none could be guessed; give --protocol interboard|crsf|pride, or --allow-motion to "
+                                  "send every byte as captured",
+                                  link->name));
+
+  SerialReplayOptions options;
+  options.speed = can_options.speed;
+  options.loops = can_options.loops;
+  options.max_gap_ns = can_options.max_gap_ns;
+  options.link = link->name;
+  options.protocol = link->protocol;
+  options.allow_motion = opt.yes;
+
+  LinkSpec spec;
+  try {
+    spec = parse_serial_replay_link(link_text, replay_serial_settings(link->name, link->protocol));
+  } catch (const std::invalid_argument& e) {
+    throw CLI::ValidationError("--to", e.what());
+  }
+  if (link->motion > 0 && !options.allow_motion && !opt.json)
+    fmt::print(stderr, "replay: dropping {} message(s) that can move motors ({} per pass: {}); --allow-motion sends "
+                       "them\n",
+               link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
+  auto port = open_serial(spec.device, spec.serial, spec.backend);
+  const std::string protocol_text =
+      fmt::format("{}{}", to_string(link->protocol), link->guessed ? ", guessed from the bytes" : "");
+  if (!opt.json)
+    fmt::print(stderr, "replay: {} ({}, {}) -> {}: {} chunks per pass, {} pass(es), speed {}{}\n", opt.file,
+               link->name, protocol_text, spec.text(), options.allow_motion ? link->chunks : link->writes, opt.loops,
+               options.speed > 0 ? fmt::format("{:g}", options.speed) : std::string("max"),
+               opt.step ? ", one chunk per Enter" : "");
+
+  MonotonicReplayClock clock(&g_interrupted);
+  SerialReplayHooks hooks;
+  hooks.write = [&port](std::span<const std::uint8_t> bytes) { port->write(bytes, std::chrono::milliseconds(1000)); };
+  hooks.stop = [] { return g_interrupted.load(); };
+  hooks.on_corrupt = [&opt](const CaptureError& e) {
+    fmt::print(stderr, "saulctl replay: {}\n", format_capture_error(opt.file, e));
+  };
+  std::uint64_t stepped = 0;
+  if (opt.step) {
+    hooks.step = [&stepped](const SerialChunk& chunk, std::span<const std::uint8_t> bytes) {
+      ++stepped;
+      const std::uint64_t t = chunk.timestamp_ns.value_or(0);
+      fmt::print(stderr, "[{}] ({:010}.{:06}) {}{}  (Enter sends, q quits) ", stepped, t / 1'000'000'000ULL,
+                 t % 1'000'000'000ULL / 1'000ULL, hex_bytes(bytes),
+                 chunk.bytes.size() == bytes.size()
+                     ? std::string()
+                     : fmt::format(" ({} bytes of motion left out)", chunk.bytes.size() - bytes.size()));
+      std::string answer;
+      if (!std::getline(std::cin, answer) || answer == "q" || answer == "quit") return false;
+      return true;
+    };
+  }
+  const auto open_pass = [&opt, &read_options]() { return open_serial_capture_reader(opt.file, read_options); };
+  SerialReplayReport report;
+  int status = kOk;
+  try {
+    report = replay_serial(open_pass, options, clock, hooks);
+  } catch (const CaptureOpenError& e) {
+    fmt::print(stderr, "saulctl replay: {}\n", e.what());
+    return kFailure;
+  } catch (const SerialError& e) {
+    status = report_link_error(e);
+  }
+  const auto& l = report.lateness;
+  if (opt.json) {
+    nlohmann::json j{{"file", opt.file},
+                     {"link", spec.text()},
+                     {"captured_link", report.link},
+                     {"protocol", std::string(to_string(report.protocol))},
+                     {"protocol_guessed", link->guessed},
+                     {"passes", report.passes},
+                     {"chunks", report.chunks},
+                     {"bytes", report.bytes},
+                     {"writes", report.writes},
+                     {"bytes_sent", report.bytes_sent},
+                     {"frames", report.frames},
+                     {"motion_dropped", report.motion_dropped},
+                     {"motion_dropped_bytes", report.motion_bytes},
+                     {"motion_dropped_by_type", report.motion_by_type},
+                     {"motion_sent", report.motion_sent},
+                     {"other_links", report.other_links},
+                     {"corrupt", report.corrupt},
+                     {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
+                     {"stopped", report.stopped}};
+    if (l.count() > 0) j["lateness"] = lateness_json(l, "chunks");
+    fmt::print("{}\n", j.dump());
+  } else {
+    const std::string motion =
+        options.allow_motion
+            ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
+            : fmt::format("not sent: {} message(s) that can move motors{}", report.motion_dropped,
+                          report.motion_dropped
+                              ? fmt::format(" ({}; {} bytes)", format_motion_by_type(report.motion_by_type),
+                                            report.motion_bytes)
+                              : std::string());
+    fmt::print(stderr, "replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
+                       "chunks of other links, {} corrupt records\n",
+               report.writes, report.chunks, report.bytes_sent, report.bytes,
+               static_cast<double>(report.elapsed_ns) / 1e9, report.passes, report.stopped ? ", stopped early" : "",
+               motion, report.other_links, report.corrupt);
+    print_lateness(l, "chunks");
+  }
+  return status;
+}
 
 int run_replay(const ReplayCliOptions& opt) {
   using namespace saul::host;
@@ -62,33 +232,46 @@ int run_replay(const ReplayCliOptions& opt) {
     options.max_gap_ns = static_cast<std::uint64_t>(parse_duration(opt.max_gap).count()) * 1'000'000ULL;
   if (opt.yes && opt.no_motion) throw CLI::ValidationError("--no-motion", "give --yes (--allow-motion) or --no-motion, not both");
 
-  auto open_pass = [&opt]() { return open_capture_reader(opt.file); };
-  ReplayPreview preview;
+  OpenedCapture opened;
   try {
-    auto reader = open_pass();
-    preview = preview_replay(*reader, options);
+    opened = open_capture(opt.file, serial_read_options(opt.serial));
   } catch (const CaptureOpenError& e) {
     fmt::print(stderr, "saulctl replay: {}\n", e.what());
     return kFailure;
   }
-  if (preview.motion > 0) {
-    if (opt.no_motion) {
-      options.allow_motion = false;
-      if (!opt.json)
-        fmt::print(stderr, "replay: --no-motion: dropping {} frame(s) that can move motors ({} per pass)\n",
-                   preview.motion * opt.loops, preview.motion);
-    } else if (confirm_motion(opt.yes, fmt::format("replay {} frame(s) that can move motors (0x300, 0x302 "
-                                                   "balance/manual, VESC set commands)",
-                                                   preview.motion * opt.loops))) {
-      options.allow_motion = true;
-    } else {
-      fmt::print(stderr, "saulctl replay: add --allow-motion (--yes) to send them, or --no-motion to replay "
-                         "everything else\n");
-      return kUsage;
-    }
+  // The kind of link --to names: a serial link may leave its rate out (it follows the capture), so it is parsed
+  // later; anything else is resolved now (--to, $SAUL_LINK, the config file).
+  std::optional<LinkSpec> resolved;
+  if (!opt.link.starts_with("serial:")) resolved = resolve_link(opt.link);
+  const bool to_serial = !resolved || !resolved->is_can();
+  const std::string link_text = resolved ? resolved->text() : opt.link;
+  if (opened.chunks) {
+    if (!to_serial)
+      throw CLI::ValidationError("--to", fmt::format("{} holds serial bytes and {} is a CAN link: replay it onto a "
+                                                     "serial port, --to serial:/dev/ttyUSB0 (the baud rate follows "
+                                                     "the capture)",
+                                                     opt.file, link_text));
+    return run_serial_replay(opt, options, std::move(opened.chunks), link_text);
   }
-  const LinkSpec spec = resolve_link(opt.link);
-  if (!spec.is_can()) throw CLI::ValidationError("--to", spec.text() + " is a serial link; replay sends CAN frames");
+  if (to_serial)
+    throw CLI::ValidationError("--to", fmt::format("{} holds CAN frames and {} is a serial link: replay it onto a CAN "
+                                                   "link, --to can0 or --to slcan:/dev/ttyACM0",
+                                                   opt.file, link_text));
+  if (!opt.from.empty())
+    throw CLI::ValidationError("--from", opt.file + " holds CAN frames: --from picks a link of a serial capture "
+                                                    "(select CAN ids with --id)");
+
+  auto open_pass = [&opt]() { return open_capture_reader(opt.file); };
+  ReplayPreview preview = preview_replay(*opened.frames, options);
+  opened.frames.reset();
+  // The rule, the same as for serial captures: motion frames are left out unless --allow-motion, and the
+  // user is told how many before anything is sent (no question: a replay in a script behaves as on a terminal).
+  options.allow_motion = opt.yes;
+  if (preview.motion > 0 && !opt.yes && !opt.json)
+    fmt::print(stderr, "replay: dropping {} frame(s) that can move motors ({} per pass: 0x300, 0x302 balance/manual, "
+                       "VESC set commands); --allow-motion sends them\n",
+               preview.motion * opt.loops, preview.motion);
+  const LinkSpec& spec = *resolved;
   auto link = open_can_link(spec);
   if (!opt.json)
     fmt::print(stderr, "replay: {} -> {}: {} frames per pass, {} pass(es), speed {}{}\n", opt.file, link->name(),
@@ -137,23 +320,15 @@ int run_replay(const ReplayCliOptions& opt) {
                      {"corrupt", report.corrupt},
                      {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
                      {"stopped", report.stopped}};
-    if (l.count() > 0)
-      j["lateness"] = {{"frames", l.count()},
-                       {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
-                       {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
-                       {"max_us", static_cast<double>(l.max_ns()) / 1e3},
-                       {"later_than_1ms", l.over_1ms()}};
+    if (l.count() > 0) j["lateness"] = lateness_json(l, "frames");
     fmt::print("{}\n", j.dump());
   } else {
     fmt::print(stderr, "replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} that "
                        "can move motors{}, {} error frames, {} corrupt records\n",
                report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
                report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
-               report.motion_dropped ? " (--no-motion)" : "", report.error_frames, report.corrupt);
-    if (l.count() > 0)
-      fmt::print(stderr, "replay: lateness p50 {}, p99 {}, max {}; {} of {} frames later than 1 ms\n",
-                 micros(l.percentile_ns(50)), micros(l.percentile_ns(99)), micros(l.max_ns()), l.over_1ms(),
-                 l.count());
+               report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames, report.corrupt);
+    print_lateness(l, "frames");
   }
   return status;
 }
@@ -162,9 +337,15 @@ int run_replay(const ReplayCliOptions& opt) {
 
 void add_replay_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<ReplayCliOptions>();
-  auto* cmd = app.add_subcommand("replay", "Replay a CAN capture onto a bus with its original timing");
-  cmd->add_option("FILE", o->file, "CAN capture file (candump, pcap, pcapng, ASC)")->required();
-  cmd->add_option("--to,-l,--link", o->link, "can0 | slcan:/dev/ttyACM0[@500000] (default: $SAUL_LINK)");
+  auto* cmd = app.add_subcommand("replay", "Replay a CAN or serial capture onto a bus or serial port with its original "
+                                            "timing");
+  cmd->add_option("FILE", o->file,
+                  "capture file: CAN (candump, pcap, pcapng, ASC) or serial bytes (serial log, sigrok/PulseView "
+                  "export)")
+      ->required();
+  cmd->add_option("--to,-l,--link", o->link,
+                  "can0 | slcan:/dev/ttyACM0[@500000] for CAN captures; serial:/dev/ttyUSB0[@BAUD[:8E1]] for serial "
+                  "captures (default: $SAUL_LINK)");
   cmd->add_option("--speed", o->speed, "time factor: 2 = twice as fast, 0.5 = half speed, max = no waiting")
       ->capture_default_str();
   cmd->add_option("--loop", o->loops, "passes over the file")->capture_default_str();
@@ -173,23 +354,40 @@ void add_replay_command(CLI::App& app, Runner& run) {
   cmd->add_option("--exclude-id", o->exclude, "never these logged ids, ID[:MASK] in hex")->delimiter(',');
   cmd->add_option("--map", o->maps, "send id FROM as id TO, hex (--map 300=310); repeatable")->delimiter(',');
   cmd->add_option("--max-gap", o->max_gap, "shorten longer silences of the file to this (1s)");
-  cmd->add_flag("--step", o->step, "one frame per Enter (q quits); no timing");
-  cmd->add_flag("-y,--yes,--allow-motion", o->yes, "send frames that can move motors without asking");
-  cmd->add_flag("--no-motion", o->no_motion, "drop frames that can move motors and say how many");
+  cmd->add_flag("--step", o->step, "one frame (serial: one chunk) per Enter (q quits); no timing");
+  cmd->add_flag("-y,--yes,--allow-motion", o->yes, "send the frames and messages that can move motors too");
+  cmd->add_flag("--no-motion", o->no_motion, "leave out what can move motors and say how many (the default)");
+  cmd->add_option("--from", o->from, "serial captures: the captured link to replay, when the file holds several");
+  add_serial_read_options(cmd, o->serial);
   cmd->add_flag("--json", o->json, "the final report as one JSON object on stdout");
   cmd->footer(
       "\nEvery frame is due at an absolute deadline on the monotonic clock (start + file time / speed), never\n"
       "relative to the frame before, so timing does not drift. At the end: how late frames left (p50, p99, max,\n"
       "and how many later than 1 ms).\n"
       "Frames that can move motors (0x300, 0x302 balance/manual, VESC set commands: 29-bit ids with command\n"
-      "0..4 or 10..13) need --allow-motion (same as --yes), or a typed 'yes' on a terminal; --no-motion drops\n"
-      "them instead, and the report says how many were dropped.\n"
+      "0..4 or 10..13) are left out unless --allow-motion (same as --yes); how many is said before the first\n"
+      "frame goes and again in the report. --no-motion says the default explicitly.\n"
       "Filters apply to the ids in the file, then --map, then the motion rule (to what goes out).\n"
+      "\nSerial captures (inter-board, CRSF, Pride) go to a serial port: each chunk of bytes is written at its\n"
+      "timestamp, with the same deadlines, --speed, --loop, --step and lateness report (per chunk). Without a\n"
+      "rate in --to, the port runs as the capture was recorded, else as its protocol: inter-board 460800 8N1,\n"
+      "CRSF 420000 8N1, Pride 38400 8E1. The bytes are cut into frames with the protocol's decoder, and\n"
+      "messages that can move motors are left out unless --allow-motion, and counted:\n"
+      "  inter-board rc_cmd (unless its kill flag is set: an estop goes through),\n"
+      "  CRSF rc_channels (unless CH6 asks for estop; an RC frame that does not decode counts too),\n"
+      "  Pride vcu_command (all of them, neutral ones too).\n"
+      "Everything else (sensor, fault, state, led_cmd, buzzer, CRSF telemetry, Pride controller_status) and\n"
+      "every byte outside a valid frame (noise, bad CRCs) goes out as captured. A capture whose protocol is\n"
+      "neither named nor guessable needs --protocol, or --allow-motion to send it unexamined. A CAN capture\n"
+      "needs a CAN link and a serial capture a serial link (exit 2 otherwise).\n"
       "\nExamples:\n"
       "  saulctl replay run.log --to can0 --no-motion           telemetry and acks only\n"
       "  saulctl replay run.pcapng --to slcan:/dev/ttyACM0 --speed 2 --loop 3 --yes\n"
       "  saulctl replay run.log --to can0 --id 400,401 --map 400=410\n"
-      "  saulctl replay run.log --to vcan0 --step --no-motion\n");
+      "  saulctl replay run.log --to vcan0 --step --no-motion\n"
+      "  saulctl replay uart.serial --to serial:/dev/ttyUSB0    inter-board bytes at 460800, rc_cmd left out\n"
+      "  saulctl replay pride.serial --to serial:/dev/ttyUSB1 --allow-motion --loop 10\n"
+      "  saulctl replay --protocol pride --samplerate 1M la.txt --to serial:/dev/ttyUSB1@38400:8E1\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

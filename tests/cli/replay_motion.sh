@@ -12,14 +12,15 @@ check() {  # check DESCRIPTION COMMAND...
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 link=slcan:$out/no-such-tty
-"$saulctl" replay "$root/captures/robot_bus.log" --to "$link" --no-motion </dev/null 2>"$out/nm"
-check "--no-motion tells how many frames it drops" grep -q -- '--no-motion: dropping 295 frame(s) that can move motors' "$out/nm"
 "$saulctl" replay "$root/captures/robot_bus.log" --to "$link" </dev/null 2>"$out/none"
-check "without confirmation and no terminal: exit 2" test $? -eq 2
-check "... and the hint names --allow-motion" grep -q 'add --allow-motion' "$out/none"
+check "by default motion frames are dropped and counted before the link opens (exit 1: no such link)" test $? -eq 1
+check "... the count is said: 295 frames, 0x300/0x302/VESC named" \
+  grep -q 'replay: dropping 295 frame(s) that can move motors (295 per pass: 0x300, 0x302 balance/manual, VESC set commands); --allow-motion sends them' "$out/none"
+"$saulctl" replay "$root/captures/robot_bus.log" --to "$link" --loop 2 --no-motion </dev/null 2>"$out/nm"
+check "--no-motion says the same, counted over the passes" grep -q 'dropping 590 frame(s) that can move motors (295 per pass' "$out/nm"
 "$saulctl" replay "$root/captures/robot_bus.log" --to "$link" --allow-motion </dev/null 2>"$out/allow"
-check "--allow-motion confirms (the run gets as far as opening the link: exit 1)" test $? -eq 1
-check "... without asking" bash -c "! grep -q 'refusing' '$out/allow'"
+check "--allow-motion: the run gets as far as opening the link (exit 1)" test $? -eq 1
+check "... and drops nothing" bash -c "! grep -q 'dropping' '$out/allow'"
 "$saulctl" replay "$root/captures/robot_bus.log" --to "$link" --allow-motion --no-motion </dev/null 2>/dev/null
 check "--allow-motion with --no-motion is a usage error" test $? -eq 2
 echo "$fails failed"

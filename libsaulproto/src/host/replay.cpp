@@ -192,13 +192,27 @@ bool MonotonicReplayClock::sleep_until(std::uint64_t deadline_ns) {
 
 // ---- engine -------------------------------------------------------------------------------------------------------
 
+bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
+  if (stepping_ || !anchored_) {
+    schedule_.anchor(clock_.now_ns());
+    anchored_ = true;
+  }
+  const std::uint64_t due = schedule_.deadline(timestamp_ns);
+  if (!first_deadline_) first_deadline_ = due;
+  if (stepping_ || speed_ <= 0) return true;
+  if (!clock_.sleep_until(due)) return false;
+  lateness_.add(static_cast<std::int64_t>(clock_.now_ns() - due));
+  return true;
+}
+
+std::uint64_t ReplayPacer::elapsed_ns() const {
+  return first_deadline_ && last_sent_ > *first_deadline_ ? last_sent_ - *first_deadline_ : 0;
+}
+
 ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
                     ReplayClock& clock, const ReplayHooks& hooks) {
   ReplayReport report;
-  ReplaySchedule schedule(options.speed, options.max_gap_ns);
-  bool anchored = false;
-  std::optional<std::uint64_t> first_deadline;
-  std::uint64_t last_send = 0;
+  ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
   const unsigned loops = options.loops == 0 ? 1 : options.loops;
   for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
     if (hooks.stop && hooks.stop()) {
@@ -207,7 +221,7 @@ ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_
     }
     auto reader = open_pass();
     ++report.passes;
-    if (pass > 0) schedule.next_pass();
+    if (pass > 0) pacer.next_pass();
     for (;;) {
       const auto status = reader->next();
       if (status == CaptureReader::Status::end) break;
@@ -228,31 +242,17 @@ ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_
         report.stopped = true;
         break;
       }
-      if (hooks.step) {
-        if (!hooks.step(out)) {
-          report.stopped = true;
-          break;
-        }
-        schedule.anchor(clock.now_ns());
-      } else if (!anchored) {
-        schedule.anchor(clock.now_ns());
-        anchored = true;
-      }
-      const std::uint64_t due = schedule.deadline(reader->frame().timestamp_ns);
-      if (!first_deadline) first_deadline = due;
-      if (!hooks.step && options.speed > 0) {
-        if (!clock.sleep_until(due)) {
-          report.stopped = true;
-          break;
-        }
-        report.lateness.add(static_cast<std::int64_t>(clock.now_ns() - due));
+      if ((hooks.step && !hooks.step(out)) || !pacer.wait(reader->frame().timestamp_ns)) {
+        report.stopped = true;
+        break;
       }
       hooks.send(out);
       ++report.sent;
-      last_send = clock.now_ns();
+      pacer.sent();
     }
   }
-  if (first_deadline && last_send > *first_deadline) report.elapsed_ns = last_send - *first_deadline;
+  report.elapsed_ns = pacer.elapsed_ns();
+  report.lateness = pacer.lateness();
   return report;
 }
 

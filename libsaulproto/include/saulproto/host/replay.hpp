@@ -134,6 +134,33 @@ class MonotonicReplayClock final : public ReplayClock {
   std::uint64_t spin_ns_;
 };
 
+/// The timing of one replay, shared by CAN frames and serial chunks: anchors the schedule at the first item (and,
+/// single-stepping, at every item), waits for each item's absolute deadline and records how late it left.
+class ReplayPacer {
+ public:
+  ReplayPacer(ReplayClock& clock, double speed, std::optional<std::uint64_t> max_gap_ns, bool stepping)
+      : clock_(clock), schedule_(speed, max_gap_ns), speed_(speed), stepping_(stepping) {}
+  void next_pass() { schedule_.next_pass(); }
+  /// Waits until the item logged at timestamp_ns is due (single-stepping or at speed 0: returns at once, after
+  /// re-anchoring); false when the wait was interrupted.
+  bool wait(std::optional<std::uint64_t> timestamp_ns);
+  /// The item went out now.
+  void sent() { last_sent_ = clock_.now_ns(); }
+  [[nodiscard]] const LatenessStats& lateness() const { return lateness_; }
+  /// From the first deadline to the last item sent.
+  [[nodiscard]] std::uint64_t elapsed_ns() const;
+
+ private:
+  ReplayClock& clock_;
+  ReplaySchedule schedule_;
+  double speed_;
+  bool stepping_;
+  bool anchored_ = false;
+  std::optional<std::uint64_t> first_deadline_;
+  std::uint64_t last_sent_ = 0;
+  LatenessStats lateness_;
+};
+
 struct ReplayReport {
   unsigned passes = 0;          ///< passes started
   std::uint64_t frames = 0;     ///< frames read (all passes)
