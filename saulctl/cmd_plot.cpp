@@ -1,19 +1,19 @@
-// saulctl plot: one or more fields of one message over time, as an SVG drawn by the host library
-// (saulproto/host/plot.hpp) or as CSV for a spreadsheet or gnuplot. Two streaming passes over the file (the
-// first finds the time range), so memory stays constant however long the capture.
+// saulctl plot: the telemetry of a capture over time, with the robot's state and fault changes marked, as an SVG,
+// one self-contained HTML page, or CSV. What is drawn (the default dashboard, or the fields of one message) and
+// the two streaming passes are the host library's (saulproto/host/telemetry_plot.hpp, plot.hpp); this file parses
+// the arguments, picks the output format and writes the file.
 #include <fmt/core.h>
 
+#include <cctype>
 #include <cstdio>
 #include <fstream>
-#include <functional>
+#include <iostream>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
-#include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture.hpp"
 #include "saulproto/host/plot.hpp"
-#include "saulproto/host/serial_capture.hpp"
-#include "saulproto/host/serial_decode.hpp"
+#include "saulproto/host/telemetry_plot.hpp"
 
 namespace saulctl {
 namespace {
@@ -23,63 +23,10 @@ struct PlotOptions {
   std::string id;
   std::vector<std::string> fields;
   std::string output;
+  std::string format;
+  std::size_t max_markers = saul::host::PlotRequest{}.max_markers;
   SerialCliOptions serial;
 };
-
-/// A message of the selection: its time and a way to read its fields.
-using FieldOf = std::function<std::optional<double>(std::string_view)>;
-using NamesOf = std::function<std::vector<std::string>()>;
-using Visit = std::function<void(std::optional<std::uint64_t> ns, const FieldOf& field, const NamesOf& names)>;
-
-/// Calls visit for every message the selection names: a CAN id (0x400, or decimal) or a message name
-/// (telemetry_a, state, vcu_command).
-void for_each_selected(const PlotOptions& opt, const Visit& visit) {
-  using namespace saul::host;
-  std::optional<std::uint32_t> id;
-  if (!opt.id.empty() && opt.id[0] >= '0' && opt.id[0] <= '9') {
-    std::size_t used = 0;
-    unsigned long v = 0;
-    try {
-      v = std::stoul(opt.id, &used, 0);
-    } catch (...) {
-      used = 0;
-    }
-    if (used == 0 || used != opt.id.size() || v > saul::CanFrame::kMaxExtendedId)
-      throw CLI::ValidationError("--id", "bad id '" + opt.id + "' (a CAN id such as 0x400, or a message name)");
-    id = static_cast<std::uint32_t>(v);
-  }
-  auto opened = open_capture(opt.file, serial_read_options(opt.serial));
-  if (opened.frames) {
-    for (;;) {
-      const auto st = opened.frames->next();
-      if (st == CaptureReader::Status::end) break;
-      if (st == CaptureReader::Status::corrupt) continue;
-      const saul::CanFrame& f = opened.frames->frame();
-      if (id && f.id != *id) continue;
-      const auto r = saul::decode_bus_frame(f);
-      if (!r) continue;
-      if (!id && opt.id != saul::name_of(r.value())) continue;
-      const auto& m = r.value();
-      visit(f.timestamp_ns, [&m](std::string_view name) { return numeric_field(m, name); },
-            [&m] { return numeric_field_names(m); });
-    }
-    return;
-  }
-  if (id) throw CLI::ValidationError("--id", "a serial capture has no CAN ids: name the message (e.g. --id state)");
-  SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
-  const SerialCaptureDecoder::Callback on = [&](const SerialChunk& chunk, SerialProtocol, const SerialMessage& m) {
-    if (name_of(m) != opt.id) return;
-    visit(chunk.timestamp_ns, [&m](std::string_view name) { return numeric_field(m, name); },
-          [&m] { return numeric_field_names(m); });
-  };
-  for (;;) {
-    const auto st = opened.chunks->next();
-    if (st == SerialCaptureReader::Status::end) break;
-    if (st == SerialCaptureReader::Status::corrupt) continue;
-    decoder.add(opened.chunks->chunk(), on);
-  }
-  decoder.finish(on);
-}
 
 std::string join(const std::vector<std::string>& v) {
   std::string s;
@@ -87,80 +34,90 @@ std::string join(const std::vector<std::string>& v) {
   return s;
 }
 
-int run_plot(const PlotOptions& opt) {
-  using namespace saul::host;
-  std::string output = opt.output;
-  if (output.empty()) {
-    std::string base = opt.file.substr(opt.file.find_last_of('/') + 1);
-    base = base.substr(0, base.find('.'));
-    output = base + ".svg";
-  }
-  const std::string ext = output.substr(output.find_last_of('.') + 1);
+std::string plural(std::uint64_t n, const char* word) { return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s"); }
+
+std::string base_name(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
+
+/// svg, html or csv: --format, else the extension of -o, else svg.
+std::string output_format(const PlotOptions& opt) {
+  if (!opt.format.empty()) return opt.format;
+  if (opt.output.empty() || opt.output == "-") return "svg";
+  const auto dot = opt.output.find_last_of('.');
+  std::string ext = dot == std::string::npos ? "" : opt.output.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == "png")
     throw CLI::ValidationError("-o", "PNG needs a rasteriser: write .svg and convert it, e.g. rsvg-convert -o "
                                      "plot.png plot.svg");
-  if (ext != "svg" && ext != "csv") throw CLI::ValidationError("-o", "write .svg (a picture) or .csv (the numbers)");
+  if (ext == "svg" || ext == "csv" || ext == "html") return ext;
+  if (ext == "htm") return "html";
+  throw CLI::ValidationError("-o", "write .svg (a picture), .html (the picture and a table of the state and fault "
+                                   "changes) or .csv (the numbers), or say --format svg|html|csv");
+}
 
-  // Pass 1: the time range, and whether the fields exist.
-  std::optional<std::uint64_t> first, last;
-  std::uint64_t found = 0;
-  for_each_selected(opt, [&](std::optional<std::uint64_t> ns, const FieldOf& field, const NamesOf& names) {
-    if (found++ == 0) {
-      for (const auto& f : opt.fields)
-        if (!field(f))
-          throw CLI::ValidationError("--field", fmt::format("'{}' has no numeric field '{}': it has {}", opt.id, f,
-                                                            join(names())));
+int run_plot(const PlotOptions& opt) {
+  using namespace saul::host;
+  const std::string format = output_format(opt);
+  std::string output = opt.output;
+  if (output.empty()) {
+    std::string base = base_name(opt.file);
+    base = base.substr(0, base.find('.'));
+    output = base + "." + format;
+  }
+
+  PlotRequest request;
+  request.id = opt.id;
+  request.fields = opt.fields;
+  request.max_markers = opt.max_markers;
+  request.source_name = base_name(opt.file);
+  // Pass 1 (time range, panels, state and fault changes) before anything is written.
+  const TelemetryPlotter plotter(request,
+                                 capture_plot_source(opt.file, serial_read_options(opt.serial),
+                                                     fallback_protocol(opt.serial)));
+  for (const auto& note : plotter.left_out()) fmt::print(stderr, "saulctl plot: {}\n", note);
+
+  std::ofstream file;
+  if (output != "-") {
+    file.open(output, std::ios::out | std::ios::trunc);
+    if (!file) {
+      fmt::print(stderr, "saulctl plot: cannot create '{}'\n", output);
+      return kFailure;
     }
-    if (!ns) return;
-    if (!first || *ns < *first) first = ns;
-    if (!last || *ns > *last) last = ns;
-  });
-  if (found == 0) {
-    fmt::print(stderr, "saulctl plot: no '{}' in {}\n", opt.id, opt.file);
-    return kFailure;
   }
-  const std::uint64_t origin = first.value_or(0);
-  auto rel = [origin](std::optional<std::uint64_t> ns) {
-    return ns ? static_cast<double>(*ns - std::min(*ns, origin)) / 1e9 : 0.0;
-  };
-
-  std::ofstream out(output, std::ios::out | std::ios::trunc);
-  if (!out) {
-    fmt::print(stderr, "saulctl plot: cannot create '{}'\n", output);
-    return kFailure;
-  }
-  if (ext == "csv") {
-    out << "time_s";
-    for (const auto& f : opt.fields) out << ',' << f;
-    out << '\n';
-    for_each_selected(opt, [&](std::optional<std::uint64_t> ns, const FieldOf& field, const NamesOf&) {
-      out << fmt::format("{:.6f}", rel(ns));
-      for (const auto& f : opt.fields) out << ',' << fmt::format("{:g}", field(f).value_or(0));
-      out << '\n';
-    });
-  } else {
-    PlotDocument doc;
-    doc.title = fmt::format("{}: {} ({} messages from {})", opt.file.substr(opt.file.find_last_of('/') + 1), opt.id,
-                            found, first ? fmt::format("{}.{:06}", origin / 1'000'000'000ULL,
-                                                       (origin % 1'000'000'000ULL) / 1000)
-                                         : std::string("untimed capture"));
-    doc.t0 = 0;
-    doc.t1 = rel(last);
-    for (const auto& f : opt.fields)
-      doc.panels.push_back(PlotPanel{fmt::format("{}: {}", opt.id, f), PlotBinner(doc.t0, doc.t1, kPlotWidth)});
-    for_each_selected(opt, [&](std::optional<std::uint64_t> ns, const FieldOf& field, const NamesOf&) {
-      for (std::size_t i = 0; i < opt.fields.size(); ++i)
-        if (const auto v = field(opt.fields[i])) doc.panels[i].binner.add(rel(ns), *v);
-    });
-    out << render_svg(doc);
-  }
-  out.close();
+  std::ostream& out = output == "-" ? std::cout : file;
+  if (format == "csv")
+    plotter.write_csv(out);
+  else if (format == "html")
+    out << render_html(plotter.document());
+  else
+    out << render_svg(plotter.document());
+  out.flush();
+  if (file.is_open()) file.close();
   if (!out) {
     fmt::print(stderr, "saulctl plot: cannot write '{}'\n", output);
     return kFailure;
   }
-  fmt::print(stderr, "saulctl plot: {} points of {} ({}) over {:.3f} s written to {}\n", found, opt.id,
-             join(opt.fields), rel(last), output);
+
+  std::vector<std::string> titles;
+  for (const auto& panel : plotter.panels()) titles.push_back(panel.title);
+  const std::string where = output == "-" ? std::string("stdout") : output;
+  if (plotter.dashboard()) {
+    fmt::print(stderr, "saulctl plot: {} over {:.3f} s in {} ({}) written to {}\n",
+               plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
+               join(titles), where);
+  } else {
+    std::vector<std::string> fields;
+    for (const auto& panel : plotter.panels()) fields.push_back(panel.series.at(0).field);
+    fmt::print(stderr, "saulctl plot: {} points of {} ({}) over {:.3f} s written to {}\n", plotter.messages(),
+               opt.id, join(fields), plotter.points_span_s(), where);
+  }
+  const auto& changes = plotter.changes();
+  if (format != "csv" && changes.total() > 0) {
+    if (changes.kept().size() == changes.total())
+      fmt::print(stderr, "saulctl plot: {} marked\n", plural(changes.total(), "state/fault change"));
+    else
+      fmt::print(stderr, "saulctl plot: {} state/fault changes, the first {} marked (--max-markers)\n",
+                 changes.total(), changes.kept().size());
+  }
   return kOk;
 }
 
@@ -168,23 +125,54 @@ int run_plot(const PlotOptions& opt) {
 
 void add_plot_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<PlotOptions>();
-  auto* cmd = app.add_subcommand("plot", "Plot fields of one message over time (SVG, or CSV)");
+  auto* cmd = app.add_subcommand("plot", "Plot a capture's telemetry over time, state and fault changes marked");
   cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
-  cmd->add_option("--id", opt->id, "the message: a CAN id (0x400) or a message name (telemetry_a, state)")
-      ->required();
-  cmd->add_option("--field", opt->fields, "numeric field(s) to plot, one panel each (pitch_x100,pid_out)")
-      ->required()
+  cmd->add_option("-o,--output", opt->output,
+                  "run.svg, run.html or run.csv (by the extension), - for stdout; default: FILE's name with the "
+                  "format's extension");
+  cmd->add_option("--format", opt->format, "svg, html or csv, whatever the extension of -o")
+      ->check(CLI::IsMember({"svg", "html", "csv"}));
+  cmd->add_option("--id", opt->id,
+                  "plot one message instead of the dashboard: a CAN id (0x400) or a message name (telemetry_a, state)");
+  cmd->add_option("--field", opt->fields,
+                  "with --id: numeric field(s), one panel each (pitch_x100,pid_out); default every field")
       ->delimiter(',');
-  cmd->add_option("-o,--output", opt->output, "out.svg (a picture) or out.csv (the numbers); default FILE.svg");
+  cmd->add_option("--max-markers", opt->max_markers,
+                  "state/fault changes drawn and listed at most; the rest are counted (0: none)")
+      ->capture_default_str();
   add_serial_read_options(cmd, opt->serial);
   cmd->footer(
-      "\nDraws one panel per field against the time since the first point, as a plain SVG (any browser opens\n"
-      "it). Long captures are binned to one column per pixel keeping each column's first, lowest, highest and\n"
-      "last value, so spikes stay visible. .csv writes every point instead (time_s,field,...).\n"
-      "\nExamples:\n"
+      "\nWithout --id, draws the telemetry dashboard: pitch [deg] and pid_out (0x400, or the inter-board STATE\n"
+      "message), speed reported (0x400) and commanded (0x300), wheel rpm (0x401), VESC ERPM (STATUS from\n"
+      "controllers 68 and 56) and battery voltage (0x401, VESC STATUS_5). A panel whose messages are not in the\n"
+      "capture is left out, and stderr says so. Every panel marks each change of the robot state (0x400 state,\n"
+      "UART STATE error_state: OFF, BALANCE, MANUAL, ESTOP, TILT_CUTOFF, FAULT) and of the fault bits (0x401\n"
+      "faults, UART FAULT flags: +rc_loss when set, -rc_loss when cleared) with a dashed line and its label; the\n"
+      "first --max-markers changes are drawn, the picture counts the rest.\n"
+      "\n"
+      "Time 0 is the first plotted message (a capture without timestamps is drawn by message number). Long\n"
+      "captures are binned to one column per pixel keeping each column's first, lowest, highest and last value,\n"
+      "so spikes stay visible; two passes over the file, constant memory.\n"
+      "\n"
+      "Output, by the extension of -o or --format:\n"
+      "  .svg   the picture, one file any browser or Inkscape opens\n"
+      "  .html  one self-contained page (nothing fetched): the same picture, then a table of the state and\n"
+      "         fault changes with their times\n"
+      "  .csv   the numbers: time_s and one column per series drawn (plus state, faults), empty cells where a\n"
+      "         message does not carry a column; with --id, time_s and the fields\n"
+      "PNG is refused: convert the SVG (rsvg-convert -o run.png run.svg).\n"
+      "\n"
+      "Examples:\n"
+      "  saulctl plot run.log -o run.svg                  # the dashboard after a tuning run\n"
+      "  saulctl plot run.log -o run.html                 # the same, plus the table of state/fault changes\n"
+      "  saulctl plot captures/robot_bus.log --format html -o - > bus.html\n"
+      "  saulctl plot run.pcapng -o run.csv               # the dashboard's numbers for a spreadsheet\n"
+      "  saulctl plot run.log --max-markers 200 -o run.svg   # a run with many state/fault changes\n"
       "  saulctl plot captures/robot_bus.log --id 0x400 --field pitch_x100 -o pitch.svg\n"
       "  saulctl plot run.log --id telemetry_a --field pitch_x100,pid_out,speed_mmps -o tuning.svg\n"
-      "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n");
+      "  saulctl plot run.log --id 0x944 -o status.svg   # every field of VESC STATUS from controller 68\n"
+      "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n"
+      "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
   cmd->callback([opt, &run] {
     run = [opt]() -> int {
       try {
@@ -192,6 +180,12 @@ void add_plot_command(CLI::App& app, Runner& run) {
       } catch (const CLI::ValidationError& e) {
         fmt::print(stderr, "saulctl plot: {}\n", e.what());
         return kUsage;
+      } catch (const saul::host::PlotUsageError& e) {
+        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        return kUsage;
+      } catch (const saul::host::PlotEmptyError& e) {
+        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        return kFailure;
       } catch (const saul::host::CaptureOpenError& e) {
         fmt::print(stderr, "saulctl plot: {}\n", e.what());
         return kFailure;

@@ -85,5 +85,66 @@ check "PNG is refused with a hint (exit 2)" bash -c "test $? -eq 2 && grep -q 'r
 "$saulctl" plot "$root/captures/interboard_uart.serial" --id state --field pitch_x100 -o "$out/s.csv" 2>/dev/null
 check "plot reads serial captures by message name" grep -qx '0.000000,-1234' "$out/s.csv"
 
+# --- plot: the dashboard, state/fault markers, HTML ---------------------------------------------------------
+# robot_bus.log (make_robot_bus.py) has every message the dashboard draws: 30 0x400 + 30 0x401 + 44 0x300 + 2 x 30
+# VESC STATUS + 2 x 15 STATUS_5 = 194 messages, from the first 0x400 at +0.0009 s to the last STATUS_5 at
+# step 295 + 0.8 ms = +2.9508 s: 2.9499 s.
+"$saulctl" plot "$log" -o "$out/run.svg" 2>"$out/dash.err"
+check "plot without --id draws the dashboard: 6 panels of 194 messages over 2.950 s" \
+  bash -c "test $? -eq 0 && grep -q 'saulctl plot: 194 messages over 2.950 s in 6 panels (pitch \[deg\], pid_out \[permille\], speed \[mm/s\], wheel speed \[rpm\] (0x401), VESC ERPM (STATUS), battery \[V\]) written to $out/run.svg' '$out/dash.err'"
+check "the dashboard SVG: a panel title per panel, a line per series (1 + 1 + 2 + 2 + 2 + 3)" \
+  bash -c "head -c 5 '$out/run.svg' | grep -q '<?xml' && test \$(grep -c '<polyline' '$out/run.svg') -eq 11 && grep -q '>pitch \[deg\] (30 points)<' '$out/run.svg' && grep -q '>VESC ERPM (STATUS) (60 points)<' '$out/run.svg'"
+# The state goes OFF (first seen, t = 0) -> BALANCE at step 50 (+0.5009 s, t = 0.5); the faults stay 0. On the
+# 2.9499 s axis, 880 px wide from x = 70: 70 + 0.5 / 2.9499 x 880 = 219.2. Both markers on all 6 panels.
+check "state changes marked on every panel: OFF at 0 s, BALANCE at 0.5 s (x = 219.2)" \
+  bash -c "test \$(grep -c 'class=\"marker\" x1=\"70.0\"' '$out/run.svg') -eq 6 && test \$(grep -c 'class=\"marker\" x1=\"219.2\"' '$out/run.svg') -eq 6 && grep -q '>BALANCE</text>' '$out/run.svg' && grep -q '2 state/fault changes, all marked' '$out/run.svg' && grep -q 'saulctl plot: 2 state/fault changes marked' '$out/dash.err'"
+
+"$saulctl" plot "$log" -o "$out/run.html" 2>/dev/null
+check "plot -o .html: one self-contained page (no http, src, href, script, link) with the SVG inline" \
+  bash -c "test $? -eq 0 && head -n 1 '$out/run.html' | grep -qx '<!DOCTYPE html>' && ! grep -qiE 'http|src=|href=|<script|<link|@import|url\(' '$out/run.html' && test \$(grep -c '<svg ' '$out/run.html') -eq 1 && test \$(grep -c '<polyline' '$out/run.html') -eq 11"
+check "the page's table: OFF first seen at 0.000000 (1763800000.000900), BALANCE at 0.500000 (1763800000.500900)" \
+  bash -c "grep -q '<td class=\"num\">0.000000</td><td class=\"num\">1763800000.000900</td><td>state</td><td>OFF (first seen)</td>' '$out/run.html' && grep -q '<td class=\"num\">0.500000</td><td class=\"num\">1763800000.500900</td><td>state</td><td>OFF -&gt; BALANCE</td>' '$out/run.html'"
+"$saulctl" plot "$log" --format html -o - 2>/dev/null | cmp -s - "$out/run.html"
+check "--format html -o - writes the same page to stdout" test $? -eq 0
+
+"$saulctl" plot "$log" -o "$out/run.csv" 2>/dev/null
+# At t = 1.0 s (0x400 at +1.0009 s): pitch round(150 sin 3) = 21 -> 0.21 deg, pid_out int(21 x 0.8) = 16,
+# speed 0 (the ramp starts at 1.0 s), state 1; one row per message that gives a column: 194 + the header.
+check "plot -o .csv without --id: the dashboard's columns, one row per message, 0.21 deg at 1.0 s" \
+  bash -c "head -n 1 '$out/run.csv' | grep -qx 'time_s,pitch_deg,pid_out,speed_mmps,speed_cmd_mmps,wheel_l_rpm,wheel_r_rpm,vesc_l_erpm,vesc_r_erpm,battery_v,vesc_l_v,vesc_r_v,state,faults' && test \$(wc -l <'$out/run.csv') -eq 195 && grep -qx '1.000000,0.21,16,0,,,,,,,,,1,' '$out/run.csv'"
+
+# glitches.log has no valid 0x400 and no VESC STATUS: pitch, pid_out and ERPM are left out, and said so; its 0x401
+# (+0.070 s) sets faults 0x11 = rc_loss + orin_timeout, 70 ms after the first plotted message (0x300 at +0.000 s).
+"$saulctl" plot "$root/captures/glitches.log" -o "$out/g.html" 2>"$out/g.err"
+check "a capture lacking frames: the panels without data are left out, on stderr" \
+  bash -c "test $? -eq 0 && test \$(grep -c ': left out, ' '$out/g.err') -eq 3 && grep -q '^saulctl plot: pitch \[deg\]: left out, no 0x400 telemetry_a' '$out/g.err' && grep -q '^saulctl plot: VESC ERPM (STATUS): left out' '$out/g.err' && grep -q 'in 3 panels (speed \[mm/s\], wheel speed \[rpm\] (0x401), battery \[V\])' '$out/g.err'"
+check "the fault change marked and listed: +rc_loss +orin_timeout at 0.070 s" \
+  bash -c "grep -q '>+rc_loss +orin_timeout</text>' '$out/g.html' && grep -q '<td class=\"num\">0.070000</td><td class=\"num\">1763800000.070000</td><td>faults</td><td>none -&gt; rc_loss+orin_timeout</td>' '$out/g.html'"
+
+# Marker cap: 12 telemetry frames alternating OFF/BALANCE, 100 ms apart = 12 changes; --max-markers 5 draws 5 on each
+# of the 3 panels 0x400 fills (pitch, pid_out, speed) and counts the other 7 in the picture.
+awk 'BEGIN { for (i = 0; i < 12; i++) printf "(%d.%06d) can0 400#0000000000000%d\n", 1 + int(i / 10), (i % 10) * 100000, i % 2 }' \
+  >"$out/toggle.log"
+"$saulctl" plot "$out/toggle.log" --max-markers 5 -o "$out/t.svg" 2>"$out/t.err"
+check "--max-markers 5: 5 of 12 changes drawn on each panel, the other 7 counted in the picture and on stderr" \
+  bash -c "test $? -eq 0 && test \$(grep -c 'class=\"marker\"' '$out/t.svg') -eq 15 && grep -q '12 state/fault changes: the first 5 are marked, 7 more are not' '$out/t.svg' && grep -q '12 state/fault changes, the first 5 marked' '$out/t.err'"
+
+"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/id.svg" 2>/dev/null
+check "--id plots keep the markers: OFF and BALANCE on the one panel" \
+  bash -c "test \$(grep -c 'class=\"marker\"' '$out/id.svg') -eq 2"
+"$saulctl" plot "$log" --format csv -o "$out/p.dat" 2>/dev/null
+check "--format csv whatever the extension" bash -c "test $? -eq 0 && head -n 1 '$out/p.dat' | grep -q '^time_s,pitch_deg,'"
+"$saulctl" plot "$log" -o "$out/p.txt" 2>"$out/ext.err"
+check "an unknown extension without --format is a usage error (exit 2)" \
+  bash -c "test $? -eq 2 && grep -q 'svg|html|csv' '$out/ext.err'"
+"$saulctl" plot "$log" --field pitch_x100 -o "$out/x.svg" 2>"$out/f.err"
+check "--field without --id is a usage error (exit 2)" bash -c "test $? -eq 2 && grep -q 'needs --id' '$out/f.err'"
+"$saulctl" plot "$root/captures/pride_uart.serial" -o "$out/pride.svg" 2>"$out/pride.err"
+check "nothing the dashboard draws (a Pride capture): exit 1 and a hint to use --id" \
+  bash -c "test $? -eq 1 && grep -q 'name a message with --id and --field' '$out/pride.err' && test ! -e '$out/pride.svg'"
+"$saulctl" plot --help >"$out/help" 2>&1
+check "plot --help explains the dashboard, the markers and the formats with examples" \
+  bash -c "grep -q 'Without --id, draws the telemetry dashboard' '$out/help' && grep -q 'saulctl plot run.log -o run.html' '$out/help' && grep -q -- '--max-markers' '$out/help'"
+
 echo "$fails failed"
 exit $((fails > 0))
