@@ -33,6 +33,7 @@ struct FlashOptions {
   bool no_compress = false;
   bool force = false;
   bool no_reset = false;
+  std::string reset;  ///< "bootloader" | "app": only reset the board, write nothing
   int connect_attempts = 4;
   std::string link;
   bool skip_robot_check = false;
@@ -279,14 +280,8 @@ void print_app_versions(const saul::host::FlashPlan& plan) {
   }
 }
 
-int run_flash(const FlashOptions& opt) {
-  saul::host::FlashPlan plan = build_plan(opt);
-  std::optional<saul::host::PortInfo> info;
-  const auto [path, style] = pick_port(opt, info);
-
-  if (const int rc = check_robot(opt); rc != kOk) return rc;
-
-  // A pseudo-terminal is always held by whoever made it (the simulator, a test): only real devices are checked.
+// A pseudo-terminal is always held by whoever made it (the simulator, a test): only real devices are checked.
+void warn_holders(const std::string& path) {
   std::error_code ec;
   const bool is_pty = std::filesystem::weakly_canonical(path, ec).string().rfind("/dev/pts/", 0) == 0;
   if (const auto holders = is_pty ? std::vector<std::string>{} : holders_of(path); !holders.empty())
@@ -294,21 +289,99 @@ int run_flash(const FlashOptions& opt) {
                "saulctl: warning: {} is also open in {}: a serial monitor there would swallow the "
                "bootloader's answers; close it\n",
                path, join(holders, ", "));
+}
 
-  fmt::print("flashing the {} on {} ({}): {} region(s), flash {} ({})\n", board_name(style), path,
-             saul::host::to_string(style), plan.images.size(), mb(plan.flash_size), plan.flash_size_source);
-
-  std::unique_ptr<saul::host::SerialPort> port;
+// Opens the board's port at 115200 8N1; nullptr (after saying who holds it) when another program has it.
+std::unique_ptr<saul::host::SerialPort> open_board_port(const std::string& path) {
   try {
-    port = saul::host::open_serial(path, saul::host::SerialSettings{});
+    return saul::host::open_serial(path, saul::host::SerialSettings{});
   } catch (const saul::host::SerialError& e) {
     if (e.kind() == saul::host::SerialError::Kind::busy) {
       const auto holders = holders_of(path);
       fmt::print(stderr, "saulctl: {}{}\n", e.what(), holders.empty() ? "" : " - held by " + join(holders, ", "));
-      return kFailure;
+      return nullptr;
     }
     throw;
   }
+}
+
+std::string line_steps(const std::vector<saul::host::LineStep>& steps) {
+  std::string s;
+  for (const auto& st : steps) {
+    s += fmt::format("{}({:d},{:d})", s.empty() ? "" : " ", st.dtr, st.rts);
+    if (st.hold.count() > 0) s += fmt::format(" {} ms", st.hold.count());
+  }
+  return s;
+}
+
+// saulctl flash --reset bootloader|app: the reset alone, nothing written (a bench engineer's "hold BOOT, tap
+// RESET" or "tap RESET", done over USB).
+int run_reset(const FlashOptions& opt) {
+  if (!opt.inputs.empty() || !opt.build_dir.empty())
+    throw CLI::ValidationError("--reset", "--reset only resets the board: give no files and no --build-dir");
+  if (opt.no_reset) throw CLI::ValidationError("--reset", "--reset and --no-reset contradict each other");
+  std::optional<saul::host::PortInfo> info;
+  const auto [path, style] = pick_port(opt, info);
+  if (const int rc = check_robot(opt); rc != kOk) return rc;
+  warn_holders(path);
+  auto port = open_board_port(path);
+  if (!port) return kFailure;
+  using saul::host::run_line_sequence;
+  if (opt.reset == "bootloader") {
+    const auto seq = saul::host::bootloader_reset_sequence(style, 0);
+    run_line_sequence(*port, seq, saul::host::sleep_real);
+    fmt::print("reset the {} on {} into download mode: (DTR,RTS) {}; nothing written, the bootloader's answer not "
+               "checked (flash with --no-reset now)\n",
+               board_name(style), path, line_steps(seq));
+    return kOk;
+  }
+  if (style == ResetStyle::usb_uart_bridge) {
+    const auto seq = saul::host::hard_reset_sequence(style);
+    run_line_sequence(*port, seq, saul::host::sleep_real);
+    fmt::print("reset the {} on {} into its application: EN pulse, (DTR,RTS) {}\n", board_name(style), path,
+               line_steps(seq));
+    return kOk;
+  }
+  // IO board: a USB-Serial/JTAG RTS reset is a core reset that leaves a chip in download mode there. When a
+  // loader answers, leave download mode as a flash does (RTC watchdog); otherwise the application is running and
+  // the RTS reset restarts it.
+  saul::host::FlasherOptions fo;
+  fo.reset = style;
+  fo.reset_before = false;
+  fo.connect_attempts = 1;
+  fo.cancelled = [] { return g_interrupted.load(); };
+  saul::host::EspFlasher flasher(*port, fo);
+  try {
+    flasher.connect();
+  } catch (const FlashError& e) {
+    if (e.kind() != FlashError::Kind::no_answer) throw;
+    const auto seq = saul::host::hard_reset_sequence(style);
+    run_line_sequence(*port, seq, saul::host::sleep_real);
+    fmt::print("no bootloader answered on {}: restarted the {}'s application by the USB-Serial/JTAG reset, "
+               "(DTR,RTS) {}\n",
+               path, board_name(style), line_steps(seq));
+    return kOk;
+  }
+  flasher.reset_to_app();
+  fmt::print("the {} on {} left download mode ({})\n", board_name(style), path,
+             flasher.chip().usb_serial_jtag ? "RTC watchdog system reset: re-samples GPIO0" : "EN pulse on RTS");
+  return kOk;
+}
+
+int run_flash(const FlashOptions& opt) {
+  if (!opt.reset.empty()) return run_reset(opt);
+  saul::host::FlashPlan plan = build_plan(opt);
+  std::optional<saul::host::PortInfo> info;
+  const auto [path, style] = pick_port(opt, info);
+
+  if (const int rc = check_robot(opt); rc != kOk) return rc;
+
+  warn_holders(path);
+  fmt::print("flashing the {} on {} ({}): {} region(s), flash {} ({})\n", board_name(style), path,
+             saul::host::to_string(style), plan.images.size(), mb(plan.flash_size), plan.flash_size_source);
+
+  auto port = open_board_port(path);
+  if (!port) return kFailure;
 
   ProgressBar bar(plan.images.size());
   saul::host::FlasherOptions fo;
@@ -397,6 +470,10 @@ void add_flash_command(CLI::App& app, Runner& run) {
   cmd->add_flag("--no-compress", o->no_compress, "send the image uncompressed (FLASH_DATA instead of FLASH_DEFL_DATA)");
   cmd->add_flag("--force", o->force, "write regions even when their flash MD5 already matches");
   cmd->add_flag("--no-reset", o->no_reset, "the board is already in download mode (BOOT held, RESET tapped)");
+  cmd->add_option("--reset", o->reset,
+                  "only reset the board, write nothing: bootloader (into download mode) | app (into its "
+                  "application)")
+      ->check(CLI::IsMember({"bootloader", "app"}));
   cmd->add_option("--connect-attempts", o->connect_attempts, "resets into the bootloader before giving up")
       ->capture_default_str()
       ->check(CLI::Range(1, 20));
@@ -412,6 +489,9 @@ void add_flash_command(CLI::App& app, Runner& run) {
       "  saulctl flash --board balance --build-dir firmware/balance/build --link can0\n"
       "  saulctl flash --board io build/saul_io.bin                 # at 0x10000\n"
       "  saulctl flash --board balance 0x0 bootloader.bin 0x8000 partition-table.bin 0x10000 app.bin\n"
+      "  saulctl flash --board balance --reset bootloader          # only the DTR/RTS reset into download mode\n"
+      "\n--reset app: BALANCE, the EN pulse on RTS; IO, a watchdog reset through the ROM loader when it answers,\n"
+      "else the USB-Serial/JTAG reset (restarts a running application). The robot check applies as for a flash.\n"
       "\nExit codes: 0 flashed and verified, 1 failure (wrong chip, file, verify, port gone: regions UNVERIFIED),\n"
       "2 usage, 3 no answer (no bootloader, or no acknowledgement from the robot).\n");
   cmd->callback([o, &run] {

@@ -19,8 +19,9 @@
 # Steps: find the tools; fetch Debian's kernel package once (apt-get download, dpkg-deb -x: nothing installed) into
 # DIR/vm/kernel; build saulctl and tests/vm/guest (statically with cmake -DSAUL_STATIC=ON in DIR/vm-static, or
 # with --dynamic in DIR itself); pack a busybox initramfs with them, the kernel modules (order from
-# modprobe --show-depends), candump/cansend and the libraries ldd names; boot once; read the guest's marker lines
-# from the console and its verdict from isa-debug-exit.
+# modprobe --show-depends), candump/cansend and the libraries ldd names; boot once, QEMU tracing the modem lines of
+# ttyS1/ttyUSB0 into DIR/vm/modem-trace.log; read the guest's marker lines from the console and its verdict from
+# isa-debug-exit; check the ESP flasher's DTR/RTS sequences in the trace (tests/vm/check_modem_lines.py).
 # Exit status 0 only when the guest ran every test and all passed.
 set -euo pipefail
 
@@ -69,6 +70,7 @@ need dpkg-deb dpkg
 need cmake cmake
 need ninja ninja-build
 need strip binutils
+need python3 python3  # tests/vm/check_modem_lines.py
 busybox=/bin/busybox
 [[ -x $busybox ]] || die "$busybox not found: install the Debian package busybox-static"
 if ldd "$busybox" >/dev/null 2>&1; then
@@ -232,6 +234,10 @@ append="console=ttyS0 quiet loglevel=3 panic=-1"
 [[ -n $only ]] && append+=" saulvm.only=$only"
 ((verbose)) && append+=" saulvm.verbose=1"
 console="$vm/console.log"
+# DTR/RTS of the guest's ttyS1 and ttyUSB0, which no socket carries: QEMU's trace of every 8250 register write and
+# every FTDI control request, host-timestamped (-msg timestamp=on: "PID@SEC.USEC:event ..."), one file for both.
+modem_trace="$vm/modem-trace.log"
+rm -f "$modem_trace"
 set +e
 timeout -k 5 "$boot_timeout" qemu-system-x86_64 \
   -machine q35,accel=tcg -smp 1 -m 256M -nographic -no-reboot -net none \
@@ -243,6 +249,7 @@ timeout -k 5 "$boot_timeout" qemu-system-x86_64 \
   -device qemu-xhci,id=xhci \
   -chardev "socket,id=u1,path=$sock/usb,server=on,wait=off" \
   -device usb-serial,bus=xhci.0,chardev=u1,serial=SAULVM01,always-plugged=on \
+  -msg timestamp=on -D "$modem_trace" -trace enable=serial_write -trace enable=usb_serial_handle_control \
   </dev/null >"$console" 2>"$vm/qemu.err"
 qemu_rc=$?
 set -e
@@ -276,6 +283,25 @@ if [[ -z $done_line ]]; then
 elif [[ $qemu_rc == 1 && $failed != 0 ]] || [[ $qemu_rc == 3 && $failed == 0 ]]; then
   echo "vm: the guest's verdict (QEMU status $qemu_rc) disagrees with its markers"
   failed=$((failed + 1))
+fi
+# The flasher's reset sequences: the guest names the windows it bracketed ("@@VM MODEM CODE CASE"), the checker
+# rebuilds DTR/RTS from QEMU's trace and compares them with each case's expected sequence (on the host: the guest
+# cannot see its own modem lines).
+modem_cases=$(sed -n 's/^@@VM MODEM \([0-9]*\) \([a-z0-9-]*\)$/\1:\2/p' "$vm/markers.log")
+if [[ -n $modem_cases ]]; then
+  modem_opts=()
+  ((verbose)) && modem_opts+=(--verbose)
+  # shellcheck disable=SC2086  # one CODE:CASE per word
+  python3 "$root/tests/vm/check_modem_lines.py" "$modem_trace" $modem_cases "${modem_opts[@]}" \
+    >"$vm/modem-check.log" 2>&1 || true
+  sed 's/^/  /' "$vm/modem-check.log"
+  mpass=$(grep -c '^pass ' "$vm/modem-check.log" || true)
+  mfail=$(grep -c '^FAIL ' "$vm/modem-check.log" || true)
+  mwant=$(wc -w <<<"$modem_cases")
+  # A verdict per case, or the checker itself broke (its output above says how).
+  ((mpass + mfail == mwant)) || mfail=$((mwant - mpass))
+  passed=$((passed + mpass))
+  failed=$((failed + mfail))
 fi
 ((passed + failed > 0)) || failed=1
 ((verbose)) && { echo "vm: console:"; tr -d '\r' <"$console" | sed 's/^/    /'; }

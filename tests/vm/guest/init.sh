@@ -172,6 +172,8 @@ t() {
   # Nothing a test started may outlive it.
   for p in $(cat /tmp/pids 2>/dev/null); do kill -9 "$p" 2>/dev/null; done
   rm -f /tmp/pids
+  # Windows the host's modem-line checker is to look at (see modem_case): passed on to run.sh.
+  grep '^@@VM MODEM ' /tmp/test.out
 }
 
 # ---- SocketCAN on vcan0, can-utils as the independent peer ----------------------------------------------------
@@ -548,6 +550,56 @@ test_slcan_unplugged() {
   show /tmp/err
 }
 
+# ---- the ESP flasher's reset sequences on real modem lines -----------------------------------------------------
+# The guest cannot see its own DTR/RTS; the host can: QEMU traces every write to an 8250 register (MCR, register 4:
+# bit 0 DTR, bit 1 RTS) and every FTDI modem-control request into BUILD/vm/modem-trace.log, and run.sh's checker
+# (tests/vm/check_modem_lines.py) rebuilds the line levels over time from it. The trace does not say which 8250
+# (ttyS0 is the console), so each run is bracketed by a byte written to ttyS1's scratch register (port 0x2FF, which
+# the driver never touches after probing): CODE before, 0xC0 after. "@@VM MODEM CODE CASE" asks the checker to
+# check the window CODE against the sequence it knows as CASE.
+
+scratch() { printf "\\$(printf %o "$1")" | dd of=/dev/port bs=1 seek=767 count=1 2>/dev/null; }
+
+# modem_case CODE CASE WANT_RC COMMAND...: COMMAND in a window; its exit code must be WANT_RC.
+modem_case() {
+  code=$1
+  mcase=$2
+  want=$3
+  shift 3
+  scratch "$code" || die "cannot write the window marker to port 0x2FF"
+  timeout 20 "$@" >/tmp/out 2>/tmp/err
+  rc=$?
+  scratch 192
+  echo "@@VM MODEM $code $mcase"
+  show /tmp/out /tmp/err
+  expect_rc $rc "$want" "$*"
+}
+
+test_modem_flash_balance() {
+  # The whole flash path (plan, port, connect): two attempts, GPIO0 held 50 ms then 550 ms; nothing answers SYNC
+  # (the echo peer sends back garbage), so exit 3.
+  printf 'not an ESP image' >/tmp/app.bin
+  modem_case 193 bridge-flash-2-attempts 3 saulctl flash --board balance --port /dev/ttyS1 --connect-attempts 2 /tmp/app.bin
+  expect_in /tmp/err "never answered the bootloader's SYNC"
+}
+
+test_modem_reset_balance() {
+  modem_case 194 bridge-reset-bootloader 0 saulctl flash --board balance --port /dev/ttyS1 --reset bootloader
+  expect_in /tmp/out "into download mode"
+  modem_case 195 bridge-reset-app 0 saulctl flash --board balance --port /dev/ttyS1 --reset app
+  expect_in /tmp/out "EN pulse"
+}
+
+test_modem_reset_io() {
+  # The USB-Serial/JTAG sequence (a flash's connect() runs the same one: bootloader_reset_sequence, as the
+  # balance case shows for the bridge).
+  modem_case 197 usj-reset-bootloader 0 saulctl flash --board io --port /dev/ttyUSB0 --reset bootloader
+  expect_in /tmp/out "into download mode"
+  # No loader answers, so the application is taken to be running: the USB-Serial/JTAG RTS reset restarts it.
+  modem_case 198 usj-reset-app 0 saulctl flash --board io --port /dev/ttyUSB0 --reset app
+  expect_in /tmp/out "no bootloader answered"
+}
+
 # ---- the run -----------------------------------------------------------------------------------------------------
 
 t "setup: modules, vcan0, serial devices" test_setup
@@ -582,6 +634,9 @@ t "libserialport: 8250 ttyS1 460800 without baud_base is refused, not run at ano
 t "libserialport: 8250 ttyS1 460800 8N1 with baud_base 921600" serial /dev/ttyS1 460800 8N1 921600
 t "libserialport: USB serial ttyUSB0 (FTDI) 115200 8N1, 256 bytes both ways" serial /dev/ttyUSB0 115200 8N1
 t "saulctl: ports lists ttyUSB0, ttyACM0 (CANable2), ttyS1 with USB identity" test_ports
+t "flash: balance on 8250 ttyS1, flash path: ClassicReset twice (modem lines checked on the host)" test_modem_flash_balance
+t "flash: balance on 8250 ttyS1, --reset bootloader and --reset app (modem lines checked on the host)" test_modem_reset_balance
+t "flash: io on FTDI ttyUSB0, --reset bootloader and --reset app (modem lines checked on the host)" test_modem_reset_io
 t "slcan: sniff slcan:/dev/ttyACM0 receives a frame from the fake CANable2" test_slcan_sniff
 t "slcan: mode off writes C S6 O t302100 C exactly" test_slcan_mode_off
 t "slcan: mode off exits 0 on an slcan 0x402 ack" test_slcan_mode_off_acked
