@@ -69,6 +69,16 @@ TEST_CASE("CAN frame lengths on the wire") {
   CanFrame err = frame(0x040, false, {0, 0, 0, 0, 0, 0, 0, 0});
   err.error = true;
   CHECK(can_frame_bits(err, StuffBits::worst_case) == 0);
+  // 29-bit with 8 bytes, the longest frame (VESC STATUS from controller 56, 0x938 FF FF FB 50 00 23 00 FA): 67 + 64 =
+  // 131 bits without stuffing; CRC-15 0x63C6 and 12 stuff bits -> 143 exact (Python model). All 8 bytes zero on
+  // id 0x1FFFFFFF: CRC 0x7DA3, 20 stuff bits -> 151. (Regression: these once overran the bit buffer.)
+  const CanFrame status = frame(0x938, true, {0xFF, 0xFF, 0xFB, 0x50, 0x00, 0x23, 0x00, 0xFA});
+  CHECK(can_frame_bits(status, StuffBits::none) == 131);
+  CHECK(can_crc15(status) == 0x63C6);
+  CHECK(can_frame_bits(status, StuffBits::exact) == 143);
+  const CanFrame zeros29 = frame(0x1FFFFFFF, true, {0, 0, 0, 0, 0, 0, 0, 0});
+  CHECK(can_crc15(zeros29) == 0x7DA3);
+  CHECK(can_frame_bits(zeros29, StuffBits::exact) == 151);
 }
 
 TEST_CASE("bus statistics of a hand-made capture") {

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cassert>
 #include <cmath>
 
 #include "saulproto/core/dispatch.hpp"
@@ -12,9 +13,12 @@ namespace {
 
 /// The bits of a frame from SOF to the end of the data field, as the transmitter sends them before stuffing.
 struct FrameBits {
-  std::uint8_t bits[1 + 32 + 6 + 64]{};  // SOF, arbitration (29-bit worst), control, data
+  // SOF, arbitration (29-bit: 32), control (6), data (64) and the CRC (15) that can_frame_bits() appends. The CRC
+  // was once left out: an 8-byte 29-bit frame (every VESC status) wrote past the end, into n (found by UBSan).
+  std::uint8_t bits[1 + 32 + 6 + 64 + 15]{};
   unsigned n = 0;
   void put(std::uint32_t value, unsigned width) {
+    assert(n + width <= sizeof bits);
     for (unsigned i = width; i-- > 0;) bits[n++] = static_cast<std::uint8_t>((value >> i) & 1U);
   }
 };
