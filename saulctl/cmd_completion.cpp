@@ -1,6 +1,7 @@
 // saulctl completion bash: a bash completion script generated from the CLI11 app itself (its subcommands and their
 // options), so it never falls behind the verbs.
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <memory>
 #include <string>
@@ -29,12 +30,6 @@ void walk(const CLI::App& app, const std::string& path, std::vector<Level>& leve
   for (const CLI::App* sub : subs) walk(*sub, path + "/" + sub->get_name(), levels);
 }
 
-std::string join(const std::vector<std::string>& words) {
-  std::string s;
-  for (const auto& w : words) s += (s.empty() ? "" : " ") + w;
-  return s;
-}
-
 std::string bash_script(const CLI::App& app) {
   std::vector<Level> levels;
   walk(app, "saulctl", levels);
@@ -52,7 +47,7 @@ std::string bash_script(const CLI::App& app) {
   s += "    esac\n";
   s += "  done\n";
   s += "  case \"$path\" in\n";
-  for (const auto& l : levels) s += fmt::format("    {}) words=\"{}\" ;;\n", l.path, join(l.words));
+  for (const auto& l : levels) s += fmt::format("    {}) words=\"{}\" ;;\n", l.path, fmt::join(l.words, " "));
   s += "  esac\n";
   s += "  COMPREPLY=($(compgen -W \"$words\" -- \"$cur\"))\n";
   s += "  if [[ \"$cur\" != -* ]]; then COMPREPLY+=($(compgen -f -- \"$cur\")); fi\n";

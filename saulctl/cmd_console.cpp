@@ -1,6 +1,7 @@
 // saulctl console: the boards' USB debug console (core/console.hpp): one command line out, reply lines back
 // until the board's "ok" or "error: ..." line.
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <iostream>
@@ -140,19 +141,14 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
   return exit_code(reply);
 }
 
-std::string join(const std::vector<std::string>& words) {
-  std::string s;
-  for (const auto& w : words) s += (s.empty() ? "" : " ") + w;
-  return s;
-}
-
 int run_console(const ConsoleOptions& opt) {
   const auto timeout = parse_duration(opt.timeout);
   saul::host::SerialSettings settings;
   settings.baud = opt.baud;
   auto port = saul::host::open_serial(opt.port, settings);
   std::string pending;
-  if (!opt.command.empty()) return one_command(opt, *port, join(opt.command), timeout, pending);
+  if (!opt.command.empty())
+    return one_command(opt, *port, fmt::format("{}", fmt::join(opt.command, " ")), timeout, pending);
 
   // A line loop: interactive on a terminal (with a prompt), else one command per stdin line.
   const bool tty = ::isatty(STDIN_FILENO) != 0;

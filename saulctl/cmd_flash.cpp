@@ -1,6 +1,7 @@
 // saulctl flash: write firmware to the BALANCE or IO board's ESP32-S3 through its ROM bootloader, verify every
 // region by MD5, reset into the application. The protocol work is in saulproto/host/esp_flasher.hpp.
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <climits>
@@ -77,12 +78,6 @@ std::vector<std::string> holders_of(const std::string& device) {
   return out;
 }
 
-std::string join(const std::vector<std::string>& v, const char* sep) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
-
 saul::host::FlashPlan build_plan(const FlashOptions& opt) {
   saul::host::FlashPlan plan;
   if (!opt.build_dir.empty()) {
@@ -155,7 +150,7 @@ std::pair<std::string, ResetStyle> pick_port(const FlashOptions& opt, std::optio
     std::vector<std::string> paths;
     for (const auto& p : found) paths.push_back(p.path + " (serial " + p.serial_number + ")");
     throw FlashError(FlashError::Kind::input,
-                     fmt::format("several {}s found: {}; pick one with --port", board_name(*style), join(paths, ", ")));
+                     fmt::format("several {}s found: {}; pick one with --port", board_name(*style), fmt::join(paths, ", ")));
   }
   info = found[0];
   return {found[0].path, *style};
@@ -288,7 +283,7 @@ void warn_holders(const std::string& path) {
     fmt::print(stderr,
                "saulctl: warning: {} is also open in {}: a serial monitor there would swallow the "
                "bootloader's answers; close it\n",
-               path, join(holders, ", "));
+               path, fmt::join(holders, ", "));
 }
 
 // Opens the board's port at 115200 8N1; nullptr (after saying who holds it) when another program has it.
@@ -298,7 +293,8 @@ std::unique_ptr<saul::host::SerialPort> open_board_port(const std::string& path)
   } catch (const saul::host::SerialError& e) {
     if (e.kind() == saul::host::SerialError::Kind::busy) {
       const auto holders = holders_of(path);
-      fmt::print(stderr, "saulctl: {}{}\n", e.what(), holders.empty() ? "" : " - held by " + join(holders, ", "));
+      fmt::print(stderr, "saulctl: {}{}{}\n", e.what(), holders.empty() ? "" : " - held by ",
+                 fmt::join(holders, ", "));
       return nullptr;
     }
     throw;

@@ -3,6 +3,7 @@
 // the two streaming passes are the host library's (saulproto/host/telemetry_plot.hpp, plot.hpp); this file parses
 // the arguments, picks the output format and writes the file.
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <cctype>
 #include <cstdio>
@@ -27,12 +28,6 @@ struct PlotOptions {
   std::size_t max_markers = saul::host::PlotRequest{}.max_markers;
   SerialCliOptions serial;
 };
-
-std::string join(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
-  return s;
-}
 
 std::string plural(std::uint64_t n, const char* word) { return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s"); }
 
@@ -103,12 +98,12 @@ int run_plot(const PlotOptions& opt) {
   if (plotter.dashboard()) {
     fmt::print(stderr, "saulctl plot: {} over {:.3f} s in {} ({}) written to {}\n",
                plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
-               join(titles), where);
+               fmt::join(titles, ", "), where);
   } else {
     std::vector<std::string> fields;
     for (const auto& panel : plotter.panels()) fields.push_back(panel.series.at(0).field);
     fmt::print(stderr, "saulctl plot: {} points of {} ({}) over {:.3f} s written to {}\n", plotter.messages(),
-               opt.id, join(fields), plotter.points_span_s(), where);
+               opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
   }
   const auto& changes = plotter.changes();
   if (format != "csv" && changes.total() > 0) {

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Sets up (installs missing Debian packages), builds, and runs every test: unit, host, saulctl end to end,
-# and the arm-none-eabi build of the core. This is exactly what CI runs (.ci/run).
+# Sets up (installs missing Debian packages), builds, and runs every test: unit, host, firmware, saulctl end to end,
+# bench suites on the simulator, the real-kernel harness, the arm-none-eabi build of the core and the fuzzers.
+# This is exactly what CI runs (.ci/run).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 scripts/setup.sh
-cmake --preset default -DSAUL_BUILD_TESTS=ON -DSAUL_BUILD_BENCH=ON >/dev/null
-cmake --build --preset default
-ctest --preset default -j "$(nproc)"
+# The preset "test" (CMakePresets.json) builds everything in build-test/ with AddressSanitizer and
+# UndefinedBehaviorSanitizer, so the whole suite runs once under them; the fuzz test adds libFuzzer runs.
+cmake --preset test >/dev/null
+cmake --build --preset test
+ctest --preset test -j "$(nproc)"

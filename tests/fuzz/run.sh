@@ -46,6 +46,7 @@ for t in "${targets[@]}"; do
     printf 'fuzz_%-22s FAIL  %10s executions (exit %d)\n' "$t" "${execs:-?}" "$rc"
     grep -E "ERROR|runtime error|SUMMARY|Test unit written" "$log" | head -8 | sed 's/^/    /'
     echo "    log: $log"
+    echo "    after the fix, keep the input as a regression test: cp $crashes/crash-* $here/regression/$t/"
   fi
 done
 echo "$passed passed, $failed failed"

@@ -5,6 +5,7 @@
 #include <array>
 #include <charconv>
 #include <stdexcept>
+#include "util.hpp"
 
 namespace saul::host {
 namespace {
@@ -16,12 +17,11 @@ constexpr std::array<std::string_view, 12> kMonths = {"Jan", "Feb", "Mar", "Apr"
                                                       "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
 constexpr std::array<std::string_view, 7> kWeekdays = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
 
-char lower(char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; }
 
 bool iequals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i)
-    if (lower(a[i]) != lower(b[i])) return false;
+    if (detail::ascii_lower(a[i]) != detail::ascii_lower(b[i])) return false;
   return true;
 }
 
@@ -35,7 +35,7 @@ bool all_digits(std::string_view s) {
 bool hex_digits(std::string_view s) {
   if (s.empty()) return false;
   for (char c : s) {
-    const char l = lower(c);
+    const char l = detail::ascii_lower(c);
     if (!((l >= '0' && l <= '9') || (l >= 'a' && l <= 'f'))) return false;
   }
   return true;

@@ -14,18 +14,18 @@
 #include "saulproto/host/pcap.hpp"
 #include "saulproto/host/pcapng.hpp"
 #include "saulproto/host/serial_capture.hpp"
+#include "util.hpp"
 
 namespace saul::host {
 namespace {
 
 constexpr std::size_t kHeadBytes = 4096;
 
-char lower(char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; }
 
 bool starts_with_nocase(std::string_view s, std::string_view prefix) {
   if (s.size() < prefix.size()) return false;
   for (std::size_t i = 0; i < prefix.size(); ++i)
-    if (lower(s[i]) != prefix[i]) return false;
+    if (detail::ascii_lower(s[i]) != prefix[i]) return false;
   return true;
 }
 
@@ -244,7 +244,7 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   std::array<char, 8> ext{};
   const std::string_view e = base.substr(dot + 1);
   if (e.size() > ext.size()) return std::nullopt;
-  for (std::size_t i = 0; i < e.size(); ++i) ext[i] = lower(e[i]);
+  for (std::size_t i = 0; i < e.size(); ++i) ext[i] = detail::ascii_lower(e[i]);
   const std::string_view x(ext.data(), e.size());
   if (x == "log" || x == "candump") return CaptureFormat::candump;
   if (x == "pcap" || x == "cap") return CaptureFormat::pcap;

@@ -10,6 +10,9 @@
 
 namespace saul::host::detail {
 
+/// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
+inline constexpr std::uint32_t kSnaplen = 0xFFFF;
+
 inline std::uint16_t load_u16(const std::uint8_t* p, bool big) noexcept {
   return big ? static_cast<std::uint16_t>(p[0] << 8 | p[1]) : static_cast<std::uint16_t>(p[1] << 8 | p[0]);
 }

@@ -19,7 +19,6 @@ constexpr std::size_t kCanFdMtu = 72;
 
 constexpr std::uint32_t kMagicMicro = 0xA1B2'C3D4;
 constexpr std::uint32_t kMagicNano = 0xA1B2'3C4D;
-constexpr std::uint32_t kSnaplen = 0xFFFF;
 /// A record longer than this cannot be a CAN packet nor anything sane; its length field is taken as garbage.
 constexpr std::uint32_t kMaxRecord = 256 * 1024;
 
@@ -150,7 +149,7 @@ PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : out_(out)
   detail::store_u16le(h.data() + 4, 2);
   detail::store_u16le(h.data() + 6, 4);
   // thiszone and sigfigs stay 0
-  detail::store_u32le(h.data() + 16, kSnaplen);
+  detail::store_u32le(h.data() + 16, detail::kSnaplen);
   detail::store_u32le(h.data() + 20, kLinktypeCanSocketcan);
   detail::write_bytes(out_, h.data(), h.size());
   if (!out_) throw std::runtime_error("pcap: write failed");

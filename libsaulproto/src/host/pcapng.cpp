@@ -27,7 +27,6 @@ constexpr std::uint16_t kShbUserAppl = 4;
 constexpr std::uint16_t kIfName = 2;
 constexpr std::uint16_t kIfTsresol = 9;
 constexpr std::uint16_t kIfTsoffset = 14;
-constexpr std::uint32_t kSnaplen = 0xFFFF;
 
 constexpr std::uint64_t kNsPerSec = 1'000'000'000ULL;
 
@@ -307,7 +306,7 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
     BlockBuilder b(kIdb);
     b.u16(static_cast<std::uint16_t>(kLinktypeCanSocketcan));
     b.u16(0);
-    b.u32(kSnaplen);
+    b.u32(detail::kSnaplen);
     b.option(kIfName, as_bytes(interface));
     const std::array<std::uint8_t, 1> nanoseconds{9};
     b.option(kIfTsresol, nanoseconds);

@@ -5,16 +5,10 @@
 #include <type_traits>
 
 #include "saulproto/host/format.hpp"
+#include "util.hpp"
 
 namespace saul::host {
 namespace {
-
-template <class... Ts>
-struct Overload : Ts... {
-  using Ts::operator()...;
-};
-template <class... Ts>
-Overload(Ts...) -> Overload<Ts...>;
 
 std::string hex(std::span<const std::uint8_t> bytes) {
   std::string s;
@@ -62,7 +56,7 @@ std::vector<std::string> names_of(const Variant& message) {
 }  // namespace
 
 std::string name_of(const SerialMessage& message) {
-  return std::visit(Overload{[](const interboard::Message& m) -> std::string { return interboard::name_of(m); },
+  return std::visit(detail::Overload{[](const interboard::Message& m) -> std::string { return interboard::name_of(m); },
                              [](const crsf::Message& m) -> std::string { return crsf::name_of(m); },
                              [](const pride::Message& m) -> std::string { return pride::name_of(m); },
                              [](const CrsfUndecoded& u) { return fmt::format("crsf_0x{:02X}", u.frame.type); }},
@@ -70,7 +64,7 @@ std::string name_of(const SerialMessage& message) {
 }
 
 std::string describe(const SerialMessage& message) {
-  return std::visit(Overload{[](const interboard::Message& m) { return describe(m); },
+  return std::visit(detail::Overload{[](const interboard::Message& m) { return describe(m); },
                              [](const crsf::Message& m) { return describe(m); },
                              [](const pride::Message& m) { return describe(m); },
                              [](const CrsfUndecoded& u) {
@@ -82,7 +76,7 @@ std::string describe(const SerialMessage& message) {
 }
 
 nlohmann::json to_json(const SerialMessage& message) {
-  return std::visit(Overload{[](const interboard::Message& m) { return to_json(m); },
+  return std::visit(detail::Overload{[](const interboard::Message& m) { return to_json(m); },
                              [](const crsf::Message& m) { return to_json(m); },
                              [](const pride::Message& m) { return to_json(m); },
                              [&message](const CrsfUndecoded& u) {
@@ -115,7 +109,7 @@ SerialStreamDecoder::SerialStreamDecoder(SerialProtocol protocol) : protocol_(pr
 
 void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callback& on_message) {
   extra_.bytes += bytes.size();
-  std::visit(Overload{[](std::monostate&) {},
+  std::visit(detail::Overload{[](std::monostate&) {},
                       [&](interboard::StreamDecoder& d) {
                         d.push(bytes, [&](const interboard::Message& m) { on_message(SerialMessage(m)); });
                       },
@@ -141,7 +135,7 @@ void SerialStreamDecoder::note_uart_errors(std::uint8_t errors) {
 }
 
 void SerialStreamDecoder::finish(const Callback& on_message) {
-  std::visit(Overload{[](std::monostate&) {},
+  std::visit(detail::Overload{[](std::monostate&) {},
                       [&](interboard::StreamDecoder& d) {
                         if (d.pending() > 0) ++extra_.incomplete;
                         d.drop_partial();
@@ -166,7 +160,7 @@ void SerialStreamDecoder::finish(const Callback& on_message) {
 
 SerialDecodeCounters SerialStreamDecoder::counters() const {
   SerialDecodeCounters c = extra_;
-  std::visit(Overload{[](const std::monostate&) {},
+  std::visit(detail::Overload{[](const std::monostate&) {},
                       [&](const interboard::StreamDecoder& d) {
                         const auto& k = d.counters();
                         c.frames = k.frames;
@@ -331,7 +325,7 @@ std::optional<double> numeric_field(const BusMessage& message, std::string_view 
 }
 
 std::optional<double> numeric_field(const SerialMessage& message, std::string_view field) {
-  return std::visit(Overload{[&](const interboard::Message& m) { return field_of(m, field); },
+  return std::visit(detail::Overload{[&](const interboard::Message& m) { return field_of(m, field); },
                              [&](const crsf::Message& m) { return field_of(m, field); },
                              [&](const pride::Message& m) { return field_of(m, field); },
                              [](const CrsfUndecoded&) -> std::optional<double> { return std::nullopt; }},
@@ -341,7 +335,7 @@ std::optional<double> numeric_field(const SerialMessage& message, std::string_vi
 std::vector<std::string> numeric_field_names(const BusMessage& message) { return names_of(message); }
 
 std::vector<std::string> numeric_field_names(const SerialMessage& message) {
-  return std::visit(Overload{[](const interboard::Message& m) { return names_of(m); },
+  return std::visit(detail::Overload{[](const interboard::Message& m) { return names_of(m); },
                              [](const crsf::Message& m) { return names_of(m); },
                              [](const pride::Message& m) { return names_of(m); },
                              [](const CrsfUndecoded&) { return std::vector<std::string>{}; }},

@@ -10,16 +10,10 @@
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/pride.hpp"
 #include "saulproto/core/rc_input.hpp"
+#include "util.hpp"
 
 namespace saul::host {
 namespace {
-
-template <class... F>
-struct Overload : F... {
-  using F::operator()...;
-};
-template <class... F>
-Overload(F...) -> Overload<F...>;
 
 // The line settings of each link (docs/protocol.md: inter-board §2, CRSF §7, Pride §8).
 constexpr std::uint32_t kInterboardBaud = 460'800;
@@ -140,7 +134,7 @@ class ChunkCutter {
 
 bool can_move_motors(const SerialMessage& message) {
   return std::visit(
-      Overload{[](const interboard::Message& m) {
+      detail::Overload{[](const interboard::Message& m) {
                  const auto* rc = std::get_if<interboard::RcCmd>(&m);
                  return rc != nullptr && !rc->kill();
                },
