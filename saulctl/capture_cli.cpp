@@ -1,6 +1,10 @@
 #include "capture_cli.hpp"
 
+#include <fmt/core.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdlib>
 
 namespace saulctl {
 
@@ -45,6 +49,40 @@ saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& option
 std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options) {
   if (options.protocol.empty()) return std::nullopt;
   return saul::host::serial_protocol_from_name(options.protocol);
+}
+
+Progress::Progress(std::string verb, bool stdout_carries_records)
+    : verb_(std::move(verb)), start_(std::chrono::steady_clock::now()), last_(start_) {
+  const char* env = std::getenv("SAUL_PROGRESS");
+  const std::string setting = env ? env : "";
+  forced_ = setting == "1";
+  enabled_ = forced_ || (setting != "0" && isatty(STDERR_FILENO) && !(stdout_carries_records && isatty(STDOUT_FILENO)));
+}
+
+void Progress::draw(std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
+  using namespace std::chrono;
+  const auto now = steady_clock::now();
+  if (!forced_ && (now - start_ < milliseconds(500) || now - last_ < milliseconds(250))) return;
+  last_ = now;
+  const double seconds = duration<double>(now - start_).count();
+  std::string where;
+  if (bytes_total && *bytes_total > 0) {
+    const double share = std::min(1.0, static_cast<double>(bytes_read) / static_cast<double>(*bytes_total));
+    where = fmt::format("{:.0f}% of {:.1f} MB, ", 100.0 * share, static_cast<double>(*bytes_total) / 1e6);
+  } else {
+    where = fmt::format("{:.1f} MB, ", static_cast<double>(bytes_read) / 1e6);
+  }
+  // \r and erase-to-end-of-line: the line is redrawn in place and never scrolls.
+  fmt::print(stderr, "\r{}: {}{} records, {:.1f} s\x1b[K", verb_, where, records_, seconds);
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+void Progress::finish() {
+  if (!drawn_) return;
+  fmt::print(stderr, "\r\x1b[K");
+  std::fflush(stderr);
+  drawn_ = false;
 }
 
 }  // namespace saulctl

@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -24,5 +26,34 @@ saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& option
 std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options);
 /// "10M", "10MHz", "200k", "1000000", "1e6" -> Hz. Throws CLI::ValidationError.
 std::uint64_t parse_rate_hz(const std::string& text);
+
+/// A progress line on stderr for long passes over a capture file, redrawn in place at most 4 times a second:
+///   decode: 42% of 2.8 GB, 12 345 678 records, 3.1 s
+/// Only when stderr is a terminal and, for a verb that prints records to stdout, stdout is not (output redirected
+/// to a file, as for a 10 GB log); nothing for the first half second, so short runs stay quiet. $SAUL_PROGRESS=0
+/// turns it off, =1 forces it on (redrawn at every check: for tests).
+class Progress {
+ public:
+  Progress(std::string verb, bool stdout_carries_records);
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+  ~Progress() { finish(); }
+  /// One record read. Cheap: looks at the clock once every 4096 calls.
+  void update(std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
+    ++records_;
+    if (enabled_ && (records_ & 0xFFF) == 0) draw(bytes_read, bytes_total);
+  }
+  /// Clears the line (also done by the destructor).
+  void finish();
+
+ private:
+  void draw(std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total);
+  std::string verb_;
+  bool enabled_ = false;
+  bool forced_ = false;
+  bool drawn_ = false;
+  std::uint64_t records_ = 0;
+  std::chrono::steady_clock::time_point start_, last_;
+};
 
 }  // namespace saulctl

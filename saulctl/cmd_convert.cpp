@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "capture_cli.hpp"
 #include "commands.hpp"
 #include "saulproto/host/capture.hpp"
 
@@ -16,6 +17,25 @@ struct ConvertOptions {
   std::string in;
   std::string out;
   std::string format;  // output format; empty = from OUT's extension
+};
+
+/// Reads through another reader and draws the progress line (copy_frames() does the reading).
+class ProgressReader final : public saul::host::CaptureReader {
+ public:
+  ProgressReader(saul::host::CaptureReader& inner, Progress& progress) : inner_(inner), progress_(progress) {}
+  Status next() override {
+    const Status st = inner_.next();
+    if (st != Status::end) progress_.update(inner_.bytes_read(), inner_.bytes_total());
+    return st;
+  }
+  [[nodiscard]] const saul::CanFrame& frame() const override { return inner_.frame(); }
+  [[nodiscard]] std::string_view interface() const override { return inner_.interface(); }
+  [[nodiscard]] const saul::host::CaptureError& error() const override { return inner_.error(); }
+  [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
+
+ private:
+  saul::host::CaptureReader& inner_;
+  Progress& progress_;
 };
 
 int run_convert(const ConvertOptions& opt) {
@@ -31,9 +51,13 @@ int run_convert(const ConvertOptions& opt) {
     fmt::print(stderr, "saulctl convert: {}\n", e.what());
     return kFailure;
   }
-  const CopyStats stats = copy_frames(*reader, *writer, [&opt](const CaptureError& error) {
+  Progress progress("convert", false);
+  ProgressReader shown(*reader, progress);
+  const CopyStats stats = copy_frames(shown, *writer, [&opt, &progress](const CaptureError& error) {
+    progress.finish();  // the message gets its own line
     fmt::print(stderr, "saulctl convert: {}\n", format_capture_error(opt.in, error));
   });
+  progress.finish();
   writer->close();
   for (const auto& note : conversion_losses(stats, writer->format()))
     fmt::print(stderr, "saulctl convert: note: {}\n", note);

@@ -62,7 +62,7 @@ std::string csv_quote(const std::string& s) {
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
                             saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt,
-                            std::uint64_t& records) {
+                            std::uint64_t& records, Progress& progress) {
   using namespace saul::host;
   std::optional<std::uint64_t> first, previous;
   std::uint64_t messages = 0;
@@ -96,8 +96,10 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
   for (;;) {
     const auto st = reader.next();
     if (st == SerialCaptureReader::Status::end) break;
+    progress.update(reader.bytes_read(), reader.bytes_total());
     if (st == SerialCaptureReader::Status::corrupt) {
       ++corrupt;
+      progress.finish();  // the message gets its own line; the progress line comes back at the next draw
       fmt::print(stderr, "saulctl decode: {}\n", format_capture_error(path, reader.error()));
       continue;
     }
@@ -128,6 +130,7 @@ int run_decode(const DecodeOptions& opt) {
   bool any_serial = false;
   int status = kOk;
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
+  Progress progress("decode", true);
 
   for (const auto& path : opt.files) {
     // '-' is candump text from standard input; files are any capture format, told by their content.
@@ -139,7 +142,7 @@ int run_decode(const DecodeOptions& opt) {
         auto any = saul::host::open_capture(path, serial_options);
         if (any.chunks) {
           any_serial = true;
-          messages += decode_serial(opt, format, path, *any.chunks, corrupt, records);
+          messages += decode_serial(opt, format, path, *any.chunks, corrupt, records, progress);
           continue;
         }
         opened = std::move(any.frames);
@@ -155,8 +158,10 @@ int run_decode(const DecodeOptions& opt) {
     for (;;) {
       const auto st = reader.next();
       if (st == saul::host::CaptureReader::Status::end) break;
+      progress.update(reader.bytes_read(), reader.bytes_total());
       if (st == saul::host::CaptureReader::Status::corrupt) {
         ++corrupt;
+        progress.finish();
         fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, reader.error()));
         continue;
       }
@@ -204,6 +209,7 @@ int run_decode(const DecodeOptions& opt) {
       }
     }
   }
+  progress.finish();
   if (any_can || !any_serial)
     fmt::print(stderr,
                "saulctl decode: {} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines\n",

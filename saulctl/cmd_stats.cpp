@@ -38,7 +38,10 @@ int run_stats(const StatsOptions& opt) {
     fmt::print(stderr, "saulctl stats: {}\n", e.what());
     return kFailure;
   }
+
+  Progress progress("stats", false);
   auto report_corrupt = [&](const CaptureError& error) {
+    progress.finish();  // the message gets its own line
     fmt::print(stderr, "saulctl stats: {}\n", format_capture_error(opt.file, error));
   };
   if (opened.frames) {
@@ -46,6 +49,7 @@ int run_stats(const StatsOptions& opt) {
     for (;;) {
       const auto st = opened.frames->next();
       if (st == CaptureReader::Status::end) break;
+      progress.update(opened.frames->bytes_read(), opened.frames->bytes_total());
       if (st == CaptureReader::Status::corrupt) {
         stats.add_corrupt();
         report_corrupt(opened.frames->error());
@@ -53,6 +57,7 @@ int run_stats(const StatsOptions& opt) {
       }
       stats.add(opened.frames->frame(), opened.frames->interface());
     }
+    progress.finish();
     if (opt.json) {
       fmt::print("{}\n", stats.json(opt.file).dump());
     } else {
@@ -64,6 +69,7 @@ int run_stats(const StatsOptions& opt) {
   for (;;) {
     const auto st = opened.chunks->next();
     if (st == SerialCaptureReader::Status::end) break;
+    progress.update(opened.chunks->bytes_read(), opened.chunks->bytes_total());
     if (st == SerialCaptureReader::Status::corrupt) {
       stats.add_corrupt();
       report_corrupt(opened.chunks->error());
@@ -71,6 +77,7 @@ int run_stats(const StatsOptions& opt) {
     }
     stats.add(opened.chunks->chunk());
   }
+  progress.finish();
   stats.finish();
   if (opt.json) {
     fmt::print("{}\n", stats.json(opt.file).dump());

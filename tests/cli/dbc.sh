@@ -4,11 +4,7 @@
 set -uo pipefail
 saulctl=$1
 root=$2
-fails=0
-check() {  # check DESCRIPTION COMMAND...
-  local what=$1; shift
-  if "$@"; then echo "ok   $what"; else echo "FAIL $what"; fails=$((fails + 1)); fi
-}
+source "$(dirname "$0")/check.bash"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 

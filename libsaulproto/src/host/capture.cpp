@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cctype>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <streambuf>
 
@@ -35,13 +36,17 @@ class ReplayBuf final : public std::streambuf {
  public:
   ReplayBuf(std::streambuf& source, std::string head) : source_(source), head_(std::move(head)) {
     setg(head_.data(), head_.data(), head_.data() + head_.size());
+    delivered_ = head_.size();
   }
+  /// Bytes taken from the file so far (what the reader consumed, plus at most one buffer).
+  [[nodiscard]] std::uint64_t delivered() const { return delivered_; }
 
  protected:
   int_type underflow() override {
     if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
     const std::streamsize n = source_.sgetn(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     if (n <= 0) return traits_type::eof();
+    delivered_ += static_cast<std::uint64_t>(n);
     setg(buffer_.data(), buffer_.data(), buffer_.data() + n);
     return traits_type::to_int_type(*gptr());
   }
@@ -50,12 +55,14 @@ class ReplayBuf final : public std::streambuf {
   std::streambuf& source_;
   std::string head_;
   std::array<char, 64 * 1024> buffer_{};
+  std::uint64_t delivered_ = 0;
 };
 
 struct FileSource {
   std::filebuf file;
   std::unique_ptr<ReplayBuf> replay;
   std::istream stream{nullptr};
+  std::optional<std::uint64_t> size;  ///< regular files only
 };
 
 /// A reader that owns its file; the format reader works on the file's stream.
@@ -69,6 +76,8 @@ class FileReader final : public CaptureReader {
   [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
   [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
 
  private:
   std::unique_ptr<FileSource> source_;    // declared first: destroyed after the reader of its stream
@@ -84,6 +93,8 @@ class FileSerialReader final : public SerialCaptureReader {
   [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
   [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
 
  private:
   std::unique_ptr<FileSource> source_;
@@ -149,6 +160,11 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
         path));
   source->replay = std::make_unique<ReplayBuf>(source->file, std::move(head));
   source->stream.rdbuf(source->replay.get());
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {
+    const auto size = std::filesystem::file_size(path, ec);
+    if (!ec) source->size = size;
+  }
   return source;
 }
 

@@ -106,6 +106,10 @@ class CaptureReader {
   [[nodiscard]] virtual std::string_view interface() const = 0;
   [[nodiscard]] virtual const CaptureError& error() const = 0;
   [[nodiscard]] virtual CaptureFormat format() const = 0;
+  /// For progress: bytes of the file read so far (up to 64 KiB ahead of the record last returned) and its size.
+  /// Readers of files opened by path know both (a pipe has no size); readers on a caller's stream say 0 / nullopt.
+  [[nodiscard]] virtual std::uint64_t bytes_read() const { return 0; }
+  [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const { return std::nullopt; }
 };
 
 /// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own

@@ -85,6 +85,9 @@ class SerialCaptureReader {
   [[nodiscard]] virtual const SerialChunk& chunk() const = 0;
   [[nodiscard]] virtual const CaptureError& error() const = 0;
   [[nodiscard]] virtual CaptureFormat format() const = 0;
+  /// For progress, as CaptureReader::bytes_read() and bytes_total().
+  [[nodiscard]] virtual std::uint64_t bytes_read() const { return 0; }
+  [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const { return std::nullopt; }
 };
 
 /// Appends chunks. Only our serial log is writable.
