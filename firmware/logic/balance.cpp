@@ -97,8 +97,10 @@ void BalanceBoard::step(TimeUs now) noexcept {
 void BalanceBoard::read_imu(TimeUs now) noexcept {
   ImuSample sample;
   bool accepted = false;
-  for (int i = 0; i < 16 && hw_.imu.read(sample); ++i)
+  for (int i = 0; i < 16 && hw_.imu.read(sample); ++i) {
+    sample.ax -= base_accel_g_;  // the base's own acceleration is not tilt (small-angle: x axis only)
     if (filter_.update(sample)) accepted = true;
+  }
   if (accepted) {  // freshness by the sample's own timestamp: a backlog read late is not fresh data
     imu_ok_us_ = filter_.last_us() > now ? now : filter_.last_us();
     imu_ever_ = true;
@@ -476,6 +478,14 @@ void BalanceBoard::control(TimeUs now) noexcept {
   }
   wheel_left_mmps_ = whole_mmps(left, cap);
   wheel_right_mmps_ = whole_mmps(right, cap);
+  if (config_.drive_tau_s > 0.0F && dt > 0.0F) {
+    const float target = static_cast<float>(wheel_left_mmps_ + wheel_right_mmps_) * 0.5e-3F;  // m/s
+    float a = (target - base_speed_model_mps_) / config_.drive_tau_s;
+    const float limit = config_.drive_max_accel_mps2;
+    a = a > limit ? limit : (a < -limit ? -limit : a);
+    base_speed_model_mps_ += a * dt;
+    base_accel_g_ = a / 9.80665F;
+  }
 
   const bool change = drive != wheels_driving_;  // starting or, above all, stopping: at once
   wheels_driving_ = drive;

@@ -532,6 +532,7 @@ TEST_CASE("a VESC that reported STATUS and went silent is a motor fault, while a
 TEST_CASE("balance mode: the PID drives the wheels toward the fall, within the cap") {
   BalanceConfig c;
   c.gains = {20.0F, 0.0F, 0.0F};
+  c.drive_tau_s = 0.0F;  // this rig's IMU does not feel the wheels' acceleration: leave the compensation out
   BalanceRig rig(c);
   settled(rig);
   rig.pitch = -3.0F;  // nose down: drive forward

@@ -50,6 +50,11 @@ struct BalanceConfig {
   float integral_limit = 300.0F;               ///< permille
   float filter_tau_s = 0.5F;                   ///< complementary filter time constant
   float pitch_setpoint_deg = 0.0F;             ///< the balance point
+  /// The VESCs' speed loop as a first-order lag (s) and their acceleration limit: the base's acceleration is
+  /// estimated from the commanded wheel speed through them and taken out of the accelerometer before the filter,
+  /// which would otherwise read a steadily accelerating base as tilt (the drift into the speed cap). 0: off.
+  float drive_tau_s = 0.05F;
+  float drive_max_accel_mps2 = 6.0F;
   // limits
   std::uint16_t tilt_limit_x100 = 2500;        ///< power-on tilt cutoff, 5.00..25.00 degrees
   std::uint16_t upright_x100 = 500;            ///< |pitch| for arming
@@ -201,6 +206,8 @@ class BalanceBoard {
   bool imu_stalled_ = false;
   std::int16_t pid_out_ = 0;
   TimeUs control_us_ = 0;
+  float base_speed_model_mps_ = 0.0F;  // the wheels' speed as the drive_tau_s model expects it
+  float base_accel_g_ = 0.0F;          // and their acceleration, in g, subtracted from the accelerometer's x
   std::int32_t wheel_left_mmps_ = 0;
   std::int32_t wheel_right_mmps_ = 0;
   bool wheels_driving_ = false;
