@@ -21,6 +21,20 @@ std::uint64_t position(std::ofstream& file) {
   return p < 0 ? 0 : static_cast<std::uint64_t>(p);
 }
 
+/// Closes a format writer and then its file, and reports the first failure of either with the file's name.
+template <class Writer>
+void close_both(Writer& writer, std::ofstream& file, const std::string& path) {
+  std::string failure;
+  try {
+    writer.close();
+  } catch (const std::runtime_error& e) {
+    failure = e.what();
+  }
+  file.close();
+  if (failure.empty() && file.fail()) failure = std::strerror(errno);
+  if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, failure));
+}
+
 }  // namespace
 
 std::string numbered_path(const std::string& path, unsigned index) {
@@ -86,15 +100,7 @@ RotatingCaptureWriter::~RotatingCaptureWriter() {
 std::uint64_t RotatingCaptureWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
 
 void RotatingCaptureWriter::close_current() {
-  std::string failure;
-  try {
-    inner_->close();
-  } catch (const std::runtime_error& e) {
-    failure = e.what();
-  }
-  file_->close();
-  if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-  if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, failure));
+  close_both(*inner_, *file_, current_path_);
 }
 
 void RotatingCaptureWriter::open_next() {
@@ -158,15 +164,7 @@ RotatingSerialWriter::~RotatingSerialWriter() {
 std::uint64_t RotatingSerialWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
 
 void RotatingSerialWriter::close_current() {
-  std::string failure;
-  try {
-    inner_->close();
-  } catch (const std::runtime_error& e) {
-    failure = e.what();
-  }
-  file_->close();
-  if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-  if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, failure));
+  close_both(*inner_, *file_, current_path_);
 }
 
 void RotatingSerialWriter::open_next() {
