@@ -1,5 +1,5 @@
 // Capture decoding throughput: a generated in-memory candump log of 1 000 000 lines read by the host candump reader
-// (saulproto/host/candump.hpp) and every frame decoded by the bus dispatch (decode_bus_frame), as `saulctl decode`
+// (saulproto/host/capture/candump.hpp) and every frame decoded by the bus dispatch (decode_bus_frame), as `saulctl decode`
 // does before formatting. Reports frames/s. Run: build/bench/saul_bench --benchmark_filter=CandumpDecode
 #include <benchmark/benchmark.h>
 
@@ -8,7 +8,7 @@
 #include <string>
 
 #include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/candump.hpp"
+#include "saulproto/host/capture/candump.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <optional>
 #include <string>
 
-#include "saulproto/host/serial_capture.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
 
 namespace saulctl {
 

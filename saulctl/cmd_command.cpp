@@ -8,7 +8,7 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/robot_client.hpp"
+#include "saulproto/host/robot/robot_client.hpp"
 
 namespace saulctl {
 namespace {

@@ -12,7 +12,7 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/console.hpp"
-#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
 namespace {

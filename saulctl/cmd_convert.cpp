@@ -1,5 +1,5 @@
 // saulctl convert: rewrite a capture file in another format (candump, pcap, pcapng, Vector ASC).
-// All the work is in the host library (saulproto/host/capture.hpp); this file parses arguments and reports.
+// All the work is in the host library (saulproto/host/capture/capture.hpp); this file parses arguments and reports.
 #include <fmt/core.h>
 
 #include <memory>
@@ -8,7 +8,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
-#include "saulproto/host/capture.hpp"
+#include "saulproto/host/capture/capture.hpp"
 
 namespace saulctl {
 namespace {

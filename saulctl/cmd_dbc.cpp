@@ -1,12 +1,12 @@
 // saulctl dbc: writes the DBC of the robot's bus (SAUL frames and the VESC frames), made by the host library
-// (saulproto/host/dbc.hpp), for cantools, SavvyCAN and CANalyzer.
+// (saulproto/host/report/dbc.hpp), for cantools, SavvyCAN and CANalyzer.
 #include <fmt/core.h>
 
 #include <fstream>
 #include <memory>
 
 #include "commands.hpp"
-#include "saulproto/host/dbc.hpp"
+#include "saulproto/host/report/dbc.hpp"
 
 namespace saulctl {
 namespace {

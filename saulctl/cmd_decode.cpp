@@ -10,11 +10,11 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/candump.hpp"
-#include "saulproto/host/capture.hpp"
-#include "saulproto/host/format.hpp"
-#include "saulproto/host/serial_capture.hpp"
-#include "saulproto/host/serial_decode.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/format.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+#include "saulproto/host/report/serial_decode.hpp"
 
 namespace saulctl {
 namespace {

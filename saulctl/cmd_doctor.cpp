@@ -7,9 +7,9 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/can_link.hpp"
-#include "saulproto/host/link_spec.hpp"
-#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
 namespace {

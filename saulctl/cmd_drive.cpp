@@ -9,7 +9,7 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/frame_text.hpp"
+#include "saulproto/host/report/frame_text.hpp"
 
 namespace saulctl {
 namespace {

@@ -1,5 +1,5 @@
 // saulctl flash: write firmware to the BALANCE or IO board's ESP32-S3 through its ROM bootloader, verify every
-// region by MD5, reset into the application. The protocol work is in saulproto/host/esp_flasher.hpp.
+// region by MD5, reset into the application. The protocol work is in saulproto/host/flash/esp_flasher.hpp.
 #include <fmt/core.h>
 #include <fmt/format.h>
 #include <unistd.h>
@@ -13,8 +13,8 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/saul_can.hpp"
-#include "saulproto/host/esp_flasher.hpp"
-#include "saulproto/host/robot_client.hpp"
+#include "saulproto/host/flash/esp_flasher.hpp"
+#include "saulproto/host/robot/robot_client.hpp"
 
 namespace saulctl {
 namespace {

@@ -9,8 +9,8 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/format.hpp"
-#include "saulproto/host/socketcan.hpp"
+#include "saulproto/host/report/format.hpp"
+#include "saulproto/host/link/socketcan.hpp"
 
 namespace saulctl {
 namespace {

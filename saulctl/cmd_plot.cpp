@@ -1,6 +1,6 @@
 // saulctl plot: the telemetry of a capture over time, with the robot's state and fault changes marked, as an SVG,
 // one self-contained HTML page, or CSV. What is drawn (the default dashboard, or the fields of one message) and
-// the two streaming passes are the host library's (saulproto/host/telemetry_plot.hpp, plot.hpp); this file parses
+// the two streaming passes are the host library's (saulproto/host/report/telemetry_plot.hpp, plot.hpp); this file parses
 // the arguments, picks the output format and writes the file.
 #include <fmt/core.h>
 #include <fmt/format.h>
@@ -12,9 +12,9 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
-#include "saulproto/host/capture.hpp"
-#include "saulproto/host/plot.hpp"
-#include "saulproto/host/telemetry_plot.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/plot.hpp"
+#include "saulproto/host/report/telemetry_plot.hpp"
 
 namespace saulctl {
 namespace {

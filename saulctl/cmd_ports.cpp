@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
 

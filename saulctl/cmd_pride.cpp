@@ -6,7 +6,7 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/pride_vcu.hpp"
+#include "saulproto/host/robot/pride_vcu.hpp"
 
 namespace saulctl {
 namespace {

@@ -1,5 +1,5 @@
 // saulctl record: a live CAN bus or serial link into capture files, with rotation, and nothing lost on Ctrl-C.
-// Writing and rotation are in the host library (saulproto/host/recorder.hpp); this file runs the receive loop.
+// Writing and rotation are in the host library (saulproto/host/capture/recorder.hpp); this file runs the receive loop.
 #include <fmt/core.h>
 #include <unistd.h>
 
@@ -9,10 +9,10 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/can_link.hpp"
-#include "saulproto/host/link_spec.hpp"
-#include "saulproto/host/recorder.hpp"
-#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/capture/recorder.hpp"
+#include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
 namespace {

@@ -1,6 +1,6 @@
 // saulctl replay: a CAN capture back onto a bus, or a serial capture back onto a serial port, with its original
 // timing. Scheduling, filters, remapping, the motion rules, the cutting of serial bytes into frames and the lateness
-// statistics are in the host library (saulproto/host/replay.hpp, serial_replay.hpp); this file asks, opens the link
+// statistics are in the host library (saulproto/host/replay/replay.hpp, serial_replay.hpp); this file asks, opens the link
 // and reports.
 #include <fmt/core.h>
 #include <unistd.h>
@@ -11,14 +11,14 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/candump.hpp"
-#include "saulproto/host/capture.hpp"
-#include "saulproto/host/frame_text.hpp"
-#include "saulproto/host/link_spec.hpp"
-#include "saulproto/host/replay.hpp"
-#include "saulproto/host/serial_capture.hpp"
-#include "saulproto/host/serial_port.hpp"
-#include "saulproto/host/serial_replay.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/frame_text.hpp"
+#include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/replay/replay.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+#include "saulproto/host/link/serial_port.hpp"
+#include "saulproto/host/replay/serial_replay.hpp"
 
 namespace saulctl {
 namespace {

@@ -9,10 +9,10 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/core/interboard.hpp"
-#include "saulproto/host/bus_stats.hpp"
-#include "saulproto/host/format.hpp"
-#include "saulproto/host/frame_text.hpp"
-#include "saulproto/host/socketcan.hpp"
+#include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/report/format.hpp"
+#include "saulproto/host/report/frame_text.hpp"
+#include "saulproto/host/link/socketcan.hpp"
 
 namespace saulctl {
 namespace {

@@ -1,14 +1,14 @@
 // saulctl stats: what a capture holds, in one streaming pass: per id (or serial message type) counts, rates and
 // longest silences, error frames, decode errors, bus load from each frame's real length on the wire.
-// The arithmetic lives in the host library (saulproto/host/bus_stats.hpp).
+// The arithmetic lives in the host library (saulproto/host/report/bus_stats.hpp).
 #include <fmt/core.h>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/bus_stats.hpp"
-#include "saulproto/host/capture.hpp"
-#include "saulproto/host/serial_capture.hpp"
+#include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
 
 namespace saulctl {
 namespace {

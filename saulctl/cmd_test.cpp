@@ -6,7 +6,7 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/bench_live.hpp"
+#include "saulproto/host/bench/bench_live.hpp"
 #include "saulsim/sim_target.hpp"
 
 namespace saulctl {

@@ -9,8 +9,8 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "saulproto/host/can_link.hpp"
-#include "saulproto/host/serial_port.hpp"
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
 

@@ -8,7 +8,7 @@
 #include <chrono>
 #include <string>
 
-#include "saulproto/host/link_spec.hpp"
+#include "saulproto/host/link/link_spec.hpp"
 
 namespace saulctl {
 

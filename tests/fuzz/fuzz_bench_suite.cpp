@@ -3,7 +3,7 @@
 #include <string>
 
 #include "fuzz_util.hpp"
-#include "saulproto/host/bench_test.hpp"
+#include "saulproto/host/bench/bench_test.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace saul::host::benchtest;

@@ -4,7 +4,7 @@
 #include <string>
 
 #include "fuzz_util.hpp"
-#include "saulproto/host/capture.hpp"
+#include "saulproto/host/capture/capture.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace saul::host;

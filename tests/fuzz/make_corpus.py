@@ -92,7 +92,7 @@ put("serial_serial", "pride", read("captures/pride_uart.serial"))
 put("serial_sigrok", "interboard", read("captures/interboard_uart.sigrok.txt"))
 put("serial_sigrok", "pride", read("captures/pride_uart.sigrok.txt"))
 put("serial_sigrok_json", "pride", read("captures/pride_uart.sigrok.json"))
-text = read("tests/host/test_serial_capture.cpp").decode()
+text = read("tests/host/capture/test_serial_capture.cpp").decode()
 m = re.search(r'"(Sample,Time,Decoder[^"]*)"((?:\s*"[^"]*")*)', text)
 if m:
     csv = m.group(1) + "".join(re.findall(r'"([^"]*)"', m.group(2)))

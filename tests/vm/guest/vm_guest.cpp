@@ -34,9 +34,9 @@
 #include <thread>
 #include <vector>
 
-#include "saulproto/host/candump.hpp"
-#include "saulproto/host/serial_port.hpp"
-#include "saulproto/host/socketcan.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/link/serial_port.hpp"
+#include "saulproto/host/link/socketcan.hpp"
 
 namespace {
 

@@ -4,7 +4,7 @@
 
 #include <deque>
 
-#include "saulproto/host/bench_test.hpp"
+#include "saulproto/host/bench/bench_test.hpp"
 #include "saulsim/world.hpp"
 
 namespace saul::sim {

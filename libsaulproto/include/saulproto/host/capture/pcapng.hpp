@@ -1,0 +1,80 @@
+// pcapng capture files whose interfaces have LINKTYPE_CAN_SOCKETCAN (227), as Wireshark, tshark and python-can
+// read them. Packets are the same as in pcap (pcap.hpp: CAN id big-endian, payload_length authoritative).
+//
+// Reading: Section Header Blocks in either byte order (a file may hold several sections), Interface Description
+// Blocks with if_name, if_tsresol (powers of 10 and of 2) and if_tsoffset, Enhanced Packet Blocks. Unknown block
+// types and packets of non-CAN interfaces are skipped by their length. A block with bad content but a sane length
+// is reported and skipped; a block length that is not a multiple of 4 (or below 12) or a file that ends inside a
+// block stops reading. An interface without if_name reads as "can<index>".
+// Writing: one little-endian section; one IDB per interface name at its first frame (if_name, if_tsresol 9 =
+// nanoseconds, snaplen 65535); one EPB per frame with a 16-byte packet.
+#pragma once
+
+#include <cstdint>
+#include <istream>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/capture.hpp"
+
+namespace saul::host {
+
+class PcapngReader final : public CaptureReader {
+ public:
+  /// Reads the first Section Header Block; throws CaptureOpenError when the stream does not start with one.
+  explicit PcapngReader(std::istream& in);
+
+  Status next() override;
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return name_; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
+
+  /// Byte order of the current section.
+  [[nodiscard]] bool big_endian() const noexcept { return big_; }
+
+ private:
+  struct Interface {
+    std::uint16_t linktype = 0;
+    std::uint8_t tsresol = 6;  ///< if_tsresol as stored: bit 7 clear = 10^-n s, set = 2^-n s
+    std::int64_t tsoffset = 0;  ///< if_tsoffset, seconds
+    std::string name;
+  };
+  enum class Step { frame, corrupt, skipped };
+
+  Step block(std::uint64_t start, std::uint32_t type, std::uint32_t length, std::uint32_t header_bytes);
+  Step interface_block(std::uint64_t start);
+  Step packet_block(std::uint64_t start);
+  Step corrupt(std::uint64_t offset, Recovery recovery, std::string message);
+
+  std::istream& in_;
+  std::uint64_t offset_ = 0;
+  bool big_ = false;
+  bool stopped_ = false;
+  std::vector<Interface> interfaces_;
+  std::vector<std::uint8_t> body_;  ///< the block being parsed; bounded by the largest block accepted
+  std::string name_;
+  CanFrame frame_;
+  CaptureError error_;
+};
+
+class PcapngWriter final : public CaptureWriter {
+ public:
+  /// Writes the Section Header Block at once.
+  explicit PcapngWriter(std::ostream& out);
+
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
+
+ private:
+  std::ostream& out_;
+  std::vector<std::string> interfaces_;  ///< index = pcapng interface id
+  bool closed_ = false;
+};
+
+}  // namespace saul::host

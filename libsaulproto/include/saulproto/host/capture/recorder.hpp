@@ -1,0 +1,111 @@
+// Writing a recording into a series of files: `saulctl record --rotate-size 100M --rotate-time 10m`.
+//
+// Without rotation the writer writes exactly the path given. With rotation the files are numbered
+// NAME-000.EXT, NAME-001.EXT, ... (the extension stays last, so the format is still told by it); a new file is
+// started before the frame that would go into a file that already holds max_bytes, or whose first frame is
+// max_duration older than this one (by the frames' own timestamps). Each file is closed properly (complete and
+// readable on its own: pcapng and pcap start with their headers again, ASC ends its trigger block) before the
+// next is opened.
+#pragma once
+
+#include <cstdint>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+namespace saul::host {
+
+struct RotationOptions {
+  std::uint64_t max_bytes = 0;        ///< 0: no rotation by size
+  std::uint64_t max_duration_ns = 0;  ///< 0: no rotation by time
+  [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
+};
+
+/// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
+std::string numbered_path(const std::string& path, unsigned index);
+
+/// Parses "100M", "1.5G", "64k", "4096" (bytes; k/M/G are powers of 1024, an optional trailing "B" or "iB").
+/// Throws std::invalid_argument.
+std::uint64_t parse_size(const std::string& text);
+
+/// Where the files go and when a new one starts (shared by the CAN and serial writers).
+class RotationPlan {
+ public:
+  RotationPlan(std::string path, RotationOptions options) : path_(std::move(path)), options_(options) {}
+  /// Path of the file with this index (the path itself when rotation is off).
+  [[nodiscard]] std::string path_for(unsigned index) const {
+    return options_.enabled() ? numbered_path(path_, index) : path_;
+  }
+  /// Whether a frame at timestamp_ns must go into a new file, given what the current file holds.
+  [[nodiscard]] bool due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
+                         std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const;
+  [[nodiscard]] const RotationOptions& options() const { return options_; }
+
+ private:
+  std::string path_;
+  RotationOptions options_;
+};
+
+/// CAN frames into one file or a rotating series. `on_new_file(path)` is told of every file opened.
+class RotatingCaptureWriter final : public CaptureWriter {
+ public:
+  RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation = {},
+                        std::function<void(const std::string&)> on_new_file = {});
+  ~RotatingCaptureWriter() override;
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return format_; }
+  [[nodiscard]] const std::string& current_path() const { return current_path_; }
+  [[nodiscard]] unsigned files() const { return index_ + 1; }
+  [[nodiscard]] std::uint64_t bytes_in_file();  ///< of the current file, as written so far
+
+ private:
+  void open_next();
+  void close_current();
+  RotationPlan plan_;
+  CaptureFormat format_;
+  std::function<void(const std::string&)> on_new_file_;
+  std::unique_ptr<std::ofstream> file_;
+  std::unique_ptr<CaptureWriter> inner_;
+  std::string current_path_;
+  unsigned index_ = 0;
+  std::uint64_t frames_in_file_ = 0;
+  std::optional<std::uint64_t> file_start_ns_;
+  bool closed_ = false;
+};
+
+/// Serial chunks into one serial log or a rotating series.
+class RotatingSerialWriter final : public SerialCaptureWriter {
+ public:
+  RotatingSerialWriter(const std::string& path, RotationOptions rotation = {},
+                       std::function<void(const std::string&)> on_new_file = {});
+  ~RotatingSerialWriter() override;
+  void write(const SerialChunk& chunk) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
+  [[nodiscard]] const std::string& current_path() const { return current_path_; }
+  [[nodiscard]] unsigned files() const { return index_ + 1; }
+  [[nodiscard]] std::uint64_t bytes_in_file();
+
+ private:
+  void open_next();
+  void close_current();
+  RotationPlan plan_;
+  std::function<void(const std::string&)> on_new_file_;
+  std::unique_ptr<std::ofstream> file_;
+  std::unique_ptr<SerialCaptureWriter> inner_;
+  std::string current_path_;
+  unsigned index_ = 0;
+  std::uint64_t chunks_in_file_ = 0;
+  std::optional<std::uint64_t> file_start_ns_;
+  bool closed_ = false;
+};
+
+}  // namespace saul::host

@@ -1,0 +1,31 @@
+// A CAN link through an slcan adapter on a serial port (CANable2 with the slcan firmware, or the simulated
+// robot's virtual CANable on a pseudo-terminal).
+//
+// Opening sends "C\r" (close whatever was open), "S<n>\r" (bitrate), then "O\r" (or the listen-only sequence);
+// closing sends "C\r". The stock CANable firmwares never answer a command, so nothing here waits for an answer;
+// replies from Lawicel-complete firmwares (CR, BEL, z/Z) are recognised and counted. Input is read in bulk and
+// parsed incrementally (never a syscall per byte).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/serial_port.hpp"
+
+namespace saul::host {
+
+struct SlcanOptions {
+  std::uint32_t bitrate = 500'000;
+  /// Listen only (no ACKs, no transmissions). Sent as "L" (Lawicel) when the adapter's version reply looks
+  /// Lawicel, else "M1" (CANable stock firmware); the version is asked for first.
+  bool listen_only = false;
+  SerialBackend backend = SerialBackend::automatic;
+};
+
+std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options = {});
+
+/// Wraps an already-open serial port (tests, the simulator).
+std::unique_ptr<CanLink> open_slcan(std::unique_ptr<SerialPort> port, const SlcanOptions& options = {});
+
+}  // namespace saul::host

@@ -1,0 +1,25 @@
+// SocketCAN raw socket: can0 (CANable2 with candleLight firmware), vcan0, any Linux CAN netdev.
+//
+// Receives with kernel timestamps (SO_TIMESTAMPNS), counts kernel drops (SO_RXQ_OVFL), subscribes to all error
+// frames and tracks the controller state from them; filters run in the kernel (CAN_RAW_FILTER).
+// This machine's kernel may have no CAN at all: opening then fails with a clear message (the QEMU harness in
+// tests/vm runs these paths against vcan in a real kernel).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "saulproto/host/link/can_link.hpp"
+
+namespace saul::host {
+
+struct SocketCanOptions {
+  bool receive_own = false;  ///< CAN_RAW_RECV_OWN_MSGS: see our own frames (for tests)
+};
+
+std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const SocketCanOptions& options = {});
+
+/// Updates a controller state from one SocketCAN error frame (class bits in id, details in data). Pure.
+ControllerState state_after_error_frame(ControllerState current, const CanFrame& error_frame);
+
+}  // namespace saul::host

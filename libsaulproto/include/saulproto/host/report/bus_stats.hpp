@@ -1,0 +1,160 @@
+// What `saulctl stats` computes over a capture, in one pass and constant memory in the number of frames (memory
+// grows only with the number of distinct ids, interfaces, error kinds and serial links):
+//
+//  - CAN: per id the count, rate, mean and longest gap (and when), gap jitter, decode failures; error frames by
+//    kind; decode errors by reason; bus load at a bit rate from each frame's real length on the wire, with stuff
+//    bits worst case (as can-utils canbusload does by default), exact (the frame's own bits and CRC stuffed, as
+//    canbusload -e) and none; the busiest window; how often 0x300 fell silent for longer than the BALANCE
+//    board's 500 ms Orin timeout.
+//  - serial: per link the bytes, byte rate and line load, the decoder's counters, and per message type the
+//    count, rate and longest gap.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/report/serial_decode.hpp"
+
+namespace saul::host {
+
+enum class StuffBits : std::uint8_t {
+  none,        ///< no stuff bits at all: the shortest the frame can be
+  worst_case,  ///< the most stuff bits any content of this length can need: floor((stuffed bits - 1) / 4)
+  exact,       ///< the stuff bits this very frame needs (its id, DLC, data and CRC-15, bit by bit)
+};
+
+/// Bits a classic CAN data or remote frame takes on the bus, from SOF to the end of the 3-bit intermission:
+/// 47 + 8n (11-bit id) or 67 + 8n (29-bit id) bits without stuffing, n the data bytes (0 for a remote frame),
+/// plus stuff bits over SOF..CRC (34 + 8n or 54 + 8n bits). Error frames are not on the wire as frames: 0.
+unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept;
+/// The CAN CRC-15 (polynomial 0x4599) of the frame's bits from SOF to the end of the data, as sent.
+std::uint16_t can_crc15(const CanFrame& frame) noexcept;
+
+/// The BALANCE board stops driving when no 0x300 came for this long.
+inline constexpr std::uint64_t kOrinTimeoutNs = 500'000'000ULL;
+
+/// Timing of a stream of events (frames of one id, messages of one type), in constant memory.
+struct Cadence {
+  std::uint64_t count = 0;
+  std::optional<std::uint64_t> first_ns;
+  std::optional<std::uint64_t> last_ns;
+  std::uint64_t gaps = 0;            ///< gaps measured (events with a timestamp after the first)
+  std::uint64_t max_gap_ns = 0;
+  std::uint64_t max_gap_start_ns = 0;  ///< when the longest gap began (the event before it)
+  std::uint64_t gaps_over_timeout = 0;  ///< gaps longer than the timeout given to add()
+  double mean_gap_ns = 0;            ///< Welford running mean
+  double m2 = 0;                     ///< and sum of squared deviations
+  void add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns = 0);
+  [[nodiscard]] double rate_hz() const;        ///< (count - 1) / (last - first); 0 when undefined
+  [[nodiscard]] double jitter_ns() const;      ///< standard deviation of the gaps
+};
+
+struct BusStatsOptions {
+  std::uint32_t bitrate = 500'000;
+  std::uint64_t window_ns = 100'000'000;  ///< window of the peak load
+};
+
+/// Statistics of the CAN frames of a capture.
+class BusStats {
+ public:
+  explicit BusStats(BusStatsOptions options = {}) : options_(options) {}
+  /// One frame (error frames included) seen on `interface`.
+  void add(const CanFrame& frame, std::string_view interface);
+  /// One corrupt record of the file.
+  void add_corrupt() { ++corrupt_; }
+
+  struct Load {
+    std::uint64_t bits_none = 0;
+    std::uint64_t bits_worst = 0;
+    std::uint64_t bits_exact = 0;
+    std::uint64_t frames = 0;
+    std::optional<std::uint64_t> first_ns;
+    std::optional<std::uint64_t> last_ns;
+    // peak window (worst-case stuffing)
+    std::uint64_t window_index = 0;
+    std::uint64_t window_bits = 0;
+    std::uint64_t peak_bits = 0;
+    std::uint64_t peak_index = 0;
+  };
+  struct IdStats {
+    std::string type;  ///< message name of the first frame that decoded, else "!" + the first failure reason
+    Cadence cadence;
+    std::uint64_t remote = 0;
+    std::uint64_t decode_errors = 0;
+    unsigned bits_worst = 0;  ///< of the last frame
+    std::uint8_t dlc = 0;     ///< of the last frame
+  };
+  using IdKey = std::pair<bool, std::uint32_t>;  ///< (extended, id): standard ids sort first
+
+  [[nodiscard]] std::uint64_t frames() const { return frames_; }
+  [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
+  [[nodiscard]] std::uint64_t error_frames() const { return error_frames_; }
+  [[nodiscard]] std::uint64_t decode_errors() const;  ///< data/remote frames that did not decode (error frames not)
+  [[nodiscard]] const std::map<IdKey, IdStats>& ids() const { return ids_; }
+  [[nodiscard]] const std::map<std::string, Load, std::less<>>& interfaces() const { return interfaces_; }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& decode_failures() const { return failures_; }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& error_kinds() const { return error_kinds_; }
+  /// Load of one interface over its span at options().bitrate, in percent; 0 when the span is 0.
+  [[nodiscard]] double load_percent(const Load& load, StuffBits stuffing) const;
+  [[nodiscard]] double peak_percent(const Load& load) const;
+  [[nodiscard]] const BusStatsOptions& options() const { return options_; }
+  [[nodiscard]] std::optional<std::uint64_t> first_ns() const { return first_ns_; }
+  [[nodiscard]] std::optional<std::uint64_t> last_ns() const { return last_ns_; }
+
+  /// The report, as text (for people) and JSON (for scripts). `name` is the file name shown.
+  [[nodiscard]] std::string text(std::string_view name) const;
+  [[nodiscard]] nlohmann::json json(std::string_view name) const;
+
+ private:
+  BusStatsOptions options_;
+  std::uint64_t frames_ = 0;
+  std::uint64_t corrupt_ = 0;
+  std::uint64_t error_frames_ = 0;
+  std::optional<std::uint64_t> first_ns_;
+  std::optional<std::uint64_t> last_ns_;
+  std::map<IdKey, IdStats> ids_;
+  std::map<std::string, Load, std::less<>> interfaces_;
+  std::map<std::string, std::uint64_t> failures_;     // decode failure reason -> count
+  std::map<std::string, std::uint64_t> error_kinds_;  // error frame description -> count
+};
+
+/// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
+class SerialStats {
+ public:
+  /// `fallback` is the protocol of links whose chunks say raw (else it is guessed).
+  explicit SerialStats(std::optional<SerialProtocol> fallback = std::nullopt) : decoder_(fallback) {}
+  void add(const SerialChunk& chunk);
+  void add_corrupt() { ++corrupt_; }
+  /// Ends the decoders; call before reading the results.
+  void finish();
+
+  struct Link {
+    std::uint32_t baud = 0;       ///< from a "serial:DEV@BAUD:FMT" name, else 0
+    unsigned bits_per_byte = 10;  ///< start + data + parity + stop bits
+    Cadence chunks;
+    std::uint64_t bytes = 0;
+    std::map<std::string, Cadence> messages;  ///< by message name
+  };
+  [[nodiscard]] const std::map<std::string, Link>& links() const { return links_; }
+  [[nodiscard]] const SerialCaptureDecoder& decoder() const { return decoder_; }
+  [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
+  [[nodiscard]] std::uint64_t decode_errors() const;
+  [[nodiscard]] std::string text(std::string_view name) const;
+  [[nodiscard]] nlohmann::json json(std::string_view name) const;
+
+ private:
+  SerialCaptureDecoder decoder_;
+  std::map<std::string, Link> links_;
+  std::uint64_t corrupt_ = 0;
+  bool finished_ = false;
+};
+
+}  // namespace saul::host

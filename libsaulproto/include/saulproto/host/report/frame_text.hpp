@@ -1,0 +1,47 @@
+// One greppable line per CAN frame, shared by `saulctl decode`, `sniff` and logs:
+//   (1763800000.600000) can0 301#000100000000C03F     pid_gain gain=kp sequence=1 value=1.5
+// and the JSON Lines equivalent. The raw part is the candump compact syntax, so lines stay familiar.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "saulproto/core/can_frame.hpp"
+
+namespace saul::host {
+
+enum class TimeMode { absolute, relative, delta };
+
+/// Turns frame timestamps into the "(sec.usec)" column for a TimeMode; remembers the first and previous stamp.
+class TimeColumn {
+ public:
+  explicit TimeColumn(TimeMode mode) : mode_(mode) {}
+  std::string operator()(std::uint64_t ns);
+  /// The same value without parentheses, for JSON and CSV.
+  static std::string bare(const std::string& column) { return column.substr(1, column.size() - 2); }
+
+ private:
+  TimeMode mode_;
+  std::optional<std::uint64_t> first_;
+  std::optional<std::uint64_t> previous_;
+};
+
+/// "velocity_cmd speed_mmps=1000 steer_mrad=-500", or "!wrong_dlc" / "!unknown_id" when it does not decode,
+/// or the error frame's meaning for error frames.
+std::string describe_frame(const CanFrame& frame);
+
+/// The whole text line, without newline.
+std::string frame_line(const std::string& time_column, std::string_view interface, const CanFrame& frame);
+
+/// {"time":..., "interface":..., "frame":{...}, "message":{...}} or {..., "error":"wrong_dlc"}
+nlohmann::json frame_record(const std::string& time_column, std::string_view interface, const CanFrame& frame);
+
+/// One line naming what a SocketCAN error frame says (class bits in the id, details in the data, as
+/// linux/can/error.h lays them out: live links and capture files carry the same layout), e.g. "bus-off",
+/// "controller: tx-passive", "no ACK".
+std::string describe_error_frame(const CanFrame& error_frame);
+
+}  // namespace saul::host

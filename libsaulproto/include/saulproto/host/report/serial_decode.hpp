@@ -1,0 +1,139 @@
+// Decoding serial byte streams on the host: the core's streaming decoders (inter-board, CRSF, Pride) behind one
+// class, their messages behind one variant, a protocol guess for captures that do not name theirs, and the text,
+// JSON and numeric views of any message (CAN or serial) that saulctl's decode, stats and plot print.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "saulproto/core/crsf.hpp"
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/interboard.hpp"
+#include "saulproto/core/pride.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+namespace saul::host {
+
+/// A CRSF frame whose CRC checked but which did not decode (a type we do not know, or a short payload).
+struct CrsfUndecoded {
+  crsf::Frame frame;
+  Reason reason = Reason::unknown_type;
+};
+
+using SerialMessage = std::variant<interboard::Message, crsf::Message, pride::Message, CrsfUndecoded>;
+
+/// "state", "rc_channels", "vcu_command", "crsf_0x3A".
+std::string name_of(const SerialMessage& message);
+/// "state pitch_x100=-1234 pid_out=300 error_state=1"; an undecoded CRSF frame as "!unknown_type crsf type=0x3A
+/// payload=0102".
+std::string describe(const SerialMessage& message);
+/// {"type":"state","pitch_x100":-1234,...}, or {"type":"crsf_0x3A","error":"unknown_type","payload":"0102"}.
+nlohmann::json to_json(const SerialMessage& message);
+/// Whether the message is a decode failure (an undecoded CRSF frame).
+bool is_decode_error(const SerialMessage& message);
+
+/// What a SerialStreamDecoder has seen. Fields a protocol does not have stay 0.
+struct SerialDecodeCounters {
+  std::uint64_t bytes = 0;
+  std::uint64_t frames = 0;          ///< messages delivered (CRSF: frames with a good CRC, decoded or not)
+  std::uint64_t crc_errors = 0;      ///< interboard, CRSF: bad CRC; Pride: bad checksum
+  std::uint64_t length_errors = 0;   ///< interboard, CRSF
+  std::uint64_t unknown_types = 0;   ///< interboard (rejected), CRSF (delivered undecoded)
+  std::uint64_t out_of_range = 0;    ///< Pride: good checksum, field outside the manual's range
+  std::uint64_t undecoded = 0;       ///< CRSF frames with a good CRC that decode() refused (unknown types included)
+  std::uint64_t bytes_skipped = 0;   ///< bytes in no frame
+  std::uint64_t incomplete = 0;      ///< unfinished frame at the end (or when given up)
+  std::uint64_t uart_errors = 0;     ///< chunks a logic analyser flagged (parity, framing, break)
+  /// Everything that is a decode error: crc + length + out of range + undecoded (+ unknown types of interboard).
+  [[nodiscard]] std::uint64_t errors(SerialProtocol protocol) const noexcept;
+};
+
+/// One streaming decoder for one link. push() bytes as they come; finish() at the end of the capture.
+class SerialStreamDecoder {
+ public:
+  using Callback = std::function<void(const SerialMessage&)>;
+  explicit SerialStreamDecoder(SerialProtocol protocol);
+
+  void push(std::span<const std::uint8_t> bytes, const Callback& on_message);
+  /// Counts a chunk's uart_error bits.
+  void note_uart_errors(std::uint8_t errors);
+  /// End of input: CRSF gives up its unfinished candidate (frames found behind it are still delivered),
+  /// interboard and Pride drop theirs; all count it as incomplete.
+  void finish(const Callback& on_message);
+
+  [[nodiscard]] SerialProtocol protocol() const { return protocol_; }
+  [[nodiscard]] SerialDecodeCounters counters() const;
+  /// "7 frames, 1 crc error, 7 bytes skipped" (the counters this protocol has, zeros included).
+  [[nodiscard]] std::string counters_text() const;
+  [[nodiscard]] nlohmann::json counters_json() const;
+
+ private:
+  SerialProtocol protocol_;
+  std::variant<std::monostate, interboard::StreamDecoder, crsf::StreamDecoder, pride::StreamDecoder> decoder_;
+  SerialDecodeCounters extra_;  // bytes, undecoded, incomplete, uart errors: what the core decoders do not count
+};
+
+/// The protocol of a byte stream: the decoder that finds the most frames, at least 2 of them and more than
+/// its decode errors; nullopt when none does. For captures that do not say (logic-analyser exports).
+std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t> bytes);
+
+/// Decodes every link of a capture, one SerialStreamDecoder per link, created as links appear (memory grows with
+/// the number of links only). A link whose chunks say raw gets `fallback` when given; else its protocol is
+/// guessed from its first guess_bytes bytes, which are held back until then (or until finish()).
+class SerialCaptureDecoder {
+ public:
+  /// A message, with the chunk that completed it (its time and link) and the link's protocol.
+  using Callback = std::function<void(const SerialChunk& chunk, SerialProtocol protocol, const SerialMessage& m)>;
+  explicit SerialCaptureDecoder(std::optional<SerialProtocol> fallback = std::nullopt, std::size_t guess_bytes = 4096)
+      : fallback_(fallback), guess_bytes_(guess_bytes) {}
+  void add(const SerialChunk& chunk, const Callback& on_message);
+  /// End of the capture: decides links still guessing, then ends every decoder.
+  void finish(const Callback& on_message);
+
+  struct Link {
+    std::string name;
+    SerialProtocol protocol = SerialProtocol::raw;
+    bool guessed = false;  ///< the protocol was guessed from the bytes
+    SerialDecodeCounters counters;
+    std::string counters_text;
+    nlohmann::json counters_json;
+  };
+  /// Every link, in order of first appearance.
+  [[nodiscard]] std::vector<Link> links() const;
+
+ private:
+  struct State {
+    std::string name;
+    bool decided = false;
+    bool guessed = false;
+    std::optional<SerialStreamDecoder> decoder;
+    std::vector<SerialChunk> held;  // while guessing
+    std::size_t held_bytes = 0;
+    std::optional<std::uint64_t> last_ns;  // of the last chunk fed
+  };
+  void decide(State& state, const Callback& on_message);
+  void feed(State& state, const SerialChunk& chunk, const Callback& on_message);
+  std::optional<SerialProtocol> fallback_;
+  std::size_t guess_bytes_;
+  std::vector<State> states_;  // few links: a linear search is fine
+};
+
+// ---- fields of any message, as numbers (saulctl plot) ---------------------------------------------------------
+
+/// The value of a numeric field (integers, floats, enums as their number, bools as 0/1); nullopt when the message
+/// has no such field or it is text.
+std::optional<double> numeric_field(const BusMessage& message, std::string_view field);
+std::optional<double> numeric_field(const SerialMessage& message, std::string_view field);
+/// The names of a message's numeric fields, for "no such field" messages.
+std::vector<std::string> numeric_field_names(const BusMessage& message);
+std::vector<std::string> numeric_field_names(const SerialMessage& message);
+
+}  // namespace saul::host

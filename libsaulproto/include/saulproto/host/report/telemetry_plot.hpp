@@ -1,0 +1,202 @@
+// What `saulctl plot` draws from a capture: the default telemetry dashboard (pitch, pid_out, speed, wheel RPM,
+// VESC ERPM, battery), or the fields of one message named by id or name; and, on every panel, a marker at each
+// change of the robot state or of the fault bits. plot.hpp draws the result.
+//
+// Two streaming passes over the messages (a PlotSource, called twice): the first finds the time range, which
+// panels have data, the fields of a named message and the state/fault changes; the second bins the points. Memory
+// is constant in the length of the capture: the binners have one column per pixel, and at most max_markers
+// changes are kept (the rest are counted).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/report/plot.hpp"
+#include "saulproto/host/report/serial_decode.hpp"
+
+namespace saul::host {
+
+/// One decoded message of a capture, as the plot sees it. Exactly one of bus and serial is set.
+struct PlotMessage {
+  std::optional<std::uint64_t> timestamp_ns;
+  std::optional<std::uint32_t> can_id;  ///< the frame's id, for CAN messages
+  std::string_view name;                ///< "telemetry_a", "vesc_status_1", "state", ...
+  const BusMessage* bus = nullptr;
+  const SerialMessage* serial = nullptr;
+  /// A numeric field (enums as their number); nullopt when the message has no such field.
+  [[nodiscard]] std::optional<double> field(std::string_view field_name) const;
+  [[nodiscard]] std::vector<std::string> field_names() const;
+};
+
+using PlotSink = std::function<void(const PlotMessage&)>;
+/// Gives every message, in order, to the sink. Called once per pass, it must give the same messages each time.
+using PlotSource = std::function<void(const PlotSink&)>;
+
+/// Every message of a capture file of any format (CAN or serial), opened again on each call; corrupt records and
+/// frames that do not decode are skipped. Throws CaptureOpenError when the file cannot be read. `fallback` is the
+/// protocol of serial links whose capture names none (saulctl's --protocol).
+PlotSource capture_plot_source(std::string path, SerialReadOptions options = {},
+                               std::optional<SerialProtocol> fallback = std::nullopt);
+/// Every frame of a list that decodes (decode_bus_frame), for frames already in memory.
+PlotSource frames_plot_source(std::vector<CanFrame> frames);
+
+// ---- what to draw -------------------------------------------------------------------------------------------
+
+/// One line of a panel: a numeric field of a message, divided by `divisor` (pitch_x100 / 100 = degrees).
+struct PlotSeriesSpec {
+  std::string label;   ///< legend; empty for a panel of one series that needs none
+  std::string column;  ///< CSV column name
+  std::string message;                  ///< the message's name, e.g. "telemetry_a"
+  std::optional<std::uint32_t> can_id;  ///< and/or a CAN id: frames with this id (of that message, when named)
+  std::string field;
+  double divisor = 1;
+  std::optional<std::uint8_t> controller;  ///< VESC status frames: only from this controller_id
+  /// The value this series takes from `m`, or nullopt when `m` is not its message (or controller).
+  [[nodiscard]] std::optional<double> value(const PlotMessage& m) const;
+};
+
+struct PlotPanelSpec {
+  std::string title;    ///< "pitch [deg]"
+  std::string missing;  ///< the note when it has no data: "no 0x400 telemetry_a or inter-board state messages"
+  std::vector<PlotSeriesSpec> series;
+};
+
+/// The default dashboard, in drawing order: pitch [deg], pid_out [permille], speed [mm/s] (reported and
+/// commanded), wheel speed [rpm] (0x401), VESC ERPM (STATUS, left 68 and right 56), battery [V] (0x401 and VESC
+/// STATUS_5). Pitch and pid_out also come from the inter-board STATE message, so a UART capture draws them too.
+std::vector<PlotPanelSpec> dashboard_panels();
+
+// ---- state and fault changes ----------------------------------------------------------------------------------
+
+/// A change of the robot state (0x400 state, UART STATE error_state) or of the fault bits (0x401 faults, UART
+/// FAULT flags). The first state seen is a change from nothing; fault bits start from none, so a first value of 0
+/// is no change.
+struct StateChange {
+  MarkerKind kind = MarkerKind::state;
+  std::optional<unsigned> from;  ///< nullopt: the first state seen
+  unsigned to = 0;
+  std::optional<std::uint64_t> timestamp_ns;  ///< of the message that showed it (nullopt: the capture has none)
+  std::uint64_t index = 0;                    ///< that message's number in the source, from 0
+};
+
+/// The robot state's name from the library ("OFF", "BALANCE", ... "FAULT"), or the number for a value it lacks.
+std::string state_name(unsigned value);
+/// Names of the set fault bits joined by '+' ("rc_loss+orin_timeout"), "none" for 0.
+std::string fault_names(unsigned bits);
+/// Drawn next to the marker: "BALANCE"; faults as bits set and cleared, "+rc_loss -estop".
+std::string change_label(const StateChange& change);
+/// For the table: "OFF -> BALANCE", "BALANCE (first seen)", "none -> rc_loss+orin_timeout".
+std::string change_detail(const StateChange& change);
+
+/// The robot state a message reports, if it is one that does.
+std::optional<unsigned> robot_state_of(const PlotMessage& m);
+/// The fault bits a message reports, if it is one that does.
+std::optional<unsigned> fault_bits_of(const PlotMessage& m);
+
+/// Follows state and fault values through a capture and keeps the first `keep` changes; counts all of them.
+class ChangeTracker {
+ public:
+  explicit ChangeTracker(std::size_t keep) : keep_(keep) {}
+  /// Looks at one message; true when it reports a state or fault value (whether or not it changed).
+  bool observe(const PlotMessage& m, std::uint64_t index, std::optional<std::uint64_t> timestamp_ns);
+  [[nodiscard]] const std::vector<StateChange>& kept() const { return kept_; }
+  [[nodiscard]] std::uint64_t total() const { return total_; }
+  [[nodiscard]] bool saw_state() const { return state_.has_value(); }
+  [[nodiscard]] bool saw_faults() const { return saw_faults_; }
+
+ private:
+  void note(const StateChange& change);
+  std::size_t keep_;
+  std::vector<StateChange> kept_;
+  std::uint64_t total_ = 0;
+  std::optional<unsigned> state_;
+  unsigned faults_ = 0;
+  bool saw_faults_ = false;
+};
+
+// ---- the plot ---------------------------------------------------------------------------------------------------
+
+struct PlotRequest {
+  /// The message: a CAN id ("0x400", "1024") or a message name ("telemetry_a", "state", "vcu_command"). Empty:
+  /// the default dashboard.
+  std::string id;
+  /// With an id: the fields, one panel each; empty: every numeric field of the message. Without one: must be empty.
+  std::vector<std::string> fields;
+  std::size_t max_markers = 40;  ///< changes drawn and listed at most (0: none); the rest are counted
+  std::string source_name;       ///< the capture's name, for the title
+};
+
+/// A request that cannot be met as asked: a bad id, a field the message lacks, fields without an id.
+class PlotUsageError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+/// Nothing to draw: the message is not in the capture, or none of the dashboard's messages is.
+class PlotEmptyError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Time 0 is the first message that gives a point or a state/fault value; the right edge is the last one. A
+/// capture without any timestamps is drawn against the message number instead.
+class TelemetryPlotter {
+ public:
+  /// Makes the first pass. Throws PlotUsageError, PlotEmptyError, and what the source throws.
+  TelemetryPlotter(PlotRequest request, PlotSource source);
+
+  [[nodiscard]] bool dashboard() const { return request_.id.empty(); }
+  /// The panels that will be drawn, with the series that have data.
+  [[nodiscard]] const std::vector<PlotPanelSpec>& panels() const { return panels_; }
+  /// One note per dashboard panel left out: "VESC ERPM (STATUS): left out, no VESC STATUS (vesc_status_1) ...".
+  [[nodiscard]] const std::vector<std::string>& left_out() const { return left_out_; }
+  /// Messages that gave at least one point.
+  [[nodiscard]] std::uint64_t messages() const { return messages_; }
+  /// From the first point to the last, in seconds (0 without timestamps).
+  [[nodiscard]] double points_span_s() const;
+  [[nodiscard]] bool timed() const { return min_ns_.has_value(); }
+  [[nodiscard]] const ChangeTracker& changes() const { return changes_; }
+  /// The time axis position of a change (seconds, or message number).
+  [[nodiscard]] double position_of(const StateChange& change) const;
+
+  /// Second pass: the picture, `columns` bins per series, for render_svg or render_html.
+  [[nodiscard]] PlotDocument document(std::size_t columns = kPlotWidth) const;
+  /// Second pass: the numbers. With an id, "time_s,FIELD,..." and one row per message (fields as they are);
+  /// the dashboard: "time_s", one column per series drawn (scaled as drawn), then "state" and "faults" when the
+  /// capture has them, one row per message giving any of them, empty cells for what it does not carry. Without
+  /// timestamps the first column is "message" (the message number).
+  void write_csv(std::ostream& out) const;
+
+ private:
+  struct Position {
+    std::optional<std::uint64_t> ns;  ///< nullopt: untimed, before any timestamp
+    std::uint64_t index = 0;
+  };
+  template <class Visit>
+  void each(const Visit& visit) const;  // visit(const PlotMessage&, Position)
+  [[nodiscard]] double position(const Position& p) const;
+  void select(const PlotMessage& m);  // --id: check the first match, resolve its fields into panels_
+
+  PlotRequest request_;
+  PlotSource source_;
+  std::optional<std::uint32_t> can_id_;  // the request's id when it is a number
+  std::vector<PlotPanelSpec> panels_;
+  std::vector<std::string> left_out_;
+  ChangeTracker changes_;
+  std::uint64_t messages_ = 0;
+  std::optional<std::uint64_t> min_ns_, max_ns_;          // over messages that count
+  std::optional<std::uint64_t> min_index_, max_index_;    // the same by message number
+  std::optional<std::uint64_t> first_point_ns_, last_point_ns_;
+};
+
+/// "1763800000.500900": a capture timestamp as candump writes it.
+std::string format_timestamp(std::uint64_t ns);
+
+}  // namespace saul::host

@@ -1,0 +1,60 @@
+// Talking to the robot over a CAN link: send a command frame and wait for its 0x402 acknowledgement.
+//
+// This is where "send a mode / PID set / config and report whether it was taken" lives, so saulctl, bench
+// scripts and tests share one behaviour. Frames that arrive while waiting are handed to an observer, so the
+// caller can keep printing telemetry. Time is the steady clock; waits are bounded by the caller's timeout.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <optional>
+
+#include "saulproto/core/saul_can.hpp"
+#include "saulproto/host/link/can_link.hpp"
+
+namespace saul::host {
+
+struct CommandOutcome {
+  enum class Status { applied, rejected, no_answer };
+  Status status = Status::no_answer;
+  saulcan::AckResult result = saulcan::AckResult::applied;  ///< when an acknowledgement arrived
+  std::chrono::microseconds latency{0};                     ///< first frame sent -> acknowledgement received
+};
+
+const char* to_string(CommandOutcome::Status s);
+
+class RobotClient {
+ public:
+  using Observer = std::function<void(const CanFrame&)>;
+
+  explicit RobotClient(CanLink& link, Observer observer = {}) : link_(link), observer_(std::move(observer)) {}
+
+  /// Mode 3 (estop), sent at once. Does not wait for anything.
+  void send_estop();
+
+  /// 0x302, then waits for the 0x402 of command 0x02.
+  CommandOutcome set_mode(saulcan::Mode mode, std::chrono::milliseconds timeout);
+
+  /// Three 0x301 frames of one new sequence number, back to back; waits for the 0x402 of command 0x01 with
+  /// that sequence number. The sequence number starts from a value derived from the clock, so two saulctl runs
+  /// in a row do not reuse one.
+  CommandOutcome set_pid(float kp, float ki, float kd, std::chrono::milliseconds timeout);
+
+  /// 0x303, then waits for the 0x402 of command 0x03.
+  CommandOutcome set_config(std::uint16_t tilt_limit_x100, std::uint16_t max_speed_mmps,
+                            std::chrono::milliseconds timeout);
+
+  /// Waits for one acknowledgement of `command` (and `sequence` when given); other frames go to the observer.
+  CommandOutcome wait_for_ack(std::uint8_t command, std::optional<std::uint8_t> sequence,
+                              std::chrono::steady_clock::time_point sent_at, std::chrono::milliseconds timeout);
+
+  [[nodiscard]] std::uint8_t last_sequence() const { return sequence_; }
+
+ private:
+  CanLink& link_;
+  Observer observer_;
+  std::uint8_t sequence_ = 0;
+  bool sequence_seeded_ = false;
+};
+
+}  // namespace saul::host

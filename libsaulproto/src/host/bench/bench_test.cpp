@@ -1,0 +1,556 @@
+#include "saulproto/host/bench/bench_test.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <type_traits>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/saul_can.hpp"
+#include "saulproto/host/capture/candump.hpp"
+
+namespace saul::host::benchtest {
+namespace {
+
+namespace sc = saul::saulcan;
+
+std::vector<std::string> words(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> w;
+  std::string t;
+  while (in >> t) w.push_back(t);
+  return w;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::optional<double> number(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    if (s.size() > 2 && s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) {
+      v = static_cast<double>(std::stoull(s, &used, 16));
+    } else {
+      v = std::stod(s, &used);
+    }
+  } catch (...) {
+    return std::nullopt;
+  }
+  if (used != s.size()) return std::nullopt;
+  return v;
+}
+
+Condition parse_condition(const std::string& w, const std::string& path, int line) {
+  static const std::pair<const char*, Condition::Op> kOps[] = {{"!=", Condition::Op::ne}, {"<=", Condition::Op::le},
+                                                               {">=", Condition::Op::ge}, {"=", Condition::Op::eq},
+                                                               {"<", Condition::Op::lt},  {">", Condition::Op::gt}};
+  for (const auto& [text, op] : kOps) {
+    const auto pos = w.find(text);
+    if (pos == std::string::npos || pos == 0) continue;
+    Condition c;
+    c.op = op;
+    c.field = w.substr(0, pos);
+    c.text = w.substr(pos + std::char_traits<char>::length(text));
+    if (c.field.size() > 2 && c.field.front() == '|' && c.field.back() == '|') {
+      c.absolute = true;
+      c.field = c.field.substr(1, c.field.size() - 2);
+    }
+    c.number = number(c.text);
+    if (c.text.empty()) throw ParseError(path, line, "condition '" + w + "' has no value");
+    if ((op != Condition::Op::eq && op != Condition::Op::ne) && !c.number)
+      throw ParseError(path, line, "condition '" + w + "' compares with a value that is not a number");
+    return c;
+  }
+  throw ParseError(path, line, "'" + w + "' is not a condition (FIELD=VALUE, FIELD<VALUE, |FIELD|<VALUE, ...)");
+}
+
+std::map<std::string, std::string> assignments(const std::vector<std::string>& w, std::size_t from,
+                                               const std::string& path, int line) {
+  std::map<std::string, std::string> a;
+  for (std::size_t i = from; i < w.size(); ++i) {
+    const auto eq = w[i].find('=');
+    if (eq == std::string::npos || eq == 0) throw ParseError(path, line, "expected FIELD=VALUE, got '" + w[i] + "'");
+    a[w[i].substr(0, eq)] = w[i].substr(eq + 1);
+  }
+  return a;
+}
+
+double need_number(std::map<std::string, std::string>& a, const std::string& key, std::optional<double> fallback,
+                   const std::string& path, int line) {
+  const auto it = a.find(key);
+  if (it == a.end()) {
+    if (fallback) return *fallback;
+    throw ParseError(path, line, "missing " + key + "=...");
+  }
+  const auto v = number(it->second);
+  if (!v) throw ParseError(path, line, key + "=" + it->second + " is not a number");
+  a.erase(it);
+  return *v;
+}
+
+template <class T>
+T checked(double v, const std::string& key, const std::string& path, int line) {
+  if (v < static_cast<double>(std::numeric_limits<T>::min()) || v > static_cast<double>(std::numeric_limits<T>::max()))
+    throw ParseError(path, line, fmt::format("{}={} does not fit the field", key, v));
+  return static_cast<T>(std::lround(v));
+}
+
+std::vector<CanFrame> build_frames(const std::vector<std::string>& w, std::size_t at, const std::string& path,
+                                   int line) {
+  if (at >= w.size()) throw ParseError(path, line, "send/stream needs a message name");
+  const std::string& name = w[at];
+  if (name == "frame") {
+    if (at + 1 >= w.size()) throw ParseError(path, line, "send frame needs a frame, e.g. 302#01");
+    CandumpLine parsed;
+    CandumpError err;
+    if (!parse_candump_line("(0.0) x " + w[at + 1], parsed, err))
+      throw ParseError(path, line, "bad frame '" + w[at + 1] + "': " + err.message);
+    parsed.frame.timestamp_ns.reset();  // a frame to send carries no time
+    return {parsed.frame};
+  }
+  auto a = assignments(w, at + 1, path, line);
+  std::vector<CanFrame> out;
+  if (name == "velocity_cmd") {
+    sc::VelocityCmd m;
+    m.speed_mmps = checked<std::int16_t>(need_number(a, "speed_mmps", 0.0, path, line), "speed_mmps", path, line);
+    m.steer_mrad = checked<std::int16_t>(need_number(a, "steer_mrad", 0.0, path, line), "steer_mrad", path, line);
+    out.push_back(sc::encode(m));
+  } else if (name == "mode_cmd") {
+    static const std::map<std::string, sc::Mode> kModes = {
+        {"off", sc::Mode::off}, {"balance", sc::Mode::balance}, {"manual", sc::Mode::manual}, {"estop", sc::Mode::estop}};
+    const auto it = a.find("mode");
+    if (it == a.end() || !kModes.count(lower(it->second)))
+      throw ParseError(path, line, "mode_cmd needs mode=off|balance|manual|estop");
+    out.push_back(sc::encode(sc::ModeCmd{kModes.at(lower(it->second))}));
+    a.erase("mode");
+  } else if (name == "config_cmd") {
+    sc::ConfigCmd m;
+    m.tilt_limit_x100 = checked<std::uint16_t>(need_number(a, "tilt_limit_x100", std::nullopt, path, line),
+                                               "tilt_limit_x100", path, line);
+    m.max_speed_mmps = checked<std::uint16_t>(need_number(a, "max_speed_mmps", std::nullopt, path, line),
+                                              "max_speed_mmps", path, line);
+    out.push_back(sc::encode(m));
+  } else if (name == "pid_set") {
+    const auto seq = checked<std::uint8_t>(need_number(a, "sequence", 1.0, path, line), "sequence", path, line);
+    const double kp = need_number(a, "kp", std::nullopt, path, line);
+    const double ki = need_number(a, "ki", std::nullopt, path, line);
+    const double kd = need_number(a, "kd", std::nullopt, path, line);
+    out.push_back(sc::encode(sc::PidGain{sc::Gain::kp, seq, static_cast<float>(kp)}));
+    out.push_back(sc::encode(sc::PidGain{sc::Gain::ki, seq, static_cast<float>(ki)}));
+    out.push_back(sc::encode(sc::PidGain{sc::Gain::kd, seq, static_cast<float>(kd)}));
+  } else if (name == "pid_gain") {
+    static const std::map<std::string, sc::Gain> kGains = {{"kp", sc::Gain::kp}, {"ki", sc::Gain::ki}, {"kd", sc::Gain::kd}};
+    const auto it = a.find("gain");
+    if (it == a.end() || !kGains.count(lower(it->second))) throw ParseError(path, line, "pid_gain needs gain=kp|ki|kd");
+    const auto g = kGains.at(lower(it->second));
+    a.erase("gain");
+    const auto seq = checked<std::uint8_t>(need_number(a, "sequence", 1.0, path, line), "sequence", path, line);
+    const double v = need_number(a, "value", std::nullopt, path, line);
+    out.push_back(sc::encode(sc::PidGain{g, seq, static_cast<float>(v)}));
+  } else {
+    throw ParseError(path, line,
+                     "cannot send '" + name + "': use velocity_cmd, mode_cmd, config_cmd, pid_set, pid_gain or frame");
+  }
+  if (!a.empty()) throw ParseError(path, line, "unknown field '" + a.begin()->first + "' for " + name);
+  return out;
+}
+
+std::uint64_t need_duration(const std::string& w, const std::string& path, int line) {
+  const auto d = parse_duration_us(w);
+  if (!d) throw ParseError(path, line, "bad duration '" + w + "' (use 500ms, 2s, 1.5s, 1m)");
+  return *d;
+}
+
+// Field value of a decoded message, as a number or as text (enum names).
+struct FieldValue {
+  std::optional<double> number;
+  std::string text;
+};
+
+std::optional<FieldValue> field_of(const BusMessage& m, const std::string& field) {
+  std::optional<FieldValue> out;
+  std::visit(
+      [&](const auto& msg) {
+        msg.fields([&](const char* name, const auto& value) {
+          if (out || field != name) return;
+          using T = std::decay_t<decltype(value)>;
+          FieldValue v;
+          if constexpr (std::is_enum_v<T>) {
+            using saul::to_string;
+            v.text = to_string(value);
+            v.number = static_cast<double>(static_cast<std::underlying_type_t<T>>(value));
+          } else {
+            v.number = static_cast<double>(value);
+            v.text = fmt::format("{}", +value);
+          }
+          out = v;
+        });
+      },
+      m);
+  return out;
+}
+
+bool holds(const Condition& c, const FieldValue& v) {
+  if (c.number && v.number) {  // numbers compare as numbers (state=1 works as well as state=BALANCE)
+    double x = *v.number;
+    if (c.absolute) x = std::fabs(x);
+    const double y = *c.number;
+    switch (c.op) {
+      case Condition::Op::eq: return x == y;
+      case Condition::Op::ne: return x != y;
+      case Condition::Op::lt: return x < y;
+      case Condition::Op::le: return x <= y;
+      case Condition::Op::gt: return x > y;
+      case Condition::Op::ge: return x >= y;
+    }
+  }
+  const bool same = lower(v.text) == lower(c.text);
+  return c.op == Condition::Op::eq ? same : c.op == Condition::Op::ne ? !same : false;
+}
+
+std::string us_text(std::uint64_t us) { return fmt::format("{:.3f} s", static_cast<double>(us) / 1e6); }
+
+std::string xml_escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+}  // namespace
+
+std::optional<std::uint64_t> parse_duration_us(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (...) {
+    return std::nullopt;
+  }
+  const std::string unit = text.substr(used);
+  double us = 0;
+  if (unit == "ms") us = v * 1e3;
+  else if (unit == "s" || unit.empty()) us = v * 1e6;
+  else if (unit == "us") us = v;
+  else if (unit == "m" || unit == "min") us = v * 60e6;
+  else return std::nullopt;
+  if (us < 0) return std::nullopt;
+  return static_cast<std::uint64_t>(std::llround(us));
+}
+
+bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions) {
+  const auto r = decode_bus_frame(frame);
+  if (!r) return false;
+  if (!message.empty() && message != name_of(r.value())) return false;
+  for (const auto& c : conditions) {
+    const auto v = field_of(r.value(), c.field);
+    if (!v || !holds(c, *v)) return false;
+  }
+  return true;
+}
+
+Suite parse_suite(std::istream& in, const std::string& path) {
+  Suite suite;
+  suite.path = path;
+  const auto slash = path.find_last_of('/');
+  suite.name = path.substr(slash == std::string::npos ? 0 : slash + 1);
+  std::string raw;
+  int line = 0;
+  while (std::getline(in, raw)) {
+    ++line;
+    // '#' inside a raw frame (send frame 302#01) is not a comment: only a '#' at the start or after a space is.
+    std::string text = raw;
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+      if (raw[i] == '#' && (i == 0 || raw[i - 1] == ' ' || raw[i - 1] == '\t')) {
+        text = raw.substr(0, i);
+        break;
+      }
+    }
+    auto w = words(text);
+    if (w.empty()) continue;
+    if (w[0] == "suite:") {
+      suite.name = text.substr(text.find(':') + 1);
+      suite.name.erase(0, suite.name.find_first_not_of(' '));
+      while (!suite.name.empty() && std::isspace(static_cast<unsigned char>(suite.name.back()))) suite.name.pop_back();
+      continue;
+    }
+    if (w[0] == "requires:") {
+      if (w.size() != 2 || w[1] != "sim") throw ParseError(path, line, "requires: takes 'sim'");
+      suite.requires_sim = true;
+      continue;
+    }
+    Step s;
+    s.line = line;
+    s.source = text;
+    while (!s.source.empty() && std::isspace(static_cast<unsigned char>(s.source.back()))) s.source.pop_back();
+    s.source.erase(0, s.source.find_first_not_of(" \t"));
+    const std::string& verb = w[0];
+    if (verb == "send") {
+      s.kind = Step::Kind::send;
+      s.frames = build_frames(w, 1, path, line);
+    } else if (verb == "stream") {
+      s.kind = Step::Kind::stream;
+      const auto every = std::find(w.begin(), w.end(), "every");
+      if (every == w.end() || every + 1 == w.end()) throw ParseError(path, line, "stream needs 'every DURATION'");
+      s.period_us = need_duration(*(every + 1), path, line);
+      if (s.period_us == 0) throw ParseError(path, line, "stream period must be above 0");
+      std::vector<std::string> head(w.begin(), every);
+      s.frames = build_frames(head, 1, path, line);
+    } else if (verb == "stop") {
+      s.kind = Step::Kind::stop;
+    } else if (verb == "expect" || verb == "hold") {
+      const bool hold = verb == "hold";
+      const std::string until_word = hold ? "for" : "within";
+      std::size_t i = 1;
+      s.kind = hold ? Step::Kind::hold : Step::Kind::expect;
+      if (!hold && i < w.size() && w[i] == "no") {
+        s.kind = Step::Kind::expect_none;
+        ++i;
+      }
+      const std::string until = s.kind == Step::Kind::expect_none ? "for" : until_word;
+      if (i >= w.size()) throw ParseError(path, line, verb + " needs a message name");
+      s.message = w[i] == "any" ? "" : w[i];
+      ++i;
+      for (; i < w.size() && w[i] != until; ++i) s.conditions.push_back(parse_condition(w[i], path, line));
+      if (i + 1 >= w.size()) throw ParseError(path, line, verb + " needs '" + until + " DURATION' at the end");
+      s.duration_us = need_duration(w[i + 1], path, line);
+      if (i + 2 != w.size()) throw ParseError(path, line, "unexpected words after the duration");
+    } else if (verb == "console") {
+      s.kind = Step::Kind::console;
+      if (w.size() < 3) throw ParseError(path, line, "console needs a board (balance|io) and a command");
+      s.board = w[1];
+      if (s.board != "balance" && s.board != "io") throw ParseError(path, line, "console board must be balance or io");
+      const auto ex = std::find(w.begin(), w.end(), "expect");
+      if (ex == w.end() || ex + 1 == w.end()) throw ParseError(path, line, "console needs 'expect TEXT'");
+      for (auto it = w.begin() + 2; it != ex; ++it) s.text += (s.text.empty() ? "" : " ") + *it;
+      auto within = std::find(ex, w.end(), "within");
+      for (auto it = ex + 1; it != within; ++it) s.expect_text += (s.expect_text.empty() ? "" : " ") + *it;
+      s.duration_us = within == w.end() ? 1'000'000 : need_duration(within + 1 == w.end() ? "" : *(within + 1), path, line);
+    } else if (verb == "sim") {
+      s.kind = Step::Kind::sim;
+      if (w.size() < 2) throw ParseError(path, line, "sim needs a command");
+      for (std::size_t i = 1; i < w.size(); ++i) s.text += (i > 1 ? " " : "") + w[i];
+    } else if (verb == "wait") {
+      s.kind = Step::Kind::wait;
+      if (w.size() != 2) throw ParseError(path, line, "wait takes one duration");
+      s.duration_us = need_duration(w[1], path, line);
+    } else {
+      throw ParseError(path, line,
+                       "unknown step '" + verb + "' (send, stream, stop, expect, hold, console, sim, wait)");
+    }
+    suite.steps.push_back(std::move(s));
+  }
+  return suite;
+}
+
+Suite load_suite(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw ParseError(path, 0, "cannot open the suite file");
+  return parse_suite(f, path);
+}
+
+bool SuiteResult::passed() const {
+  if (skipped) return true;
+  return std::none_of(steps.begin(), steps.end(),
+                      [](const StepResult& s) { return s.status == StepResult::Status::failed; });
+}
+
+SuiteResult run_suite(const Suite& suite, Target& target) {
+  SuiteResult result;
+  result.name = suite.name;
+  result.path = suite.path;
+  if (suite.requires_sim && !target.is_simulator()) {
+    result.skipped = true;
+    result.skip_reason = "needs the simulator (requires: sim)";
+    return result;
+  }
+  // Background stream state.
+  std::vector<CanFrame> stream;
+  std::uint64_t stream_period = 0;
+  std::uint64_t stream_next = 0;
+  const std::uint64_t suite_start = target.now_us();
+
+  // Receives until deadline, sending stream frames when due; calls on_frame for each frame (return false to stop).
+  auto pump = [&](std::uint64_t deadline, const auto& on_frame) {
+    for (;;) {
+      std::uint64_t until = deadline;
+      if (target.now_us() >= deadline) return;
+      if (!stream.empty()) {
+        if (target.now_us() >= stream_next) {
+          for (const auto& f : stream) target.send(f);
+          stream_next += stream_period;
+          continue;
+        }
+        until = std::min(until, stream_next);
+      }
+      auto f = target.receive_until(until);
+      if (f && !on_frame(*f)) return;
+    }
+  };
+
+  bool failed = false;
+  for (const auto& step : suite.steps) {
+    StepResult r;
+    r.line = step.line;
+    r.source = step.source;
+    if (failed) {
+      r.status = StepResult::Status::skipped;
+      r.message = "not run: an earlier step failed";
+      result.steps.push_back(r);
+      continue;
+    }
+    const std::uint64_t t0 = target.now_us();
+    try {
+      switch (step.kind) {
+        case Step::Kind::send:
+          for (const auto& f : step.frames) target.send(f);
+          r.message = fmt::format("sent {} frame(s)", step.frames.size());
+          break;
+        case Step::Kind::stream:
+          stream = step.frames;
+          stream_period = step.period_us;
+          stream_next = target.now_us();
+          r.message = fmt::format("streaming every {}", us_text(step.period_us));
+          break;
+        case Step::Kind::stop:
+          stream.clear();
+          r.message = "stream stopped";
+          break;
+        case Step::Kind::wait:
+          pump(t0 + step.duration_us, [](const CanFrame&) { return true; });
+          break;
+        case Step::Kind::expect: {
+          std::optional<CanFrame> seen;
+          pump(t0 + step.duration_us, [&](const CanFrame& f) {
+            if (!matches(f, step.message, step.conditions)) return true;
+            seen = f;
+            return false;
+          });
+          if (seen) {
+            r.message = fmt::format("seen after {}", us_text(target.now_us() - t0));
+          } else {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("no matching {} within {}", step.message.empty() ? "frame" : step.message,
+                                    us_text(step.duration_us));
+          }
+          break;
+        }
+        case Step::Kind::expect_none: {
+          std::optional<CanFrame> seen;
+          pump(t0 + step.duration_us, [&](const CanFrame& f) {
+            if (!matches(f, step.message, step.conditions)) return true;
+            seen = f;
+            return false;
+          });
+          if (seen) {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0));
+          }
+          break;
+        }
+        case Step::Kind::hold: {
+          std::uint64_t count = 0;
+          std::string broken;
+          pump(t0 + step.duration_us, [&](const CanFrame& f) {
+            if (!matches(f, step.message, {})) return true;
+            ++count;
+            if (matches(f, step.message, step.conditions)) return true;
+            broken = fmt::format("condition broken after {} by {}", us_text(target.now_us() - t0),
+                                 format_candump_frame(f));
+            return false;
+          });
+          if (!broken.empty()) {
+            r.status = StepResult::Status::failed;
+            r.message = broken;
+          } else if (count == 0) {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
+          } else {
+            r.message = fmt::format("held over {} frames", count);
+          }
+          break;
+        }
+        case Step::Kind::console: {
+          const auto reply = target.console(step.board, step.text, step.expect_text, step.duration_us);
+          if (!reply) {
+            r.status = StepResult::Status::skipped;
+            r.message = "no console for board " + step.board + " on this target";
+          } else if (reply->find(step.expect_text) == std::string::npos) {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("reply did not contain '{}': '{}'", step.expect_text, *reply);
+          } else {
+            r.message = "reply ok";
+          }
+          break;
+        }
+        case Step::Kind::sim: {
+          std::string error;
+          if (!target.sim(step.text, error)) {
+            r.status = target.is_simulator() ? StepResult::Status::failed : StepResult::Status::skipped;
+            r.message = error;
+          }
+          break;
+        }
+      }
+    } catch (const std::exception& e) {
+      r.status = StepResult::Status::failed;
+      r.message = e.what();
+    }
+    r.elapsed_us = target.now_us() - t0;
+    if (r.status == StepResult::Status::failed) failed = true;
+    result.steps.push_back(r);
+  }
+  result.elapsed_us = target.now_us() - suite_start;
+  return result;
+}
+
+std::string junit_xml(const std::vector<SuiteResult>& results) {
+  std::string x = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n";
+  for (const auto& s : results) {
+    std::size_t failures = 0, skipped = 0;
+    for (const auto& st : s.steps) {
+      failures += st.status == StepResult::Status::failed;
+      skipped += st.status == StepResult::Status::skipped;
+    }
+    if (s.skipped) skipped = 1;
+    x += fmt::format("  <testsuite name=\"{}\" tests=\"{}\" failures=\"{}\" skipped=\"{}\" time=\"{:.3f}\">\n",
+                     xml_escape(s.name), s.skipped ? 1 : s.steps.size(), failures, skipped,
+                     static_cast<double>(s.elapsed_us) / 1e6);
+    if (s.skipped) {
+      x += fmt::format("    <testcase name=\"{}\"><skipped message=\"{}\"/></testcase>\n", xml_escape(s.name),
+                       xml_escape(s.skip_reason));
+    }
+    for (const auto& st : s.steps) {
+      x += fmt::format("    <testcase classname=\"{}\" name=\"line {}: {}\" time=\"{:.3f}\"", xml_escape(s.name), st.line,
+                       xml_escape(st.source), static_cast<double>(st.elapsed_us) / 1e6);
+      if (st.status == StepResult::Status::passed) {
+        x += "/>\n";
+      } else if (st.status == StepResult::Status::failed) {
+        x += fmt::format("><failure message=\"{}\"/></testcase>\n", xml_escape(st.message));
+      } else {
+        x += fmt::format("><skipped message=\"{}\"/></testcase>\n", xml_escape(st.message));
+      }
+    }
+    x += "  </testsuite>\n";
+  }
+  x += "</testsuites>\n";
+  return x;
+}
+
+}  // namespace saul::host::benchtest

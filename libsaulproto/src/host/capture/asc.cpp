@@ -1,0 +1,383 @@
+#include "saulproto/host/capture/asc.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <charconv>
+#include <stdexcept>
+#include "../util.hpp"
+
+namespace saul::host {
+namespace {
+
+constexpr std::uint64_t kAscNsPerSec = 1'000'000'000ULL;
+constexpr std::uint32_t kErrBusError = 0x080;  // CAN_ERR_BUSERROR: what asc2log makes of an ErrorFrame line
+
+constexpr std::array<std::string_view, 12> kMonths = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
+                                                      "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
+constexpr std::array<std::string_view, 7> kWeekdays = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
+
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (detail::ascii_lower(a[i]) != detail::ascii_lower(b[i])) return false;
+  return true;
+}
+
+bool all_digits(std::string_view s) {
+  if (s.empty()) return false;
+  for (char c : s)
+    if (c < '0' || c > '9') return false;
+  return true;
+}
+
+bool hex_digits(std::string_view s) {
+  if (s.empty()) return false;
+  for (char c : s) {
+    const char l = detail::ascii_lower(c);
+    if (!((l >= '0' && l <= '9') || (l >= 'a' && l <= 'f'))) return false;
+  }
+  return true;
+}
+
+std::optional<std::uint64_t> parse_number(std::string_view s, int base) {
+  if (s.empty()) return std::nullopt;
+  std::uint64_t v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, base);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size()) return std::nullopt;
+  return v;
+}
+
+/// "12.345678" (1 to 9 fraction digits, or none) to nanoseconds.
+std::optional<std::uint64_t> parse_time(std::string_view s) {
+  const std::size_t dot = s.find('.');
+  const std::string_view whole = s.substr(0, dot);
+  const auto sec = parse_number(whole, 10);
+  if (!sec || !all_digits(whole) || *sec > 1'000'000'000'000ULL) return std::nullopt;
+  std::uint64_t frac = 0;
+  if (dot != std::string_view::npos) {
+    const std::string_view f = s.substr(dot + 1);
+    if (!all_digits(f) || f.size() > 9) return std::nullopt;
+    frac = *parse_number(f, 10);
+    for (std::size_t i = f.size(); i < 9; ++i) frac *= 10;
+  }
+  return *sec * kAscNsPerSec + frac;
+}
+
+/// Days since 1970-01-01 of a proleptic Gregorian date (the usual era-based civil calendar algorithm).
+std::int64_t days_from_civil(std::int64_t y, unsigned m, unsigned d) {
+  y -= m <= 2 ? 1 : 0;
+  const std::int64_t era = (y >= 0 ? y : y - 399) / 400;
+  const auto yoe = static_cast<unsigned>(y - era * 400);
+  const unsigned mp = m > 2 ? m - 3 : m + 9;
+  const unsigned doy = (153 * mp + 2) / 5 + d - 1;
+  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + static_cast<std::int64_t>(doe) - 719468;
+}
+
+struct Civil {
+  std::int64_t year;
+  unsigned month;  // 1..12
+  unsigned day;    // 1..31
+};
+
+Civil civil_from_days(std::int64_t z) {
+  z += 719468;
+  const std::int64_t era = (z >= 0 ? z : z - 146096) / 146097;
+  const auto doe = static_cast<unsigned>(z - era * 146097);
+  const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+  const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+  const unsigned mp = (5 * doy + 2) / 153;
+  const unsigned d = doy - (153 * mp + 2) / 5 + 1;
+  const unsigned m = mp < 10 ? mp + 3 : mp - 9;
+  return {static_cast<std::int64_t>(yoe) + era * 400 + (m <= 2 ? 1 : 0), m, d};
+}
+
+std::optional<unsigned> month_of(std::string_view s) {
+  for (std::size_t i = 0; i < kMonths.size(); ++i)
+    if (iequals(s, kMonths[i])) return static_cast<unsigned>(i + 1);
+  // German abbreviations, as CANoe writes them on German Windows
+  if (iequals(s, "Mrz") || s == "M\xC3\xA4r" || s == "M\xE4r") return 3U;
+  if (iequals(s, "Mai")) return 5U;
+  if (iequals(s, "Okt")) return 10U;
+  if (iequals(s, "Dez")) return 12U;
+  return std::nullopt;
+}
+
+std::vector<std::string_view> split(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
+    const std::size_t start = i;
+    while (i < s.size() && s[i] != ' ' && s[i] != '\t') ++i;
+    if (i > start) out.push_back(s.substr(start, i - start));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::optional<std::uint64_t> parse_asc_date(std::string_view text) {
+  const auto t = split(text);
+  std::size_t i = 0;
+  if (i < t.size() && !month_of(t[i])) ++i;  // weekday
+  if (i + 4 > t.size()) return std::nullopt;
+  const auto month = month_of(t[i++]);
+  const auto day = parse_number(t[i++], 10);
+  const std::string_view clock = t[i++];
+  if (!month || !day || *day < 1 || *day > 31) return std::nullopt;
+  // HH:MM:SS[.fff]
+  const std::size_t c1 = clock.find(':');
+  const std::size_t c2 = c1 == std::string_view::npos ? c1 : clock.find(':', c1 + 1);
+  if (c2 == std::string_view::npos) return std::nullopt;
+  const auto hour = parse_number(clock.substr(0, c1), 10);
+  const auto minute = parse_number(clock.substr(c1 + 1, c2 - c1 - 1), 10);
+  const auto second = parse_time(clock.substr(c2 + 1));
+  if (!hour || !minute || !second || *hour > 23 || *minute > 59 || *second >= 61 * kAscNsPerSec) return std::nullopt;
+  std::uint64_t h = *hour;
+  if (i < t.size() && (iequals(t[i], "am") || iequals(t[i], "pm"))) {
+    if (h < 1 || h > 12) return std::nullopt;
+    const bool pm = iequals(t[i], "pm");
+    if (h == 12) h = 0;
+    if (pm) h += 12;
+    ++i;
+  }
+  if (i >= t.size()) return std::nullopt;
+  const auto year = parse_number(t[i], 10);
+  if (!year || *year < 1970 || *year > 9999) return std::nullopt;
+  const std::int64_t days = days_from_civil(static_cast<std::int64_t>(*year), *month, static_cast<unsigned>(*day));
+  if (days < 0) return std::nullopt;
+  return (static_cast<std::uint64_t>(days) * 86400U + h * 3600U + *minute * 60U) * kAscNsPerSec + *second;
+}
+
+std::string format_asc_date(std::uint64_t ns) {
+  const std::uint64_t sec = ns / kAscNsPerSec;
+  const auto days = static_cast<std::int64_t>(sec / 86400U);
+  const std::uint64_t in_day = sec % 86400U;
+  const Civil c = civil_from_days(days);
+  return fmt::format("{} {} {:02} {:02}:{:02}:{:02} {}", kWeekdays[static_cast<std::size_t>((days + 4) % 7)],
+                     kMonths[c.month - 1], c.day, in_day / 3600U, in_day / 60U % 60U, in_day % 60U, c.year);
+}
+
+// ---- reader ----
+
+AscReader::Status AscReader::next() {
+  while (std::getline(in_, line_)) {
+    ++line_number_;
+    std::string_view line = line_;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    switch (parse_line(line)) {
+      case Step::frame:
+        return Status::frame;
+      case Step::corrupt:
+        return Status::corrupt;
+      case Step::skipped:
+        break;
+    }
+  }
+  return Status::end;
+}
+
+AscReader::Step AscReader::corrupt(std::size_t column, std::string message) {
+  error_.column = column;
+  error_.message = std::move(message);
+  error_.kind = PositionKind::line;
+  error_.position = line_number_;
+  error_.recovery = Recovery::next_line;
+  return Step::corrupt;
+}
+
+std::uint64_t AscReader::absolute(std::uint64_t time_ns) {
+  if (deltas_) {
+    elapsed_ns_ += time_ns;
+    time_ns = elapsed_ns_;
+  }
+  return start_ns_.value_or(0) + time_ns;
+}
+
+AscReader::Step AscReader::parse_line(std::string_view line) {
+  tokens_.clear();
+  for (std::size_t i = 0; i < line.size();) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    const std::size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+    if (i > start) tokens_.emplace_back(start, line.substr(start, i - start));
+  }
+  if (tokens_.empty()) return Step::skipped;
+  const auto [col0, first] = tokens_[0];
+  if (first[0] >= '0' && first[0] <= '9') return timed_line(line);
+  if (first.substr(0, 2) == "//") return Step::skipped;
+  if (iequals(first, "date")) {
+    if (!trigger_block_date_) {
+      if (auto d = parse_asc_date(line.substr(col0 + first.size()))) start_ns_ = d;
+    }
+    return Step::skipped;
+  }
+  if (iequals(first, "base")) {
+    if (tokens_.size() < 2 || !(iequals(tokens_[1].second, "hex") || iequals(tokens_[1].second, "dec")))
+      return corrupt(tokens_.size() < 2 ? line.size() : tokens_[1].first, "base must be 'hex' or 'dec'");
+    base_ = iequals(tokens_[1].second, "hex") ? 16 : 10;
+    if (tokens_.size() >= 4 && iequals(tokens_[2].second, "timestamps")) {
+      if (iequals(tokens_[3].second, "relative")) {
+        deltas_ = true;
+      } else if (iequals(tokens_[3].second, "absolute")) {
+        deltas_ = false;
+      } else {
+        return corrupt(tokens_[3].first, "timestamps must be 'absolute' or 'relative'");
+      }
+    }
+    return Step::skipped;
+  }
+  if (iequals(first, "begin") && tokens_.size() >= 2 && iequals(tokens_[1].second, "triggerblock")) {
+    const std::size_t after = tokens_[1].first + tokens_[1].second.size();
+    if (auto d = parse_asc_date(line.substr(after))) {
+      start_ns_ = d;
+      trigger_block_date_ = true;
+    }
+    elapsed_ns_ = 0;
+    return Step::skipped;
+  }
+  if (iequals(first, "end") && tokens_.size() >= 2 && iequals(tokens_[1].second, "triggerblock"))
+    return Step::skipped;
+  if ((iequals(first, "no") && tokens_.size() >= 2 && iequals(tokens_[1].second, "internal")) ||
+      (iequals(first, "internal") && tokens_.size() >= 2 && iequals(tokens_[1].second, "events")))
+    return Step::skipped;
+  return corrupt(col0, "not an ASC line (expected a header keyword or a time)");
+}
+
+AscReader::Step AscReader::timed_line(std::string_view line) {
+  const auto time = parse_time(tokens_[0].second);
+  if (!time) return corrupt(tokens_[0].first, "time must be seconds with up to 9 decimals, e.g. 1.250000");
+  if (tokens_.size() < 2) return corrupt(line.size(), "nothing after the time");
+  const auto [ch_col, ch] = tokens_[1];
+  if (iequals(ch, "CANFD")) return corrupt(ch_col, "CAN FD frame: the robot's bus is classic CAN, FD is not supported");
+  if (!all_digits(ch)) return Step::skipped;  // an event: "Start of measurement", "Trigger", ...
+  if (tokens_.size() >= 3 && iequals(tokens_[2].second.substr(0, 10), "errorframe")) {
+    const auto channel = parse_number(ch, 10);
+    if (!channel || *channel == 0 || *channel > 255)
+      return corrupt(ch_col, "channel must be 1..255");
+    CanFrame f;
+    f.error = true;
+    f.id = kErrBusError;
+    f.dlc = 8;
+    f.timestamp_ns = absolute(*time);
+    frame_ = f;
+    name_ = fmt::format("can{}", *channel - 1);
+    return Step::frame;
+  }
+  if (tokens_.size() >= 4 && (iequals(tokens_[3].second, "rx") || iequals(tokens_[3].second, "tx")))
+    return frame_line(line, *time);
+  if (tokens_.size() >= 4 && iequals(tokens_[3].second, "txrq")) return Step::skipped;  // a transmit request
+  if (tokens_.size() == 2) return corrupt(line.size(), "nothing after the channel");
+  std::string_view id = tokens_[2].second;
+  if (!id.empty() && (id.back() == 'x' || id.back() == 'X')) id.remove_suffix(1);
+  if (hex_digits(id))
+    return corrupt(tokens_.size() >= 4 ? tokens_[3].first : line.size(), "expected Rx or Tx after the id");
+  return Step::skipped;  // an event of the channel: "Statistic:", "SV:", ...
+}
+
+AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_ns) {
+  const auto channel = parse_number(tokens_[1].second, 10);
+  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[1].first, "channel must be 1..255");
+  CanFrame f;
+  const auto [id_col, id_token] = tokens_[2];
+  std::string_view id_text = id_token;
+  if (id_text.back() == 'x' || id_text.back() == 'X') {
+    f.extended = true;
+    id_text.remove_suffix(1);
+  }
+  const auto id = parse_number(id_text, base_);
+  if (!id) return corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
+  if (*id > (f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId))
+    return corrupt(id_col, f.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended ids end in 'x')");
+  f.id = static_cast<std::uint32_t>(*id);
+  if (tokens_.size() < 5) return corrupt(line.size(), "expected 'd' (data) or 'r' (remote) after the direction");
+  const auto [kind_col, kind] = tokens_[4];
+  if (kind == "r" || kind == "R") {
+    f.remote = true;
+    if (tokens_.size() >= 6 && all_digits(tokens_[5].second)) {
+      const auto dlc = parse_number(tokens_[5].second, base_);
+      if (!dlc || *dlc > CanFrame::kMaxDlc) return corrupt(tokens_[5].first, "remote frame length must be 0..8");
+      f.dlc = static_cast<std::uint8_t>(*dlc);
+    }
+  } else if (kind == "d" || kind == "D") {
+    if (tokens_.size() < 6) return corrupt(line.size(), "missing DLC after 'd'");
+    const auto dlc = parse_number(tokens_[5].second, base_);
+    if (!dlc) return corrupt(tokens_[5].first, "DLC is not a number");
+    if (*dlc > CanFrame::kMaxDlc) return corrupt(tokens_[5].first, "DLC above 8: classic CAN only");
+    f.dlc = static_cast<std::uint8_t>(*dlc);
+    if (tokens_.size() < std::size_t{6} + f.dlc)
+      return corrupt(line.size(), fmt::format("{} data bytes announced, {} found", f.dlc, tokens_.size() - 6));
+    for (std::size_t i = 0; i < f.dlc; ++i) {
+      const auto [col, text] = tokens_[6 + i];
+      const auto b = text.size() <= 3 ? parse_number(text, base_) : std::nullopt;
+      if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
+      f.data[i] = static_cast<std::uint8_t>(*b);
+    }
+    // anything after the data (Vector's "Length = ... BitCount = ... ID = ...") is ignored
+  } else {
+    return corrupt(kind_col, "expected 'd' (data) or 'r' (remote) after the direction");
+  }
+  f.timestamp_ns = absolute(time_ns);
+  frame_ = f;
+  name_ = fmt::format("can{}", *channel - 1);
+  return Step::frame;
+}
+
+// ---- writer ----
+
+void AscWriter::header(std::uint64_t first_ns) {
+  start_ns_ = first_ns - first_ns % kAscNsPerSec;
+  const std::string date = format_asc_date(start_ns_);
+  out_ << "date " << date << "\nbase hex  timestamps absolute\ninternal events logged\nBegin Triggerblock " << date
+       << "\n   0.000000 Start of measurement\n";
+  header_written_ = true;
+}
+
+void AscWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("ASC writer: write after close");
+  check_writable(frame);
+  if (interface.empty()) interface = "can0";
+  std::size_t index = 0;
+  while (index < channels_.size() && channels_[index] != interface) ++index;
+  if (index == channels_.size()) {
+    if (channels_.size() == 255) throw std::invalid_argument("ASC: more than 255 interfaces");
+    channels_.emplace_back(interface);
+  }
+  const std::uint64_t ns = frame.timestamp_ns.value_or(0);
+  if (!header_written_) header(ns);
+  const std::uint64_t rel = ns > start_ns_ ? ns - start_ns_ : 0;
+  const std::uint64_t usec = rel / 1000U;
+  std::string line = fmt::format("{:4}.{:06} {}  ", usec / 1'000'000U, usec % 1'000'000U, index + 1);
+  if (frame.error) {
+    line += "ErrorFrame";
+  } else {
+    const std::string id = fmt::format("{:X}{}", frame.id, frame.extended ? "x" : "");
+    if (frame.remote) {
+      line += fmt::format("{:<15} Rx   r {}", id, frame.dlc);
+    } else {
+      line += fmt::format("{:<15} Rx   d {}", id, frame.dlc);
+      for (std::uint8_t b : frame.payload()) line += fmt::format(" {:02X}", b);
+    }
+  }
+  line += '\n';
+  out_ << line;
+  if (!out_) throw std::runtime_error("ASC: write failed");
+}
+
+void AscWriter::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error("ASC: write failed");
+}
+
+void AscWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  if (!header_written_) header(0);
+  out_ << "End TriggerBlock\n";
+  flush();
+}
+
+}  // namespace saul::host

@@ -1,0 +1,489 @@
+#include "saulproto/host/capture/capture.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cerrno>
+#include <cctype>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <streambuf>
+
+#include "saulproto/host/capture/asc.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+#include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+#include "../util.hpp"
+
+namespace saul::host {
+namespace {
+
+constexpr std::size_t kHeadBytes = 4096;
+
+
+bool starts_with_nocase(std::string_view s, std::string_view prefix) {
+  if (s.size() < prefix.size()) return false;
+  for (std::size_t i = 0; i < prefix.size(); ++i)
+    if (detail::ascii_lower(s[i]) != prefix[i]) return false;
+  return true;
+}
+
+/// Serves the bytes already read for format detection, then the rest of the file: detection never seeks, so
+/// pipes and process substitutions work.
+class ReplayBuf final : public std::streambuf {
+ public:
+  ReplayBuf(std::streambuf& source, std::string head) : source_(source), head_(std::move(head)) {
+    setg(head_.data(), head_.data(), head_.data() + head_.size());
+    delivered_ = head_.size();
+  }
+  /// Bytes taken from the file so far (what the reader consumed, plus at most one buffer).
+  [[nodiscard]] std::uint64_t delivered() const { return delivered_; }
+
+ protected:
+  int_type underflow() override {
+    if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
+    const std::streamsize n = source_.sgetn(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    if (n <= 0) return traits_type::eof();
+    delivered_ += static_cast<std::uint64_t>(n);
+    setg(buffer_.data(), buffer_.data(), buffer_.data() + n);
+    return traits_type::to_int_type(*gptr());
+  }
+
+ private:
+  std::streambuf& source_;
+  std::string head_;
+  std::array<char, 64 * 1024> buffer_{};
+  std::uint64_t delivered_ = 0;
+};
+
+struct FileSource {
+  std::filebuf file;
+  std::unique_ptr<ReplayBuf> replay;
+  std::istream stream{nullptr};
+  std::optional<std::uint64_t> size;  ///< regular files only
+};
+
+/// A reader that owns its file; the format reader works on the file's stream.
+class FileReader final : public CaptureReader {
+ public:
+  FileReader(std::unique_ptr<FileSource> source, std::unique_ptr<CaptureReader> inner)
+      : source_(std::move(source)), inner_(std::move(inner)) {}
+
+  Status next() override { return inner_->next(); }
+  [[nodiscard]] const CanFrame& frame() const override { return inner_->frame(); }
+  [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
+  [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
+
+ private:
+  std::unique_ptr<FileSource> source_;    // declared first: destroyed after the reader of its stream
+  std::unique_ptr<CaptureReader> inner_;
+};
+
+/// A serial reader that owns its file.
+class FileSerialReader final : public SerialCaptureReader {
+ public:
+  FileSerialReader(std::unique_ptr<FileSource> source, std::unique_ptr<SerialCaptureReader> inner)
+      : source_(std::move(source)), inner_(std::move(inner)) {}
+  Status next() override { return inner_->next(); }
+  [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
+  [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
+
+ private:
+  std::unique_ptr<FileSource> source_;
+  std::unique_ptr<SerialCaptureReader> inner_;
+};
+
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/// "uart-1: ..." (a sigrok-cli decoder instance) or "START-END NAME: ..." (sample numbers first).
+bool looks_like_sigrok_annotation(std::string_view line) {
+  std::size_t i = 0;
+  if (!line.empty() && is_digit(line[0])) {
+    while (i < line.size() && is_digit(line[i])) ++i;
+    if (i >= line.size() || line[i] != '-') return false;
+    const std::size_t start = ++i;
+    while (i < line.size() && is_digit(line[i])) ++i;
+    if (i == start || i >= line.size() || line[i] != ' ') return false;
+    ++i;
+    const std::size_t colon = line.find(':', i);
+    if (colon == std::string_view::npos || colon == i) return false;
+    const std::string_view name = line.substr(i, colon - i);
+    return name.find(' ') == std::string_view::npos && colon + 1 < line.size() && line[colon + 1] == ' ';
+  }
+  while (i < line.size() && (std::isalnum(static_cast<unsigned char>(line[i])) || line[i] == '_')) ++i;
+  if (i == 0 || i >= line.size() || line[i] != '-') return false;
+  const std::size_t digits = ++i;
+  while (i < line.size() && is_digit(line[i])) ++i;
+  return i > digits && i + 1 < line.size() && line[i] == ':' && line[i + 1] == ' ';
+}
+
+/// A candump line has '#' in its third word; our serial log has the protocol name there.
+CaptureFormat candump_or_serial(std::string_view line) {
+  std::size_t pos = 0;
+  for (int word = 0; word < 2; ++word) {
+    pos = line.find(' ', pos);
+    if (pos == std::string_view::npos) return CaptureFormat::candump;
+    while (pos < line.size() && line[pos] == ' ') ++pos;
+  }
+  std::size_t end = line.find(' ', pos);
+  if (end == std::string_view::npos) end = line.size();
+  const std::string_view third = line.substr(pos, end - pos);
+  if (third.find('#') != std::string_view::npos || third.empty()) return CaptureFormat::candump;
+  return CaptureFormat::serial;
+}
+
+/// Opens a file and works out its format from its first bytes (or `format`, or the extension).
+std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<CaptureFormat>& format) {
+  auto source = std::make_unique<FileSource>();
+  if (!source->file.open(path, std::ios::in | std::ios::binary))
+    throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
+  std::string head(kHeadBytes, '\0');
+  const std::streamsize got = source->file.sgetn(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
+  if (!format) {
+    format = detect_capture_format(
+        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(head.data()), head.size()));
+  }
+  if (!format) format = capture_format_from_extension(path);
+  if (!format)
+    throw CaptureOpenError(fmt::format(
+        "cannot tell the format of '{}': its content is not pcap, pcapng, candump, ASC, a serial log or a "
+        "sigrok/PulseView UART export, and its extension is none of .pcap .pcapng .log .asc .serial",
+        path));
+  source->replay = std::make_unique<ReplayBuf>(source->file, std::move(head));
+  source->stream.rdbuf(source->replay.get());
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {
+    const auto size = std::filesystem::file_size(path, ec);
+    if (!ec) source->size = size;
+  }
+  return source;
+}
+
+/// A writer that owns its file and closes it.
+class FileWriter final : public CaptureWriter {
+ public:
+  FileWriter(std::string path, std::unique_ptr<std::ofstream> file, CaptureFormat format)
+      : path_(std::move(path)), file_(std::move(file)), inner_(make_capture_writer(*file_, format)) {}
+  ~FileWriter() override {
+    try {
+      close();
+    } catch (...) {  // a destructor must not throw; call close() to see the error
+    }
+  }
+
+  void write(const CanFrame& frame, std::string_view interface) override {
+    try {
+      inner_->write(frame, interface);
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
+    }
+  }
+  void flush() override {
+    try {
+      inner_->flush();
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
+    }
+  }
+  void close() override {
+    if (closed_) return;
+    closed_ = true;
+    std::string failure;
+    try {
+      inner_->close();
+    } catch (const std::runtime_error& e) {
+      failure = e.what();
+    }
+    file_->close();
+    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
+    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+  }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+
+ private:
+  std::string path_;
+  std::unique_ptr<std::ofstream> file_;
+  std::unique_ptr<CaptureWriter> inner_;
+  bool closed_ = false;
+};
+
+}  // namespace
+
+std::string_view to_string(CaptureFormat format) noexcept {
+  switch (format) {
+    case CaptureFormat::candump:
+      return "candump";
+    case CaptureFormat::pcap:
+      return "pcap";
+    case CaptureFormat::pcapng:
+      return "pcapng";
+    case CaptureFormat::asc:
+      return "asc";
+    case CaptureFormat::serial:
+      return "serial";
+    case CaptureFormat::sigrok:
+      return "sigrok";
+    case CaptureFormat::sigrok_json:
+      return "sigrok-json";
+    case CaptureFormat::pulseview_csv:
+      return "pulseview-csv";
+  }
+  return "?";
+}
+
+std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept {
+  if (name == "candump" || name == "log") return CaptureFormat::candump;
+  if (name == "pcap") return CaptureFormat::pcap;
+  if (name == "pcapng") return CaptureFormat::pcapng;
+  if (name == "asc") return CaptureFormat::asc;
+  if (name == "serial") return CaptureFormat::serial;
+  if (name == "sigrok") return CaptureFormat::sigrok;
+  if (name == "sigrok-json") return CaptureFormat::sigrok_json;
+  if (name == "pulseview-csv") return CaptureFormat::pulseview_csv;
+  return std::nullopt;
+}
+
+std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept {
+  const std::size_t slash = path.find_last_of('/');
+  const std::string_view base = slash == std::string_view::npos ? path : path.substr(slash + 1);
+  const std::size_t dot = base.find_last_of('.');
+  if (dot == std::string_view::npos) return std::nullopt;
+  std::array<char, 8> ext{};
+  const std::string_view e = base.substr(dot + 1);
+  if (e.size() > ext.size()) return std::nullopt;
+  for (std::size_t i = 0; i < e.size(); ++i) ext[i] = detail::ascii_lower(e[i]);
+  const std::string_view x(ext.data(), e.size());
+  if (x == "log" || x == "candump") return CaptureFormat::candump;
+  if (x == "pcap" || x == "cap") return CaptureFormat::pcap;
+  if (x == "pcapng" || x == "ntar") return CaptureFormat::pcapng;
+  if (x == "asc") return CaptureFormat::asc;
+  if (x == "serial") return CaptureFormat::serial;
+  return std::nullopt;
+}
+
+std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t> head) noexcept {
+  if (head.size() >= 4) {
+    const std::array<std::uint8_t, 4> m{head[0], head[1], head[2], head[3]};
+    constexpr std::array<std::array<std::uint8_t, 4>, 4> kPcap{{{0xD4, 0xC3, 0xB2, 0xA1},
+                                                                {0xA1, 0xB2, 0xC3, 0xD4},
+                                                                {0x4D, 0x3C, 0xB2, 0xA1},
+                                                                {0xA1, 0xB2, 0x3C, 0x4D}}};
+    for (const auto& magic : kPcap)
+      if (m == magic) return CaptureFormat::pcap;
+    if (m == std::array<std::uint8_t, 4>{0x0A, 0x0D, 0x0D, 0x0A}) return CaptureFormat::pcapng;
+  }
+  const std::string_view text(reinterpret_cast<const char*>(head.data()), head.size());
+  if (text.find('\0') != std::string_view::npos) return std::nullopt;
+  std::size_t pos = text.starts_with("\xEF\xBB\xBF") ? 3 : 0;  // UTF-8 byte-order mark
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return candump_or_serial(line);
+    if (starts_with_nocase(line, "date ") || starts_with_nocase(line, "base ") ||
+        starts_with_nocase(line, "begin triggerblock"))
+      return CaptureFormat::asc;
+    if (line.starts_with("{\"traceEvents\"")) return CaptureFormat::sigrok_json;
+    if (line.starts_with("Sample,Time,Decoder,") || line.starts_with("\"Sample\",\"Time\",\"Decoder\","))
+      return CaptureFormat::pulseview_csv;
+    if (looks_like_sigrok_annotation(line)) return CaptureFormat::sigrok;
+  }
+  return std::nullopt;
+}
+
+CaptureTraits capture_traits(CaptureFormat format) noexcept {
+  switch (format) {
+    case CaptureFormat::candump:
+      return {1000, true, false, true};
+    case CaptureFormat::pcap:
+      return {1000, false, false, true};
+    case CaptureFormat::pcapng:
+      return {1, true, false, true};
+    case CaptureFormat::asc:
+      return {1000, false, true, false};
+    case CaptureFormat::serial:
+      return {1000, true, false, false};
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      return {1, true, false, false};
+  }
+  return {1000, false, false, false};
+}
+
+std::string format_capture_error(std::string_view path, const CaptureError& error) {
+  std::string_view after;
+  switch (error.recovery) {
+    case Recovery::next_line:
+      after = "line skipped";
+      break;
+    case Recovery::next_record:
+      after = "record skipped";
+      break;
+    case Recovery::next_block:
+      after = "block skipped";
+      break;
+    case Recovery::stop:
+      after = "reading stopped";
+      break;
+  }
+  if (error.kind == PositionKind::line)
+    return fmt::format("{}:{}:{}: {} ({})", path, error.position, error.column + 1, error.message, after);
+  return fmt::format("{}: byte {}: {} ({})", path, error.position, error.message, after);
+}
+
+std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format) {
+  switch (format) {
+    case CaptureFormat::candump:
+      return std::make_unique<CandumpReader>(in);
+    case CaptureFormat::pcap:
+      return std::make_unique<PcapReader>(in);
+    case CaptureFormat::pcapng:
+      return std::make_unique<PcapngReader>(in);
+    case CaptureFormat::asc:
+      return std::make_unique<AscReader>(in);
+    case CaptureFormat::serial:
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      throw CaptureOpenError(fmt::format("this is a {} file of serial bytes, not CAN frames", to_string(format)));
+  }
+  throw std::invalid_argument("unknown capture format");
+}
+
+std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFormat format) {
+  switch (format) {
+    case CaptureFormat::candump:
+      return std::make_unique<CandumpWriter>(out);
+    case CaptureFormat::pcap:
+      return std::make_unique<PcapWriter>(out);
+    case CaptureFormat::pcapng:
+      return std::make_unique<PcapngWriter>(out);
+    case CaptureFormat::asc:
+      return std::make_unique<AscWriter>(out);
+    case CaptureFormat::serial:
+    case CaptureFormat::sigrok:
+    case CaptureFormat::sigrok_json:
+    case CaptureFormat::pulseview_csv:
+      break;
+  }
+  throw std::invalid_argument(fmt::format("{} is not a CAN capture format", to_string(format)));
+}
+
+std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  if (holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("'{}' holds serial bytes ({}), not CAN frames", path, to_string(*format)));
+  try {
+    auto inner = make_capture_reader(source->stream, *format);
+    return std::make_unique<FileReader>(std::move(source), std::move(inner));
+  } catch (const CaptureOpenError& e) {
+    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
+  }
+}
+
+std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
+                                                                const SerialReadOptions& options,
+                                                                std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  if (!holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("'{}' holds CAN frames ({}), not serial bytes", path, to_string(*format)));
+  auto inner = make_serial_capture_reader(source->stream, *format, options);
+  return std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+}
+
+OpenedCapture open_capture(const std::string& path, const SerialReadOptions& options,
+                           std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  OpenedCapture opened;
+  opened.format = *format;
+  if (holds_serial_bytes(*format)) {
+    auto inner = make_serial_capture_reader(source->stream, *format, options);
+    opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+    return opened;
+  }
+  try {
+    auto inner = make_capture_reader(source->stream, *format);
+    opened.frames = std::make_unique<FileReader>(std::move(source), std::move(inner));
+  } catch (const CaptureOpenError& e) {
+    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
+  }
+  return opened;
+}
+
+std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
+  if (!format) format = capture_format_from_extension(path);
+  if (!format)
+    throw CaptureOpenError(fmt::format(
+        "cannot tell which format to write to '{}': name it .log, .pcap, .pcapng or .asc, or give the format", path));
+  if (holds_serial_bytes(*format))
+    throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
+                                       to_string(*format)));
+  auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
+  return std::make_unique<FileWriter>(path, std::move(file), *format);
+}
+
+CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
+                      const std::function<void(const CaptureError&)>& on_corrupt) {
+  CopyStats stats;
+  for (;;) {
+    const auto status = in.next();
+    if (status == CaptureReader::Status::end) break;
+    if (status == CaptureReader::Status::corrupt) {
+      ++stats.corrupt;
+      if (on_corrupt) on_corrupt(in.error());
+      continue;
+    }
+    const std::string_view name = in.interface();
+    bool known = false;
+    for (const auto& seen : stats.interfaces) known = known || seen == name;
+    if (!known) stats.interfaces.emplace_back(name);
+    if (in.frame().error) ++stats.error_frames;
+    out.write(in.frame(), name);
+    ++stats.frames;
+  }
+  return stats;
+}
+
+std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat format) {
+  std::vector<std::string> notes;
+  const CaptureTraits traits = capture_traits(format);
+  if (!traits.interface_names) {
+    std::string renamed;
+    for (std::size_t i = 0; i < stats.interfaces.size(); ++i) {
+      const std::string back = traits.channel_order ? fmt::format("can{}", i) : "can0";
+      if (stats.interfaces[i] != back)
+        renamed += fmt::format("{}{} reads back as {}", renamed.empty() ? "" : ", ", stats.interfaces[i], back);
+    }
+    if (!renamed.empty())
+      notes.push_back(fmt::format("{} keeps no interface names: {}", to_string(format), renamed));
+  }
+  if (!traits.error_details && stats.error_frames > 0)
+    notes.push_back(fmt::format("{} keeps no error-frame details: {} error frame(s) read back as a bus error "
+                                "(class 0x080, no data)",
+                                to_string(format), stats.error_frames));
+  return notes;
+}
+
+void check_writable(const CanFrame& frame) {
+  if (!frame.valid())
+    throw std::invalid_argument(fmt::format("cannot write a frame with id 0x{:X}{} and DLC {}: out of range",
+                                            frame.id, frame.extended ? " (29-bit)" : "", frame.dlc));
+  if (frame.error && (frame.remote || frame.extended))
+    throw std::invalid_argument("cannot write an error frame flagged remote or extended");
+}
+
+}  // namespace saul::host

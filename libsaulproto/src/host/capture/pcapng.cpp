@@ -1,0 +1,341 @@
+#include "saulproto/host/capture/pcapng.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <span>
+#include <stdexcept>
+
+#include "capture_io.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+
+namespace saul::host {
+namespace {
+
+using detail::load_u16;
+using detail::load_u32;
+
+constexpr std::uint32_t kShb = 0x0A0D'0D0A;  // the same in both byte orders
+constexpr std::uint32_t kIdb = 0x0000'0001;
+constexpr std::uint32_t kEpb = 0x0000'0006;
+constexpr std::uint32_t kByteOrderMagic = 0x1A2B'3C4D;
+/// Largest SHB/IDB/EPB body parsed; larger blocks of those types are reported and skipped. Bounds memory.
+constexpr std::uint32_t kMaxBody = 1024 * 1024;
+
+constexpr std::uint16_t kOptEnd = 0;
+constexpr std::uint16_t kShbUserAppl = 4;
+constexpr std::uint16_t kIfName = 2;
+constexpr std::uint16_t kIfTsresol = 9;
+constexpr std::uint16_t kIfTsoffset = 14;
+
+constexpr std::uint64_t kNsPerSec = 1'000'000'000ULL;
+
+/// Timestamp units (as if_tsresol stores them) to nanoseconds. Cost O(1) (O(n) for 10^-n).
+std::uint64_t ticks_to_ns(std::uint64_t ticks, std::uint8_t tsresol) {
+  const unsigned n = tsresol & 0x7FU;
+  if (tsresol & 0x80U) {  // 2^-n seconds
+    if (n == 0) return ticks * kNsPerSec;
+    if (n >= 64) return 0;
+    const std::uint64_t sec = ticks >> n;
+    std::uint64_t frac = ticks & ((std::uint64_t{1} << n) - 1);
+    unsigned shift = n;
+    if (shift > 34) {  // keep frac * 1e9 below 2^64
+      frac >>= shift - 34;
+      shift = 34;
+    }
+    return sec * kNsPerSec + ((frac * kNsPerSec) >> shift);
+  }
+  if (n <= 9) {
+    std::uint64_t scale = 1;
+    for (unsigned i = n; i < 9; ++i) scale *= 10;
+    return ticks * scale;
+  }
+  if (n > 28) return 0;
+  std::uint64_t divisor = 1;
+  for (unsigned i = 9; i < n && divisor <= UINT64_MAX / 10; ++i) divisor *= 10;
+  return ticks / divisor;
+}
+
+/// Builds a block in a byte buffer, little-endian.
+class BlockBuilder {
+ public:
+  explicit BlockBuilder(std::uint32_t type) {
+    u32(type);
+    u32(0);  // total length, patched in finish()
+  }
+  void u16(std::uint16_t v) {
+    std::array<std::uint8_t, 2> b{};
+    detail::store_u16le(b.data(), v);
+    bytes_.insert(bytes_.end(), b.begin(), b.end());
+  }
+  void u32(std::uint32_t v) {
+    std::array<std::uint8_t, 4> b{};
+    detail::store_u32le(b.data(), v);
+    bytes_.insert(bytes_.end(), b.begin(), b.end());
+  }
+  void raw(std::span<const std::uint8_t> v) { bytes_.insert(bytes_.end(), v.begin(), v.end()); }
+  void pad() {
+    while (bytes_.size() % 4) bytes_.push_back(0);
+  }
+  void option(std::uint16_t code, std::span<const std::uint8_t> value) {
+    u16(code);
+    u16(static_cast<std::uint16_t>(value.size()));
+    raw(value);
+    pad();
+  }
+  void finish_and_write(std::ostream& out) {
+    const auto total = static_cast<std::uint32_t>(bytes_.size() + 4);
+    u32(total);
+    detail::store_u32le(bytes_.data() + 4, total);
+    detail::write_bytes(out, bytes_.data(), bytes_.size());
+  }
+
+ private:
+  std::vector<std::uint8_t> bytes_;
+};
+
+std::span<const std::uint8_t> as_bytes(std::string_view s) {
+  return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()};
+}
+
+}  // namespace
+
+// ---- reader ----
+
+PcapngReader::PcapngReader(std::istream& in) : in_(in) {
+  std::array<std::uint8_t, 12> h{};
+  const std::size_t got = detail::read_counted(in_, h.data(), h.size(), offset_);
+  if (got < h.size() || load_u32(h.data(), false) != kShb)
+    throw CaptureOpenError("not a pcapng file: it does not start with a Section Header Block");
+  if (load_u32(h.data() + 8, false) == kByteOrderMagic) {
+    big_ = false;
+  } else if (load_u32(h.data() + 8, true) == kByteOrderMagic) {
+    big_ = true;
+  } else {
+    throw CaptureOpenError("not a pcapng file: bad byte-order magic in the Section Header Block");
+  }
+  if (block(0, kShb, load_u32(h.data() + 4, big_), 12) == Step::corrupt)
+    throw CaptureOpenError("pcapng section header: " + error_.message);
+}
+
+PcapngReader::Step PcapngReader::corrupt(std::uint64_t offset, Recovery recovery, std::string message) {
+  error_.column = 0;
+  error_.kind = PositionKind::byte_offset;
+  error_.position = offset;
+  error_.recovery = recovery;
+  error_.message = std::move(message);
+  if (recovery == Recovery::stop) stopped_ = true;
+  return Step::corrupt;
+}
+
+PcapngReader::Status PcapngReader::next() {
+  for (;;) {
+    if (stopped_) return Status::end;
+    const std::uint64_t start = offset_;
+    std::array<std::uint8_t, 12> h{};
+    std::size_t got = detail::read_counted(in_, h.data(), 8, offset_);
+    if (got == 0) return Status::end;
+    if (got < 8) {
+      corrupt(start, Recovery::stop, fmt::format("file ends inside a block header ({} of 8 bytes)", got));
+      return Status::corrupt;
+    }
+    const std::uint32_t type = load_u32(h.data(), big_);
+    std::uint32_t header_bytes = 8;
+    if (type == kShb) {  // a new section, maybe in the other byte order
+      header_bytes = 12;
+      got = detail::read_counted(in_, h.data() + 8, 4, offset_);
+      if (got < 4) {
+        corrupt(start, Recovery::stop, "file ends inside a section header");
+        return Status::corrupt;
+      }
+      if (load_u32(h.data() + 8, false) == kByteOrderMagic) {
+        big_ = false;
+      } else if (load_u32(h.data() + 8, true) == kByteOrderMagic) {
+        big_ = true;
+      } else {
+        corrupt(start, Recovery::stop, "section header has a bad byte-order magic");
+        return Status::corrupt;
+      }
+    }
+    switch (block(start, type, load_u32(h.data() + 4, big_), header_bytes)) {
+      case Step::frame:
+        return Status::frame;
+      case Step::corrupt:
+        return Status::corrupt;
+      case Step::skipped:
+        break;
+    }
+  }
+}
+
+PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, std::uint32_t length,
+                                       std::uint32_t header_bytes) {
+  if (length < header_bytes + 4 || length % 4 != 0 || (type == kShb && length < 28))
+    return corrupt(start, Recovery::stop, fmt::format("block length {} is not valid", length));
+  const std::uint32_t body_length = length - header_bytes - 4;
+  const bool wanted = type == kShb || type == kIdb || type == kEpb;
+  const bool parse = wanted && body_length <= kMaxBody;
+  std::uint64_t got = 0;
+  if (parse) {
+    body_.resize(body_length);
+    got = detail::read_counted(in_, body_.data(), body_length, offset_);
+  } else {
+    got = detail::skip_counted(in_, body_length, offset_);
+  }
+  std::array<std::uint8_t, 4> trailer{};
+  if (got == body_length) got += detail::read_counted(in_, trailer.data(), 4, offset_);
+  if (got < std::uint64_t{body_length} + 4)
+    return corrupt(start, Recovery::stop,
+                   fmt::format("file ends inside a block ({} of {} bytes)", got + header_bytes, length));
+  const std::uint32_t trailing = load_u32(trailer.data(), big_);
+  if (trailing != length)
+    return corrupt(start, Recovery::next_block,
+                   fmt::format("block length {} at the end differs from {} at the start", trailing, length));
+
+  if (type == kIdb) {
+    if (!parse) {
+      interfaces_.push_back({});  // keep the numbering of the interfaces that follow
+      return corrupt(start, Recovery::next_block,
+                     fmt::format("interface description block of {} bytes is too long", length));
+    }
+    return interface_block(start);
+  }
+  if (type == kEpb) {
+    if (!parse)
+      return corrupt(start, Recovery::next_block,
+                     fmt::format("packet block of {} bytes is too long for a CAN packet", length));
+    return packet_block(start);
+  }
+  if (type == kShb) {
+    if (!parse) return corrupt(start, Recovery::stop, "section header block is too long");
+    const std::uint16_t major = load_u16(body_.data(), big_);
+    if (major != 1) return corrupt(start, Recovery::stop, fmt::format("pcapng version {} is not supported", major));
+    interfaces_.clear();  // interface ids count from 0 in every section
+    return Step::skipped;
+  }
+  return Step::skipped;  // a block type we do not need (statistics, name resolution, custom, ...)
+}
+
+PcapngReader::Step PcapngReader::interface_block(std::uint64_t start) {
+  Interface iface;
+  const std::size_t n = body_.size();
+  if (n < 8) {
+    interfaces_.push_back(iface);
+    return corrupt(start, Recovery::next_block, "interface description block is too short");
+  }
+  iface.linktype = load_u16(body_.data(), big_);
+  std::size_t pos = 8;
+  while (pos + 4 <= n) {
+    const std::uint16_t code = load_u16(body_.data() + pos, big_);
+    const std::uint16_t len = load_u16(body_.data() + pos + 2, big_);
+    if (code == kOptEnd) break;
+    if (pos + 4 + len > n) {
+      interfaces_.push_back(iface);
+      return corrupt(start, Recovery::next_block,
+                     fmt::format("interface option {} runs past the end of its block", code));
+    }
+    const std::uint8_t* value = body_.data() + pos + 4;
+    if (code == kIfName) {
+      std::size_t used = len;
+      while (used > 0 && value[used - 1] == 0) --used;  // some writers add a terminating NUL
+      iface.name.assign(reinterpret_cast<const char*>(value), used);
+    } else if (code == kIfTsresol && len >= 1) {
+      iface.tsresol = value[0];
+    } else if (code == kIfTsoffset && len == 8) {
+      iface.tsoffset = static_cast<std::int64_t>(detail::load_u64(value, big_));
+    }
+    pos += 4 + ((len + 3U) & ~3U);
+  }
+  if (iface.name.empty()) iface.name = fmt::format("can{}", interfaces_.size());
+  interfaces_.push_back(std::move(iface));
+  return Step::skipped;
+}
+
+PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
+  const std::size_t n = body_.size();
+  if (n < 20) return corrupt(start, Recovery::next_block, "enhanced packet block is too short");
+  const std::uint32_t id = load_u32(body_.data(), big_);
+  const std::uint64_t ticks = std::uint64_t{load_u32(body_.data() + 4, big_)} << 32 | load_u32(body_.data() + 8, big_);
+  const std::uint32_t captured = load_u32(body_.data() + 12, big_);
+  if (captured > n - 20)
+    return corrupt(start, Recovery::next_block,
+                   fmt::format("captured length {} runs past the end of its block", captured));
+  if (id >= interfaces_.size())
+    return corrupt(start, Recovery::next_block,
+                   fmt::format("packet of interface {}, which no interface description block declared", id));
+  const Interface& iface = interfaces_[id];
+  if (iface.linktype != kLinktypeCanSocketcan) return Step::skipped;  // another kind of interface in the file
+  std::uint64_t ns = ticks_to_ns(ticks, iface.tsresol);
+  if (iface.tsoffset >= 0) {
+    ns += static_cast<std::uint64_t>(iface.tsoffset) * kNsPerSec;
+  } else {
+    const std::uint64_t back = static_cast<std::uint64_t>(-iface.tsoffset) * kNsPerSec;
+    ns = ns > back ? ns - back : 0;
+  }
+  frame_.timestamp_ns = ns;
+  const std::span<const std::uint8_t> packet(body_.data() + 20, captured);
+  const std::string_view why = decode_socketcan_packet(packet, frame_);
+  if (!why.empty()) return corrupt(start, Recovery::next_block, std::string(why));
+  name_ = iface.name;
+  return Step::frame;
+}
+
+// ---- writer ----
+
+PcapngWriter::PcapngWriter(std::ostream& out) : out_(out) {
+  BlockBuilder b(kShb);
+  b.u32(kByteOrderMagic);
+  b.u16(1);  // version 1.0
+  b.u16(0);
+  b.u32(0xFFFF'FFFF);  // section length: not given
+  b.u32(0xFFFF'FFFF);
+  b.option(kShbUserAppl, as_bytes("libsaulproto"));
+  b.option(kOptEnd, {});
+  b.finish_and_write(out_);
+  if (!out_) throw std::runtime_error("pcapng: write failed");
+}
+
+void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("pcapng writer: write after close");
+  check_writable(frame);
+  if (interface.empty()) interface = "can0";
+  if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
+  std::size_t id = 0;
+  while (id < interfaces_.size() && interfaces_[id] != interface) ++id;
+  if (id == interfaces_.size()) {  // first frame of this interface: describe it
+    BlockBuilder b(kIdb);
+    b.u16(static_cast<std::uint16_t>(kLinktypeCanSocketcan));
+    b.u16(0);
+    b.u32(detail::kSnaplen);
+    b.option(kIfName, as_bytes(interface));
+    const std::array<std::uint8_t, 1> nanoseconds{9};
+    b.option(kIfTsresol, nanoseconds);
+    b.option(kOptEnd, {});
+    b.finish_and_write(out_);
+    interfaces_.emplace_back(interface);
+  }
+  const std::uint64_t ns = frame.timestamp_ns.value_or(0);
+  const auto packet = encode_socketcan_packet(frame);
+  BlockBuilder b(kEpb);
+  b.u32(static_cast<std::uint32_t>(id));
+  b.u32(static_cast<std::uint32_t>(ns >> 32));
+  b.u32(static_cast<std::uint32_t>(ns));
+  b.u32(static_cast<std::uint32_t>(packet.size()));
+  b.u32(static_cast<std::uint32_t>(packet.size()));
+  b.raw(packet);
+  b.finish_and_write(out_);
+  if (!out_) throw std::runtime_error("pcapng: write failed");
+}
+
+void PcapngWriter::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error("pcapng: write failed");
+}
+
+void PcapngWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  flush();
+}
+
+}  // namespace saul::host

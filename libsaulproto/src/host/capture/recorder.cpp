@@ -1,0 +1,205 @@
+#include "saulproto/host/capture/recorder.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace saul::host {
+namespace {
+
+std::unique_ptr<std::ofstream> create(const std::string& path) {
+  auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
+  return file;
+}
+
+std::uint64_t position(std::ofstream& file) {
+  const auto p = file.tellp();
+  return p < 0 ? 0 : static_cast<std::uint64_t>(p);
+}
+
+/// Closes a format writer and then its file, and reports the first failure of either with the file's name.
+template <class Writer>
+void close_both(Writer& writer, std::ofstream& file, const std::string& path) {
+  std::string failure;
+  try {
+    writer.close();
+  } catch (const std::runtime_error& e) {
+    failure = e.what();
+  }
+  file.close();
+  if (failure.empty() && file.fail()) failure = std::strerror(errno);
+  if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, failure));
+}
+
+}  // namespace
+
+std::string numbered_path(const std::string& path, unsigned index) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::size_t base = slash == std::string::npos ? 0 : slash + 1;
+  const std::size_t dot = path.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && dot > base;  // ".hidden" has no extension
+  if (!has_ext) return fmt::format("{}-{:03}", path, index);
+  return fmt::format("{}-{:03}{}", path.substr(0, dot), index, path.substr(dot));
+}
+
+std::uint64_t parse_size(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (...) {
+    used = 0;
+  }
+  std::string unit = text.substr(used);
+  if (unit.ends_with("iB")) unit.resize(unit.size() - 2);
+  else if (unit.ends_with("B")) unit.resize(unit.size() - 1);
+  double scale = 0;
+  if (unit.empty()) scale = 1;
+  if (unit == "k" || unit == "K") scale = 1024.0;
+  if (unit == "M") scale = 1024.0 * 1024;
+  if (unit == "G") scale = 1024.0 * 1024 * 1024;
+  if (used == 0 || scale == 0 || !(v > 0))
+    throw std::invalid_argument(fmt::format("bad size '{}' (use e.g. 100M, 1.5G, 64k)", text));
+  return static_cast<std::uint64_t>(std::llround(v * scale));
+}
+
+bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
+                       std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const {
+  if (frames_in_file == 0) return false;  // never leave a file empty
+  if (options_.max_bytes > 0 && bytes_in_file >= options_.max_bytes) return true;
+  if (options_.max_duration_ns > 0 && file_start_ns && timestamp_ns && *timestamp_ns >= *file_start_ns &&
+      *timestamp_ns - *file_start_ns >= options_.max_duration_ns)
+    return true;
+  return false;
+}
+
+// ---- CAN ----------------------------------------------------------------------------------------------------------
+
+RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
+                                             std::function<void(const std::string&)> on_new_file)
+    : plan_(path, rotation), format_(format), on_new_file_(std::move(on_new_file)) {
+  if (holds_serial_bytes(format))
+    throw CaptureOpenError(fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
+  current_path_ = plan_.path_for(0);
+  file_ = create(current_path_);
+  inner_ = make_capture_writer(*file_, format_);
+  if (on_new_file_) on_new_file_(current_path_);
+}
+
+RotatingCaptureWriter::~RotatingCaptureWriter() {
+  try {
+    close();
+  } catch (...) {  // call close() to see errors
+  }
+}
+
+std::uint64_t RotatingCaptureWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
+
+void RotatingCaptureWriter::close_current() {
+  close_both(*inner_, *file_, current_path_);
+}
+
+void RotatingCaptureWriter::open_next() {
+  close_current();
+  ++index_;
+  current_path_ = plan_.path_for(index_);
+  file_ = create(current_path_);
+  inner_ = make_capture_writer(*file_, format_);
+  frames_in_file_ = 0;
+  file_start_ns_.reset();
+  if (on_new_file_) on_new_file_(current_path_);
+}
+
+void RotatingCaptureWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("record: write after close");
+  if (plan_.options().enabled() &&
+      plan_.due(position(*file_), frames_in_file_, file_start_ns_, frame.timestamp_ns))
+    open_next();
+  try {
+    inner_->write(frame, interface);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
+  }
+  if (!file_start_ns_) file_start_ns_ = frame.timestamp_ns;
+  ++frames_in_file_;
+}
+
+void RotatingCaptureWriter::flush() {
+  if (closed_) return;
+  try {
+    inner_->flush();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
+  }
+}
+
+void RotatingCaptureWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  close_current();
+}
+
+// ---- serial -------------------------------------------------------------------------------------------------------
+
+RotatingSerialWriter::RotatingSerialWriter(const std::string& path, RotationOptions rotation,
+                                           std::function<void(const std::string&)> on_new_file)
+    : plan_(path, rotation), on_new_file_(std::move(on_new_file)) {
+  current_path_ = plan_.path_for(0);
+  file_ = create(current_path_);
+  inner_ = make_serial_capture_writer(*file_);
+  if (on_new_file_) on_new_file_(current_path_);
+}
+
+RotatingSerialWriter::~RotatingSerialWriter() {
+  try {
+    close();
+  } catch (...) {
+  }
+}
+
+std::uint64_t RotatingSerialWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
+
+void RotatingSerialWriter::close_current() {
+  close_both(*inner_, *file_, current_path_);
+}
+
+void RotatingSerialWriter::open_next() {
+  close_current();
+  ++index_;
+  current_path_ = plan_.path_for(index_);
+  file_ = create(current_path_);
+  inner_ = make_serial_capture_writer(*file_);
+  chunks_in_file_ = 0;
+  file_start_ns_.reset();
+  if (on_new_file_) on_new_file_(current_path_);
+}
+
+void RotatingSerialWriter::write(const SerialChunk& chunk) {
+  if (closed_) throw std::runtime_error("record: write after close");
+  if (plan_.options().enabled() && plan_.due(position(*file_), chunks_in_file_, file_start_ns_, chunk.timestamp_ns))
+    open_next();
+  try {
+    inner_->write(chunk);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
+  }
+  if (!file_start_ns_) file_start_ns_ = chunk.timestamp_ns;
+  ++chunks_in_file_;
+}
+
+void RotatingSerialWriter::flush() {
+  if (closed_) return;
+  inner_->flush();
+}
+
+void RotatingSerialWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  close_current();
+}
+
+}  // namespace saul::host

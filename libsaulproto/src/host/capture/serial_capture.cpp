@@ -1,0 +1,254 @@
+#include "saulproto/core/hex.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+
+#include "saulproto/host/capture/uart_export.hpp"
+
+namespace saul::host {
+namespace {
+
+bool fail(CaptureError& error, std::size_t column, std::string message) {
+  error.column = column;
+  error.message = std::move(message);
+  return false;
+}
+
+/// The next space-separated word from pos (pos moves past it and the spaces after it).
+std::string_view word(std::string_view line, std::size_t& pos, std::size_t& start) {
+  while (pos < line.size() && line[pos] == ' ') ++pos;
+  start = pos;
+  while (pos < line.size() && line[pos] != ' ') ++pos;
+  return line.substr(start, pos - start);
+}
+
+/// Owns the file of a serial-log writer.
+class FileSerialWriter final : public SerialCaptureWriter {
+ public:
+  FileSerialWriter(std::string path, std::unique_ptr<std::ofstream> file)
+      : path_(std::move(path)), file_(std::move(file)), inner_(*file_) {}
+  ~FileSerialWriter() override {
+    try {
+      close();
+    } catch (...) {  // call close() to see the error
+    }
+  }
+  void write(const SerialChunk& chunk) override {
+    try {
+      inner_.write(chunk);
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
+    }
+  }
+  void flush() override {
+    try {
+      inner_.flush();
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
+    }
+  }
+  void close() override {
+    if (closed_) return;
+    closed_ = true;
+    std::string failure;
+    try {
+      inner_.close();
+    } catch (const std::runtime_error& e) {
+      failure = e.what();
+    }
+    file_->close();
+    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
+    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+  }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
+
+ private:
+  std::string path_;
+  std::unique_ptr<std::ofstream> file_;
+  SerialLogWriter inner_;
+  bool closed_ = false;
+};
+
+}  // namespace
+
+std::string_view to_string(SerialProtocol protocol) noexcept {
+  switch (protocol) {
+    case SerialProtocol::raw: return "raw";
+    case SerialProtocol::interboard: return "interboard";
+    case SerialProtocol::crsf: return "crsf";
+    case SerialProtocol::pride: return "pride";
+  }
+  return "?";
+}
+
+std::optional<SerialProtocol> serial_protocol_from_name(std::string_view name) noexcept {
+  for (auto p : {SerialProtocol::raw, SerialProtocol::interboard, SerialProtocol::crsf, SerialProtocol::pride})
+    if (name == to_string(p)) return p;
+  return std::nullopt;
+}
+
+SerialProtocol protocol_for_baud(std::uint32_t baud) noexcept {
+  switch (baud) {
+    case 460800: return SerialProtocol::interboard;
+    case 420000:
+    case 416666: return SerialProtocol::crsf;
+    case 38400: return SerialProtocol::pride;
+    default: return SerialProtocol::raw;
+  }
+}
+
+bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& error) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  if (line.empty() || line[0] != '(') return fail(error, 0, "expected '(' starting a timestamp");
+  const std::size_t close = line.find(')');
+  if (close == std::string_view::npos) return fail(error, 0, "timestamp has no closing ')'");
+  const std::string_view stamp = line.substr(1, close - 1);
+  const std::size_t dot = stamp.find('.');
+  if (dot == std::string_view::npos) return fail(error, 1, "timestamp needs a '.' between seconds and fraction");
+  const std::string_view sec_text = stamp.substr(0, dot);
+  const std::string_view frac_text = stamp.substr(dot + 1);
+  std::uint64_t sec = 0;
+  std::uint64_t frac = 0;
+  if (sec_text.empty() || std::from_chars(sec_text.data(), sec_text.data() + sec_text.size(), sec).ptr !=
+                              sec_text.data() + sec_text.size() || sec > 18'000'000'000ULL)
+    return fail(error, 1, "timestamp seconds are not a number");
+  if (frac_text.empty() || frac_text.size() > 9 ||
+      std::from_chars(frac_text.data(), frac_text.data() + frac_text.size(), frac).ptr !=
+          frac_text.data() + frac_text.size())
+    return fail(error, 2 + dot, "timestamp fraction must be 1 to 9 digits");
+  for (std::size_t i = frac_text.size(); i < 9; ++i) frac *= 10;
+
+  std::size_t pos = close + 1;
+  std::size_t start = 0;
+  const std::string_view link = word(line, pos, start);
+  if (link.empty()) return fail(error, start, "missing link name");
+  const std::string_view protocol_text = word(line, pos, start);
+  if (protocol_text.empty()) return fail(error, start, "missing protocol (interboard, crsf, pride or raw)");
+  const auto protocol = serial_protocol_from_name(protocol_text);
+  if (!protocol) return fail(error, start, "unknown protocol: use interboard, crsf, pride or raw");
+  const std::string_view data = word(line, pos, start);
+  if (data.empty()) return fail(error, start, "missing bytes (hex, or '-' for none)");
+  out.bytes.clear();
+  if (data != "-") {
+    if (data.size() % 2 != 0) return fail(error, start, "bytes have an odd number of hex digits");
+    for (std::size_t i = 0; i < data.size(); i += 2) {
+      const int hi = hex::value(data[i]);
+      const int lo = hex::value(data[i + 1]);
+      if (hi < 0 || lo < 0) return fail(error, start + i, "bytes are not hexadecimal");
+      out.bytes.push_back(static_cast<std::uint8_t>(hi << 4 | lo));
+    }
+  }
+  std::uint8_t errors = 0;
+  for (;;) {
+    const std::string_view mark = word(line, pos, start);
+    if (mark.empty()) break;
+    if (mark == "!parity") {
+      errors |= uart_error::kParity;
+    } else if (mark == "!framing") {
+      errors |= uart_error::kFraming;
+    } else if (mark == "!break") {
+      errors |= uart_error::kBreak;
+    } else {
+      return fail(error, start, "unexpected text after the bytes (only !parity, !framing, !break)");
+    }
+  }
+  if (out.bytes.empty() && errors == 0) return fail(error, start, "a line with no bytes must carry an error mark");
+  out.timestamp_ns = sec * 1'000'000'000ULL + frac;
+  out.link.assign(link);
+  out.protocol = *protocol;
+  out.errors = errors;
+  return true;
+}
+
+std::string format_serial_line(const SerialChunk& chunk) {
+  const std::uint64_t ns = chunk.timestamp_ns.value_or(0);
+  std::string s = fmt::format("({:010}.{:06}) {} {} ", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000,
+                              chunk.link, to_string(chunk.protocol));
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  for (std::uint8_t b : chunk.bytes) {
+    s += kHex[b >> 4];
+    s += kHex[b & 0xF];
+  }
+  if (chunk.bytes.empty()) s += '-';
+  if (chunk.errors & uart_error::kParity) s += " !parity";
+  if (chunk.errors & uart_error::kFraming) s += " !framing";
+  if (chunk.errors & uart_error::kBreak) s += " !break";
+  return s;
+}
+
+SerialLogReader::Status SerialLogReader::next() {
+  while (std::getline(in_, line_)) {
+    ++line_number_;
+    if (line_.empty() || line_[0] != '(') continue;  // comment or blank
+    if (parse_serial_line(line_, chunk_, error_)) return Status::chunk;
+    error_.kind = PositionKind::line;
+    error_.position = line_number_;
+    error_.recovery = Recovery::next_line;
+    return Status::corrupt;
+  }
+  return Status::end;
+}
+
+void SerialLogWriter::write(const SerialChunk& chunk) {
+  if (closed_) throw std::runtime_error("serial log writer: write after close");
+  if (chunk.link.empty() || chunk.link.find_first_of(" \t\r\n") != std::string::npos)
+    throw std::invalid_argument(fmt::format("serial log: link name '{}' is empty or has white space", chunk.link));
+  if (chunk.bytes.empty() && chunk.errors == 0) return;  // nothing to say
+  if (chunk.bytes.size() <= kMaxBytesPerLine) {
+    out_ << format_serial_line(chunk) << '\n';
+  } else {
+    SerialChunk part;
+    part.timestamp_ns = chunk.timestamp_ns;
+    part.link = chunk.link;
+    part.protocol = chunk.protocol;
+    for (std::size_t at = 0; at < chunk.bytes.size(); at += kMaxBytesPerLine) {
+      const std::size_t n = std::min(kMaxBytesPerLine, chunk.bytes.size() - at);
+      part.bytes.assign(chunk.bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                        chunk.bytes.begin() + static_cast<std::ptrdiff_t>(at + n));
+      part.errors = at + n == chunk.bytes.size() ? chunk.errors : 0;  // marks go with the last line
+      out_ << format_serial_line(part) << '\n';
+    }
+  }
+  if (!out_) throw std::runtime_error("serial log: write failed");
+}
+
+void SerialLogWriter::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error("serial log: write failed");
+}
+
+void SerialLogWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  flush();
+}
+
+std::unique_ptr<SerialCaptureReader> make_serial_capture_reader(std::istream& in, CaptureFormat format,
+                                                                const SerialReadOptions& options) {
+  switch (format) {
+    case CaptureFormat::serial: return std::make_unique<SerialLogReader>(in);
+    case CaptureFormat::sigrok: return std::make_unique<SigrokAnnotationReader>(in, options);
+    case CaptureFormat::sigrok_json: return std::make_unique<SigrokJsonTraceReader>(in, options);
+    case CaptureFormat::pulseview_csv: return std::make_unique<PulseViewCsvReader>(in, options);
+    default: break;
+  }
+  throw std::invalid_argument(fmt::format("{} holds CAN frames, not serial bytes", to_string(format)));
+}
+
+std::unique_ptr<SerialCaptureWriter> make_serial_capture_writer(std::ostream& out) {
+  return std::make_unique<SerialLogWriter>(out);
+}
+
+std::unique_ptr<SerialCaptureWriter> open_serial_capture_writer(const std::string& path) {
+  auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
+  return std::make_unique<FileSerialWriter>(path, std::move(file));
+}
+
+}  // namespace saul::host

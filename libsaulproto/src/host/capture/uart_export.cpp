@@ -1,0 +1,390 @@
+#include "saulproto/core/hex.hpp"
+#include "saulproto/host/capture/uart_export.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <charconv>
+#include <cmath>
+
+namespace saul::host {
+namespace {
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r' || s.back() == '\n')) s.remove_suffix(1);
+  return s;
+}
+
+std::string_view unquote(std::string_view s) {
+  s = trim(s);
+  if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = s.substr(1, s.size() - 2);
+  return s;
+}
+
+bool parse_u64(std::string_view s, std::uint64_t& v) {
+  s = trim(s);
+  return !s.empty() && std::from_chars(s.data(), s.data() + s.size(), v).ptr == s.data() + s.size();
+}
+
+bool starts_with_nocase(std::string_view s, std::string_view prefix) {
+  if (s.size() < prefix.size()) return false;
+  for (std::size_t i = 0; i < prefix.size(); ++i) {
+    char c = s[i];
+    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
+    if (c != prefix[i]) return false;
+  }
+  return true;
+}
+
+/// "RX" or "TX" when the row or class says so, else "".
+std::string_view direction(const UartAnnotation& a) {
+  for (std::string_view s : {std::string_view(a.row), std::string_view(a.ann_class)}) {
+    if (starts_with_nocase(s, "TX")) return "TX";
+    if (starts_with_nocase(s, "RX")) return "RX";
+  }
+  return "";
+}
+
+std::string link_of(const UartAnnotation& a) {
+  std::string link = a.source.empty() ? std::string("uart") : a.source;
+  const std::string_view dir = direction(a);
+  if (!dir.empty()) {
+    link += ':';
+    link += dir;
+  }
+  for (char& c : link)
+    if (c == ' ' || c == '\t') c = '_';
+  return link;
+}
+
+std::uint8_t error_of(std::string_view text) {
+  if (text == "Parity error" || text == "Parity err") return uart_error::kParity;
+  if (text == "Frame error" || text == "Frame err") return uart_error::kFraming;
+  if (text == "Break condition" || text == "Break" || text == "Brk") return uart_error::kBreak;
+  return 0;
+}
+
+std::optional<std::uint8_t> byte_of(const UartAnnotation& a) {
+  if (!a.ann_class.empty()) {
+    const std::string_view c = a.ann_class;
+    if (!(c.size() >= 4 && c.substr(c.size() - 4) == "data")) return std::nullopt;  // "RX data", "TX data"
+  }
+  const std::string_view t = a.text;
+  if (t.size() != 2) return std::nullopt;
+  const int hi = hex::value(t[0]);
+  const int lo = hex::value(t[1]);
+  if (hi < 0 || lo < 0) return std::nullopt;
+  return static_cast<std::uint8_t>(hi << 4 | lo);
+}
+
+}  // namespace
+
+std::optional<std::int64_t> parse_pulseview_time(std::string_view text) noexcept {
+  std::string_view s = trim(text);
+  bool negative = false;
+  if (!s.empty() && (s.front() == '+' || s.front() == '-')) {
+    negative = s.front() == '-';
+    s.remove_prefix(1);
+  }
+  // decimal number at the front
+  auto number = [](std::string_view& t, long double& v) {
+    std::size_t i = 0;
+    long double x = 0;
+    bool any = false;
+    while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
+      x = x * 10 + (t[i] - '0');
+      ++i;
+      any = true;
+    }
+    if (i < t.size() && t[i] == '.') {
+      ++i;
+      long double scale = 0.1L;
+      while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
+        x += (t[i] - '0') * scale;
+        scale /= 10;
+        ++i;
+        any = true;
+      }
+    }
+    t.remove_prefix(i);
+    v = x;
+    return any;
+  };
+  long double ns = 0;
+  if (s.find(':') != std::string_view::npos) {
+    // [[D:]H:]M:S.fff
+    long double parts[4] = {0, 0, 0, 0};
+    int n = 0;
+    for (;;) {
+      long double v = 0;
+      if (n == 4 || !number(s, v)) return std::nullopt;
+      parts[n++] = v;
+      if (s.empty()) break;
+      if (s.front() != ':') return std::nullopt;
+      s.remove_prefix(1);
+    }
+    static constexpr long double kUnit[4] = {86400, 3600, 60, 1};
+    for (int i = 0; i < n; ++i) ns += parts[i] * kUnit[4 - n + i];
+    ns *= 1e9L;
+  } else {
+    long double v = 0;
+    if (!number(s, v)) return std::nullopt;
+    s = trim(s);
+    long double unit = 1e9L;
+    if (s.starts_with("\xCE\xBC") || s.starts_with("\xC2\xB5")) {  // Greek mu (PulseView) or micro sign
+      unit = 1e3L;
+      s.remove_prefix(2);
+    } else if (s.size() == 2 && s[1] == 's') {
+      switch (s[0]) {
+        case 'p': unit = 1e-3L; break;
+        case 'n': unit = 1; break;
+        case 'u': unit = 1e3L; break;
+        case 'm': unit = 1e6L; break;
+        case 'k': unit = 1e12L; break;
+        default: return std::nullopt;
+      }
+      s.remove_prefix(1);
+    }
+    if (s != "s") return std::nullopt;
+    ns = v * unit;
+  }
+  // A time beyond +-292 years in ns does not fit: a bad field, not a time (llround of it is unspecified, and
+  // negating INT64_MIN is undefined; found by fuzz_serial_pulseview_csv, kept in tests/fuzz/regression).
+  if (!(ns >= 0 && ns < 9.2e18L)) return std::nullopt;
+  const auto rounded = static_cast<std::int64_t>(std::llround(ns));
+  return negative ? -rounded : rounded;
+}
+
+bool split_pulseview_csv(std::string_view line, std::vector<std::string>& fields) {
+  fields.clear();
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  std::size_t i = 0;
+  for (;;) {
+    std::string field;
+    if (i < line.size() && line[i] == '"') {
+      ++i;
+      for (;;) {
+        if (i >= line.size()) return false;
+        if (line[i] == '"') {
+          if (i + 1 < line.size() && line[i + 1] == '"') {
+            field += '"';
+            i += 2;
+            continue;
+          }
+          ++i;
+          break;
+        }
+        field += line[i++];
+      }
+      while (i < line.size() && line[i] != ',') ++i;  // tolerate spaces after the closing quote
+    } else {
+      while (i < line.size() && line[i] != ',') {
+        if (line[i] == '\\' && i + 1 < line.size() && line[i + 1] == ',') {
+          field += ',';
+          i += 2;
+          continue;
+        }
+        field += line[i++];
+      }
+    }
+    fields.push_back(std::move(field));
+    if (i >= line.size()) return true;
+    ++i;  // the comma
+  }
+}
+
+bool UartAnnotationFolder::add(const UartAnnotation& a) {
+  const auto byte = byte_of(a);
+  const std::uint8_t error = byte ? 0 : error_of(a.text);
+  if (!byte && error == 0) return false;
+
+  std::optional<std::uint64_t> time;
+  if (a.start_sample && options_.samplerate_hz > 0) {
+    const std::uint64_t s = *a.start_sample;
+    const std::uint64_t rate = options_.samplerate_hz;
+    time = s / rate * 1'000'000'000ULL + (s % rate) * 1'000'000'000ULL / rate;
+  } else if (a.time_ns) {
+    time = a.time_ns;
+  }
+  std::string link = link_of(a);
+  Held* held = nullptr;
+  for (auto& h : held_)
+    if (h.chunk.link == link) held = &h;
+
+  if (error != 0 && held && !held->chunk.bytes.empty()) {
+    bool near = true;
+    if (a.start_sample && held->end_sample && held->bit)
+      near = *a.start_sample <= *held->end_sample + (*held->bit * 5) / 2 + 1;
+    if (near) {
+      held->chunk.errors |= error;
+      return false;
+    }
+  }
+  Held next;
+  next.chunk.timestamp_ns = time;
+  next.chunk.link = std::move(link);
+  next.chunk.protocol = options_.protocol.value_or(SerialProtocol::raw);
+  if (byte) next.chunk.bytes.push_back(*byte);
+  next.chunk.errors = error;
+  next.end_sample = a.end_sample;
+  if (byte && a.start_sample && a.end_sample && *a.end_sample > *a.start_sample)
+    next.bit = (*a.end_sample - *a.start_sample) / 8;
+  if (held) {
+    ready_ = std::move(held->chunk);
+    *held = std::move(next);
+    return true;
+  }
+  held_.push_back(std::move(next));
+  return false;
+}
+
+bool UartAnnotationFolder::finish() {
+  if (held_.empty()) return false;
+  ready_ = std::move(held_.front().chunk);
+  held_.erase(held_.begin());
+  return true;
+}
+
+SerialCaptureReader::Status UartExportReader::next() {
+  if (done_) return folder_.finish() ? Status::chunk : Status::end;
+  UartAnnotation annotation;
+  while (std::getline(in_, line_)) {
+    ++line_number_;
+    std::string_view line = line_;
+    if (line_number_ == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    annotation = UartAnnotation{};
+    switch (parse(line, annotation)) {
+      case Line::skip: continue;
+      case Line::corrupt:
+        error_.kind = PositionKind::line;
+        error_.position = line_number_;
+        error_.recovery = Recovery::next_line;
+        return Status::corrupt;
+      case Line::annotation:
+        if (folder_.add(annotation)) return Status::chunk;
+        continue;
+    }
+  }
+  done_ = true;
+  return folder_.finish() ? Status::chunk : Status::end;
+}
+
+UartExportReader::Line SigrokAnnotationReader::parse(std::string_view line, UartAnnotation& a) {
+  if (trim(line).empty() || line.front() == '#') return Line::skip;
+  std::size_t pos = 0;
+  if (line.front() >= '0' && line.front() <= '9') {
+    const std::size_t dash = line.find('-');
+    const std::size_t space = line.find(' ');
+    std::uint64_t start = 0;
+    std::uint64_t end = 0;
+    if (dash == std::string_view::npos || space == std::string_view::npos || dash > space ||
+        !parse_u64(line.substr(0, dash), start) || !parse_u64(line.substr(dash + 1, space - dash - 1), end)) {
+      // "uart-1: ..." also starts with a letter, so a leading digit means sample numbers
+      error_.column = 0;
+      error_.message = "expected START-END sample numbers before the decoder name";
+      return Line::corrupt;
+    }
+    a.start_sample = start;
+    a.end_sample = end;
+    pos = space + 1;
+  }
+  const std::string_view rest = line.substr(pos);
+  const std::size_t colon = rest.find(": ");
+  if (colon == std::string_view::npos || colon == 0) {
+    error_.column = pos;
+    error_.message = "expected 'NAME: TEXT' (a sigrok-cli or PulseView annotation)";
+    return Line::corrupt;
+  }
+  a.source = unquote(rest.substr(0, colon));
+  std::string_view text = rest.substr(colon + 2);
+  const std::size_t second = text.find(": ");
+  if (second != std::string_view::npos) {
+    a.row = unquote(text.substr(0, second));
+    text = text.substr(second + 2);
+  }
+  a.text = unquote(text);
+  return Line::annotation;
+}
+
+UartExportReader::Line SigrokJsonTraceReader::parse(std::string_view line, UartAnnotation& a) {
+  std::string_view t = trim(line);
+  if (t.empty() || t == "{\"traceEvents\": [" || t == "{\"traceEvents\":[" || t == "]}" || t == "]" || t == "}")
+    return Line::skip;
+  if (t.back() == ',') t.remove_suffix(1);
+  const auto j = nlohmann::json::parse(t.begin(), t.end(), nullptr, false);
+  if (j.is_discarded() || !j.is_object()) {
+    error_.column = 0;
+    error_.message = "not a JSON trace event";
+    return Line::corrupt;
+  }
+  const auto ph = j.find("ph");
+  if (ph == j.end() || !ph->is_string()) {
+    error_.column = 0;
+    error_.message = "trace event without \"ph\"";
+    return Line::corrupt;
+  }
+  if (*ph != "B") return Line::skip;  // "E" closes the annotation "B" opened
+  const auto ts = j.find("ts");
+  const auto name = j.find("name");
+  if (ts == j.end() || !ts->is_number() || name == j.end() || !name->is_string()) {
+    error_.column = 0;
+    error_.message = "trace event without a numeric \"ts\" and a \"name\"";
+    return Line::corrupt;
+  }
+  const double us = ts->get<double>();
+  if (us >= 0) a.time_ns = static_cast<std::uint64_t>(std::llround(us * 1000.0));
+  if (const auto pid = j.find("pid"); pid != j.end() && pid->is_string()) a.source = pid->get<std::string>();
+  if (const auto tid = j.find("tid"); tid != j.end() && tid->is_string()) a.row = tid->get<std::string>();
+  a.text = name->get<std::string>();
+  return Line::annotation;
+}
+
+UartExportReader::Line PulseViewCsvReader::parse(std::string_view line, UartAnnotation& a) {
+  if (trim(line).empty()) return Line::skip;
+  if (!split_pulseview_csv(line, fields_)) {
+    error_.column = 0;
+    error_.message = "a quoted field has no closing quote";
+    return Line::corrupt;
+  }
+  if (!have_header_) {
+    for (std::size_t i = 0; i < fields_.size(); ++i) {
+      const std::string_view f = trim(fields_[i]);
+      const int index = static_cast<int>(i);
+      if (f == "Sample") sample_ = index;
+      if (f == "Time") time_ = index;
+      if (f == "Decoder") decoder_ = index;
+      if (f == "Ann Row") row_ = index;
+      if (f == "Ann Class") class_ = index;
+      if (f == "Value") value_ = index;
+    }
+    if (value_ < 0) {
+      error_.column = 0;
+      error_.message = "not a PulseView table header (no \"Value\" column)";
+      return Line::corrupt;
+    }
+    have_header_ = true;
+    return Line::skip;
+  }
+  auto field = [this](int index) -> std::string_view {
+    return index >= 0 && static_cast<std::size_t>(index) < fields_.size() ? trim(fields_[static_cast<std::size_t>(index)])
+                                                                          : std::string_view();
+  };
+  if (static_cast<std::size_t>(value_) >= fields_.size()) {
+    error_.column = 0;
+    error_.message = "fewer fields than the header has";
+    return Line::corrupt;
+  }
+  std::uint64_t sample = 0;
+  if (sample_ >= 0 && parse_u64(field(sample_), sample)) a.start_sample = sample;
+  if (time_ >= 0) {
+    if (const auto ns = parse_pulseview_time(field(time_)); ns && *ns >= 0) a.time_ns = static_cast<std::uint64_t>(*ns);
+  }
+  a.source = field(decoder_);
+  a.row = field(row_);
+  a.ann_class = field(class_);
+  a.text = field(value_);
+  return Line::annotation;
+}
+
+}  // namespace saul::host

@@ -1,0 +1,784 @@
+#include "saulproto/host/flash/esp_flasher.hpp"
+
+#include <fmt/format.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "saulproto/core/bytes.hpp"
+
+namespace saul::host {
+
+using namespace std::chrono;
+
+namespace {
+
+constexpr milliseconds kCommandTimeout{3000};
+constexpr milliseconds kSecurityInfoTimeout{500};  // older ROMs do not know the command: do not wait long
+constexpr std::uint32_t kDefaultFlashSize = 4U * 1024 * 1024;
+constexpr int kBlockAttempts = 3;
+constexpr std::size_t kNoiseKept = 200;
+
+// Timeouts that grow with the flash involved (esptool: erase 40 s/MB, MD5 8 s/MB), never below 3 s.
+milliseconds per_mb(double seconds_per_mb, std::uint64_t bytes) {
+  const double s = seconds_per_mb * static_cast<double>(bytes) / 1e6;
+  return std::max(kCommandTimeout, milliseconds(static_cast<long long>(s * 1000)));
+}
+
+std::string size_text(std::uint64_t bytes) {
+  if (bytes >= 1024 * 1024 && bytes % (1024 * 1024) == 0) return fmt::format("{} MB", bytes / (1024 * 1024));
+  if (bytes >= 10 * 1024) return fmt::format("{:.1f} KiB", static_cast<double>(bytes) / 1024.0);
+  return fmt::format("{} bytes", bytes);
+}
+
+// Boot messages as one readable line: CR dropped, LF as " | ", control bytes as '.'.
+std::string printable(const std::string& raw) {
+  std::string out;
+  for (char c : raw) {
+    if (c == '\r') continue;
+    if (c == '\n') {
+      if (!out.empty() && out.back() != ' ') out += " | ";
+      continue;
+    }
+    out += (c >= 0x20 && c < 0x7F) ? c : '.';
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == '|')) out.pop_back();
+  return out;
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// --- MD5 (RFC 1321), written from the RFC's description. O(n), 64 bytes at a time. ----------------------------
+
+const std::array<std::uint32_t, 64>& md5_table() {
+  // T[i] = floor(2^32 * |sin(i + 1)|), as the RFC defines it (checked against its test suite in the tests).
+  static const std::array<std::uint32_t, 64> t = [] {
+    std::array<std::uint32_t, 64> v{};
+    for (std::size_t i = 0; i < 64; ++i)
+      v[i] = static_cast<std::uint32_t>(std::floor(std::fabs(std::sin(static_cast<double>(i + 1))) * 4294967296.0));
+    return v;
+  }();
+  return t;
+}
+
+void md5_block(std::array<std::uint32_t, 4>& h, const std::uint8_t* p) {
+  static constexpr unsigned kShift[64] = {7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22,
+                                          5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20,
+                                          4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23,
+                                          6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21};
+  const auto& t = md5_table();
+  std::uint32_t m[16];
+  for (std::size_t i = 0; i < 16; ++i) m[i] = bytes::get_u32le(p + 4 * i);
+  std::uint32_t a = h[0], b = h[1], c = h[2], d = h[3];
+  for (std::size_t i = 0; i < 64; ++i) {
+    std::uint32_t f = 0;
+    std::size_t g = 0;
+    if (i < 16) {
+      f = (b & c) | (~b & d);
+      g = i;
+    } else if (i < 32) {
+      f = (d & b) | (~d & c);
+      g = (5 * i + 1) % 16;
+    } else if (i < 48) {
+      f = b ^ c ^ d;
+      g = (3 * i + 5) % 16;
+    } else {
+      f = c ^ (b | ~d);
+      g = (7 * i) % 16;
+    }
+    const std::uint32_t x = a + f + t[i] + m[g];
+    a = d;
+    d = c;
+    c = b;
+    b = b + ((x << kShift[i]) | (x >> (32 - kShift[i])));
+  }
+  h[0] += a;
+  h[1] += b;
+  h[2] += c;
+  h[3] += d;
+}
+
+}  // namespace
+
+esp::Md5 md5_of(std::span<const std::uint8_t> data) {
+  std::array<std::uint32_t, 4> h{0x67452301, 0xefcdab89, 0x98badcfe, 0x10325476};
+  std::size_t i = 0;
+  for (; i + 64 <= data.size(); i += 64) md5_block(h, data.data() + i);
+  // Tail: the rest, 0x80, zeros to 56 mod 64, then the length in bits (64-bit LE).
+  std::array<std::uint8_t, 128> tail{};
+  const std::size_t rest = data.size() - i;
+  std::copy(data.begin() + static_cast<std::ptrdiff_t>(i), data.end(), tail.begin());
+  tail[rest] = 0x80;
+  const std::size_t tail_len = rest < 56 ? 64 : 128;
+  const std::uint64_t bits = static_cast<std::uint64_t>(data.size()) * 8;
+  for (std::size_t k = 0; k < 8; ++k) tail[tail_len - 8 + k] = static_cast<std::uint8_t>(bits >> (8 * k));
+  for (std::size_t k = 0; k < tail_len; k += 64) md5_block(h, tail.data() + k);
+  esp::Md5 out{};
+  for (std::size_t k = 0; k < 4; ++k) bytes::put_u32le(&out[4 * k], h[k]);
+  return out;
+}
+
+std::string to_hex(const esp::Md5& md5) {
+  std::string s;
+  for (std::uint8_t b : md5) s += fmt::format("{:02x}", b);
+  return s;
+}
+
+std::vector<std::uint8_t> padded_for_flash(std::span<const std::uint8_t> data) {
+  std::vector<std::uint8_t> out(data.begin(), data.end());
+  while (out.size() % 4 != 0) out.push_back(0xFF);
+  return out;
+}
+
+std::vector<std::uint8_t> deflate(std::span<const std::uint8_t> data) {
+  uLongf size = compressBound(static_cast<uLong>(data.size()));
+  std::vector<std::uint8_t> out(size);
+  if (compress2(out.data(), &size, data.data(), static_cast<uLong>(data.size()), 9) != Z_OK)
+    throw FlashError(FlashError::Kind::input, "zlib could not compress the image (out of memory?)");
+  out.resize(size);
+  return out;
+}
+
+// --- reset sequences -------------------------------------------------------------------------------------------
+
+const char* to_string(ResetStyle style) {
+  return style == ResetStyle::usb_serial_jtag ? "USB-Serial/JTAG" : "USB-UART bridge (DTR/RTS)";
+}
+
+std::vector<LineStep> bootloader_reset_sequence(ResetStyle style, int variant) {
+  if (style == ResetStyle::usb_serial_jtag) {
+    return {{false, false, milliseconds(100)},  // idle
+            {true, false, milliseconds(100)},   // boot pin low
+            {true, true, milliseconds(0)},      // through (1,1) ...
+            {false, true, milliseconds(100)},   // ... into reset
+            {false, false, milliseconds(0)}};   // out of reset, into the ROM loader
+  }
+  const milliseconds boot_hold = variant % 2 == 0 ? milliseconds(50) : milliseconds(550);
+  return {{false, true, milliseconds(100)},  // GPIO0 high, EN low: in reset
+          {true, false, boot_hold},          // GPIO0 low, EN released: the ROM samples GPIO0 low
+          {false, false, milliseconds(0)}};  // GPIO0 released
+}
+
+std::vector<LineStep> hard_reset_sequence(ResetStyle style) {
+  if (style == ResetStyle::usb_serial_jtag)
+    return {{false, true, milliseconds(200)}, {false, false, milliseconds(200)}};
+  return {{false, true, milliseconds(100)}, {false, false, milliseconds(0)}};
+}
+
+void sleep_real(milliseconds d) { std::this_thread::sleep_for(d); }
+
+void run_line_sequence(SerialPort& port, std::span<const LineStep> steps, const Sleeper& sleep) {
+  for (const auto& s : steps) {
+    port.set_modem_lines(s.dtr, s.rts);
+    if (s.hold.count() > 0) sleep(s.hold);
+  }
+}
+
+// --- inputs ----------------------------------------------------------------------------------------------------
+
+FlashImage load_image(std::uint32_t offset, const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: no such file (an ESP-IDF build leaves build/<project>.bin, "
+                                 "build/bootloader/bootloader.bin and build/partition_table/partition-table.bin)",
+                                 path.string()));
+  if (fs::is_directory(path, ec))
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: is a folder; for an ESP-IDF build folder use --build-dir", path.string()));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FlashError(FlashError::Kind::input, fmt::format("{}: cannot be read (permissions?)", path.string()));
+  FlashImage img;
+  img.offset = offset;
+  img.name = path.string();
+  img.data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  if (img.data.empty()) throw FlashError(FlashError::Kind::input, fmt::format("{}: the file is empty", path.string()));
+  return img;
+}
+
+std::optional<std::uint32_t> parse_offset(const std::string& text) {
+  if (text.empty() || text[0] == '-' || text[0] == '+') return std::nullopt;
+  std::size_t used = 0;
+  unsigned long long v = 0;
+  try {
+    v = std::stoull(text, &used, 0);
+  } catch (...) {
+    return std::nullopt;
+  }
+  if (used != text.size() || v > 0xFFFFFFFFULL) return std::nullopt;
+  return static_cast<std::uint32_t>(v);
+}
+
+std::uint32_t parse_flash_size(const std::string& text) {
+  const std::string t = lower(text);
+  std::size_t used = 0;
+  unsigned long v = 0;
+  try {
+    v = std::stoul(t, &used, 10);
+  } catch (...) {
+    return 0;
+  }
+  const std::string unit = t.substr(used);
+  if (unit == "mb" && v > 0 && v <= 128) return static_cast<std::uint32_t>(v * 1024 * 1024);
+  if (unit == "kb" && v > 0 && v <= 128 * 1024) return static_cast<std::uint32_t>(v * 1024);
+  return 0;
+}
+
+FlashPlan load_build_dir(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path json_path = dir;
+  fs::path base = dir;
+  if (fs::is_regular_file(dir, ec)) {
+    base = dir.parent_path();
+  } else {
+    json_path = dir / "flasher_args.json";
+  }
+  if (!fs::exists(json_path, ec))
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: no flasher_args.json there (it is what 'idf.py build' leaves in the build "
+                                 "folder: build it first, or pass OFFSET FILE pairs)",
+                                 dir.string()));
+  std::ifstream in(json_path);
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    throw FlashError(FlashError::Kind::input, fmt::format("{}: not valid JSON: {}", json_path.string(), e.what()));
+  }
+  FlashPlan plan;
+  if (j.contains("extra_esptool_args") && j["extra_esptool_args"].contains("chip") &&
+      j["extra_esptool_args"]["chip"].is_string())
+    plan.target_chip = j["extra_esptool_args"]["chip"].get<std::string>();
+  if (!plan.target_chip.empty() && lower(plan.target_chip) != "esp32s3")
+    throw FlashError(FlashError::Kind::wrong_chip,
+                     fmt::format("{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py "
+                                 "set-target esp32s3' and build again",
+                                 json_path.string(), plan.target_chip));
+  if (!j.contains("flash_files") || !j["flash_files"].is_object() || j["flash_files"].empty())
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: has no \"flash_files\" (not an ESP-IDF flasher_args.json?)", json_path.string()));
+  for (const auto& [key, value] : j["flash_files"].items()) {
+    const auto offset = parse_offset(key);
+    if (!offset || !value.is_string())
+      throw FlashError(FlashError::Kind::input,
+                       fmt::format("{}: flash_files entry \"{}\" is not OFFSET: \"file\"", json_path.string(), key));
+    FlashImage img = load_image(*offset, base / value.get<std::string>());
+    img.name = value.get<std::string>();
+    plan.images.push_back(std::move(img));
+  }
+  if (j.contains("flash_settings") && j["flash_settings"].contains("flash_size") &&
+      j["flash_settings"]["flash_size"].is_string()) {
+    plan.flash_size = parse_flash_size(j["flash_settings"]["flash_size"].get<std::string>());
+    if (plan.flash_size) plan.flash_size_source = "flasher_args.json";
+  }
+  return plan;
+}
+
+void check_plan(FlashPlan& plan) {
+  using K = FlashError::Kind;
+  if (plan.images.empty())
+    throw FlashError(K::input, "nothing to flash: give FILE [--offset], OFFSET FILE pairs or --build-dir");
+  if (!plan.target_chip.empty() && lower(plan.target_chip) != "esp32s3")
+    throw FlashError(
+        K::wrong_chip,
+        fmt::format("the build folder was made for {} (flasher_args.json), not esp32s3: wrong build folder, "
+                    "or run 'idf.py set-target esp32s3' and build again",
+                    plan.target_chip));
+  std::sort(plan.images.begin(), plan.images.end(), [](const auto& a, const auto& b) { return a.offset < b.offset; });
+  for (std::size_t i = 0; i < plan.images.size(); ++i) {
+    const auto& img = plan.images[i];
+    if (img.offset % esp::kSectorSize != 0)
+      throw FlashError(K::input, fmt::format("{}: offset 0x{:X} is not on a 4 KiB sector boundary (the flash is erased "
+                                             "by whole sectors)",
+                                             img.name, img.offset));
+    if (i > 0) {
+      const auto& prev = plan.images[i - 1];
+      const std::uint64_t prev_end = prev.offset + static_cast<std::uint64_t>(prev.data.size());
+      if (prev_end > img.offset)
+        throw FlashError(K::input, fmt::format("{} (0x{:X}..0x{:X}) overlaps {} at 0x{:X}", prev.name, prev.offset,
+                                               prev_end, img.name, img.offset));
+    }
+    if (auto h = esp::parse_image_header(img.data); h && h->chip_id != esp::kChipIdEsp32s3) {
+      const char* name = esp::chip_name(h->chip_id);
+      throw FlashError(K::wrong_chip,
+                       fmt::format("{}: is an image for the {} (image chip id {}), not for the ESP32-S3: "
+                                   "wrong build (idf.py set-target esp32s3)",
+                                   img.name, name ? name : "unknown chip", h->chip_id));
+    }
+  }
+  if (plan.flash_size == 0) {
+    for (const auto& img : plan.images) {
+      if (img.offset != 0) continue;
+      if (auto h = esp::parse_image_header(img.data)) {
+        plan.flash_size = esp::flash_size_from_code(h->flash_size_code);
+        if (plan.flash_size) plan.flash_size_source = "the bootloader's image header";
+      }
+    }
+  }
+  if (plan.flash_size == 0) {
+    plan.flash_size = kDefaultFlashSize;
+    plan.flash_size_source = "assumed: the smallest ESP32-S3 module; pass --flash-size for more";
+  }
+  for (const auto& img : plan.images) {
+    const std::uint64_t end = img.offset + static_cast<std::uint64_t>(padded_for_flash(img.data).size());
+    if (end > plan.flash_size)
+      throw FlashError(
+          K::too_large,
+          fmt::format("{} ({}) at 0x{:X} ends at 0x{:X}, beyond the {} flash ({}): wrong file or offset, or "
+                      "pass --flash-size if the board's flash is larger",
+                      img.name, size_text(img.data.size()), img.offset, end, size_text(plan.flash_size),
+                      plan.flash_size_source));
+  }
+}
+
+const char* to_string(RegionOutcome::State s) {
+  switch (s) {
+    case RegionOutcome::State::pending: return "pending";
+    case RegionOutcome::State::unchanged: return "unchanged";
+    case RegionOutcome::State::written: return "written";
+    case RegionOutcome::State::unverified: return "UNVERIFIED";
+  }
+  return "?";
+}
+
+// --- the flasher -----------------------------------------------------------------------------------------------
+
+EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
+    : port_(port),
+      options_(std::move(options)),
+      storage_(1024),
+      decoder_(storage_),
+      packet_(esp::kMaxRequest),
+      frame_(esp::kMaxSlipFrame) {
+  if (!options_.sleep) options_.sleep = sleep_real;
+  if (options_.connect_attempts < 1) options_.connect_attempts = 1;
+}
+
+void EspFlasher::send(std::span<const std::uint8_t> packet) {
+  auto n = esp::slip_encode(packet, frame_);
+  if (!n) throw FlashError(FlashError::Kind::protocol, "internal: request does not fit its frame buffer");
+  // Long enough for the frame at the current rate, twice over, plus a second of slack.
+  const auto baud = std::max<std::uint32_t>(port_.settings().baud, 9600);
+  const milliseconds timeout(1000 + static_cast<long long>(*n) * 10 * 2 * 1000 / baud);
+  port_.write(std::span<const std::uint8_t>(frame_.data(), *n), timeout);
+  bytes_sent_ += *n;
+}
+
+std::optional<std::span<const std::uint8_t>> EspFlasher::take(std::uint8_t byte) {
+  if (!decoder_.in_frame() && byte != esp::kSlipEnd) {
+    if (noise_.size() < kNoiseKept) noise_ += static_cast<char>(byte);  // the start of a boot log says the most
+  }
+  auto frame = decoder_.push(byte);
+  if (frame && !frame->empty() && (*frame)[0] == esp::kDirectionRequest) ++echoes_;
+  return frame;
+}
+
+std::optional<esp::Response> EspFlasher::await(esp::Op op, milliseconds timeout, esp::Loader loader) {
+  const auto deadline = steady_clock::now() + timeout;
+  for (;;) {
+    while (rx_pos_ < rx_.size()) {
+      auto frame = take(rx_[rx_pos_++]);
+      if (!frame) continue;
+      auto r = esp::parse_response(*frame, loader);
+      if (r && r->op == static_cast<std::uint8_t>(op)) return *r;  // others: late answers to earlier requests
+    }
+    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() <= 0) return std::nullopt;
+    rx_.resize(4096);
+    const std::size_t n = port_.read(rx_, left);
+    rx_.resize(n);
+    rx_pos_ = 0;
+    bytes_received_ += n;
+  }
+}
+
+void EspFlasher::drain(milliseconds quiet) {
+  std::array<std::uint8_t, 1024> buf{};
+  for (;;) {
+    while (rx_pos_ < rx_.size()) (void)take(rx_[rx_pos_++]);
+    const std::size_t n = port_.read(buf, quiet);
+    if (n == 0) break;
+    bytes_received_ += n;
+    for (std::size_t i = 0; i < n; ++i) (void)take(buf[i]);
+  }
+  decoder_.reset();
+}
+
+std::optional<esp::Response> EspFlasher::transact(esp::Op op, std::span<const std::uint8_t> packet,
+                                                  milliseconds timeout) {
+  send(packet);
+  return await(op, timeout, chip_.loader);
+}
+
+esp::Response EspFlasher::command(esp::Op op, std::span<const std::uint8_t> packet, milliseconds timeout) {
+  auto r = transact(op, packet, timeout);
+  if (!r)
+    throw FlashError(FlashError::Kind::no_answer,
+                     fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
+                                 "broke (reset it into download mode and run again)",
+                                 port_.path(), esp::to_string(op), timeout.count()));
+  if (!r->ok())
+    throw FlashError(
+        FlashError::Kind::refused,
+        fmt::format("{}: {} refused by the {} loader: {} (error 0x{:02X})", port_.path(), esp::to_string(op),
+                    chip_.loader == esp::Loader::rom ? "ROM" : "stub", esp::error_text(r->error), r->error));
+  return *r;
+}
+
+bool EspFlasher::try_sync() {
+  auto n = esp::build_sync(packet_);
+  send(std::span<const std::uint8_t>(packet_.data(), *n));
+  // Read with the 2-byte status layout: it fits both the ROM's answer (4 status bytes) and a stub's.
+  auto r = await(esp::Op::sync, options_.sync_timeout, esp::Loader::stub);
+  if (!r || !r->ok()) return false;
+  chip_.loader = r->value == 0 ? esp::Loader::stub : esp::Loader::rom;  // the ROM answers SYNC with a non-zero value
+  return true;
+}
+
+std::string EspFlasher::diagnose_silence() const {
+  const bool usj = options_.reset == ResetStyle::usb_serial_jtag;
+  const std::string by_hand =
+      usj ? "Hold BOOT on the IO board and tap RESET (or plug USB in while holding BOOT), release BOOT, then run "
+            "again with --no-reset"
+          : "Hold BOOT on the BALANCE board and tap RESET, release BOOT, then run again with --no-reset";
+  if (echoes_ > 0)
+    return fmt::format(
+        "{}: what saulctl sends comes straight back (a loopback or an echoing terminal, not an "
+        "ESP32): wrong port? 'saulctl ports' lists them",
+        port_.path());
+  if (!noise_.empty()) {
+    std::string seen = printable(noise_);
+    if (seen.size() > 120) seen = seen.substr(0, 117) + "...";
+    if (noise_.find("waiting for download") != std::string::npos || noise_.find("DOWNLOAD(") != std::string::npos)
+      return fmt::format(
+          "{}: the chip is in download mode (its boot log says so) but never answered SYNC: a line "
+          "problem between the adapter and the chip (loose TX/RX, wrong level); unplug, replug and "
+          "run again. Seen: \"{}\"",
+          port_.path(), seen);
+    return fmt::format(
+        "{}: the board sent text but never answered the bootloader's SYNC: it is running its "
+        "application, not in download mode (the {} reset did not reach GPIO0?). {}. Seen: \"{}\"",
+        port_.path(), to_string(options_.reset), by_hand, seen);
+  }
+  return fmt::format(
+      "{}: no serial data received: the board is not in download mode (not powered, a charge-only "
+      "cable, the wrong port, or the auto-reset did not work). {}",
+      port_.path(), by_hand);
+}
+
+void EspFlasher::check_cancelled(const char* doing) const {
+  if (options_.cancelled && options_.cancelled())
+    throw FlashError(FlashError::Kind::interrupted, fmt::format("interrupted while {}", doing));
+}
+
+const ChipInfo& EspFlasher::connect() {
+  bool synced = false;
+  for (int attempt = 0; attempt < options_.connect_attempts && !synced; ++attempt) {
+    if (options_.reset_before) {
+      const auto seq = bootloader_reset_sequence(options_.reset, attempt);
+      run_line_sequence(port_, seq, options_.sleep);
+    }
+    drain(milliseconds(0));
+    for (int i = 0; i < 5 && !synced; ++i) {
+      check_cancelled("connecting");
+      synced = try_sync();
+    }
+  }
+  if (!synced) throw FlashError(FlashError::Kind::no_answer, diagnose_silence());
+  connected_ = true;
+  detect_chip();
+  return chip_;
+}
+
+void EspFlasher::detect_chip() {
+  auto n = esp::build_get_security_info(packet_);
+  auto r =
+      transact(esp::Op::get_security_info, std::span<const std::uint8_t>(packet_.data(), *n), kSecurityInfoTimeout);
+  bool identified = false;
+  if (r && r->ok()) {
+    if (auto si = esp::parse_security_info(r->data)) {
+      chip_.security_flags = si->flags;
+      if (si->has_chip_id) {
+        chip_.chip_id = si->chip_id;
+        const char* name = esp::chip_name(si->chip_id);
+        chip_.name = name ? name : fmt::format("unknown chip (id {})", si->chip_id);
+        chip_.detected_by = "GET_SECURITY_INFO";
+        identified = true;
+      }
+    }
+  }
+  if (!identified) {
+    const std::uint32_t magic = read_reg(esp::kChipDetectMagicAddress);
+    const char* name = esp::chip_name_from_magic(magic);
+    chip_.name = name ? name : fmt::format("unknown chip (magic 0x{:08X})", magic);
+    chip_.chip_id = magic == esp::kMagicEsp32s3 ? esp::kChipIdEsp32s3 : 0xFFFFFFFF;
+    chip_.detected_by = fmt::format("READ_REG 0x{:08X}", esp::kChipDetectMagicAddress);
+  }
+  if (chip_.name != "ESP32-S3")
+    throw FlashError(FlashError::Kind::wrong_chip,
+                     fmt::format("{}: this is an {}, not an ESP32-S3 (found by {}): both SAUL-TEE boards carry an "
+                                 "ESP32-S3, so this is another board or the wrong port ('saulctl ports' lists them)",
+                                 port_.path(), chip_.name, chip_.detected_by));
+  if (chip_.security_flags & esp::kSecureDownloadFlag)
+    throw FlashError(FlashError::Kind::unsupported,
+                     fmt::format("{}: the ESP32-S3 is in secure download mode: its ROM will not compute the flash MD5 "
+                                 "saulctl verifies every write with; flash it with esptool's secure-download options",
+                                 port_.path()));
+  chip_.usb_serial_jtag = (read_reg(esp::s3::kUartDevBufNo) & 0xFF) == esp::s3::kBufNoUsbSerialJtag;
+  const std::uint32_t strap = read_reg(esp::s3::kGpioStrapReg);
+  const std::uint32_t forced = read_reg(esp::s3::kRtcCntlOption1Reg);
+  chip_.boot_pin_held = (strap & esp::s3::kStrapSpiBootMask) == 0 && (forced & esp::s3::kForceDownloadBootMask) == 0;
+  if (chip_.usb_serial_jtag) {
+    // A reset over USB-Serial/JTAG leaves the RTC domain running: a watchdog armed by the application would
+    // fire mid-write. Disable the RTC watchdog, let the super watchdog feed itself.
+    write_reg(esp::s3::kRtcWdtProtectReg, esp::s3::kRtcWdtKey);
+    write_reg(esp::s3::kRtcWdtConfig0Reg, 0);
+    write_reg(esp::s3::kRtcWdtProtectReg, 0);
+    write_reg(esp::s3::kSwdProtectReg, esp::s3::kSwdKey);
+    write_reg(esp::s3::kSwdConfReg, read_reg(esp::s3::kSwdConfReg) | esp::s3::kSwdAutoFeed);
+    write_reg(esp::s3::kSwdProtectReg, 0);
+  }
+  if (options_.note) {
+    options_.note(fmt::format("connected: {} ({}), {} loader, talking over {}", chip_.name, chip_.detected_by,
+                              chip_.loader == esp::Loader::rom ? "ROM" : "stub",
+                              chip_.usb_serial_jtag ? "its USB-Serial/JTAG" : "UART0"));
+    if (chip_.usb_serial_jtag != (options_.reset == ResetStyle::usb_serial_jtag))
+      options_.note(fmt::format("note: the chip talks over {} but the reset style is {}: is --board right?",
+                                chip_.usb_serial_jtag ? "USB-Serial/JTAG (the IO board)" : "UART0 (the BALANCE board)",
+                                to_string(options_.reset)));
+  }
+}
+
+std::uint32_t EspFlasher::read_reg(std::uint32_t address) {
+  auto n = esp::build_read_reg(address, packet_);
+  return command(esp::Op::read_reg, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout).value;
+}
+
+void EspFlasher::write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask) {
+  auto n = esp::build_write_reg(address, value, mask, 0, packet_);
+  (void)command(esp::Op::write_reg, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+}
+
+esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
+  auto n = esp::build_spi_flash_md5(offset, size, packet_);
+  auto r = command(esp::Op::spi_flash_md5, std::span<const std::uint8_t>(packet_.data(), *n), per_mb(8, size));
+  auto md5 = esp::parse_md5(r.data);
+  if (!md5)
+    throw FlashError(FlashError::Kind::protocol,
+                     fmt::format("{}: SPI_FLASH_MD5 answered {} bytes, not an MD5 ({})", port_.path(), r.data.size(),
+                                 saul::to_string(md5.reason())));
+  return *md5;
+}
+
+void EspFlasher::attach_flash(std::uint32_t flash_size) {
+  auto n = esp::build_spi_attach(0, chip_.loader, packet_);
+  (void)command(esp::Op::spi_attach, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  n = esp::build_spi_set_params(flash_size, packet_);
+  (void)command(esp::Op::spi_set_params, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+}
+
+void EspFlasher::change_baud(std::uint32_t baud) {
+  const std::uint32_t current = port_.settings().baud;
+  if (baud == 0 || baud == current) return;
+  auto n = esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_);
+  (void)command(esp::Op::change_baudrate, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  port_.set_baud(baud);
+  drain(milliseconds(20));  // whatever the switch garbled
+  if (options_.note) options_.note(fmt::format("baud rate {} -> {}", current, baud));
+}
+
+void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::span<const std::uint8_t> payload,
+                              bool compressed, std::size_t index, RegionOutcome& out) {
+  const esp::Loader loader = chip_.loader;
+  const std::uint32_t block = esp::block_size(loader);
+  const auto payload_size = static_cast<std::uint32_t>(payload.size());
+  const std::uint32_t blocks = esp::block_count(payload_size, block);
+  const auto t0 = steady_clock::now();
+  const std::uint64_t sent0 = bytes_sent_;
+  // The ROM erases the whole region when the write begins.
+  const milliseconds begin_timeout = loader == esp::Loader::rom ? per_mb(40, size) : kCommandTimeout;
+  auto n = compressed ? esp::build_flash_defl_begin(esp::defl_begin_size(size, loader), blocks, block, image.offset,
+                                                    loader, packet_)
+                      : esp::build_flash_begin(size, blocks, block, image.offset, loader, packet_);
+  (void)command(compressed ? esp::Op::flash_defl_begin : esp::Op::flash_begin,
+                std::span<const std::uint8_t>(packet_.data(), *n), begin_timeout);
+  const esp::Op data_op = compressed ? esp::Op::flash_defl_data : esp::Op::flash_data;
+  std::vector<std::uint8_t> chunk(block, 0xFF);
+  for (std::uint32_t seq = 0; seq < blocks; ++seq) {
+    if (options_.cancelled && options_.cancelled())
+      throw FlashError(FlashError::Kind::interrupted,
+                       fmt::format("interrupted while writing {} at 0x{:X}: that region is UNVERIFIED and the board "
+                                   "may not boot; flash it again",
+                                   image.name, image.offset));
+    const std::uint32_t from = seq * block;
+    const std::uint32_t len = std::min(block, payload_size - from);
+    std::span<const std::uint8_t> slice = payload.subspan(from, len);
+    if (!compressed && len < block) {  // plain writes pad the last block with erased-flash bytes
+      std::fill(chunk.begin(), chunk.end(), 0xFF);
+      std::copy(slice.begin(), slice.end(), chunk.begin());
+      slice = chunk;
+    }
+    n = compressed ? esp::build_flash_defl_data(seq, slice, packet_) : esp::build_flash_data(seq, slice, packet_);
+    const std::span<const std::uint8_t> request(packet_.data(), *n);
+    for (int attempt = 1;; ++attempt) {
+      auto r = transact(data_op, request, per_mb(40, block));
+      if (r && r->ok()) break;
+      if (attempt == kBlockAttempts) {
+        if (!r)
+          throw FlashError(FlashError::Kind::no_answer,
+                           fmt::format("{}: no answer to block {} of {} of {} after {} tries: the board left download "
+                                       "mode or the connection broke",
+                                       port_.path(), seq + 1, blocks, image.name, kBlockAttempts));
+        throw FlashError(FlashError::Kind::refused,
+                         fmt::format("{}: block {} of {} of {} refused {} times: {} (error 0x{:02X})", port_.path(),
+                                     seq + 1, blocks, image.name, kBlockAttempts, esp::error_text(r->error), r->error));
+      }
+      ++out.retries;
+    }
+    out.wire_bytes = bytes_sent_ - sent0;
+    if (options_.progress) {
+      FlashProgress p;
+      p.stage = FlashProgress::Stage::writing;
+      p.index = index;
+      p.image = &image;
+      const std::uint64_t consumed = std::min<std::uint64_t>(payload_size, static_cast<std::uint64_t>(from) + len);
+      p.bytes_done = payload_size ? consumed * size / payload_size : size;
+      p.bytes_total = size;
+      p.wire_bytes = out.wire_bytes;
+      p.seconds = duration<double>(steady_clock::now() - t0).count();
+      options_.progress(p);
+    }
+  }
+  if (loader == esp::Loader::stub) {
+    // The stub writes behind the answers: an empty begin makes it finish, END(1) keeps it in the loader.
+    n = esp::build_flash_begin(0, 0, block, 0, loader, packet_);
+    (void)command(esp::Op::flash_begin, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+    n = compressed ? esp::build_flash_defl_end(true, packet_) : esp::build_flash_end(true, packet_);
+    (void)command(compressed ? esp::Op::flash_defl_end : esp::Op::flash_end,
+                  std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  }
+}
+
+RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
+  if (!connected_) throw FlashError(FlashError::Kind::protocol, "internal: write() before connect()");
+  RegionOutcome out;
+  out.offset = image.offset;
+  out.name = image.name;
+  const std::vector<std::uint8_t> data = padded_for_flash(image.data);
+  const auto size = static_cast<std::uint32_t>(data.size());
+  out.size = size;
+  const esp::Md5 expected = md5_of(data);
+  out.md5 = to_hex(expected);
+  outcomes_.push_back(out);
+  auto& slot = outcomes_.back();
+  const auto t0 = steady_clock::now();
+  auto report = [&](FlashProgress::Stage stage, std::uint64_t done) {
+    if (!options_.progress) return;
+    FlashProgress p;
+    p.stage = stage;
+    p.index = index;
+    p.image = &image;
+    p.bytes_done = done;
+    p.bytes_total = size;
+    p.seconds = duration<double>(steady_clock::now() - t0).count();
+    options_.progress(p);
+  };
+  try {
+    if (options_.skip_unchanged) {
+      report(FlashProgress::Stage::checking, 0);
+      if (flash_md5(image.offset, size) == expected) {
+        slot.state = RegionOutcome::State::unchanged;
+        slot.seconds = duration<double>(steady_clock::now() - t0).count();
+        return slot;
+      }
+    }
+    slot.compressed = options_.compress;
+    slot.state = RegionOutcome::State::unverified;  // from the first erased byte until the MD5 says otherwise
+    if (options_.compress) {
+      const auto z = deflate(data);
+      write_blocks(image, size, z, true, index, slot);
+    } else {
+      write_blocks(image, size, data, false, index, slot);
+    }
+    report(FlashProgress::Stage::verifying, size);
+    const esp::Md5 got = flash_md5(image.offset, size);
+    slot.seconds = duration<double>(steady_clock::now() - t0).count();
+    if (got != expected)
+      throw FlashError(FlashError::Kind::verify_failed,
+                       fmt::format("{} at 0x{:X}: the flash MD5 after writing is {}, the file's is {}: the region is "
+                                   "UNVERIFIED; flash again, and if it repeats suspect the flash size/mode or the chip",
+                                   image.name, image.offset, to_hex(got), to_hex(expected)));
+    slot.state = RegionOutcome::State::written;
+    return slot;
+  } catch (const SerialError& e) {
+    slot.seconds = duration<double>(steady_clock::now() - t0).count();
+    if (e.kind() == SerialError::Kind::gone)
+      throw FlashError(FlashError::Kind::port_gone,
+                       fmt::format("{}: the port went away while flashing {} at 0x{:X}: that region is UNVERIFIED and "
+                                   "the board may not boot; reconnect it and flash again",
+                                   port_.path(), image.name, image.offset));
+    throw;
+  }
+}
+
+void EspFlasher::reset_to_app() {
+  if (!chip_.usb_serial_jtag) {
+    const auto seq = hard_reset_sequence(options_.reset);
+    run_line_sequence(port_, seq, options_.sleep);
+    return;
+  }
+  // Over USB-Serial/JTAG an RTS reset is a core reset: GPIO0 is not sampled again and a board put into download
+  // mode by hand stays there. Clear the forced-download flag, then let the RTC watchdog reset the whole system.
+  write_reg(esp::s3::kRtcCntlOption1Reg, 0, esp::s3::kForceDownloadBootMask);
+  write_reg(esp::s3::kRtcWdtProtectReg, esp::s3::kRtcWdtKey);
+  write_reg(esp::s3::kRtcWdtConfig1Reg, 2000);  // slow-clock cycles, a few ms
+  try {
+    write_reg(esp::s3::kRtcWdtConfig0Reg, esp::s3::kRtcWdtResetConfig);
+    write_reg(esp::s3::kRtcWdtProtectReg, 0);
+  } catch (const FlashError&) {
+    // The watchdog may fire before the answer leaves the chip.
+  } catch (const SerialError& e) {
+    if (e.kind() != SerialError::Kind::gone) throw;  // the port dropping off the bus is the reset happening
+  }
+}
+
+// --- finding the boards ----------------------------------------------------------------------------------------
+
+bool is_board_port(const PortInfo& port, ResetStyle style) {
+  if (style == ResetStyle::usb_serial_jtag) return port.usb_vid == 0x303A && port.usb_pid == 0x1001;
+  return port.usb_vid == 0x1A86 && (port.usb_pid == 0x55D3 || port.usb_pid == 0x55D4);
+}
+
+std::string wait_for_usb_port(const std::string& serial_number, int usb_vid, const std::string& old_path,
+                              milliseconds timeout, const Sleeper& sleep,
+                              const std::function<std::vector<PortInfo>()>& list) {
+  constexpr milliseconds kPoll{100};
+  constexpr milliseconds kMaxStay{1500};  // a port still there after this re-enumerated faster than we polled
+  bool gone = false;
+  for (milliseconds waited{0}; waited <= timeout; waited += kPoll) {
+    const auto ports = list();
+    const auto it = std::find_if(ports.begin(), ports.end(), [&](const PortInfo& p) {
+      return p.usb_vid == usb_vid && !serial_number.empty() && p.serial_number == serial_number;
+    });
+    if (it == ports.end()) {
+      gone = true;
+    } else if (gone || it->path != old_path || waited >= kMaxStay) {
+      return it->path;
+    }
+    sleep(kPoll);
+  }
+  return "";
+}
+
+}  // namespace saul::host

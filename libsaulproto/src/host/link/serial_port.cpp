@@ -1,0 +1,366 @@
+#include "saulproto/host/link/serial_port.hpp"
+
+#include <fcntl.h>
+#include <libserialport.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstring>
+
+namespace saul::host {
+
+// Defined in serial_baud_linux.cpp (it needs <asm/termbits.h>, which clashes with <termios.h>).
+bool set_custom_baud(int fd, std::uint32_t baud);
+std::uint32_t driver_baud(int fd);
+
+namespace {
+
+using namespace std::chrono;
+
+SerialError open_error(const std::string& path, int err) {
+  switch (err) {
+    case ENOENT:
+    case ENODEV:
+    case ENXIO:
+      return {SerialError::Kind::not_found,
+              fmt::format("{}: no such device: is it plugged in? 'saulctl ports' lists the serial ports", path)};
+    case EACCES:
+    case EPERM:
+      return {SerialError::Kind::permission,
+              fmt::format("{}: permission denied: add yourself to the dialout group "
+                          "(sudo usermod -aG dialout $USER, then log in again)",
+                          path)};
+    case EBUSY:
+      return {SerialError::Kind::busy,
+              fmt::format("{}: busy: another program holds it (find it with: fuser -v {})", path, path)};
+    default:
+      return {SerialError::Kind::io, fmt::format("{}: cannot open: {}", path, std::strerror(err))};
+  }
+}
+
+// A driver that cannot do a rate does not fail: it keeps another one (an 8250 UART asked for more than its
+// baud_base keeps the previous rate). Read back what it set; empty when that is the rate asked for (within 2 %).
+std::string baud_mismatch(int fd, const std::string& path, std::uint32_t want) {
+  const std::uint32_t got = driver_baud(fd);
+  const std::uint32_t diff = got > want ? got - want : want - got;
+  if (got == 0 || std::uint64_t{diff} * 50 <= want) return {};
+  return fmt::format("{}: asked for {} baud, the driver set {}: this port cannot do that rate (a 16550 UART needs a "
+                     "faster clock: setserial {} baud_base 921600)",
+                     path, want, got, path);
+}
+
+SerialError gone_error(const std::string& path) {
+  return {SerialError::Kind::gone, fmt::format("{}: device disappeared (unplugged or reset?)", path)};
+}
+
+speed_t standard_speed(std::uint32_t baud) {
+  switch (baud) {
+    case 9600: return B9600;
+    case 19200: return B19200;
+    case 38400: return B38400;
+    case 57600: return B57600;
+    case 115200: return B115200;
+    case 230400: return B230400;
+    case 460800: return B460800;
+    case 500000: return B500000;
+    case 921600: return B921600;
+    case 1000000: return B1000000;
+    case 1500000: return B1500000;
+    case 2000000: return B2000000;
+    default: return 0;
+  }
+}
+
+// Waits until fd is readable/writable or the deadline passes; throws when the device is gone.
+bool wait_fd(int fd, short events, milliseconds timeout, const std::string& path) {
+  pollfd p{fd, events, 0};
+  const int ms = static_cast<int>(std::min<long long>(timeout.count(), INT_MAX));
+  for (;;) {
+    const int r = ::poll(&p, 1, ms < 0 ? 0 : ms);
+    if (r < 0 && errno == EINTR) continue;  // a signal (e.g. Ctrl-C handler) - let the caller decide
+    if (r < 0) throw SerialError(SerialError::Kind::io, fmt::format("{}: poll failed: {}", path, std::strerror(errno)));
+    if (r == 0) return false;
+    if (p.revents & (POLLERR | POLLNVAL)) throw gone_error(path);
+    if (p.revents & events) return true;
+    if (p.revents & POLLHUP) throw gone_error(path);
+    return false;
+  }
+}
+
+class TermiosPort final : public SerialPort {
+ public:
+  TermiosPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {
+    fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) throw open_error(path_, errno);
+    termios t{};
+    if (::tcgetattr(fd_, &t) != 0) {
+      const int e = errno;
+      ::close(fd_);
+      throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(e)));
+    }
+    ::cfmakeraw(&t);
+    t.c_cflag |= CLOCAL | CREAD;
+    t.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
+    t.c_cflag |= s.data_bits == 7 ? CS7 : s.data_bits == 6 ? CS6 : s.data_bits == 5 ? CS5 : CS8;
+    if (s.parity != Parity::none) t.c_cflag |= PARENB;
+    if (s.parity == Parity::odd) t.c_cflag |= PARODD;
+    if (s.stop_bits == 2) t.c_cflag |= CSTOPB;
+    t.c_cc[VMIN] = 0;
+    t.c_cc[VTIME] = 0;
+    const speed_t sp = standard_speed(s.baud);
+    if (sp != 0) {
+      ::cfsetispeed(&t, sp);
+      ::cfsetospeed(&t, sp);
+    }
+    if (::tcsetattr(fd_, TCSANOW, &t) != 0) {
+      const int e = errno;
+      ::close(fd_);
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(e)));
+    }
+    if (sp == 0 && !set_custom_baud(fd_, s.baud)) {
+      ::close(fd_);
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, s.baud));
+    }
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
+      ::close(fd_);
+      throw SerialError(SerialError::Kind::config, why);
+    }
+  }
+  ~TermiosPort() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
+    if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
+    const ssize_t n = ::read(fd_, buf.data(), buf.size());
+    if (n > 0) return static_cast<std::size_t>(n);
+    if (n == 0 || errno == EIO || errno == ENXIO || errno == ENODEV) throw gone_error(path_);
+    if (errno == EAGAIN || errno == EINTR) return 0;
+    throw SerialError(SerialError::Kind::io, fmt::format("{}: read failed: {}", path_, std::strerror(errno)));
+  }
+
+  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    while (!data.empty()) {
+      const ssize_t n = ::write(fd_, data.data(), data.size());
+      if (n > 0) {
+        data = data.subspan(static_cast<std::size_t>(n));
+        continue;
+      }
+      if (n < 0 && (errno == EIO || errno == ENXIO || errno == ENODEV)) throw gone_error(path_);
+      if (n < 0 && errno != EAGAIN && errno != EINTR)
+        throw SerialError(SerialError::Kind::io, fmt::format("{}: write failed: {}", path_, std::strerror(errno)));
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() <= 0 || !wait_fd(fd_, POLLOUT, left, path_))
+        throw SerialError(SerialError::Kind::io,
+                          fmt::format("{}: write timed out (the device is not reading; is it stuck?)", path_));
+    }
+  }
+
+  void set_modem_lines(bool dtr, bool rts) override {
+    int bits = 0;
+    if (::ioctl(fd_, TIOCMGET, &bits) != 0) return;  // a pty has no modem lines
+    bits = dtr ? (bits | TIOCM_DTR) : (bits & ~TIOCM_DTR);
+    bits = rts ? (bits | TIOCM_RTS) : (bits & ~TIOCM_RTS);
+    ::ioctl(fd_, TIOCMSET, &bits);
+  }
+
+  void set_baud(std::uint32_t baud) override {
+    termios t{};
+    if (::tcgetattr(fd_, &t) != 0)
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: cannot read settings: {}", path_, std::strerror(errno)));
+    const speed_t sp = standard_speed(baud);
+    if (sp != 0) {
+      ::cfsetispeed(&t, sp);
+      ::cfsetospeed(&t, sp);
+      if (::tcsetattr(fd_, TCSADRAIN, &t) != 0)
+        throw SerialError(SerialError::Kind::config,
+                          fmt::format("{}: cannot set {} baud: {}", path_, baud, std::strerror(errno)));
+    } else if (!set_custom_baud(fd_, baud)) {
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, baud));
+    }
+    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+    settings_.baud = baud;
+  }
+
+  [[nodiscard]] const std::string& path() const override { return path_; }
+  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
+  [[nodiscard]] const char* backend() const override { return "termios"; }
+
+ private:
+  std::string path_;
+  SerialSettings settings_;
+  int fd_ = -1;
+};
+
+class LibSerialPort final : public SerialPort {
+ public:
+  LibSerialPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {
+    if (sp_get_port_by_name(path_.c_str(), &port_) != SP_OK) {
+      // libserialport finds ports through sysfs; a path it cannot find is either absent or not a tty.
+      throw open_error(path_, ::access(path_.c_str(), F_OK) == 0 ? ENODEV : ENOENT);
+    }
+    if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) {
+      const int e = sp_last_error_code();
+      sp_free_port(port_);
+      throw open_error(path_, e);
+    }
+    const bool ok = sp_set_baudrate(port_, static_cast<int>(s.baud)) == SP_OK &&
+                    sp_set_bits(port_, s.data_bits) == SP_OK &&
+                    sp_set_parity(port_, s.parity == Parity::none   ? SP_PARITY_NONE
+                                         : s.parity == Parity::even ? SP_PARITY_EVEN
+                                                                    : SP_PARITY_ODD) == SP_OK &&
+                    sp_set_stopbits(port_, s.stop_bits) == SP_OK &&
+                    sp_set_flowcontrol(port_, SP_FLOWCONTROL_NONE) == SP_OK;
+    if (!ok) {
+      char* msg = sp_last_error_message();
+      std::string text = msg ? msg : "unknown error";
+      sp_free_error_message(msg);
+      sp_close(port_);
+      sp_free_port(port_);
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), text));
+    }
+    sp_get_port_handle(port_, &fd_);
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
+      sp_close(port_);
+      sp_free_port(port_);
+      throw SerialError(SerialError::Kind::config, why);
+    }
+  }
+  ~LibSerialPort() override {
+    sp_close(port_);
+    sp_free_port(port_);
+  }
+
+  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
+    // Wait with poll on the handle (reports hang-up), then take everything available in one call.
+    if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
+    const int n = sp_nonblocking_read(port_, buf.data(), buf.size());
+    if (n > 0) return static_cast<std::size_t>(n);
+    if (n == 0) throw gone_error(path_);  // readable but nothing to read: hang-up
+    throw gone_error(path_);
+  }
+
+  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
+    const int n = sp_blocking_write(port_, data.data(), data.size(), static_cast<unsigned>(timeout.count()));
+    if (n < 0) throw gone_error(path_);
+    if (static_cast<std::size_t>(n) != data.size())
+      throw SerialError(SerialError::Kind::io,
+                        fmt::format("{}: write timed out (the device is not reading; is it stuck?)", path_));
+  }
+
+  void set_modem_lines(bool dtr, bool rts) override {
+    // Two calls, so the line passes through a mixed state for a fraction of a millisecond. The one to avoid is
+    // DTR off with RTS on: a reset request on the ESP32-S3's USB-Serial/JTAG and EN low on a bridge. DTR first
+    // (esptool's order) passes through it only on the way from (1,1) to (0,0), so that case drops RTS first.
+    // The real-kernel harness sees these transients in QEMU's trace (tests/vm/check_modem_lines.py).
+    if (!dtr && !rts) {
+      sp_set_rts(port_, SP_RTS_OFF);
+      sp_set_dtr(port_, SP_DTR_OFF);
+      return;
+    }
+    sp_set_dtr(port_, dtr ? SP_DTR_ON : SP_DTR_OFF);
+    sp_set_rts(port_, rts ? SP_RTS_ON : SP_RTS_OFF);
+  }
+
+  void set_baud(std::uint32_t baud) override {
+    if (sp_drain(port_) != SP_OK || sp_set_baudrate(port_, static_cast<int>(baud)) != SP_OK)
+      throw SerialError(SerialError::Kind::config, fmt::format("{}: cannot set {} baud", path_, baud));
+    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+    settings_.baud = baud;
+  }
+
+  [[nodiscard]] const std::string& path() const override { return path_; }
+  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
+  [[nodiscard]] const char* backend() const override { return "libserialport"; }
+
+ private:
+  std::string path_;
+  SerialSettings settings_;
+  sp_port* port_ = nullptr;
+  int fd_ = -1;
+};
+
+bool is_pty(const std::string& path) {
+  char resolved[PATH_MAX];
+  const char* p = ::realpath(path.c_str(), resolved) ? resolved : path.c_str();
+  return std::strncmp(p, "/dev/pts/", 9) == 0 || std::strcmp(p, "/dev/ptmx") == 0;
+}
+
+}  // namespace
+
+std::string to_string(const SerialSettings& s) {
+  const char p = s.parity == Parity::none ? 'N' : s.parity == Parity::even ? 'E' : 'O';
+  return fmt::format("{}{}{}", s.data_bits, p, s.stop_bits);
+}
+
+bool parse_frame_format(const std::string& text, SerialSettings& s) {
+  if (text.size() != 3) return false;
+  if (text[0] < '5' || text[0] > '8') return false;
+  const char p = static_cast<char>(std::toupper(static_cast<unsigned char>(text[1])));
+  if (p != 'N' && p != 'E' && p != 'O') return false;
+  if (text[2] != '1' && text[2] != '2') return false;
+  s.data_bits = static_cast<std::uint8_t>(text[0] - '0');
+  s.parity = p == 'N' ? Parity::none : p == 'E' ? Parity::even : Parity::odd;
+  s.stop_bits = static_cast<std::uint8_t>(text[2] - '0');
+  return true;
+}
+
+std::unique_ptr<SerialPort> open_serial(const std::string& path, const SerialSettings& settings,
+                                        SerialBackend backend) {
+  if (backend == SerialBackend::termios || (backend == SerialBackend::automatic && is_pty(path)))
+    return std::make_unique<TermiosPort>(path, settings);
+  if (backend == SerialBackend::libserialport) return std::make_unique<LibSerialPort>(path, settings);
+  try {
+    return std::make_unique<LibSerialPort>(path, settings);
+  } catch (const SerialError& e) {
+    // Not in sysfs (e.g. a socat link or an unusual driver): plain termios may still work.
+    if (e.kind() == SerialError::Kind::not_found && ::access(path.c_str(), F_OK) == 0)
+      return std::make_unique<TermiosPort>(path, settings);
+    throw;
+  }
+}
+
+std::string recognise_usb_device(int vid, int pid) {
+  if (vid == 0x16D0 && pid == 0x117E) return "CANable2 (slcan firmware): use slcan:PATH";
+  if (vid == 0xAD50 && pid == 0x60C4) return "CANable 1.x (slcan firmware): use slcan:PATH";
+  if (vid == 0x1D50 && pid == 0x606F) return "CANable (candleLight/gs_usb): a SocketCAN interface, not a serial port";
+  if (vid == 0x303A && pid == 0x1001) return "ESP32-S3 USB-Serial/JTAG (IO board console)";
+  if (vid == 0x1A86 && (pid == 0x55D3 || pid == 0x55D4)) return "WCH CH343 USB-serial (BALANCE board console)";
+  return "";
+}
+
+std::vector<PortInfo> list_serial_ports() {
+  std::vector<PortInfo> out;
+  sp_port** ports = nullptr;
+  if (sp_list_ports(&ports) != SP_OK) return out;
+  for (sp_port** p = ports; *p; ++p) {
+    PortInfo info;
+    auto str = [](const char* s) { return s ? std::string(s) : std::string(); };
+    info.path = str(sp_get_port_name(*p));
+    info.description = str(sp_get_port_description(*p));
+    if (sp_get_port_transport(*p) == SP_TRANSPORT_USB) {
+      sp_get_port_usb_vid_pid(*p, &info.usb_vid, &info.usb_pid);
+      info.manufacturer = str(sp_get_port_usb_manufacturer(*p));
+      info.product = str(sp_get_port_usb_product(*p));
+      info.serial_number = str(sp_get_port_usb_serial(*p));
+      info.role = recognise_usb_device(info.usb_vid, info.usb_pid);
+    }
+    out.push_back(std::move(info));
+  }
+  sp_free_port_list(ports);
+  return out;
+}
+
+}  // namespace saul::host

@@ -1,0 +1,202 @@
+#include "saulproto/host/link/slcan_link.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cctype>
+#include <deque>
+
+#include "saulproto/core/slcan.hpp"
+
+namespace saul::host {
+namespace {
+
+using namespace std::chrono;
+
+LinkError from_serial(const SerialError& e) {
+  switch (e.kind()) {
+    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
+    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
+    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
+    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
+    default: return {LinkError::Kind::io, e.what()};
+  }
+}
+
+class SlcanLink final : public CanLink {
+ public:
+  SlcanLink(std::unique_ptr<SerialPort> port, const SlcanOptions& options)
+      : port_(std::move(port)), name_("slcan:" + port_->path()) {
+    const auto preset = slcan::bitrate_preset(options.bitrate);
+    if (!preset)
+      throw LinkError(LinkError::Kind::unsupported,
+                      fmt::format("{}: no slcan preset for {} bit/s (use 10k..500k or 1M)", name_, options.bitrate));
+    try {
+      std::string open = "C\r";
+      open += 'S';
+      open += *preset;
+      open += '\r';
+      if (options.listen_only) {
+        port_->write(open + "V\r", milliseconds(200));
+        const bool lawicel = wait_for_version(milliseconds(200));
+        open = lawicel ? "L\r" : "M1\rO\r";
+      } else {
+        open += "O\r";
+      }
+      port_->write(open, milliseconds(200));
+    } catch (const SerialError& e) {
+      throw from_serial(e);
+    }
+  }
+
+  ~SlcanLink() override {
+    try {
+      port_->write(std::string("C\r"), milliseconds(100));
+    } catch (...) {  // the adapter may be gone; closing must not throw
+    }
+  }
+
+  void send(const CanFrame& frame, milliseconds timeout) override {
+    std::array<char, slcan::kMaxClassicLine + 1> line{};
+    const auto n = slcan::encode_frame(frame, line);
+    if (!n)
+      throw LinkError(LinkError::Kind::unsupported,
+                      fmt::format("{}: cannot send this frame: {}", name_, to_string(n.reason())));
+    try {
+      port_->write(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(line.data()), *n), timeout);
+    } catch (const SerialError& e) {
+      throw from_serial(e);
+    }
+    ++stats_.tx_frames;
+  }
+
+  std::optional<CanFrame> receive(milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    for (;;) {
+      if (!queue_.empty()) {
+        CanFrame f = queue_.front();
+        queue_.pop_front();
+        return f;
+      }
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() < 0) return std::nullopt;
+      if (!fill(left)) return std::nullopt;
+    }
+  }
+
+  void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }
+
+  bool recover(std::string& hint) override {
+    try {
+      port_->write(std::string("C\rO\r"), milliseconds(200));
+    } catch (const SerialError& e) {
+      throw from_serial(e);
+    }
+    ++stats_.recoveries;
+    stats_.state = ControllerState::unknown;
+    hint = "closed and reopened the slcan channel";
+    return true;
+  }
+
+  [[nodiscard]] LinkStats stats() const override {
+    LinkStats s = stats_;
+    s.rejected_input = decoder_.counters().rejected_lines + decoder_.counters().overlong_lines;
+    return s;
+  }
+  [[nodiscard]] const std::string& name() const override { return name_; }
+  [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::host_read; }
+
+ private:
+  // Reads one chunk and parses it; returns false on timeout.
+  bool fill(milliseconds timeout) {
+    std::array<std::uint8_t, 4096> buf{};
+    std::size_t n = 0;
+    try {
+      n = port_->read(buf, timeout);
+    } catch (const SerialError& e) {
+      throw from_serial(e);
+    }
+    if (n == 0) return false;
+    const std::uint64_t stamp = realtime_ns();  // one stamp per read: the stock firmwares send none
+    decoder_.push(std::span<const std::uint8_t>(buf.data(), n), [&](const slcan::Event& e) { on_event(e, stamp); });
+    return true;
+  }
+
+  void on_event(const slcan::Event& e, std::uint64_t stamp) {
+    switch (e.kind) {
+      case slcan::Event::Kind::frame: {
+        CanFrame f = e.frame;
+        f.timestamp_ns = stamp;
+        ++stats_.rx_frames;
+        if (stats_.state == ControllerState::unknown) stats_.state = ControllerState::active;
+        if (passes(filters_, f)) queue_.push_back(f);
+        break;
+      }
+      case slcan::Event::Kind::status:
+        // Lawicel F flags: bit3 data overrun (frame lost), bit5 error passive, bit2 warning, bit7 bus error.
+        if (e.value & 0x08) ++stats_.rx_dropped;
+        if (e.value & 0x20) stats_.state = ControllerState::passive;
+        else if (e.value & 0x04) stats_.state = ControllerState::warning;
+        break;
+      case slcan::Event::Kind::bus_state:
+        if (e.text[0] == 'b') {
+          if (stats_.state != ControllerState::bus_off) ++stats_.bus_off_events;
+          stats_.state = ControllerState::bus_off;
+        } else if (e.text[0] == 'p') {
+          stats_.state = ControllerState::passive;
+        } else if (e.text[0] == 'w') {
+          stats_.state = ControllerState::warning;
+        } else if (e.text[0] == 'a') {
+          stats_.state = ControllerState::active;
+        }
+        break;
+      case slcan::Event::Kind::bus_error: ++stats_.error_frames; break;
+      case slcan::Event::Kind::version: version_seen_ = true; lawicel_ = is_lawicel_version(e.text); break;
+      default: break;
+    }
+  }
+
+  static bool is_lawicel_version(const char* text) {
+    // Lawicel answers "Vhhss": exactly four hex digits. The stock CANable firmware answers a git hash and more.
+    int n = 0;
+    for (; text[n]; ++n)
+      if (!std::isxdigit(static_cast<unsigned char>(text[n]))) return false;
+    return n == 4;
+  }
+
+  bool wait_for_version(milliseconds timeout) {
+    const auto deadline = steady_clock::now() + timeout;
+    while (!version_seen_) {
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() <= 0 || !fill(left)) break;
+    }
+    return lawicel_;
+  }
+
+  std::unique_ptr<SerialPort> port_;
+  std::string name_;
+  slcan::LineDecoder decoder_;
+  std::deque<CanFrame> queue_;
+  std::vector<CanFilter> filters_;
+  LinkStats stats_;
+  bool version_seen_ = false;
+  bool lawicel_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<CanLink> open_slcan(std::unique_ptr<SerialPort> port, const SlcanOptions& options) {
+  return std::make_unique<SlcanLink>(std::move(port), options);
+}
+
+std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options) {
+  SerialSettings s;
+  s.baud = 115200;  // USB CDC ignores it; a real UART adapter would need the right value
+  try {
+    return open_slcan(open_serial(path, s, options.backend), options);
+  } catch (const SerialError& e) {
+    throw from_serial(e);
+  }
+}
+
+}  // namespace saul::host

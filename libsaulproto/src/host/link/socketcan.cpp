@@ -1,0 +1,249 @@
+#include "saulproto/host/link/socketcan.hpp"
+
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstring>
+#include <ctime>
+#include <thread>
+
+namespace saul::host {
+
+const char* to_string(ControllerState s) {
+  switch (s) {
+    case ControllerState::unknown: return "unknown";
+    case ControllerState::active: return "error-active";
+    case ControllerState::warning: return "error-warning";
+    case ControllerState::passive: return "error-passive";
+    case ControllerState::bus_off: return "bus-off";
+  }
+  return "?";
+}
+
+const char* to_string(TimestampSource s) {
+  switch (s) {
+    case TimestampSource::kernel: return "kernel";
+    case TimestampSource::device: return "device";
+    case TimestampSource::host_read: return "host-read";
+  }
+  return "?";
+}
+
+bool passes(const std::vector<CanFilter>& filters, const CanFrame& frame) {
+  if (filters.empty() || frame.error) return true;
+  for (const auto& f : filters)
+    if (f.extended == frame.extended && (frame.id & f.mask) == (f.id & f.mask)) return true;
+  return false;
+}
+
+std::uint64_t realtime_ns() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+ControllerState state_after_error_frame(ControllerState current, const CanFrame& f) {
+  if (!f.error) return current;
+  if (f.id & CAN_ERR_BUSOFF) return ControllerState::bus_off;
+  if (f.id & CAN_ERR_RESTARTED) return ControllerState::active;
+  if (f.id & CAN_ERR_CRTL) {
+    const std::uint8_t c = f.data[1];
+    if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) return ControllerState::passive;
+    if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) return ControllerState::warning;
+    if (c & CAN_ERR_CRTL_ACTIVE) return ControllerState::active;
+  }
+  return current;
+}
+
+namespace {
+
+class SocketCanLink final : public CanLink {
+ public:
+  SocketCanLink(std::string interface, const SocketCanOptions& options) : name_(std::move(interface)) {
+    fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+    if (fd_ < 0) {
+      const int e = errno;
+      if (e == EAFNOSUPPORT || e == EPROTONOSUPPORT)
+        throw LinkError(LinkError::Kind::unsupported,
+                        fmt::format("{}: this kernel has no SocketCAN (try: sudo modprobe can_raw), or use "
+                                    "slcan:/dev/ttyACM0 with the slcan firmware",
+                                    name_));
+      throw LinkError(LinkError::Kind::io, fmt::format("{}: cannot create a CAN socket: {}", name_, std::strerror(e)));
+    }
+    const unsigned index = ::if_nametoindex(name_.c_str());
+    if (index == 0) {
+      ::close(fd_);
+      throw LinkError(LinkError::Kind::not_found,
+                      fmt::format("{}: no such CAN interface: plug the CANable2 (candleLight) in, then "
+                                  "sudo ip link set {} up type can bitrate 500000",
+                                  name_, name_));
+    }
+    const can_err_mask_t err_mask = CAN_ERR_MASK;
+    ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask);
+    const int one = 1;
+    ::setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one);
+    ::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof one);
+    if (options.receive_own) ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &one, sizeof one);
+    sockaddr_can addr{};
+    addr.can_family = AF_CAN;
+    addr.can_ifindex = static_cast<int>(index);
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+      const int e = errno;
+      ::close(fd_);
+      throw LinkError(LinkError::Kind::io, fmt::format("{}: cannot bind: {}", name_, std::strerror(e)));
+    }
+    ifreq ifr{};
+    std::snprintf(ifr.ifr_name, IFNAMSIZ, "%s", name_.c_str());
+    if (::ioctl(fd_, SIOCGIFFLAGS, &ifr) == 0 && !(ifr.ifr_flags & IFF_UP)) {
+      ::close(fd_);
+      throw LinkError(LinkError::Kind::down,
+                      fmt::format("{}: interface is down: sudo ip link set {} up type can bitrate 500000", name_, name_));
+    }
+  }
+  ~SocketCanLink() override { ::close(fd_); }
+
+  void send(const CanFrame& frame, std::chrono::milliseconds timeout) override {
+    if (frame.error || !frame.valid())
+      throw LinkError(LinkError::Kind::unsupported, fmt::format("{}: refusing to send an error or invalid frame", name_));
+    can_frame cf{};
+    cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0U) | (frame.remote ? CAN_RTR_FLAG : 0U);
+    cf.len = frame.dlc;
+    std::memcpy(cf.data, frame.data.data(), 8);
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    bool retried = false;
+    for (;;) {
+      const ssize_t n = ::send(fd_, &cf, sizeof cf, MSG_DONTWAIT);
+      if (n == static_cast<ssize_t>(sizeof cf)) {
+        ++stats_.tx_frames;
+        return;
+      }
+      const int e = errno;
+      if (e == ENOBUFS || e == EAGAIN) {
+        // Transmit queue full: back-pressure. Wait for room until the caller's deadline.
+        if (!retried) ++stats_.tx_retries;
+        retried = true;
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0)
+          throw LinkError(LinkError::Kind::timeout,
+                          fmt::format("{}: transmit queue full for {} ms (no ACK on the bus? bus-off?)", name_,
+                                      timeout.count()));
+        pollfd p{fd_, POLLOUT, 0};
+        if (::poll(&p, 1, static_cast<int>(std::min<long long>(left.count(), 10))) == 0)
+          std::this_thread::yield();  // ENOBUFS is not signalled by POLLOUT on all kernels; re-try shortly
+        continue;
+      }
+      if (e == EINTR) continue;
+      if (e == ENETDOWN) throw LinkError(LinkError::Kind::down, fmt::format("{}: interface went down", name_));
+      if (e == ENODEV || e == ENXIO) throw LinkError(LinkError::Kind::gone, fmt::format("{}: adapter disappeared (unplugged?)", name_));
+      throw LinkError(LinkError::Kind::io, fmt::format("{}: send failed: {}", name_, std::strerror(e)));
+    }
+  }
+
+  std::optional<CanFrame> receive(std::chrono::milliseconds timeout) override {
+    pollfd p{fd_, POLLIN, 0};
+    const int r = ::poll(&p, 1, static_cast<int>(std::min<long long>(timeout.count(), INT_MAX)));
+    if (r < 0) {
+      if (errno == EINTR) return std::nullopt;
+      throw LinkError(LinkError::Kind::io, fmt::format("{}: poll failed: {}", name_, std::strerror(errno)));
+    }
+    if (r == 0) return std::nullopt;
+    if (p.revents & (POLLERR | POLLHUP | POLLNVAL)) {
+      // Reading gives the pending socket error (ENETDOWN when the link went down).
+    }
+    can_frame cf{};
+    iovec iov{&cf, sizeof cf};
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control;
+    msg.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(fd_, &msg, MSG_DONTWAIT);
+    if (n < 0) {
+      const int e = errno;
+      if (e == EAGAIN || e == EINTR) return std::nullopt;
+      if (e == ENETDOWN) throw LinkError(LinkError::Kind::down, fmt::format("{}: interface went down", name_));
+      if (e == ENODEV || e == ENXIO) throw LinkError(LinkError::Kind::gone, fmt::format("{}: adapter disappeared (unplugged?)", name_));
+      throw LinkError(LinkError::Kind::io, fmt::format("{}: receive failed: {}", name_, std::strerror(e)));
+    }
+    if (n != static_cast<ssize_t>(sizeof cf)) return std::nullopt;  // CAN FD frames are not enabled; ignore
+    CanFrame f;
+    f.error = (cf.can_id & CAN_ERR_FLAG) != 0;
+    f.extended = !f.error && (cf.can_id & CAN_EFF_FLAG) != 0;
+    f.remote = !f.error && (cf.can_id & CAN_RTR_FLAG) != 0;
+    f.id = cf.can_id & (f.error ? CAN_ERR_MASK : f.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
+    f.dlc = cf.len > 8 ? 8 : cf.len;
+    std::memcpy(f.data.data(), cf.data, 8);
+    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMPNS) {
+        timespec ts{};
+        std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
+        f.timestamp_ns = static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+      } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+        std::uint32_t drops = 0;
+        std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+        stats_.rx_dropped = drops;
+      }
+    }
+    if (!f.timestamp_ns) f.timestamp_ns = realtime_ns();
+    if (f.error) {
+      ++stats_.error_frames;
+      const auto before = stats_.state;
+      stats_.state = state_after_error_frame(stats_.state, f);
+      if (stats_.state == ControllerState::bus_off && before != ControllerState::bus_off) ++stats_.bus_off_events;
+    } else {
+      ++stats_.rx_frames;
+      if (stats_.state == ControllerState::unknown) stats_.state = ControllerState::active;
+    }
+    return f;
+  }
+
+  void set_filters(const std::vector<CanFilter>& filters) override {
+    std::vector<can_filter> k;
+    for (const auto& f : filters) {
+      can_filter cf{};
+      cf.can_id = f.id | (f.extended ? CAN_EFF_FLAG : 0U);
+      cf.can_mask = f.mask | CAN_EFF_FLAG | CAN_RTR_FLAG;  // match the format exactly, and data frames only
+      k.push_back(cf);
+    }
+    if (k.empty()) {
+      can_filter all{0, 0};
+      k.push_back(all);
+    }
+    ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, k.data(), static_cast<socklen_t>(k.size() * sizeof(can_filter)));
+  }
+
+  bool recover(std::string& hint) override {
+    // A restart goes through netlink and needs CAP_NET_ADMIN; offer the command rather than half-doing it.
+    hint = fmt::format("sudo ip link set {} type can restart   (or enable automatic recovery: "
+                       "sudo ip link set {} type can restart-ms 100)", name_, name_);
+    return false;
+  }
+
+  [[nodiscard]] LinkStats stats() const override { return stats_; }
+  [[nodiscard]] const std::string& name() const override { return name_; }
+  [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::kernel; }
+
+ private:
+  std::string name_;
+  int fd_ = -1;
+  LinkStats stats_;
+};
+
+}  // namespace
+
+std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const SocketCanOptions& options) {
+  return std::make_unique<SocketCanLink>(interface, options);
+}
+
+}  // namespace saul::host

@@ -1,0 +1,290 @@
+#include "saulproto/host/replay/replay.hpp"
+
+#include <fmt/format.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "saulproto/core/saul_can.hpp"
+
+namespace saul::host {
+namespace {
+
+std::uint32_t parse_hex_id(std::string_view text, std::string_view whole, bool& extended) {
+  std::string_view t = text;
+  if (t.starts_with("0x") || t.starts_with("0X")) t.remove_prefix(2);
+  if (t.empty() || t.size() > 8) throw std::invalid_argument(fmt::format("bad CAN id '{}' in '{}'", text, whole));
+  std::uint32_t v = 0;
+  for (char c : t) {
+    int d = -1;
+    if (c >= '0' && c <= '9') d = c - '0';
+    if (c >= 'a' && c <= 'f') d = c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') d = c - 'A' + 10;
+    if (d < 0) throw std::invalid_argument(fmt::format("bad CAN id '{}' in '{}': ids are hex", text, whole));
+    v = v << 4 | static_cast<std::uint32_t>(d);
+  }
+  extended = t.size() > 3 || v > CanFrame::kMaxStandardId;
+  if (v > CanFrame::kMaxExtendedId)
+    throw std::invalid_argument(fmt::format("CAN id '{}' in '{}' is above 1FFFFFFF", text, whole));
+  return v;
+}
+
+}  // namespace
+
+bool can_move_motors(const CanFrame& f) noexcept {
+  if (f.error || f.remote) return false;
+  if (!f.extended) {
+    if (f.id == saulcan::kVelocityCmdId) return true;
+    if (f.id == saulcan::kModeCmdId) return f.dlc >= 1 && (f.data[0] == 1 || f.data[0] == 2);
+    return false;
+  }
+  const std::uint32_t command = (f.id >> 8) & 0xFFU;
+  return command <= 4 || (command >= 10 && command <= 13);
+}
+
+IdMapping parse_id_mapping(std::string_view text) {
+  const auto eq = text.find('=');
+  if (eq == std::string_view::npos || eq == 0 || eq + 1 == text.size())
+    throw std::invalid_argument(fmt::format("bad id mapping '{}': use FROM=TO in hex, e.g. 300=310", text));
+  IdMapping m;
+  m.from = parse_hex_id(text.substr(0, eq), text, m.from_extended);
+  m.to = parse_hex_id(text.substr(eq + 1), text, m.to_extended);
+  return m;
+}
+
+CanFilter parse_id_filter(std::string_view text) {
+  const auto colon = text.find(':');
+  CanFilter f;
+  f.id = parse_hex_id(text.substr(0, colon), text, f.extended);
+  if (colon == std::string_view::npos) {
+    f.mask = f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId;
+  } else {
+    bool ignored = false;
+    f.mask = parse_hex_id(text.substr(colon + 1), text, ignored);
+  }
+  return f;
+}
+
+ReplayVerdict plan_frame(const CanFrame& in, const ReplayOptions& options, CanFrame& out) {
+  if (in.error) return ReplayVerdict::error_frame;
+  if (!options.include.empty() && !passes(options.include, in)) return ReplayVerdict::filtered;
+  if (!options.exclude.empty() && passes(options.exclude, in)) return ReplayVerdict::filtered;
+  out = in;
+  out.timestamp_ns.reset();
+  for (const auto& m : options.mappings) {
+    if (out.id == m.from && out.extended == m.from_extended) {
+      out.id = m.to;
+      out.extended = m.to_extended;
+      break;
+    }
+  }
+  if (!options.allow_motion && can_move_motors(out)) return ReplayVerdict::motion_dropped;
+  return ReplayVerdict::send;
+}
+
+// ---- schedule -----------------------------------------------------------------------------------------------------
+
+std::uint64_t ReplaySchedule::deadline(std::optional<std::uint64_t> timestamp_ns) {
+  if (!started_) {
+    started_ = true;
+    t_ = 0;
+    pass_start_t_ = 0;
+  } else if (new_pass_) {
+    t_ += pass_gap_;
+    pass_start_t_ = t_;
+  } else if (timestamp_ns && last_stamp_) {
+    std::uint64_t gap = *timestamp_ns > *last_stamp_ ? *timestamp_ns - *last_stamp_ : 0;
+    if (max_gap_ns_ && gap > *max_gap_ns_) gap = *max_gap_ns_;
+    t_ += gap;
+  }
+  new_pass_ = false;
+  if (timestamp_ns) last_stamp_ = timestamp_ns;
+  ++pass_frames_;
+  if (pending_anchor_) {
+    anchor_clock_ = *pending_anchor_;
+    anchor_t_ = t_;
+    pending_anchor_.reset();
+  }
+  if (speed_ <= 0) return anchor_clock_;
+  const std::uint64_t file_elapsed = t_ - anchor_t_;
+  if (speed_ == 1.0) return anchor_clock_ + file_elapsed;
+  return anchor_clock_ + static_cast<std::uint64_t>(std::llround(static_cast<double>(file_elapsed) / speed_));
+}
+
+void ReplaySchedule::next_pass() {
+  pass_gap_ = pass_frames_ > 1 ? (t_ - pass_start_t_) / (pass_frames_ - 1) : 0;
+  new_pass_ = started_;
+  pass_frames_ = 0;
+  last_stamp_.reset();
+}
+
+// ---- lateness ---------------------------------------------------------------------------------------------------
+
+std::size_t LatenessStats::bin_of(std::uint64_t ns) {
+  if (ns < 1'000'000) return static_cast<std::size_t>(ns / 1'000);
+  if (ns < 100'000'000) return kFine + static_cast<std::size_t>((ns - 1'000'000) / 100'000);
+  if (ns < 10'000'000'000ULL) return kFine + kMid + static_cast<std::size_t>((ns - 100'000'000) / 10'000'000);
+  return kFine + kMid + kCoarse;
+}
+
+std::uint64_t LatenessStats::upper_edge(std::size_t bin) {
+  if (bin < kFine) return (bin + 1) * 1'000ULL;
+  if (bin < kFine + kMid) return 1'000'000ULL + (bin - kFine + 1) * 100'000ULL;
+  if (bin < kFine + kMid + kCoarse) return 100'000'000ULL + (bin - kFine - kMid + 1) * 10'000'000ULL;
+  return UINT64_MAX;
+}
+
+void LatenessStats::add(std::int64_t late_ns) {
+  const std::uint64_t v = late_ns > 0 ? static_cast<std::uint64_t>(late_ns) : 0;
+  ++bins_[bin_of(v)];
+  ++count_;
+  if (v > max_) max_ = v;
+  if (v > 1'000'000) ++over_1ms_;
+}
+
+std::uint64_t LatenessStats::percentile_ns(double p) const {
+  if (count_ == 0) return 0;
+  auto rank = static_cast<std::uint64_t>(std::ceil(p / 100.0 * static_cast<double>(count_)));
+  if (rank < 1) rank = 1;
+  if (rank > count_) rank = count_;
+  std::uint64_t seen = 0;
+  for (std::size_t i = 0; i < bins_.size(); ++i) {
+    seen += bins_[i];
+    if (seen >= rank) return std::min(upper_edge(i), max_);
+  }
+  return max_;
+}
+
+std::uint64_t LatenessStats::over_ns(std::uint64_t threshold_ns) const {
+  if (threshold_ns == 1'000'000) return over_1ms_;
+  std::uint64_t n = 0;
+  for (std::size_t i = 0; i < bins_.size(); ++i)
+    if (upper_edge(i) > threshold_ns + (i < kFine ? 1'000 : 0)) n += bins_[i];
+  return n;
+}
+
+// ---- clock --------------------------------------------------------------------------------------------------------
+
+std::uint64_t MonotonicReplayClock::now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+bool MonotonicReplayClock::sleep_until(std::uint64_t deadline_ns) {
+  for (;;) {
+    if (interrupted_ && interrupted_->load()) return false;
+    const std::uint64_t now = now_ns();
+    if (now >= deadline_ns) return true;
+    if (deadline_ns - now > spin_ns_) {
+      const std::uint64_t wake = deadline_ns - spin_ns_;
+      timespec ts{};
+      ts.tv_sec = static_cast<time_t>(wake / 1'000'000'000ULL);
+      ts.tv_nsec = static_cast<long>(wake % 1'000'000'000ULL);
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);  // EINTR: loop and look at interrupted_
+    }
+    // else: spin the last stretch
+  }
+}
+
+// ---- engine -------------------------------------------------------------------------------------------------------
+
+bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
+  if (stepping_ || !anchored_) {
+    schedule_.anchor(clock_.now_ns());
+    anchored_ = true;
+  }
+  const std::uint64_t due = schedule_.deadline(timestamp_ns);
+  if (!first_deadline_) first_deadline_ = due;
+  if (stepping_ || speed_ <= 0) return true;
+  if (!clock_.sleep_until(due)) return false;
+  lateness_.add(static_cast<std::int64_t>(clock_.now_ns() - due));
+  return true;
+}
+
+std::uint64_t ReplayPacer::elapsed_ns() const {
+  return first_deadline_ && last_sent_ > *first_deadline_ ? last_sent_ - *first_deadline_ : 0;
+}
+
+ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
+                    ReplayClock& clock, const ReplayHooks& hooks) {
+  ReplayReport report;
+  ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
+  const unsigned loops = options.loops == 0 ? 1 : options.loops;
+  for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
+    if (hooks.stop && hooks.stop()) {
+      report.stopped = true;
+      break;
+    }
+    auto reader = open_pass();
+    ++report.passes;
+    if (pass > 0) pacer.next_pass();
+    for (;;) {
+      const auto status = reader->next();
+      if (status == CaptureReader::Status::end) break;
+      if (status == CaptureReader::Status::corrupt) {
+        ++report.corrupt;
+        if (hooks.on_corrupt) hooks.on_corrupt(reader->error());
+        continue;
+      }
+      ++report.frames;
+      CanFrame out;
+      switch (plan_frame(reader->frame(), options, out)) {
+        case ReplayVerdict::filtered: ++report.filtered; continue;
+        case ReplayVerdict::motion_dropped: ++report.motion_dropped; continue;
+        case ReplayVerdict::error_frame: ++report.error_frames; continue;
+        case ReplayVerdict::send: break;
+      }
+      if (hooks.stop && hooks.stop()) {
+        report.stopped = true;
+        break;
+      }
+      if ((hooks.step && !hooks.step(out)) || !pacer.wait(reader->frame().timestamp_ns)) {
+        report.stopped = true;
+        break;
+      }
+      hooks.send(out);
+      ++report.sent;
+      pacer.sent();
+    }
+  }
+  report.elapsed_ns = pacer.elapsed_ns();
+  report.lateness = pacer.lateness();
+  return report;
+}
+
+ReplayPreview preview_replay(CaptureReader& reader, const ReplayOptions& options) {
+  ReplayOptions all = options;
+  all.allow_motion = true;
+  ReplayPreview p;
+  for (;;) {
+    const auto status = reader.next();
+    if (status == CaptureReader::Status::end) break;
+    if (status == CaptureReader::Status::corrupt) {
+      ++p.corrupt;
+      continue;
+    }
+    ++p.frames;
+    const CanFrame& f = reader.frame();
+    if (f.timestamp_ns) {
+      if (!p.first_ns) p.first_ns = f.timestamp_ns;
+      p.last_ns = f.timestamp_ns;
+    }
+    CanFrame out;
+    switch (plan_frame(f, all, out)) {
+      case ReplayVerdict::filtered: ++p.filtered; break;
+      case ReplayVerdict::error_frame: ++p.error_frames; break;
+      case ReplayVerdict::motion_dropped: break;  // cannot happen with motion allowed
+      case ReplayVerdict::send:
+        ++p.to_send;
+        if (can_move_motors(out)) ++p.motion;
+        break;
+    }
+  }
+  return p;
+}
+
+}  // namespace saul::host

@@ -1,0 +1,452 @@
+#include "saulproto/host/report/bus_stats.hpp"
+
+#include <fmt/format.h>
+
+#include <cassert>
+#include <cmath>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/capture/candump.hpp"
+
+namespace saul::host {
+namespace {
+
+/// The bits of a frame from SOF to the end of the data field, as the transmitter sends them before stuffing.
+struct FrameBits {
+  // SOF, arbitration (29-bit: 32), control (6), data (64) and the CRC (15) that can_frame_bits() appends. The CRC
+  // was once left out: an 8-byte 29-bit frame (every VESC status) wrote past the end, into n (found by UBSan).
+  std::uint8_t bits[1 + 32 + 6 + 64 + 15]{};
+  unsigned n = 0;
+  void put(std::uint32_t value, unsigned width) {
+    assert(n + width <= sizeof bits);
+    for (unsigned i = width; i-- > 0;) bits[n++] = static_cast<std::uint8_t>((value >> i) & 1U);
+  }
+};
+
+FrameBits frame_bits(const CanFrame& f) {
+  FrameBits b;
+  b.put(0, 1);  // SOF
+  if (f.extended) {
+    b.put(f.id >> 18, 11);  // base id
+    b.put(1, 1);            // SRR
+    b.put(1, 1);            // IDE
+    b.put(f.id & 0x3FFFF, 18);
+    b.put(f.remote ? 1 : 0, 1);  // RTR
+    b.put(0, 2);                 // r1, r0
+  } else {
+    b.put(f.id & 0x7FF, 11);
+    b.put(f.remote ? 1 : 0, 1);  // RTR
+    b.put(0, 2);                 // IDE, r0
+  }
+  b.put(f.dlc > 8 ? 8 : f.dlc, 4);
+  for (std::uint8_t byte : f.payload()) b.put(byte, 8);
+  return b;
+}
+
+std::uint16_t crc15(const FrameBits& b) {
+  std::uint16_t crc = 0;
+  for (unsigned i = 0; i < b.n; ++i) {
+    const bool next = (b.bits[i] != 0) != (((crc >> 14) & 1U) != 0);
+    crc = static_cast<std::uint16_t>((crc << 1) & 0x7FFF);
+    if (next) crc ^= 0x4599;
+  }
+  return crc;
+}
+
+double seconds(std::uint64_t ns) { return static_cast<double>(ns) / 1e9; }
+
+std::string duration_text(double ns) {
+  if (ns >= 1e9) return fmt::format("{:.3f} s", ns / 1e9);
+  if (ns >= 1e6) return fmt::format("{:.3f} ms", ns / 1e6);
+  return fmt::format("{:.1f} us", ns / 1e3);
+}
+
+std::string stamp_text(std::uint64_t ns) {
+  return fmt::format("{:010}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
+}
+
+/// Error frame kinds by class bit (linux/can/error.h), so the table stays small whatever the counters say.
+constexpr std::pair<std::uint32_t, const char*> kErrorClasses[] = {
+    {0x001, "tx_timeout"}, {0x002, "lost_arbitration"}, {0x004, "controller"}, {0x008, "protocol_violation"},
+    {0x010, "transceiver"}, {0x020, "no_ack"},          {0x040, "bus_off"},    {0x080, "bus_error"},
+    {0x100, "restarted"},  {0x200, "error_counters"},
+};
+
+std::string id_text(bool extended, std::uint32_t id) {
+  return extended ? fmt::format("{:08X}", id) : fmt::format("{:03X}", id);
+}
+
+/// "serial:/dev/ttyUSB0@460800:8E1" -> 460800 and 11 bits per byte.
+void baud_from_link(const std::string& link, std::uint32_t& baud, unsigned& bits) {
+  if (!link.starts_with("serial:")) return;
+  const auto at = link.rfind('@');
+  if (at == std::string::npos) return;
+  std::size_t used = 0;
+  try {
+    baud = static_cast<std::uint32_t>(std::stoul(link.substr(at + 1), &used));
+  } catch (...) {
+    baud = 0;
+    return;
+  }
+  const std::string format = link.substr(at + 1 + used);
+  if (format.size() == 4 && format[0] == ':') {
+    const unsigned data = static_cast<unsigned>(format[1] - '0');
+    const unsigned parity = format[2] == 'N' ? 0 : 1;
+    const unsigned stop = static_cast<unsigned>(format[3] - '0');
+    if (data >= 5 && data <= 9 && stop >= 1 && stop <= 2) bits = 1 + data + parity + stop;
+  }
+}
+
+}  // namespace
+
+std::uint16_t can_crc15(const CanFrame& frame) noexcept { return crc15(frame_bits(frame)); }
+
+unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept {
+  if (frame.error) return 0;
+  const unsigned n = static_cast<unsigned>(frame.payload().size());
+  const unsigned stuffed_region = (frame.extended ? 54U : 34U) + 8 * n;  // SOF .. end of CRC
+  const unsigned fixed = (frame.extended ? 67U : 47U) + 8 * n;           // + CRC delimiter, ACK, EOF, IFS
+  switch (stuffing) {
+    case StuffBits::none: return fixed;
+    case StuffBits::worst_case: return fixed + (stuffed_region - 1) / 4;
+    case StuffBits::exact: break;
+  }
+  FrameBits b = frame_bits(frame);
+  const std::uint16_t crc = crc15(b);
+  b.put(crc, 15);
+  // After five equal bits the transmitter inserts the opposite bit, which starts the next run; this also
+  // applies after the last CRC bit.
+  unsigned stuff = 0;
+  int last = -1;
+  unsigned run = 0;
+  for (unsigned i = 0; i < b.n; ++i) {
+    const int bit = b.bits[i];
+    if (bit == last) {
+      ++run;
+    } else {
+      last = bit;
+      run = 1;
+    }
+    if (run == 5) {
+      ++stuff;
+      last = 1 - bit;
+      run = 1;
+    }
+  }
+  return fixed + stuff;
+}
+
+void Cadence::add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns) {
+  ++count;
+  if (!ns) return;
+  if (last_ns) {
+    const std::uint64_t gap = *ns >= *last_ns ? *ns - *last_ns : 0;
+    ++gaps;
+    if (gap > max_gap_ns || gaps == 1) {
+      max_gap_ns = gap;
+      max_gap_start_ns = *last_ns;
+    }
+    if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
+    const double delta = static_cast<double>(gap) - mean_gap_ns;
+    mean_gap_ns += delta / static_cast<double>(gaps);
+    m2 += delta * (static_cast<double>(gap) - mean_gap_ns);
+  }
+  if (!first_ns) first_ns = ns;
+  last_ns = ns;
+}
+
+double Cadence::rate_hz() const {
+  if (!first_ns || !last_ns || *last_ns <= *first_ns || gaps == 0) return 0;
+  return static_cast<double>(gaps) / seconds(*last_ns - *first_ns);
+}
+
+double Cadence::jitter_ns() const { return gaps > 1 ? std::sqrt(m2 / static_cast<double>(gaps)) : 0; }
+
+void BusStats::add(const CanFrame& f, std::string_view interface) {
+  ++frames_;
+  const auto ts = f.timestamp_ns;
+  if (ts) {
+    if (!first_ns_ || *ts < *first_ns_) first_ns_ = ts;
+    if (!last_ns_ || *ts > *last_ns_) last_ns_ = ts;
+  }
+  if (f.error) {
+    ++error_frames_;
+    bool any = false;
+    for (const auto& [bit, name] : kErrorClasses) {
+      if (f.id & bit) {
+        ++error_kinds_[name];
+        any = true;
+      }
+    }
+    if (!any) ++error_kinds_["unspecified"];
+    return;
+  }
+  auto it = interfaces_.find(interface);
+  if (it == interfaces_.end()) it = interfaces_.emplace(std::string(interface), Load{}).first;
+  Load& load = it->second;
+  const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
+  ++load.frames;
+  load.bits_none += can_frame_bits(f, StuffBits::none);
+  load.bits_worst += worst;
+  load.bits_exact += can_frame_bits(f, StuffBits::exact);
+  if (ts) {
+    if (!load.first_ns) load.first_ns = ts;
+    if (!load.last_ns || *ts > *load.last_ns) load.last_ns = ts;
+    const std::uint64_t since = *ts >= *load.first_ns ? *ts - *load.first_ns : 0;
+    const std::uint64_t index = since / options_.window_ns;
+    if (index > load.window_index) {
+      load.window_index = index;
+      load.window_bits = 0;
+    }
+    load.window_bits += worst;
+    if (load.window_bits > load.peak_bits) {
+      load.peak_bits = load.window_bits;
+      load.peak_index = load.window_index;
+    }
+  }
+
+  IdStats& s = ids_[IdKey{f.extended, f.id}];
+  const bool velocity = !f.extended && f.id == saulcan::kVelocityCmdId;
+  s.cadence.add(ts, velocity ? kOrinTimeoutNs : 0);
+  if (f.remote) ++s.remote;
+  s.bits_worst = worst;
+  s.dlc = f.dlc;
+  const auto r = decode_bus_frame(f);
+  if (r) {
+    if (s.type.empty() || s.type[0] == '!') s.type = saul::name_of(r.value());
+  } else {
+    ++s.decode_errors;
+    ++failures_[to_string(r.reason())];
+    if (s.type.empty()) s.type = std::string("!") + to_string(r.reason());
+  }
+}
+
+std::uint64_t BusStats::decode_errors() const {
+  std::uint64_t n = 0;
+  for (const auto& [reason, count] : failures_) n += count;
+  return n;
+}
+
+double BusStats::load_percent(const Load& load, StuffBits stuffing) const {
+  if (!load.first_ns || !load.last_ns || *load.last_ns <= *load.first_ns) return 0;
+  const std::uint64_t bits = stuffing == StuffBits::none    ? load.bits_none
+                             : stuffing == StuffBits::exact ? load.bits_exact
+                                                            : load.bits_worst;
+  return 100.0 * static_cast<double>(bits) /
+         (seconds(*load.last_ns - *load.first_ns) * static_cast<double>(options_.bitrate));
+}
+
+double BusStats::peak_percent(const Load& load) const {
+  return 100.0 * static_cast<double>(load.peak_bits) /
+         (seconds(options_.window_ns) * static_cast<double>(options_.bitrate));
+}
+
+std::string BusStats::text(std::string_view name) const {
+  std::string out;
+  const double span = first_ns_ && last_ns_ ? static_cast<double>(*last_ns_ - *first_ns_) : 0;
+  out += fmt::format("{}: {} frames", name, frames_);
+  if (first_ns_)
+    out += fmt::format(" from {} to {} ({})", stamp_text(*first_ns_), stamp_text(*last_ns_), duration_text(span));
+  out += fmt::format("; {} corrupt records\n", corrupt_);
+  for (const auto& [iface, load] : interfaces_) {
+    out += fmt::format(
+        "bus load on {} at {} kbit/s: {:.2f} % (worst-case stuffing), {:.2f} % (exact), {:.2f} % (no stuffing); "
+        "busiest {:g} ms window {:.2f} % at +{:.3f} s\n",
+        iface, options_.bitrate / 1000, load_percent(load, StuffBits::worst_case), load_percent(load, StuffBits::exact),
+        load_percent(load, StuffBits::none), static_cast<double>(options_.window_ns) / 1e6,
+        peak_percent(load), seconds(load.peak_index * options_.window_ns));
+  }
+  out += fmt::format("error frames: {}", error_frames_);
+  if (!error_kinds_.empty()) {
+    std::string kinds;
+    for (const auto& [kind, count] : error_kinds_) kinds += fmt::format("{}{} {}", kinds.empty() ? "" : ", ", count, kind);
+    out += " (" + kinds + ")";
+  }
+  out += fmt::format("\ndecode errors: {}", decode_errors());
+  if (!failures_.empty()) {
+    std::string reasons;
+    for (const auto& [reason, count] : failures_)
+      reasons += fmt::format("{}{} {}", reasons.empty() ? "" : ", ", count, reason);
+    out += " (" + reasons + ")";
+  }
+  out += '\n';
+  const auto velocity = ids_.find(IdKey{false, saulcan::kVelocityCmdId});
+  if (velocity == ids_.end()) {
+    out += "0x300 velocity_cmd: none in the capture (the BALANCE board would not drive)\n";
+  } else {
+    const Cadence& c = velocity->second.cadence;
+    const std::uint64_t tail = last_ns_ && c.last_ns ? *last_ns_ - *c.last_ns : 0;
+    out += fmt::format("0x300 velocity_cmd: longest silence {}", duration_text(static_cast<double>(c.max_gap_ns)));
+    if (c.gaps > 0 && first_ns_) out += fmt::format(" from +{:.3f} s", seconds(c.max_gap_start_ns - *first_ns_));
+    out += fmt::format("; {} silences over the 500 ms Orin timeout", c.gaps_over_timeout);
+    if (tail > kOrinTimeoutNs) out += fmt::format("; silent for the last {}", duration_text(static_cast<double>(tail)));
+    out += '\n';
+  }
+  out += fmt::format("\n{:<9} {:<20} {:>7} {:>9} {:>11} {:>11} {:>11} {:>10} {:>5} {:>7}\n", "id", "type", "count",
+                     "rate/s", "mean gap", "longest gap", "from", "jitter", "bits", "errors");
+  for (const auto& [key, s] : ids_) {
+    const Cadence& c = s.cadence;
+    const std::string from =
+        c.gaps > 0 && first_ns_ ? fmt::format("+{:.3f} s", seconds(c.max_gap_start_ns - *first_ns_)) : "-";
+    out += fmt::format("{:<9} {:<20} {:>7} {:>9} {:>11} {:>11} {:>11} {:>10} {:>5} {:>7}\n",
+                       id_text(key.first, key.second), s.type, c.count,
+                       c.gaps ? fmt::format("{:.2f}", c.rate_hz()) : "-",
+                       c.gaps ? duration_text(c.mean_gap_ns) : "-",
+                       c.gaps ? duration_text(static_cast<double>(c.max_gap_ns)) : "-", from,
+                       c.gaps > 1 ? duration_text(c.jitter_ns()) : "-", s.bits_worst, s.decode_errors);
+  }
+  return out;
+}
+
+nlohmann::json BusStats::json(std::string_view name) const {
+  nlohmann::json j;
+  j["file"] = name;
+  j["kind"] = "can";
+  j["frames"] = frames_;
+  j["corrupt"] = corrupt_;
+  j["bitrate"] = options_.bitrate;
+  if (first_ns_) {
+    j["first_ns"] = *first_ns_;
+    j["last_ns"] = *last_ns_;
+    j["duration_s"] = seconds(*last_ns_ - *first_ns_);
+  }
+  j["error_frames"] = error_frames_;
+  j["error_kinds"] = error_kinds_;
+  j["decode_errors"] = decode_errors();
+  j["decode_failures"] = failures_;
+  nlohmann::json loads = nlohmann::json::object();
+  for (const auto& [iface, load] : interfaces_) {
+    loads[iface] = {{"frames", load.frames},
+                    {"bits_worst_case", load.bits_worst},
+                    {"bits_exact", load.bits_exact},
+                    {"bits_no_stuffing", load.bits_none},
+                    {"percent_worst_case", load_percent(load, StuffBits::worst_case)},
+                    {"percent_exact", load_percent(load, StuffBits::exact)},
+                    {"percent_no_stuffing", load_percent(load, StuffBits::none)},
+                    {"peak_window_s", seconds(options_.window_ns)},
+                    {"peak_percent_worst_case", peak_percent(load)},
+                    {"peak_at_s", seconds(load.peak_index * options_.window_ns)}};
+  }
+  j["load"] = loads;
+  nlohmann::json ids = nlohmann::json::array();
+  for (const auto& [key, s] : ids_) {
+    const Cadence& c = s.cadence;
+    nlohmann::json e{{"id", key.second},
+                     {"id_hex", id_text(key.first, key.second)},
+                     {"extended", key.first},
+                     {"type", s.type},
+                     {"count", c.count},
+                     {"remote", s.remote},
+                     {"rate_hz", c.rate_hz()},
+                     {"decode_errors", s.decode_errors},
+                     {"bits_worst_case", s.bits_worst}};
+    if (c.gaps > 0) {
+      e["mean_gap_s"] = c.mean_gap_ns / 1e9;
+      e["max_gap_s"] = seconds(c.max_gap_ns);
+      e["max_gap_from_s"] = first_ns_ ? seconds(c.max_gap_start_ns - *first_ns_) : 0.0;
+      e["jitter_s"] = c.jitter_ns() / 1e9;
+    }
+    if (!key.first && key.second == saulcan::kVelocityCmdId) {
+      e["silences_over_orin_timeout"] = c.gaps_over_timeout;
+      if (last_ns_ && c.last_ns) e["silent_at_end_s"] = seconds(*last_ns_ - *c.last_ns);
+    }
+    ids.push_back(std::move(e));
+  }
+  j["ids"] = std::move(ids);
+  return j;
+}
+
+// ---- serial -----------------------------------------------------------------------------------------------------
+
+void SerialStats::add(const SerialChunk& chunk) {
+  auto it = links_.find(chunk.link);
+  if (it == links_.end()) {
+    it = links_.emplace(chunk.link, Link{}).first;
+    baud_from_link(chunk.link, it->second.baud, it->second.bits_per_byte);
+  }
+  it->second.chunks.add(chunk.timestamp_ns);
+  it->second.bytes += chunk.bytes.size();
+  decoder_.add(chunk, [this](const SerialChunk& c, SerialProtocol, const SerialMessage& m) {
+    links_[c.link].messages[name_of(m)].add(c.timestamp_ns);
+  });
+}
+
+void SerialStats::finish() {
+  if (finished_) return;
+  finished_ = true;
+  decoder_.finish([this](const SerialChunk& c, SerialProtocol, const SerialMessage& m) {
+    links_[c.link].messages[name_of(m)].add(c.timestamp_ns);
+  });
+}
+
+std::uint64_t SerialStats::decode_errors() const {
+  std::uint64_t n = 0;
+  for (const auto& l : decoder_.links()) n += l.counters.errors(l.protocol);
+  return n;
+}
+
+std::string SerialStats::text(std::string_view name) const {
+  std::string out = fmt::format("{}: {} serial links; {} corrupt records\n", name, links_.size(), corrupt_);
+  for (const auto& d : decoder_.links()) {
+    const auto found = links_.find(d.name);
+    if (found == links_.end()) continue;
+    const Link& link = found->second;
+    const Cadence& c = link.chunks;
+    const double span = c.first_ns && c.last_ns ? static_cast<double>(*c.last_ns - *c.first_ns) : 0;
+    out += fmt::format("\n{} ({}{}): {} bytes in {} chunks", d.name, to_string(d.protocol),
+                       d.guessed ? ", guessed" : "", link.bytes, c.count);
+    if (span > 0) {
+      const double rate = static_cast<double>(link.bytes) / (span / 1e9);
+      out += fmt::format(" over {}, {:.0f} bytes/s", duration_text(span), rate);
+      if (link.baud > 0)
+        out += fmt::format(", line load {:.2f} % at {} baud ({} bits per byte)",
+                           100.0 * rate * link.bits_per_byte / link.baud, link.baud, link.bits_per_byte);
+    }
+    out += fmt::format("\n  decoder: {}\n", d.counters_text);
+    if (link.messages.empty()) continue;
+    out += fmt::format("  {:<20} {:>7} {:>9} {:>11} {:>11}\n", "message", "count", "rate/s", "mean gap", "longest gap");
+    for (const auto& [type, m] : link.messages)
+      out += fmt::format("  {:<20} {:>7} {:>9} {:>11} {:>11}\n", type, m.count,
+                         m.gaps ? fmt::format("{:.2f}", m.rate_hz()) : "-",
+                         m.gaps ? duration_text(m.mean_gap_ns) : "-",
+                         m.gaps ? duration_text(static_cast<double>(m.max_gap_ns)) : "-");
+  }
+  return out;
+}
+
+nlohmann::json SerialStats::json(std::string_view name) const {
+  nlohmann::json j;
+  j["file"] = name;
+  j["kind"] = "serial";
+  j["corrupt"] = corrupt_;
+  j["decode_errors"] = decode_errors();
+  nlohmann::json links = nlohmann::json::array();
+  for (const auto& d : decoder_.links()) {
+    const auto found = links_.find(d.name);
+    if (found == links_.end()) continue;
+    const Link& link = found->second;
+    nlohmann::json l;
+    l["link"] = d.name;
+    l["protocol"] = std::string(to_string(d.protocol));
+    l["protocol_guessed"] = d.guessed;
+    l["bytes"] = link.bytes;
+    l["chunks"] = link.chunks.count;
+    if (link.baud) l["baud"] = link.baud;
+    l["decoder"] = d.counters_json;
+    nlohmann::json messages = nlohmann::json::object();
+    for (const auto& [type, m] : link.messages) {
+      nlohmann::json e{{"count", m.count}, {"rate_hz", m.rate_hz()}};
+      if (m.gaps) {
+        e["mean_gap_s"] = m.mean_gap_ns / 1e9;
+        e["max_gap_s"] = seconds(m.max_gap_ns);
+      }
+      messages[type] = e;
+    }
+    l["messages"] = messages;
+    links.push_back(std::move(l));
+  }
+  j["links"] = std::move(links);
+  return j;
+}
+
+}  // namespace saul::host

@@ -1,0 +1,437 @@
+#include "saulproto/host/report/telemetry_plot.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <ostream>
+#include <utility>
+
+#include "saulproto/core/interboard.hpp"
+#include "saulproto/core/saul_can.hpp"
+#include "saulproto/core/vesc.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+namespace saul::host {
+
+// ---- messages -------------------------------------------------------------------------------------------------
+
+std::optional<double> PlotMessage::field(std::string_view field_name) const {
+  if (bus != nullptr) return numeric_field(*bus, field_name);
+  if (serial != nullptr) return numeric_field(*serial, field_name);
+  return std::nullopt;
+}
+
+std::vector<std::string> PlotMessage::field_names() const {
+  if (bus != nullptr) return numeric_field_names(*bus);
+  if (serial != nullptr) return numeric_field_names(*serial);
+  return {};
+}
+
+namespace {
+
+void emit_frame(const CanFrame& f, const PlotSink& sink) {
+  const auto r = decode_bus_frame(f);
+  if (!r) return;
+  const BusMessage& m = r.value();
+  PlotMessage pm;
+  pm.timestamp_ns = f.timestamp_ns;
+  pm.can_id = f.id;
+  pm.name = saul::name_of(m);
+  pm.bus = &m;
+  sink(pm);
+}
+
+}  // namespace
+
+PlotSource capture_plot_source(std::string path, SerialReadOptions options, std::optional<SerialProtocol> fallback) {
+  return [path = std::move(path), options, fallback](const PlotSink& sink) {
+    auto opened = open_capture(path, options);
+    if (opened.frames) {
+      for (;;) {
+        const auto st = opened.frames->next();
+        if (st == CaptureReader::Status::end) break;
+        if (st == CaptureReader::Status::corrupt) continue;
+        emit_frame(opened.frames->frame(), sink);
+      }
+      return;
+    }
+    SerialCaptureDecoder decoder(fallback);
+    const SerialCaptureDecoder::Callback on = [&](const SerialChunk& chunk, SerialProtocol, const SerialMessage& m) {
+      const std::string name = name_of(m);
+      PlotMessage pm;
+      pm.timestamp_ns = chunk.timestamp_ns;
+      pm.name = name;
+      pm.serial = &m;
+      sink(pm);
+    };
+    for (;;) {
+      const auto st = opened.chunks->next();
+      if (st == SerialCaptureReader::Status::end) break;
+      if (st == SerialCaptureReader::Status::corrupt) continue;
+      decoder.add(opened.chunks->chunk(), on);
+    }
+    decoder.finish(on);
+  };
+}
+
+PlotSource frames_plot_source(std::vector<CanFrame> frames) {
+  return [frames = std::move(frames)](const PlotSink& sink) {
+    for (const CanFrame& f : frames) emit_frame(f, sink);
+  };
+}
+
+// ---- what to draw -------------------------------------------------------------------------------------------
+
+std::optional<double> PlotSeriesSpec::value(const PlotMessage& m) const {
+  if (can_id && (!m.can_id || *m.can_id != *can_id)) return std::nullopt;
+  if ((!can_id || !message.empty()) && m.name != message) return std::nullopt;
+  if (controller) {
+    const auto c = m.field("controller_id");
+    if (!c || *c != *controller) return std::nullopt;
+  }
+  const auto v = m.field(field);
+  if (!v) return std::nullopt;
+  return divisor == 1 ? *v : *v / divisor;
+}
+
+std::vector<PlotPanelSpec> dashboard_panels() {
+  using saulcan::TelemetryA;
+  using saulcan::TelemetryB;
+  using saulcan::VelocityCmd;
+  const std::string uart_state = interboard::State::kName;
+  const std::string status1 = vesc::Status1::kName;
+  const std::string status5 = vesc::Status5::kName;
+  auto series = [](std::string label, std::string column, std::string message, std::string field,
+                   double divisor = 1, std::optional<std::uint8_t> controller = std::nullopt) {
+    PlotSeriesSpec s;
+    s.label = std::move(label);
+    s.column = std::move(column);
+    s.message = std::move(message);
+    s.field = std::move(field);
+    s.divisor = divisor;
+    s.controller = controller;
+    return s;
+  };
+  const auto left = vesc::kLeftId;
+  const auto right = vesc::kRightId;
+  return {
+      {"pitch [deg]",
+       "no 0x400 telemetry_a or inter-board state messages",
+       {series("0x400", "pitch_deg", TelemetryA::kName, "pitch_x100", 100),
+        series("UART state", "uart_pitch_deg", uart_state, "pitch_x100", 100)}},
+      {"pid_out [permille]",
+       "no 0x400 telemetry_a or inter-board state messages",
+       {series("0x400", "pid_out", TelemetryA::kName, "pid_out"),
+        series("UART state", "uart_pid_out", uart_state, "pid_out")}},
+      {"speed [mm/s]",
+       "no 0x400 telemetry_a or 0x300 velocity_cmd frames",
+       {series("reported (0x400)", "speed_mmps", TelemetryA::kName, "speed_mmps"),
+        series("commanded (0x300)", "speed_cmd_mmps", VelocityCmd::kName, "speed_mmps")}},
+      {"wheel speed [rpm] (0x401)",
+       "no 0x401 telemetry_b frames",
+       {series("left", "wheel_l_rpm", TelemetryB::kName, "vesc_l_rpm"),
+        series("right", "wheel_r_rpm", TelemetryB::kName, "vesc_r_rpm")}},
+      {"VESC ERPM (STATUS)",
+       fmt::format("no VESC STATUS (vesc_status_1) frames from controllers {} and {}", left, right),
+       {series(fmt::format("left ({})", left), "vesc_l_erpm", status1, "erpm", 1, left),
+        series(fmt::format("right ({})", right), "vesc_r_erpm", status1, "erpm", 1, right)}},
+      {"battery [V]",
+       fmt::format("no 0x401 telemetry_b or VESC STATUS_5 (vesc_status_5) frames from controllers {} and {}", left,
+                   right),
+       {series("0x401", "battery_v", TelemetryB::kName, "battery_mv", 1000),
+        series(fmt::format("VESC {}", left), "vesc_l_v", status5, "voltage_in_v", 1, left),
+        series(fmt::format("VESC {}", right), "vesc_r_v", status5, "voltage_in_v", 1, right)}},
+  };
+}
+
+// ---- state and fault changes ----------------------------------------------------------------------------------
+
+std::string state_name(unsigned value) {
+  if (value <= static_cast<unsigned>(saulcan::RobotState::fault))
+    return saulcan::to_string(static_cast<saulcan::RobotState>(value));
+  return std::to_string(value);
+}
+
+std::string fault_names(unsigned bits) {
+  std::string s;
+  for (unsigned bit = 0; bit < 8; ++bit)
+    if ((bits & (1U << bit)) != 0) s += (s.empty() ? "" : "+") + std::string(saulcan::fault::bit_name(bit));
+  return s.empty() ? "none" : s;
+}
+
+std::string change_label(const StateChange& c) {
+  if (c.kind == MarkerKind::state) return state_name(c.to);
+  const unsigned from = c.from.value_or(0);
+  std::string s;
+  auto add = [&s](char sign, unsigned bit) {
+    s += (s.empty() ? "" : " ") + std::string(1, sign) + saulcan::fault::bit_name(bit);
+  };
+  for (unsigned bit = 0; bit < 8; ++bit)
+    if ((c.to & (1U << bit)) != 0 && (from & (1U << bit)) == 0) add('+', bit);
+  for (unsigned bit = 0; bit < 8; ++bit)
+    if ((c.to & (1U << bit)) == 0 && (from & (1U << bit)) != 0) add('-', bit);
+  return s;
+}
+
+std::string change_detail(const StateChange& c) {
+  if (c.kind == MarkerKind::state)
+    return c.from ? state_name(*c.from) + " -> " + state_name(c.to) : state_name(c.to) + " (first seen)";
+  return fault_names(c.from.value_or(0)) + " -> " + fault_names(c.to);
+}
+
+std::optional<unsigned> robot_state_of(const PlotMessage& m) {
+  if (m.bus != nullptr) {
+    if (const auto* a = std::get_if<saulcan::TelemetryA>(m.bus)) return static_cast<unsigned>(a->state);
+  } else if (m.serial != nullptr) {
+    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
+      if (const auto* s = std::get_if<interboard::State>(ib)) return s->error_state;
+  }
+  return std::nullopt;
+}
+
+std::optional<unsigned> fault_bits_of(const PlotMessage& m) {
+  if (m.bus != nullptr) {
+    if (const auto* b = std::get_if<saulcan::TelemetryB>(m.bus)) return b->faults;
+  } else if (m.serial != nullptr) {
+    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
+      if (const auto* f = std::get_if<interboard::Fault>(ib)) return f->flags;
+  }
+  return std::nullopt;
+}
+
+void ChangeTracker::note(const StateChange& change) {
+  ++total_;
+  if (kept_.size() < keep_) kept_.push_back(change);
+}
+
+bool ChangeTracker::observe(const PlotMessage& m, std::uint64_t index, std::optional<std::uint64_t> timestamp_ns) {
+  bool reports = false;
+  if (const auto s = robot_state_of(m)) {
+    reports = true;
+    if (state_ != s) note(StateChange{MarkerKind::state, state_, *s, timestamp_ns, index});
+    state_ = s;
+  }
+  if (const auto f = fault_bits_of(m)) {
+    reports = true;
+    if (*f != faults_) {
+      const std::optional<unsigned> from = saw_faults_ ? std::optional<unsigned>(faults_) : std::nullopt;
+      note(StateChange{MarkerKind::faults, from, *f, timestamp_ns, index});
+    }
+    faults_ = *f;
+    saw_faults_ = true;
+  }
+  return reports;
+}
+
+// ---- the plot ---------------------------------------------------------------------------------------------------
+
+std::string format_timestamp(std::uint64_t ns) {
+  return fmt::format("{}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
+}
+
+template <class Visit>
+void TelemetryPlotter::each(const Visit& visit) const {
+  std::uint64_t index = 0;
+  std::optional<std::uint64_t> last_ns;
+  source_([&](const PlotMessage& m) {
+    if (m.timestamp_ns) last_ns = m.timestamp_ns;
+    visit(m, Position{m.timestamp_ns ? m.timestamp_ns : last_ns, index++});
+  });
+}
+
+double TelemetryPlotter::position(const Position& p) const {
+  if (min_ns_) return p.ns ? static_cast<double>(*p.ns - std::min(*p.ns, *min_ns_)) / 1e9 : 0.0;
+  return static_cast<double>(p.index - std::min(p.index, min_index_.value_or(0)));
+}
+
+double TelemetryPlotter::position_of(const StateChange& change) const {
+  return position(Position{change.timestamp_ns, change.index});
+}
+
+double TelemetryPlotter::points_span_s() const {
+  if (!first_point_ns_ || !last_point_ns_) return 0;
+  return static_cast<double>(*last_point_ns_ - *first_point_ns_) / 1e9;
+}
+
+void TelemetryPlotter::select(const PlotMessage& m) {
+  if (!panels_.empty()) return;
+  auto fields = request_.fields;
+  if (fields.empty()) fields = m.field_names();
+  for (const auto& f : fields) {
+    if (!m.field(f)) {
+      std::string names;
+      for (const auto& n : m.field_names()) names += (names.empty() ? "" : ", ") + n;
+      throw PlotUsageError(fmt::format("'{}' has no numeric field '{}': it has {}", request_.id, f, names));
+    }
+  }
+  if (fields.empty()) throw PlotUsageError(fmt::format("'{}' has no numeric fields to plot", request_.id));
+  for (const auto& f : fields) {
+    PlotSeriesSpec s;
+    s.column = f;
+    s.message = std::string(m.name);
+    s.can_id = can_id_;
+    s.field = f;
+    panels_.push_back(PlotPanelSpec{fmt::format("{}: {}", request_.id, f), {}, {s}});
+  }
+}
+
+TelemetryPlotter::TelemetryPlotter(PlotRequest request, PlotSource source)
+    : request_(std::move(request)), source_(std::move(source)), changes_(request_.max_markers) {
+  const std::string& id = request_.id;
+  if (id.empty() && !request_.fields.empty())
+    throw PlotUsageError("--field needs --id: the fields of which message?");
+  if (!id.empty() && id[0] >= '0' && id[0] <= '9') {
+    std::size_t used = 0;
+    unsigned long v = 0;
+    try {
+      v = std::stoul(id, &used, 0);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != id.size() || v > CanFrame::kMaxExtendedId)
+      throw PlotUsageError("bad id '" + id + "' (a CAN id such as 0x400, or a message name)");
+    can_id_ = static_cast<std::uint32_t>(v);
+  }
+  const std::vector<PlotPanelSpec> dashboard = dashboard_panels();
+  std::vector<std::vector<std::uint64_t>> counts(dashboard.size());
+  for (std::size_t p = 0; p < dashboard.size(); ++p) counts[p].assign(dashboard[p].series.size(), 0);
+
+  each([&](const PlotMessage& m, const Position& pos) {
+    bool point = false;
+    if (this->dashboard()) {
+      for (std::size_t p = 0; p < dashboard.size(); ++p)
+        for (std::size_t s = 0; s < dashboard[p].series.size(); ++s)
+          if (dashboard[p].series[s].value(m)) {
+            ++counts[p][s];
+            point = true;
+          }
+    } else {
+      if (can_id_ && m.serial != nullptr)
+        throw PlotUsageError("a serial capture has no CAN ids: name the message (e.g. --id state)");
+      if (can_id_ ? (m.can_id && *m.can_id == *can_id_) : m.name == id) {
+        select(m);
+        // By id: only messages of the first one's type (a 29-bit VESC frame can have the id of a SAUL frame).
+        point = panels_.front().series.front().value(m).has_value();
+      }
+    }
+    const bool reports = changes_.observe(m, pos.index, pos.ns);
+    if (!point && !reports) return;
+    if (point) {
+      ++messages_;
+      if (pos.ns) {
+        first_point_ns_ = std::min(first_point_ns_.value_or(*pos.ns), *pos.ns);
+        last_point_ns_ = std::max(last_point_ns_.value_or(*pos.ns), *pos.ns);
+      }
+    }
+    if (pos.ns) {
+      min_ns_ = std::min(min_ns_.value_or(*pos.ns), *pos.ns);
+      max_ns_ = std::max(max_ns_.value_or(*pos.ns), *pos.ns);
+    }
+    min_index_ = std::min(min_index_.value_or(pos.index), pos.index);
+    max_index_ = std::max(max_index_.value_or(pos.index), pos.index);
+  });
+
+  if (!this->dashboard()) {
+    if (messages_ == 0) throw PlotEmptyError(fmt::format("no '{}' in {}", id, request_.source_name));
+    return;
+  }
+  for (std::size_t p = 0; p < dashboard.size(); ++p) {
+    PlotPanelSpec panel = dashboard[p];
+    panel.series.clear();
+    for (std::size_t s = 0; s < dashboard[p].series.size(); ++s)
+      if (counts[p][s] > 0) panel.series.push_back(dashboard[p].series[s]);
+    if (panel.series.empty())
+      left_out_.push_back(fmt::format("{}: left out, {}", dashboard[p].title, dashboard[p].missing));
+    else
+      panels_.push_back(std::move(panel));
+  }
+  if (panels_.empty())
+    throw PlotEmptyError(fmt::format(
+        "none of the dashboard's messages (0x400 telemetry_a, 0x401 telemetry_b, 0x300 velocity_cmd, VESC STATUS "
+        "and STATUS_5, inter-board state) is in {}: name a message with --id and --field",
+        request_.source_name));
+}
+
+PlotDocument TelemetryPlotter::document(std::size_t columns) const {
+  PlotDocument doc;
+  const std::string from = min_ns_ ? format_timestamp(*min_ns_) : std::string("an untimed capture");
+  doc.title = fmt::format("{}: {} ({} message{} from {})", request_.source_name,
+                          dashboard() ? std::string("telemetry") : request_.id, messages_, messages_ == 1 ? "" : "s",
+                          from);
+  doc.time_label = timed() ? "time since the first plotted message [s]"
+                           : "message number (the capture has no timestamps)";
+  doc.t0 = 0;
+  doc.t1 = timed() ? static_cast<double>(*max_ns_ - *min_ns_) / 1e9
+                   : static_cast<double>(max_index_.value_or(0) - min_index_.value_or(0));
+  for (const auto& spec : panels_) {
+    PlotPanel panel;
+    panel.title = spec.title;
+    for (const auto& s : spec.series) panel.series.push_back(PlotSeries{s.label, PlotBinner(doc.t0, doc.t1, columns)});
+    doc.panels.push_back(std::move(panel));
+  }
+  each([&](const PlotMessage& m, const Position& pos) {
+    double t = -1;
+    for (std::size_t p = 0; p < panels_.size(); ++p)
+      for (std::size_t s = 0; s < panels_[p].series.size(); ++s)
+        if (const auto v = panels_[p].series[s].value(m)) {
+          if (t < 0) t = position(pos);
+          doc.panels[p].series[s].binner.add(t, *v);
+        }
+  });
+  for (const auto& c : changes_.kept()) {
+    PlotMarker marker;
+    marker.t = position_of(c);
+    marker.kind = c.kind;
+    marker.label = change_label(c);
+    marker.detail = change_detail(c);
+    if (c.timestamp_ns) marker.when = format_timestamp(*c.timestamp_ns);
+    doc.markers.push_back(std::move(marker));
+  }
+  doc.markers_total = changes_.total();
+  doc.notes = left_out_;
+  return doc;
+}
+
+void TelemetryPlotter::write_csv(std::ostream& out) const {
+  out << (timed() ? "time_s" : "message");
+  for (const auto& panel : panels_)
+    for (const auto& s : panel.series) out << ',' << s.column;
+  const bool states = dashboard() && changes_.saw_state();
+  const bool faults = dashboard() && changes_.saw_faults();
+  if (states) out << ",state";
+  if (faults) out << ",faults";
+  out << '\n';
+  std::string row;
+  each([&](const PlotMessage& m, const Position& pos) {
+    row.clear();
+    bool any = false;
+    for (const auto& panel : panels_)
+      for (const auto& s : panel.series) {
+        row += ',';
+        if (const auto v = s.value(m)) {
+          row += fmt::format("{}", *v);
+          any = true;
+        }
+      }
+    if (states) {
+      row += ',';
+      if (const auto v = robot_state_of(m)) {
+        row += fmt::format("{}", *v);
+        any = true;
+      }
+    }
+    if (faults) {
+      row += ',';
+      if (const auto v = fault_bits_of(m)) {
+        row += fmt::format("{}", *v);
+        any = true;
+      }
+    }
+    if (!any) return;
+    const double t = position(pos);
+    out << (timed() ? fmt::format("{:.6f}", t) : fmt::format("{:.0f}", t)) << row << '\n';
+  });
+}
+
+}  // namespace saul::host

@@ -1,0 +1,107 @@
+#include "saulproto/host/robot/pride_vcu.hpp"
+
+#include <array>
+#include <stdexcept>
+
+namespace saul::host {
+
+using namespace std::chrono;
+
+namespace {
+void check(const pride::VcuCommand& c) {
+  if (!c.in_range())
+    throw std::invalid_argument("pride: speed level must be 0..14 and FB, LR -100..+100");
+}
+}  // namespace
+
+PrideVcu::PrideVcu(SerialPort& port, VcuClock& clock, pride::VcuCommand command, PrideVcuOptions options)
+    : port_(port), clock_(clock), command_(command), previous_command_(command), options_(options) {
+  check(command);
+  if (options_.period.count() <= 0) throw std::invalid_argument("pride: the frame period must be positive");
+  next_ = clock_.now();  // the first frame goes out at once
+}
+
+void PrideVcu::set_command(const pride::VcuCommand& command) {
+  check(command);
+  if (neutral_) return;
+  previous_command_ = command_;
+  command_ = command;
+}
+
+void PrideVcu::begin_neutral() {
+  if (neutral_) return;
+  neutral_ = true;
+  previous_command_ = command_;
+  command_.forward_back = 0;
+  command_.left_right = 0;
+}
+
+bool PrideVcu::finished() const {
+  if (!neutral_) return false;
+  const auto needed = (duration_cast<microseconds>(options_.neutral_time) + options_.period - microseconds(1)) /
+                      options_.period;
+  return counters_.neutral_frames_sent >= static_cast<std::uint64_t>(needed);
+}
+
+void PrideVcu::send_frame(TimePoint now) {
+  std::array<std::uint8_t, pride::kFrameSize> frame{};
+  const auto n = pride::encode(command_, frame);
+  if (!n) throw std::logic_error("pride: cannot encode the VCU frame");
+  // On one wire every byte comes straight back; an echo that made no progress for echo_timeout is not coming.
+  if (echo_.expected() > 0 && now - echo_progress_ > options_.echo_timeout) echo_.clear();
+  if (echo_.expected() == 0) echo_progress_ = now;
+  port_.write(std::span<const std::uint8_t>(frame.data(), *n), milliseconds(5));
+  const std::span<const std::uint8_t> sent(frame.data(), *n);
+  if (!echo_.sent(sent)) {  // more echo outstanding than the filter holds: start over from this frame
+    echo_.clear();
+    echo_progress_ = now;
+    echo_.sent(sent);
+  }
+  ++counters_.frames_sent;
+  if (neutral_) ++counters_.neutral_frames_sent;
+  // Absolute deadlines: the next frame is one period after this slot, not after now. When we are late by a
+  // whole period or more, the missed slots are skipped (counted), never sent in a burst.
+  next_ += options_.period;
+  while (next_ <= now) {
+    next_ += options_.period;
+    ++counters_.missed_slots;
+  }
+}
+
+void PrideVcu::take(std::span<const std::uint8_t> bytes, TimePoint now, const StatusHandler& on_status) {
+  for (std::uint8_t b : bytes) {
+    const auto kept = echo_.push(b);
+    if (!kept) {
+      echo_progress_ = now;
+      continue;
+    }
+    const auto m = decoder_.push(*kept);
+    if (!m) continue;
+    if (const auto* s = std::get_if<pride::ControllerStatus>(&*m)) {
+      ++counters_.controller_frames;
+      last_status_ = *s;
+      if (on_status) on_status(*s);
+    } else if (const auto* v = std::get_if<pride::VcuCommand>(&*m); v && (*v == command_ || *v == previous_command_)) {
+      ++counters_.late_echoes;  // a frame we sent, back after the filter forgot it: not someone else's
+    } else {
+      ++counters_.foreign_vcu_frames;
+    }
+  }
+}
+
+void PrideVcu::step(const StatusHandler& on_status) {
+  auto now = clock_.now();
+  if (now >= next_ && !finished()) send_frame(now);
+  std::array<std::uint8_t, 256> buf{};
+  while (true) {
+    now = clock_.now();
+    if (now >= next_) return;
+    // Rounded up: a frame leaves at most 1 ms after its deadline, and we never spin.
+    const auto left = ceil<milliseconds>(next_ - now);
+    const std::size_t n = port_.read(buf, left);
+    if (n == 0) return;  // timeout (the deadline) or a signal
+    take(std::span<const std::uint8_t>(buf.data(), n), clock_.now(), on_status);
+  }
+}
+
+}  // namespace saul::host

@@ -1,0 +1,178 @@
+// Recording into rotating files, and the SVG plot: file names, sizes, rotation by time and size with every file
+// complete on its own; plot binning, ticks and the document.
+#include <catch2/catch.hpp>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/plot.hpp"
+#include "saulproto/host/capture/recorder.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+using saul::CanFrame;
+using namespace saul::host;
+
+namespace {
+
+constexpr std::uint64_t kMs = 1'000'000ULL;
+
+std::filesystem::path scratch_dir() {
+  const auto dir = std::filesystem::temp_directory_path() / ("saul_test_recorder_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+CanFrame velocity(std::uint64_t ns) {
+  CanFrame f;
+  f.id = 0x300;
+  f.dlc = 4;
+  f.timestamp_ns = ns;
+  return f;
+}
+
+std::vector<std::uint64_t> stamps_in(const std::string& path) {
+  auto reader = open_capture_reader(path);
+  std::vector<std::uint64_t> out;
+  for (;;) {
+    const auto st = reader->next();
+    if (st == CaptureReader::Status::end) break;
+    REQUIRE(st == CaptureReader::Status::frame);
+    out.push_back(*reader->frame().timestamp_ns);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("numbered file names and sizes") {
+  CHECK(numbered_path("run.log", 0) == "run-000.log");
+  CHECK(numbered_path("/tmp/a.b/run.pcapng", 12) == "/tmp/a.b/run-012.pcapng");
+  CHECK(numbered_path("/tmp/a.b/run", 3) == "/tmp/a.b/run-003");
+  CHECK(numbered_path(".hidden", 1) == ".hidden-001");
+  CHECK(parse_size("100M") == 100ULL * 1024 * 1024);
+  CHECK(parse_size("1.5G") == 1536ULL * 1024 * 1024);
+  CHECK(parse_size("64kB") == 65536);
+  CHECK(parse_size("4096") == 4096);
+  CHECK(parse_size("2MiB") == 2ULL * 1024 * 1024);
+  CHECK_THROWS_AS(parse_size("lots"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_size("10T"), std::invalid_argument);
+}
+
+TEST_CASE("rotation by time: every file readable, every frame once, in order") {
+  const auto dir = scratch_dir();
+  const std::string format_name = GENERATE("log", "pcapng", "asc", "pcap");
+  const CaptureFormat format = *capture_format_from_name(format_name);
+  const std::string path = (dir / ("run." + format_name)).string();
+  std::vector<std::string> opened;
+  {
+    RotationOptions rotation;
+    rotation.max_duration_ns = 1'000 * kMs;
+    RotatingCaptureWriter writer(path, format, rotation, [&](const std::string& p) { opened.push_back(p); });
+    for (std::uint64_t t = 0; t < 2'500; t += 100) writer.write(velocity(1'700'000'000'000 * kMs + t * kMs), "can0");
+    CHECK(writer.files() == 3);
+    writer.close();
+  }
+  REQUIRE(opened.size() == 3);
+  CHECK(opened[0] == (dir / ("run-000." + format_name)).string());
+  // 0..900 ms, 1000..1900 ms, 2000..2400 ms
+  std::vector<std::size_t> sizes;
+  std::vector<std::uint64_t> all;
+  for (const auto& p : opened) {
+    const auto s = stamps_in(p);
+    sizes.push_back(s.size());
+    all.insert(all.end(), s.begin(), s.end());
+  }
+  CHECK(sizes == std::vector<std::size_t>{10, 10, 5});
+  REQUIRE(all.size() == 25);
+  for (std::size_t i = 0; i < all.size(); ++i) CHECK(all[i] == 1'700'000'000'000 * kMs + i * 100 * kMs);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("rotation by size, and no rotation") {
+  const auto dir = scratch_dir();
+  {
+    RotationOptions rotation;
+    rotation.max_bytes = 100;  // candump lines of 0x300 are 39 bytes: three lines pass 100
+    RotatingCaptureWriter writer((dir / "s.log").string(), CaptureFormat::candump, rotation);
+    for (int i = 0; i < 7; ++i) writer.write(velocity(static_cast<std::uint64_t>(i) * kMs), "can0");
+    writer.close();
+    CHECK(writer.files() == 3);
+  }
+  CHECK(stamps_in((dir / "s-000.log").string()).size() == 3);
+  CHECK(stamps_in((dir / "s-001.log").string()).size() == 3);
+  CHECK(stamps_in((dir / "s-002.log").string()).size() == 1);
+  {
+    RotatingCaptureWriter writer((dir / "plain.pcapng").string(), CaptureFormat::pcapng);
+    writer.write(velocity(kMs), "can0");
+    CHECK(writer.current_path() == (dir / "plain.pcapng").string());
+  }  // the destructor closes
+  CHECK(stamps_in((dir / "plain.pcapng").string()).size() == 1);
+  CHECK_THROWS_AS(RotatingCaptureWriter((dir / "x.serial").string(), CaptureFormat::serial), CaptureOpenError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("serial recordings rotate too") {
+  const auto dir = scratch_dir();
+  RotationOptions rotation;
+  rotation.max_duration_ns = 10 * kMs;
+  {
+    RotatingSerialWriter writer((dir / "u.serial").string(), rotation);
+    SerialChunk c;
+    c.link = "serial:/dev/ttyUSB1@38400:8E1";
+    c.protocol = SerialProtocol::pride;
+    for (std::uint64_t t = 0; t < 20; t += 5) {
+      c.timestamp_ns = t * kMs;
+      c.bytes = {0xFE, 0x54, static_cast<std::uint8_t>(t)};
+      writer.write(c);
+    }
+    writer.close();
+    CHECK(writer.files() == 2);
+  }
+  for (const char* name : {"u-000.serial", "u-001.serial"}) {
+    auto reader = open_serial_capture_reader((dir / name).string());
+    int n = 0;
+    while (reader->next() == SerialCaptureReader::Status::chunk) ++n;
+    CHECK(n == 2);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("plot: ticks, binning that keeps spikes, and the SVG") {
+  CHECK(nice_ticks(0, 10, 5) == std::vector<double>{0, 2, 4, 6, 8, 10});
+  const auto small = nice_ticks(-0.3, 0.3, 6);
+  const std::vector<double> expected{-0.3, -0.2, -0.1, 0, 0.1, 0.2, 0.3};
+  REQUIRE(small.size() == expected.size());
+  for (std::size_t i = 0; i < small.size(); ++i) CHECK(small[i] == Approx(expected[i]).margin(1e-12));
+  CHECK(nice_ticks(1, 1) == std::vector<double>{1});
+
+  PlotBinner binner(0, 10, 5);  // 2 s per column
+  for (int i = 0; i < 1000; ++i) binner.add(i * 0.01, 1.0);
+  binner.add(4.5, 99.0);  // one spike in the third column
+  binner.add(11, 2.0);    // past the end: the last column
+  CHECK(binner.count() == 1002);
+  CHECK(binner.max() == 99.0);
+  const auto points = binner.points();
+  CHECK(points.size() <= 5 * 4);
+  bool spike = false;
+  for (const auto& p : points) spike = spike || (p.v == 99.0 && p.t == 4.5);
+  CHECK(spike);
+  for (std::size_t i = 1; i < points.size(); ++i) CHECK(points[i - 1].t <= points[i].t);
+
+  PlotDocument doc;
+  doc.title = "pitch & <pid>";
+  doc.t0 = 0;
+  doc.t1 = 10;
+  doc.panels.push_back(PlotPanel{"0x400 telemetry_a: pitch_x100", binner});
+  const std::string svg = render_svg(doc);
+  CHECK(svg.starts_with("<?xml"));
+  CHECK(svg.find("<svg xmlns=\"http://www.w3.org/2000/svg\"") != std::string::npos);
+  CHECK(svg.find("pitch &amp; &lt;pid&gt;") != std::string::npos);
+  CHECK(svg.find("<polyline") != std::string::npos);
+  CHECK(svg.find("(1002 points)") != std::string::npos);
+  CHECK(svg.ends_with("</svg>\n"));
+}
