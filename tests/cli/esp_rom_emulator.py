@@ -19,13 +19,11 @@ import argparse
 import hashlib
 import json
 import os
-import pty
-import select
 import struct
-import sys
 import time
-import tty
 import zlib
+
+from ptyfake import Pty
 
 CHIPS = {  # name: (chip id for GET_SECURITY_INFO, magic at 0x40001000, security info length)
     "esp32s3": (9, 0x00000009, 20),
@@ -64,9 +62,9 @@ class Done(Exception):
 
 
 class Rom:
-    def __init__(self, args, master):
+    def __init__(self, args, port):
         self.a = args
-        self.master = master
+        self.port = port
         self.stub = args.stub
         chip_id, magic, _ = CHIPS[args.chip]
         self.flash = bytearray(b"\xff" * args.flash_size)
@@ -108,7 +106,7 @@ class Rom:
 
     def send_raw(self, data):
         self.pace(len(data))
-        os.write(self.master, data)
+        self.port.send(data)
         self.report["bytes_out"] += len(data)
 
     def respond(self, op, value=0, data=b"", status=0, error=0):
@@ -323,6 +321,37 @@ class Rom:
         self.respond(op, data=digest.digest() if self.stub else digest.hexdigest().encode())
 
 
+class SlipReader:
+    """Cuts the byte stream into SLIP frames (C0 ... C0, DB DC = C0, DB DD = DB) and hands each to on_frame."""
+
+    def __init__(self, on_frame):
+        self.on_frame = on_frame
+        self.storage = bytearray()
+        self.in_frame = False
+        self.escape = False
+
+    def feed(self, chunk):
+        for b in chunk:
+            if b == 0xC0:
+                if self.in_frame and self.storage:
+                    frame = bytes(self.storage)
+                    self.storage.clear()
+                    self.in_frame = False
+                    self.on_frame(frame)
+                else:
+                    self.in_frame = True
+                    self.storage.clear()
+                self.escape = False
+            elif self.in_frame:
+                if self.escape:
+                    self.storage.append({0xDC: 0xC0, 0xDD: 0xDB}.get(b, b))
+                    self.escape = False
+                elif b == 0xDB:
+                    self.escape = True
+                else:
+                    self.storage.append(b)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--chip", choices=sorted(CHIPS), default="esp32s3")
@@ -345,81 +374,41 @@ def main():
     p.add_argument("--link", help="also make this symlink to the pty")
     args = p.parse_args()
 
-    master, slave = pty.openpty()
-    tty.setraw(slave)
-    path = os.ttyname(slave)
-    if args.link:
-        if os.path.lexists(args.link):
-            os.unlink(args.link)
-        os.symlink(path, args.link)
-    print(path, flush=True)
+    port = Pty()
+    port.announce(args.link)
+    rom = Rom(args, port)
+    slip = SlipReader(rom.handle_frame)
 
-    rom = Rom(args, master)
-    storage = bytearray()
-    in_frame = False
-    escape = False
-    stdin_open = True
+    def handle(chunk):
+        rom.report["bytes_in"] += len(chunk)
+        if args.vanish_after is not None and rom.report["bytes_in"] >= args.vanish_after:
+            rom.report["resets"].append({"kind": "vanished", "after_bytes": rom.report["bytes_in"]})
+            raise Done()
+        rom.pace(len(chunk))
+        if args.silent:
+            return
+        if args.echo:
+            port.send(chunk)
+            return
+        if args.chatter or args.mute_download:
+            if not rom.chattered:
+                rom.chattered = True
+                rom.send_raw(BOOT_TEXT if args.chatter else DOWNLOAD_TEXT)
+            return
+        slip.feed(chunk)
+
     try:
-        while True:
-            fds = [master] + ([sys.stdin] if stdin_open else [])
-            ready, _, _ = select.select(fds, [], [])
-            if sys.stdin in ready:
-                line = sys.stdin.readline()
-                if not line or line.strip() == "quit":
-                    break
-            if master not in ready:
-                continue
-            try:
-                chunk = os.read(master, 65536)
-            except OSError:
-                continue  # nobody has the pty open right now
-            rom.report["bytes_in"] += len(chunk)
-            if args.vanish_after is not None and rom.report["bytes_in"] >= args.vanish_after:
-                rom.report["resets"].append({"kind": "vanished", "after_bytes": rom.report["bytes_in"]})
-                raise Done()
-            rom.pace(len(chunk))
-            if args.silent:
-                continue
-            if args.echo:
-                os.write(master, chunk)
-                continue
-            if args.chatter or args.mute_download:
-                if not rom.chattered:
-                    rom.chattered = True
-                    rom.send_raw(BOOT_TEXT if args.chatter else DOWNLOAD_TEXT)
-                continue
-            for b in chunk:
-                if b == 0xC0:
-                    if in_frame and storage:
-                        frame = bytes(storage)
-                        storage.clear()
-                        in_frame = False
-                        rom.handle_frame(frame)
-                    else:
-                        in_frame = True
-                        storage.clear()
-                    escape = False
-                elif in_frame:
-                    if escape:
-                        storage.append({0xDC: 0xC0, 0xDD: 0xDB}.get(b, b))
-                        escape = False
-                    elif b == 0xDB:
-                        escape = True
-                    else:
-                        storage.append(b)
+        port.serve(handle)
     except Done:
         pass
     finally:
-        os.close(master)  # an IO board leaving the USB bus; a no-op for the host when it has already closed
+        port.close()  # an IO board leaving the USB bus; a no-op for the host when it has already closed
         if args.flash_file:
             with open(args.flash_file, "wb") as f:
                 f.write(rom.flash)
         if args.report:
             with open(args.report, "w") as f:
                 json.dump(rom.report, f, indent=1)
-        if args.link and os.path.islink(args.link):
-            os.unlink(args.link)
-    os.close(slave)
 
 
 if __name__ == "__main__":

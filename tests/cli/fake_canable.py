@@ -9,74 +9,15 @@ the process ending) with a bounded timeout; nothing sleeps to synchronise.
 Usage: fake_canable.py SAULCTL
 """
 import os
-import select
-import subprocess
 import sys
-import tty
+
+from clitest import Checks, Saulctl, finish
+from ptyfake import Pty
 
 SAULCTL = sys.argv[1]
-results = []
-
-
-class Pty:
-    def __init__(self):
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
-        self.buf = b""
-
-    def read_until(self, predicate, timeout=5.0):
-        """Reads until predicate(buffer) is true; returns the buffer (and keeps it)."""
-        import time
-        end = time.monotonic() + timeout
-        while not predicate(self.buf):
-            left = end - time.monotonic()
-            if left <= 0:
-                break
-            r, _, _ = select.select([self.master], [], [], left)
-            if not r:
-                break
-            try:
-                chunk = os.read(self.master, 4096)
-            except OSError:
-                break
-            if not chunk:
-                break
-            self.buf += chunk
-        return self.buf
-
-    def send(self, data):
-        os.write(self.master, data)
-
-    def close_master(self):
-        os.close(self.master)
-
-    def close(self):
-        for fd in (self.master, self.slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-
-
-def start(args, **kw):
-    return subprocess.Popen([SAULCTL] + args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, **kw)
-
-
-def finish(proc, timeout=10):
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        return None, out.decode(), err.decode() + "\n[killed: saulctl hung]"
-    return proc.returncode, out.decode(), err.decode()
-
-
-def check(name, ok, detail=""):
-    results.append(ok)
-    print(("ok   " if ok else "FAIL ") + name + ("" if ok or not detail else "\n     " + detail.replace("\n", "\n     ")))
+start = Saulctl(SAULCTL).start
+checks = Checks()
+check = checks.check
 
 
 OPEN = b"C\rS6\rO\r"
@@ -206,7 +147,7 @@ p.send(b"t302100\r")
 p.close_master()
 code, out, err = finish(proc, timeout=5)
 check("sniff ends with 'disappeared' when the adapter goes away", code == 1 and "disappeared" in err, f"{code} {err}")
-os.close(p.slave)
+p.close()
 
 # 13. monitor --json: one line per telemetry update once both frames are known.
 p = Pty()
@@ -214,14 +155,13 @@ proc = start(["monitor", "--json", "--link", "slcan:" + p.path, "--duration", "3
 p.read_until(lambda b: b.endswith(OPEN))
 p.send(b"t40070AFF2C012C0101\rt4017B00464FBB09A11\r")
 # The line for the second frame is printed as soon as it arrives; end the run by closing the adapter.
-import time  # noqa: E402  (only for the process poll below, not for synchronisation)
 out_line = proc.stdout.readline().decode()
 p.close_master()
 code, out, err = finish(proc)
 check("monitor --json reports state, pitch, battery and fault names",
       '"state":"BALANCE"' in out_line and '"pitch_deg":-2.46' in out_line and '"battery_v":39.6' in out_line
       and '"faults":"rc_loss,orin_timeout"' in out_line, out_line + err)
-os.close(p.slave)
+p.close()
 
 # 14. A device that does not exist, and one we may not open.
 code, out, err = finish(start(["mode", "off", "--link", "slcan:/dev/ttyACM97"]))
@@ -230,10 +170,8 @@ check("missing adapter: exit 1, names the device and 'saulctl ports'",
 if os.geteuid() == 0 and os.path.exists("/usr/bin/setpriv"):
     p = Pty()
     os.chmod(p.path, 0o600)
-    proc = start(["mode", "off", "--link", "slcan:" + p.path],
-                 preexec_fn=None) if False else subprocess.Popen(
-        ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", SAULCTL, "mode", "off", "--link",
-         "slcan:" + p.path], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = Saulctl("setpriv").start(["--reuid=65534", "--regid=65534", "--clear-groups", SAULCTL, "mode", "off",
+                                     "--link", "slcan:" + p.path])
     code, out, err = finish(proc)
     check("permission denied: exit 1 and the dialout hint", code == 1 and "dialout" in err, f"{code} {err}")
     p.close()
@@ -243,6 +181,4 @@ else:
 code, out, err = finish(start(["mode", "off", "--link", "bogus:thing"]))
 check("a malformed link is a usage error listing the forms", code == 2 and "slcan:/dev/ttyACM0" in err, f"{code} {err}")
 
-failed = results.count(False)
-print(f"{len(results) - failed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+checks.exit()

@@ -9,72 +9,15 @@ timeout; nothing sleeps to synchronise.
 Usage: fake_live.py SAULCTL
 """
 import json
-import os
-import select
-import subprocess
 import sys
 import time
-import tty
 
-SAULCTL = sys.argv[1]
-results = []
+from clitest import Checks, Saulctl, finish
+from ptyfake import Pty
 
-
-class Pty:
-    def __init__(self):
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
-        self.buf = b""
-
-    def read_some(self, timeout):
-        r, _, _ = select.select([self.master], [], [], timeout)
-        if not r:
-            return b""
-        try:
-            chunk = os.read(self.master, 4096)
-        except OSError:
-            return b""
-        self.buf += chunk
-        return chunk
-
-    def read_until(self, predicate, timeout=5.0):
-        end = time.monotonic() + timeout
-        while not predicate(self.buf):
-            left = end - time.monotonic()
-            if left <= 0 or not self.read_some(left):
-                break
-        return self.buf
-
-    def send(self, data):
-        os.write(self.master, data)
-
-    def close(self):
-        for fd in (self.master, self.slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-
-
-def start(args):
-    return subprocess.Popen([SAULCTL] + args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
-
-
-def finish(proc, timeout=10):
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        return None, out.decode(), err.decode() + "\n[killed: saulctl hung]"
-    return proc.returncode, out.decode(), err.decode()
-
-
-def check(name, ok, detail=""):
-    results.append(ok)
-    print(("ok   " if ok else "FAIL ") + name + ("" if ok or not detail else "\n     " + detail.replace("\n", "\n     ")))
+start = Saulctl(sys.argv[1]).start
+checks = Checks()
+check = checks.check
 
 
 # ---- console -----------------------------------------------------------------------------------------------------
@@ -220,6 +163,4 @@ check("sniff --top counts and marks the changed byte", "300" in rows and " 5 " i
 check("sniff --top shows the bus load", "bus load" in out, out)
 p.close()
 
-failed = results.count(False)
-print(f"{len(results) - failed}/{len(results)} checks passed")
-sys.exit(1 if failed else 0)
+checks.exit()

@@ -14,69 +14,22 @@ Usage: fake_recording.py SAULCTL
 """
 import os
 import select
+import shutil
 import signal
 import subprocess
 import sys
 import tempfile
 import time
-import tty
 
-SAULCTL = sys.argv[1]
-results = []
+from clitest import Checks, Saulctl, finish
+from ptyfake import Pty
+
+saulctl = Saulctl(sys.argv[1])
+start = saulctl.start
+checks = Checks()
+check = checks.check
 OPEN = b"C\rS6\rO\r"
 tmp = tempfile.mkdtemp(prefix="saul_rec_")
-
-
-class Pty:
-    def __init__(self):
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
-        self.buf = b""
-        self.arrivals = []  # (monotonic time, bytes) as they were read
-
-    def read_until(self, predicate, timeout=5.0):
-        end = time.monotonic() + timeout
-        while not predicate(self.buf):
-            left = end - time.monotonic()
-            if left <= 0:
-                break
-            r, _, _ = select.select([self.master], [], [], left)
-            if not r:
-                break
-            try:
-                chunk = os.read(self.master, 4096)
-            except OSError:
-                break
-            if not chunk:
-                break
-            self.arrivals.append((time.monotonic(), chunk))
-            self.buf += chunk
-        return self.buf
-
-    def send(self, data):
-        os.write(self.master, data)
-
-    def close(self):
-        for fd in (self.master, self.slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-
-
-def start(args, stdin=subprocess.DEVNULL):
-    return subprocess.Popen([SAULCTL] + args, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-
-
-def finish(proc, timeout=15):
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        return None, out.decode(), err.decode() + "\n[killed: saulctl hung]"
-    return proc.returncode, out.decode(), err.decode()
 
 
 def wait_stderr_line(proc, needle, timeout=5.0):
@@ -95,14 +48,8 @@ def wait_stderr_line(proc, needle, timeout=5.0):
     return seen.decode()
 
 
-def check(name, ok, detail=""):
-    results.append(ok)
-    print(("ok   " if ok else "FAIL ") + name + ("" if ok or not detail else "\n     " + detail.replace("\n", "\n     ")))
-
-
 def decode(path):
-    p = subprocess.run([SAULCTL, "decode", path], capture_output=True)
-    return p.returncode, p.stdout.decode(), p.stderr.decode()
+    return saulctl.run(["decode", path])
 
 
 # ---- record ---------------------------------------------------------------------------------------------------------
@@ -117,7 +64,7 @@ for ext in ("log", "pcapng", "asc"):
     p.read_until(lambda b: b.endswith(OPEN))
     p.send(SLCAN_IN)
     proc.send_signal(signal.SIGINT)  # Ctrl-C right after the frames: nothing may be lost
-    code, out, err = finish(proc)
+    code, out, err = finish(proc, timeout=15)
     check(f"record to .{ext}: Ctrl-C exits 0 and reports 4 frames", code == 0 and "record: 4 frames" in err,
           f"{code} {err}")
     dcode, dout, derr = decode(out_file)
@@ -137,7 +84,7 @@ proc = start(["record", "serial:" + p.path + "@460800", "-o", serial_file])
 seen = wait_stderr_line(proc, "Ctrl-C to stop")
 p.send(bytes.fromhex("AA0501F40106FF010F" "AA05102EFB2C010151"))  # rc_cmd and state (tests/unit golden bytes)
 proc.send_signal(signal.SIGINT)
-code, out, err = finish(proc)
+code, out, err = finish(proc, timeout=15)
 check("record of a serial link: Ctrl-C exits 0 with 18 bytes", code == 0 and "record: 18 bytes" in err,
       f"{code} {seen} {err}")
 dcode, dout, derr = decode(serial_file)
@@ -175,7 +122,7 @@ def replay(args, expect, stdin=subprocess.DEVNULL, feed=None):
         proc.stdin = None  # already closed: communicate() must not flush it
     got = p.read_until(lambda b: b.startswith(OPEN) and b[len(OPEN):].startswith(expect) and b.endswith(b"C\r")
                        and len(b) >= len(OPEN) + len(expect) + 2, timeout=10)
-    code, out, err = finish(proc)
+    code, out, err = finish(proc, timeout=15)
     got = p.read_until(lambda b: False, timeout=0.05) if code is None else got
     # arrival time of each frame's last byte
     times, pos, total = [], 0, b""
@@ -238,9 +185,5 @@ check("a malformed --map is a usage error (exit 2)", code == 2 and "FROM=TO" in 
 code, out, err = finish(start(["replay", os.path.join(tmp, "missing.log"), "--to", "slcan:/dev/null"]))
 check("a missing capture exits 1 and names it", code == 1 and "missing.log" in err, f"{code} {err}")
 
-for name in os.listdir(tmp):
-    os.remove(os.path.join(tmp, name))
-os.rmdir(tmp)
-failed = results.count(False)
-print(f"{failed} failed")
-sys.exit(1 if failed else 0)
+shutil.rmtree(tmp)
+checks.exit()

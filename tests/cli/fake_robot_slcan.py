@@ -7,11 +7,8 @@ would, with a 0x402 acknowledgement ("t402302" + "00" + result) and one 0x400 te
 state). Ends when stdin says "quit" or closes; --log records the lines it received.
 """
 import argparse
-import os
-import pty
-import select
-import sys
-import tty
+
+from ptyfake import Pty
 
 p = argparse.ArgumentParser()
 p.add_argument("--state", type=int, default=0, help="robot state in 0x400 after the mode command (0 = OFF)")
@@ -21,23 +18,14 @@ p.add_argument("--no-telemetry", action="store_true", help="acknowledge but send
 p.add_argument("--log", help="file receiving every line saulctl sent")
 args = p.parse_args()
 
-master, slave = pty.openpty()
-tty.setraw(slave)
-print(os.ttyname(slave), flush=True)
+port = Pty()
+port.announce()
 log = open(args.log, "w") if args.log else None
 line = b""
-while True:
-    ready, _, _ = select.select([master, sys.stdin], [], [])
-    if sys.stdin in ready:
-        cmd = sys.stdin.readline()
-        if not cmd or cmd.strip() == "quit":
-            break
-    if master not in ready:
-        continue
-    try:
-        chunk = os.read(master, 4096)
-    except OSError:
-        continue
+
+
+def handle(chunk):
+    global line
     for b in chunk:
         if b != 0x0D:
             line += bytes([b])
@@ -51,6 +39,8 @@ while True:
             out = "t4023%02X%02X%02X\r" % (0x02, 0x00, args.result)
             if not args.no_telemetry:
                 out += "t4007" + "000000000000" + "%02X" % args.state + "\r"
-            os.write(master, out.encode())
-os.close(master)
-os.close(slave)
+            port.send(out.encode())
+
+
+port.serve(handle, size=4096)
+port.close()

@@ -16,23 +16,19 @@ Usage: replay_serial_peer.py SAULCTL ROOT
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
-import threading
-import time
-import tty
 
-SAULCTL, ROOT = sys.argv[1], sys.argv[2]
-CAPTURES = os.path.join(ROOT, "captures")
-results = []
+from clitest import Checks, Saulctl, finish
+from ptyfake import Pty
+
+saulctl = Saulctl(sys.argv[1])
+CAPTURES = os.path.join(sys.argv[2], "captures")
+checks = Checks()
+check = checks.check
 tmp = tempfile.mkdtemp(prefix="saul_replay_serial_")
-
-
-def check(name, ok, detail=""):
-    results.append(bool(ok))
-    more = "" if ok or not detail else "\n     " + str(detail).replace("\n", "\n     ")
-    print(("ok   " if ok else "FAIL ") + name + more)
 
 
 # ---- an independent reading of the three link protocols -------------------------------------------------------------
@@ -160,54 +156,19 @@ def expected(path):
 
 # ---- the pty and saulctl ---------------------------------------------------------------------------------------------
 
-class Pty:
-    def __init__(self):
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
-        self.data = bytearray()
-        self.arrivals = []  # (monotonic time, bytes)
-        self.thread = threading.Thread(target=self._read, daemon=True)
-        self.thread.start()
-
-    def _read(self):
-        while True:
-            try:
-                chunk = os.read(self.master, 65536)
-            except OSError:  # EIO: no slave open any more and nothing left to read
-                return
-            if not chunk:
-                return
-            self.arrivals.append((time.monotonic(), chunk))
-            self.data += chunk
-
-    def drain(self):
-        """Everything written to the slave: close our slave fd, read until EIO."""
-        os.close(self.slave)
-        self.thread.join(timeout=10)
-        os.close(self.master)
-        return bytes(self.data)
-
-
 def replay(capture, args, to_suffix="", feed=None):
-    """saulctl replay CAPTURE --to serial:PTY[SUFFIX] ARGS; returns (exit code, stdout, stderr, bytes received, pty)."""
+    """saulctl replay CAPTURE --to serial:PTY[SUFFIX] ARGS; returns (exit code, stdout, stderr, bytes received, pty).
+
+    The pty's bytes are collected by a thread and drained once saulctl has ended, so they are all it wrote."""
     p = Pty()
-    proc = subprocess.Popen([SAULCTL, "replay", capture, "--to", "serial:" + p.path + to_suffix] + args,
-                            stdin=subprocess.PIPE if feed is not None else subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    try:
-        out, err = proc.communicate(input=feed, timeout=60)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        err += b"\n[killed: saulctl hung]"
-    got = p.drain()
-    return proc.returncode, out.decode(), err.decode(), got, p
+    p.collect_in_background()
+    proc = saulctl.start(["replay", capture, "--to", "serial:" + p.path + to_suffix] + args,
+                         stdin=subprocess.PIPE if feed is not None else subprocess.DEVNULL)
+    code, out, err = finish(proc, timeout=60, feed=feed)
+    return code, out, err, p.drain(), p
 
 
-def run(args):
-    proc = subprocess.run([SAULCTL] + args, stdin=subprocess.DEVNULL, capture_output=True, timeout=60)
-    return proc.returncode, proc.stdout.decode(), proc.stderr.decode()
+run = saulctl.run
 
 
 # ---- inter-board: captures/interboard_uart.serial --------------------------------------------------------------------
@@ -335,9 +296,5 @@ code, out, err = run(["replay", "--help"])
 check("--help lists the serial messages that are left out",
       "inter-board rc_cmd" in out and "CRSF rc_channels" in out and "Pride vcu_command" in out, out)
 
-for name in os.listdir(tmp):
-    os.remove(os.path.join(tmp, name))
-os.rmdir(tmp)
-failed = results.count(False)
-print(f"{failed} failed")
-sys.exit(1 if failed else 0)
+shutil.rmtree(tmp)
+checks.exit()
