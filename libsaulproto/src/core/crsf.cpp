@@ -224,72 +224,38 @@ std::array<std::uint16_t, RcChannels::kCount> channels_us(const RcChannels& m) n
 // ---------------------------------------------------------------------------------------------------------
 // StreamDecoder
 
-void StreamDecoder::enqueue(std::uint8_t byte) noexcept {
-  // After every push() the ring holds at most kMaxFrameSize - 1 bytes (an unfinished candidate), so this
-  // branch is unreachable; it keeps the ring safe should that invariant ever break.
-  if (count_ == kRing) {
-    ++counters_.bytes_skipped;
-    drop(1);
+framing::Verdict StreamDecoder::Rules::check(std::span<const std::uint8_t> c) noexcept {
+  using framing::Verdict;
+  const std::uint8_t b = c.back();
+  if (c.size() == 1) return is_sync_byte(b) ? Verdict::more : Verdict::reject;  // SYNC
+  if (c.size() == 2) {                                                           // LEN
+    if (b < kMinLength || b > kMaxLength) {
+      ++counters.length_errors;
+      return Verdict::reject;
+    }
+    crc = 0;
+    return Verdict::more;
   }
-  ring_[(head_ + count_) & (kRing - 1)] = byte;
-  ++count_;
-}
-
-void StreamDecoder::drop(std::size_t n) noexcept {
-  head_ = static_cast<std::uint8_t>((head_ + n) & (kRing - 1));
-  count_ = static_cast<std::uint8_t>(count_ - n);
-  scanned_ = 0;
-  frame_size_ = 0;
-}
-
-void StreamDecoder::reject() noexcept {
-  ++counters_.bytes_skipped;  // the rejected SYNC byte; the bytes after it are scanned again
-  drop(1);
-}
-
-bool StreamDecoder::next() noexcept {
-  while (scanned_ < count_) {
-    const std::uint8_t b = at(scanned_);
-    if (scanned_ == 0) {  // SYNC
-      if (!is_sync_byte(b)) {
-        ++counters_.bytes_skipped;
-        drop(1);
-        continue;
-      }
-      scanned_ = 1;
-      continue;
-    }
-    if (scanned_ == 1) {  // LEN
-      if (b < kMinLength || b > kMaxLength) {
-        ++counters_.length_errors;
-        reject();
-        continue;
-      }
-      frame_size_ = static_cast<std::uint8_t>(b + 2);
-      crc_ = 0;
-      scanned_ = 2;
-      continue;
-    }
-    ++scanned_;
-    if (scanned_ < frame_size_) {  // TYPE or payload
-      crc_ = crc::crc8_dvb_s2_update(crc_, b);
-      continue;
-    }
-    if (b != crc_) {  // the last byte is the CRC
-      ++counters_.crc_errors;
-      reject();
-      continue;
-    }
-    frame_.address = at(0);
-    frame_.type = at(2);
-    frame_.payload_size = static_cast<std::uint8_t>(frame_size_ - kOverhead);
-    for (std::size_t i = 0; i < kMaxPayload; ++i) frame_.data[i] = i < frame_.payload_size ? at(3 + i) : 0;
-    ++counters_.frames;
-    if (!is_known_type(frame_.type)) ++counters_.unknown_types;
-    drop(frame_size_);
-    return true;
+  if (c.size() < c[1] + 2U) {  // TYPE or payload
+    crc = crc::crc8_dvb_s2_update(crc, b);
+    return Verdict::more;
   }
-  return false;
+  if (b != crc) {  // the last byte is the CRC
+    ++counters.crc_errors;
+    return Verdict::reject;
+  }
+  ++counters.frames;
+  if (!is_known_type(c[2])) ++counters.unknown_types;
+  return Verdict::frame;
+}
+
+Frame StreamDecoder::to_frame(std::span<const std::uint8_t> bytes) noexcept {
+  Frame f;  // zero-filled past the payload
+  f.address = bytes[0];
+  f.type = bytes[2];
+  f.payload_size = static_cast<std::uint8_t>(bytes.size() - kOverhead);
+  for (std::size_t i = 0; i < f.payload_size; ++i) f.data[i] = bytes[3 + i];
+  return f;
 }
 
 }  // namespace saul::crsf

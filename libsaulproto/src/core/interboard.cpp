@@ -83,84 +83,49 @@ Result<Message> decode_payload(std::uint8_t type, std::span<const std::uint8_t> 
   return Reason::unknown_type;
 }
 
-StreamDecoder::Step StreamDecoder::step(std::uint8_t byte) noexcept {
-  if (length_ == 0) {
-    if (byte != kStartByte) {
-      ++counters_.bytes_skipped;
-      return Step::skipped;
+framing::Verdict StreamDecoder::Rules::check(std::span<const std::uint8_t> c) noexcept {
+  using framing::Verdict;
+  const std::uint8_t byte = c.back();
+  switch (c.size()) {
+    case 1: return byte == kStartByte ? Verdict::more : Verdict::reject;
+    case 2:  // LEN: reject at once if no type has this length
+      if (byte == 0 || byte > kMaxPayload || byte == 2) {
+        ++counters.length_errors;
+        return Verdict::reject;
+      }
+      return Verdict::more;
+    case 3: {  // TYPE
+      const auto expected = payload_length(byte);
+      if (!expected) {
+        ++counters.unknown_types;
+        return Verdict::reject;
+      }
+      if (*expected != c[1]) {
+        ++counters.length_errors;
+        return Verdict::reject;
+      }
+      return Verdict::more;
     }
-    buffer_[length_++] = byte;
-    return Step::consumed;
+    default: break;
   }
-  buffer_[length_++] = byte;
-  if (length_ == 2) {  // LEN: reject at once if no type has this length
-    if (byte == 0 || byte > kMaxPayload || byte == 2) {
-      ++counters_.length_errors;
-      return Step::rejected;
-    }
-    return Step::consumed;
-  }
-  if (length_ == 3) {  // TYPE
-    const auto expected = payload_length(byte);
-    if (!expected) {
-      ++counters_.unknown_types;
-      return Step::rejected;
-    }
-    if (*expected != buffer_[1]) {
-      ++counters_.length_errors;
-      return Step::rejected;
-    }
-    expected_ = static_cast<std::uint8_t>(kOverhead + *expected);
-    return Step::consumed;
-  }
-  if (length_ < expected_) return Step::consumed;
+  if (c.size() < kOverhead + c[1]) return Verdict::more;
   // Whole frame: CRC over TYPE and PAYLOAD.
-  const std::span<const std::uint8_t> covered{buffer_ + 2, static_cast<std::size_t>(length_ - 3)};
-  if (crc::crc8_maxim(covered) != buffer_[length_ - 1]) {
-    ++counters_.crc_errors;
-    return Step::rejected;
+  if (crc::crc8_maxim(c.subspan(2, c.size() - 3)) != byte) {
+    ++counters.crc_errors;
+    return Verdict::reject;
   }
-  return Step::frame;
+  ++counters.frames;
+  return Verdict::frame;
 }
 
 std::optional<Message> StreamDecoder::push(std::uint8_t byte) noexcept {
-  // Bytes waiting to be scanned: the new byte, plus, after a rejection, the rejected candidate minus its
-  // start byte. Bytes are moved, never copied twice, so the queue never holds more than kMaxFrameSize.
-  std::uint8_t queue[kMaxFrameSize];
-  std::size_t head = 0;
-  std::size_t tail = 0;
-  queue[tail++] = byte;
-  std::optional<Message> found;
-
-  while (head < tail) {
-    const Step s = step(queue[head++]);
-    if (s == Step::frame) {
-      const auto decoded = decode_payload(buffer_[2], {buffer_ + 3, static_cast<std::size_t>(buffer_[1])});
-      ++counters_.frames;
-      found = decoded.value();  // type and length were checked byte by byte, so this cannot fail
-      length_ = 0;
-      expected_ = 0;
-    } else if (s == Step::rejected) {
-      ++counters_.bytes_skipped;  // the rejected start byte
-      // New queue = rejected candidate after its start byte, then what was still queued.
-      std::uint8_t rest[kMaxFrameSize];
-      std::size_t n = 0;
-      for (std::size_t i = 1; i < length_; ++i) rest[n++] = buffer_[i];
-      for (std::size_t i = head; i < tail; ++i) rest[n++] = queue[i];
-      for (std::size_t i = 0; i < n; ++i) queue[i] = rest[i];
-      head = 0;
-      tail = n;
-      length_ = 0;
-      expected_ = 0;
-    }
-  }
+  std::optional<Message> found;  // at most one per push(): see the class comment
+  framer_.push(byte, rules_, [&found](std::span<const std::uint8_t> f) {
+    found = decode_payload(f[2], f.subspan(3, f[1])).value();  // type and length checked by check()
+  });
   return found;
 }
 
-void StreamDecoder::drop_partial() noexcept {
-  counters_.bytes_skipped += length_;
-  length_ = 0;
-  expected_ = 0;
-}
+void StreamDecoder::drop_partial() noexcept { framer_.drop_all(rules_); }
 
 }  // namespace saul::interboard

@@ -85,63 +85,32 @@ Result<Message> decode_frame(std::span<const std::uint8_t> frame) noexcept {
 
 // ---- stream decoder -----------------------------------------------------------------------------------------
 
-StreamDecoder::Step StreamDecoder::step(std::uint8_t byte) noexcept {
-  if (length_ == 0) {
-    if (!header_start(byte)) {
-      ++counters_.bytes_skipped;
-      return Step::skipped;
-    }
-    buffer_[length_++] = byte;
-    return Step::consumed;
+framing::Verdict StreamDecoder::Rules::check(std::span<const std::uint8_t> c) noexcept {
+  using framing::Verdict;
+  const auto d = header_start(c[0]);
+  if (!d) return Verdict::reject;  // not a header start: skipped
+  if (c.size() == 2) return format_of(*d).header[1] == c[1] ? Verdict::more : Verdict::reject;
+  if (c.size() < kFrameSize) return Verdict::more;
+  const auto decoded = decode_checked_header(*d, c.data());
+  if (decoded.ok()) {
+    ++counters.frames;
+    return Verdict::frame;
   }
-  buffer_[length_++] = byte;
-  const Direction d = *header_start(buffer_[0]);  // buffer_[0] was accepted as a header start
-  if (length_ == 2) return format_of(d).header[1] == byte ? Step::consumed : Step::rejected;
-  if (length_ < kFrameSize) return Step::consumed;
-  const auto decoded = decode_checked_header(d, buffer_);
-  if (decoded.ok()) return Step::frame;
   if (decoded.reason() == Reason::bad_crc)
-    ++counters_.checksum_errors;
+    ++counters.checksum_errors;
   else
-    ++counters_.out_of_range;
-  return Step::rejected;
+    ++counters.out_of_range;
+  return Verdict::reject;
 }
 
 std::optional<Message> StreamDecoder::push(std::uint8_t byte) noexcept {
-  // Bytes waiting to be scanned: the new byte, plus, after a rejection, the rejected candidate minus its
-  // header start. Buffer plus queue never hold more than kFrameSize bytes (each rejection drops one byte).
-  std::uint8_t queue[kFrameSize];
-  std::size_t head = 0;
-  std::size_t tail = 0;
-  queue[tail++] = byte;
+  // Decoded a second time rather than kept from check(): a Message is a variant, and the copy is 6 bytes.
   std::optional<Message> found;
-
-  while (head < tail) {
-    const Step s = step(queue[head++]);
-    if (s == Step::frame) {
-      // Decoded a second time rather than kept from step(): a Message is a variant, and the copy is 6 bytes.
-      found = decode_checked_header(*header_start(buffer_[0]), buffer_).value();
-      ++counters_.frames;
-      length_ = 0;
-    } else if (s == Step::rejected) {
-      ++counters_.bytes_skipped;  // the rejected header start
-      std::uint8_t rest[kFrameSize];
-      std::size_t n = 0;
-      for (std::size_t i = 1; i < length_; ++i) rest[n++] = buffer_[i];
-      for (std::size_t i = head; i < tail; ++i) rest[n++] = queue[i];
-      for (std::size_t i = 0; i < n; ++i) queue[i] = rest[i];
-      head = 0;
-      tail = n;
-      length_ = 0;
-    }
-  }
+  framer_.push(byte, rules_, [&found](std::span<const std::uint8_t> f) { found = decode_frame(f).value(); });
   return found;
 }
 
-void StreamDecoder::drop_partial() noexcept {
-  counters_.bytes_skipped += length_;
-  length_ = 0;
-}
+void StreamDecoder::drop_partial() noexcept { framer_.drop_all(rules_); }
 
 // ---- echo filter --------------------------------------------------------------------------------------------
 

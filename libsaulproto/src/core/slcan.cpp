@@ -110,17 +110,17 @@ Result<CanFrame> parse_frame(std::string_view line, DeviceTime* device_time) noe
   return f;
 }
 
-Event LineDecoder::finish_line(bool bel) noexcept {
+Event LineDecoder::finish_line(std::string_view line, bool bel) noexcept {
   Event e;
-  const std::string_view line(line_, length_);
+  Counters& counters = rules_.counters;
   if (bel) {
     e.kind = Event::Kind::error;
-    ++counters_.acks;
+    ++counters.acks;
     return e;
   }
   if (line.empty()) {
     e.kind = Event::Kind::ok;
-    ++counters_.acks;
+    ++counters.acks;
     return e;
   }
   switch (line[0]) {
@@ -132,7 +132,7 @@ Event LineDecoder::finish_line(bool bel) noexcept {
       if (f) {
         e.kind = Event::Kind::frame;
         e.frame = *f;
-        ++counters_.frames;
+        ++counters.frames;
         return e;
       }
       e.reason = f.reason();
@@ -142,7 +142,7 @@ Event LineDecoder::finish_line(bool bel) noexcept {
     case 'Z':
       if (line.size() == 1) {
         e.kind = Event::Kind::tx_ack;
-        ++counters_.acks;
+        ++counters.acks;
         return e;
       }
       e.reason = Reason::syntax;
@@ -151,7 +151,7 @@ Event LineDecoder::finish_line(bool bel) noexcept {
     case 'D':
     case 'b':
     case 'B':
-      ++counters_.fd_frames;
+      ++counters.fd_frames;
       e.reason = Reason::invalid_frame;
       break;
     case 'V':
@@ -183,30 +183,34 @@ Event LineDecoder::finish_line(bool bel) noexcept {
   }
   e.kind = Event::Kind::rejected;
   copy_text(e.text, line);
-  ++counters_.rejected_lines;
+  ++counters.rejected_lines;
   return e;
 }
 
+framing::Verdict LineDecoder::Rules::check(std::span<const std::uint8_t> c) noexcept {
+  using framing::Verdict;
+  const char last = static_cast<char>(c.back());
+  const bool ends = last == kCr || last == kBel || last == '\n';
+  if (overlong) {  // every byte of the rest of the line comes alone
+    if (ends) overlong = false;
+    return Verdict::reject;
+  }
+  if (ends) return last == '\n' && c.size() == 1 ? Verdict::reject : Verdict::frame;  // tolerate CR LF
+  if (c.size() > kMaxLine) {
+    ++counters.overlong_lines;
+    overlong = true;
+    return Verdict::discard;
+  }
+  return Verdict::more;
+}
+
 std::optional<Event> LineDecoder::push(char c) noexcept {
-  if (c == kCr || c == kBel || c == '\n') {
-    if (c == '\n' && length_ == 0) return std::nullopt;  // tolerate CR LF from some firmwares
-    if (overlong_) {
-      overlong_ = false;
-      length_ = 0;
-      return std::nullopt;
-    }
-    Event e = finish_line(c == kBel);
-    length_ = 0;
-    return e;
-  }
-  if (overlong_) return std::nullopt;
-  if (length_ == kMaxLine) {
-    overlong_ = true;
-    ++counters_.overlong_lines;
-    return std::nullopt;
-  }
-  line_[length_++] = c;
-  return std::nullopt;
+  std::optional<Event> event;
+  framer_.push(static_cast<std::uint8_t>(c), rules_, [this, &event](std::span<const std::uint8_t> line) {
+    const std::string_view text(reinterpret_cast<const char*>(line.data()), line.size() - 1);
+    event = finish_line(text, static_cast<char>(line.back()) == kBel);
+  });
+  return event;
 }
 
 }  // namespace saul::slcan

@@ -12,7 +12,7 @@
 // reads the fields it knows and ignores the rest. Shorter than the known fields is bad_length.
 //
 // Everything here is O(frame size) or better, allocation-free and exception-free; the StreamDecoder holds
-// one 64-byte ring, one Frame and its counters (156 bytes in all).
+// one 64-byte frame buffer, a running CRC and its counters (96 bytes in all).
 #pragma once
 
 #include <array>
@@ -24,6 +24,7 @@
 #include <variant>
 
 #include "saulproto/core/result.hpp"
+#include "saulproto/core/stream_framer.hpp"
 
 namespace saul::crsf {
 
@@ -365,8 +366,8 @@ struct Counters {
 ///    folded in as bytes arrive, so checking it costs nothing extra.
 /// 4. After any rejection the hunt resumes at the byte right after the rejected SYNC byte: the rest of the
 ///    candidate is scanned again, so a real frame that began inside a false candidate (a noise 0xC8 with a
-///    large LEN swallowing real frames) is still found. A rescan can find several frames, which is why the
-///    decoder calls back rather than returning one frame per byte.
+///    large LEN swallowing real frames) is still found (framing::StreamFramer, stream_framer.hpp). A rescan
+///    can find several frames, which is why the decoder calls back rather than returning one frame per byte.
 /// Cost: a byte is scanned again only by candidates that start before it, at most 63 bytes earlier and each
 /// later than the last, so at most 64 times: O(1) amortised per byte (O(64^2) for the worst single push).
 /// No allocation; safe in an ISR if the caller owns the object; not thread-safe.
@@ -376,8 +377,7 @@ class StreamDecoder {
   /// Frame reference is valid during the call only; copy it to keep it.
   template <class F>
   void push(std::uint8_t byte, F&& on_frame) noexcept {
-    enqueue(byte);
-    while (next()) on_frame(static_cast<const Frame&>(frame_));
+    framer_.push(byte, rules_, deliver(on_frame));
   }
 
   /// Feeds many bytes. O(n).
@@ -392,39 +392,36 @@ class StreamDecoder {
   /// a receiver sends each frame back to back. O(pending^2) at worst.
   template <class F>
   void flush(F&& on_frame) noexcept {
-    while (count_ > 0) {
-      ++counters_.incomplete;
-      reject();
-      while (next()) on_frame(static_cast<const Frame&>(frame_));
+    while (framer_.pending() > 0) {
+      ++rules_.counters.incomplete;
+      framer_.abandon(rules_, deliver(on_frame));
     }
   }
 
-  [[nodiscard]] const Counters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const Counters& counters() const noexcept { return rules_.counters; }
   /// Bytes held: an unfinished candidate (after a push, everything held has been scanned).
-  [[nodiscard]] std::size_t pending() const noexcept { return count_; }
+  [[nodiscard]] std::size_t pending() const noexcept { return framer_.pending(); }
   /// Forgets everything, counters included.
   void reset() noexcept { *this = StreamDecoder{}; }
 
  private:
-  static constexpr std::size_t kRing = 64;  // power of two, >= kMaxFrameSize
-  static_assert(kRing >= kMaxFrameSize && (kRing & (kRing - 1)) == 0);
+  // SYNC, LEN, then the CRC-8/DVB-S2 folded in byte by byte and compared with the last byte.
+  struct Rules : framing::CountedRules<Counters> {
+    std::uint8_t crc = 0;  // over TYPE and the payload checked so far; restarts at LEN
+    framing::Verdict check(std::span<const std::uint8_t> candidate) noexcept;
+  };
+  // A frame's bytes (SYNC..CRC) as a Frame, which stays valid after the framer drops them.
+  static Frame to_frame(std::span<const std::uint8_t> bytes) noexcept;
+  template <class F>
+  static auto deliver(F& on_frame) noexcept {
+    return [&on_frame](std::span<const std::uint8_t> bytes) {
+      const Frame frame = to_frame(bytes);
+      on_frame(frame);
+    };
+  }
 
-  void enqueue(std::uint8_t byte) noexcept;
-  bool next() noexcept;    // scans held bytes; true when frame_ holds a new frame
-  void reject() noexcept;  // drops the candidate's SYNC byte and rescans from the byte after it
-  void drop(std::size_t n) noexcept;
-  [[nodiscard]] std::uint8_t at(std::size_t i) const noexcept { return ring_[(head_ + i) & (kRing - 1)]; }
-
-  // Invariant: ring_[head_ .. head_+count_) holds the held bytes in arrival order; the first scanned_ of them
-  // are the current candidate, already checked. After push() returns, scanned_ == count_ < kMaxFrameSize.
-  std::uint8_t ring_[kRing]{};
-  std::uint8_t head_ = 0;
-  std::uint8_t count_ = 0;
-  std::uint8_t scanned_ = 0;
-  std::uint8_t frame_size_ = 0;  // SYNC..CRC once LEN is known, else 0
-  std::uint8_t crc_ = 0;         // running CRC over TYPE and the payload scanned so far
-  Frame frame_{};
-  Counters counters_{};
+  framing::StreamFramer<kMaxFrameSize> framer_;
+  Rules rules_;
 };
 
 }  // namespace saul::crsf

@@ -16,6 +16,7 @@
 #include <variant>
 
 #include "saulproto/core/result.hpp"
+#include "saulproto/core/stream_framer.hpp"
 
 namespace saul::interboard {
 
@@ -149,10 +150,10 @@ struct Counters {
 
 /// Streaming decoder. Feed bytes one at a time with push().
 ///
-/// Resync rule: after any rejection (bad LEN, unknown TYPE, bad CRC) the search for the next start byte
-/// resumes at the byte right after the rejected 0xAA, so a real frame that began inside a false candidate
-/// is never lost. The rejected candidate is at most kMaxFrameSize bytes, so the rescan is bounded:
-/// push() does O(kMaxFrameSize^2) work in the worst case, O(1) amortised, and never allocates.
+/// Resync rule (framing::StreamFramer, stream_framer.hpp): after any rejection (bad LEN, unknown TYPE, bad CRC)
+/// the search for the next start byte resumes at the byte right after the rejected 0xAA, so a real frame that
+/// began inside a false candidate is never lost. The rejected candidate is at most kMaxFrameSize bytes, so the
+/// rescan is bounded: push() does O(kMaxFrameSize^2) work in the worst case, O(1) amortised, and never allocates.
 /// Because the shortest frame is 5 bytes and a rescan covers at most 8, one push() completes at most one frame.
 /// Safe to use from an ISR if the caller owns the object; not thread-safe.
 class StreamDecoder {
@@ -167,22 +168,21 @@ class StreamDecoder {
       if (auto m = push(b)) on_message(*m);
   }
 
-  [[nodiscard]] const Counters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const Counters& counters() const noexcept { return rules_.counters; }
   /// Bytes held in a frame that has started but not ended.
-  [[nodiscard]] std::size_t pending() const noexcept { return length_; }
+  [[nodiscard]] std::size_t pending() const noexcept { return framer_.pending(); }
   /// Forgets a partial frame (counted as skipped) and keeps the counters.
   void drop_partial() noexcept;
   /// Forgets everything, counters included.
   void reset() noexcept { *this = StreamDecoder{}; }
 
  private:
-  enum class Step : std::uint8_t { skipped, consumed, rejected, frame };
-  Step step(std::uint8_t byte) noexcept;
-
-  std::uint8_t buffer_[kMaxFrameSize]{};
-  std::uint8_t length_ = 0;    // bytes in buffer_
-  std::uint8_t expected_ = 0;  // total frame size once TYPE is known, else 0
-  Counters counters_{};
+  // START, LEN, TYPE, then CRC of a whole frame; every rejection counted.
+  struct Rules : framing::CountedRules<Counters> {
+    framing::Verdict check(std::span<const std::uint8_t> candidate) noexcept;
+  };
+  framing::StreamFramer<kMaxFrameSize> framer_;
+  Rules rules_;
 };
 
 }  // namespace saul::interboard

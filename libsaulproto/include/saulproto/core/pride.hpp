@@ -25,6 +25,7 @@
 #include <variant>
 
 #include "saulproto/core/result.hpp"
+#include "saulproto/core/stream_framer.hpp"
 
 namespace saul::pride {
 
@@ -132,11 +133,11 @@ struct Counters {
 /// Streaming decoder for both directions (a VCU hears both on the wire; a sniffer sees both too). Feed bytes
 /// one at a time with push().
 ///
-/// Resync rule (same as the inter-board UART): after any rejection (second header byte wrong, bad checksum,
-/// out-of-range field) the search for a header resumes at the byte right after the rejected header start, so
-/// a real frame that began inside a false candidate is never lost. A candidate is at most kFrameSize bytes,
-/// so push() does O(kFrameSize^2) work in the worst case, O(1) amortised; it never allocates, and one push()
-/// completes at most one frame. 7 bytes of state besides the counters. Not thread-safe.
+/// Resync rule (framing::StreamFramer, as the inter-board UART): after any rejection (second header byte wrong,
+/// bad checksum, out-of-range field) the search for a header resumes at the byte right after the rejected header
+/// start, so a real frame that began inside a false candidate is never lost. A candidate is at most kFrameSize
+/// bytes, so push() does O(kFrameSize^2) work in the worst case, O(1) amortised; it never allocates, and one
+/// push() completes at most one frame. 7 bytes of state besides the counters. Not thread-safe.
 class StreamDecoder {
  public:
   /// Feeds one byte; returns a message when this byte completed a valid frame.
@@ -149,9 +150,9 @@ class StreamDecoder {
       if (auto m = push(b)) on_message(*m);
   }
 
-  [[nodiscard]] const Counters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const Counters& counters() const noexcept { return rules_.counters; }
   /// Bytes held in a frame that has started but not ended.
-  [[nodiscard]] std::size_t pending() const noexcept { return length_; }
+  [[nodiscard]] std::size_t pending() const noexcept { return framer_.pending(); }
   /// Forgets a partial frame (counted as skipped) and keeps the counters. Call it when the line was idle for
   /// longer than a frame takes (~1.7 ms), since frames are sent back to back.
   void drop_partial() noexcept;
@@ -159,12 +160,12 @@ class StreamDecoder {
   void reset() noexcept { *this = StreamDecoder{}; }
 
  private:
-  enum class Step : std::uint8_t { skipped, consumed, rejected, frame };
-  Step step(std::uint8_t byte) noexcept;
-
-  std::uint8_t buffer_[kFrameSize]{};
-  std::uint8_t length_ = 0;  // bytes in buffer_
-  Counters counters_{};
+  // Either header, then checksum and ranges of a whole frame.
+  struct Rules : framing::CountedRules<Counters> {
+    framing::Verdict check(std::span<const std::uint8_t> candidate) noexcept;
+  };
+  framing::StreamFramer<kFrameSize> framer_;
+  Rules rules_;
 };
 
 /// Echo filter for a VCU on the one wire: every byte it transmits comes back on its own receiver. Tell the

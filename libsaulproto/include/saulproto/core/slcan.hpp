@@ -18,6 +18,7 @@
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/core/result.hpp"
+#include "saulproto/core/stream_framer.hpp"
 
 namespace saul::slcan {
 
@@ -78,6 +79,9 @@ struct Counters {
 };
 
 /// Incremental line decoder: feed whatever read() returned, get events. Does not care how input is chunked.
+/// A line runs up to CR, BEL or LF; an LF right after a line end (CR LF) is ignored; a line longer than kMaxLine
+/// is counted in overlong_lines and dropped up to its end. framing::StreamFramer (stream_framer.hpp) holds the
+/// line; no line starts inside another, so nothing is ever rescanned. O(1) per byte.
 class LineDecoder {
  public:
   /// Feeds one byte; returns an event when it ended a line.
@@ -89,14 +93,18 @@ class LineDecoder {
       if (auto e = push(static_cast<char>(b))) on_event(*e);
   }
 
-  [[nodiscard]] const Counters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const Counters& counters() const noexcept { return rules_.counters; }
 
  private:
-  Event finish_line(bool bel) noexcept;
-  char line_[kMaxLine]{};
-  std::size_t length_ = 0;
-  bool overlong_ = false;
-  Counters counters_{};
+  struct Rules {
+    Counters counters{};
+    bool overlong = false;  // dropping the rest of an overlong line, up to its end
+    framing::Verdict check(std::span<const std::uint8_t> candidate) noexcept;
+    void skipped(std::size_t) noexcept {}  // slcan counts lines, not bytes
+  };
+  Event finish_line(std::string_view line, bool bel) noexcept;
+  framing::StreamFramer<kMaxLine + 1> framer_;  // a line and its end
+  Rules rules_;
 };
 
 }  // namespace saul::slcan
