@@ -1,13 +1,17 @@
-// The DBC of the robot's bus (saulproto/host/report/dbc.hpp). Ids, names and value tables come from the core headers, so
-// the file names things exactly as saulctl decode does.
+// The DBC of the robot's bus (saulproto/host/report/dbc.hpp). Messages, signals (position, width, byte order,
+// scale, unit, multiplexing) and value tables are written out from the core's description (core/signals.hpp), so
+// the file names and scales things exactly as saulctl decode does; only the comments and the choice of VESC
+// frames are this file's own.
 #include "saulproto/host/report/dbc.hpp"
 
 #include <fmt/core.h>
 
 #include <cmath>
+#include <string_view>
 #include <utility>
 
 #include "saulproto/core/saul_can.hpp"
+#include "saulproto/core/signals.hpp"
 #include "saulproto/core/vesc.hpp"
 
 namespace saul::host {
@@ -24,10 +28,13 @@ struct Signal {
   unsigned length = 0;
   bool little_endian = true;
   bool is_signed = false;
-  double divisor = 1;       ///< physical = raw / divisor (written as factor 1/divisor, exact for the decimal scales)
+  std::int32_t scale_num = 1;  ///< factor scale_num / scale_den (for 1 / den: exact for the decimal scales)
+  std::int32_t scale_den = 1;
+  double offset = 0;
   std::string unit;
   std::string receiver;
   bool is_float = false;    ///< IEEE float32 (SIG_VALTYPE_ 1)
+  const signals::SignalDesc* desc = nullptr;  ///< what it was made from (value tables, wire-integer comments)
 };
 
 struct Message {
@@ -49,126 +56,132 @@ std::string dbc_number(double v) {
   return s;
 }
 
+// [min|max] is the range the signal's bits can carry, scaled (not the description's valid range: tools that
+// check values against it would then refuse frames saulctl decodes).
 std::string signal_line(const Signal& s) {
   double lo = 0, hi = 0;
   if (!s.is_float) {
     const double raw_lo = s.is_signed ? -std::ldexp(1.0, static_cast<int>(s.length) - 1) : 0.0;
     const double raw_hi = s.is_signed ? std::ldexp(1.0, static_cast<int>(s.length) - 1) - 1
                                       : std::ldexp(1.0, static_cast<int>(s.length)) - 1;
-    lo = raw_lo / s.divisor;
-    hi = raw_hi / s.divisor;
+    lo = raw_lo * s.scale_num / s.scale_den + s.offset;
+    hi = raw_hi * s.scale_num / s.scale_den + s.offset;
   }
-  return fmt::format(" SG_ {}{} : {}|{}@{}{} ({},0) [{}|{}] \"{}\" {}\n", s.name, s.mux.empty() ? "" : " " + s.mux,
+  const double factor = s.scale_num == 1 ? 1.0 / s.scale_den : static_cast<double>(s.scale_num) / s.scale_den;
+  return fmt::format(" SG_ {}{} : {}|{}@{}{} ({},{}) [{}|{}] \"{}\" {}\n", s.name, s.mux.empty() ? "" : " " + s.mux,
                      s.start, s.length, s.little_endian ? 1 : 0, s.is_signed || s.is_float ? '-' : '+',
-                     dbc_number(1.0 / s.divisor), dbc_number(lo), dbc_number(hi), s.unit,
+                     dbc_number(factor), dbc_number(s.offset), dbc_number(lo), dbc_number(hi), s.unit,
                      s.receiver.empty() ? "Vector__XXX" : s.receiver);
 }
 
-// Little-endian integer field of a SAUL frame at byte `byte`.
-Signal le(std::string name, unsigned byte, unsigned bits, bool is_signed, double divisor = 1, std::string unit = "",
-          std::string receiver = "") {
-  Signal s;
-  s.name = std::move(name);
-  s.start = byte * 8;
-  s.length = bits;
-  s.is_signed = is_signed;
-  s.divisor = divisor;
-  s.unit = std::move(unit);
-  s.receiver = std::move(receiver);
-  return s;
+// The DBC's own choices where it departs from the description:
+// - pid_out has no unit in the DBC (the description, the plot and docs/protocol.md say permille); kept so, since
+//   files made by earlier versions are in use and tools key on the unit text.
+std::string dbc_unit(const signals::MessageDesc& m, const signals::SignalDesc& s) {
+  if (m.protocol == signals::Protocol::saul_can && std::string_view(s.name) == "pid_out") return "";
+  return s.unit;
 }
 
-// Big-endian (Motorola) signed field of a VESC frame starting at byte `byte`: its MSB is bit 7 of that byte.
-Signal be(std::string name, unsigned byte, unsigned bits, double divisor, std::string unit, std::string receiver) {
-  Signal s = le(std::move(name), byte, bits, true, divisor, std::move(unit), std::move(receiver));
-  s.start = byte * 8 + 7;
-  s.little_endian = false;
-  return s;
+// The DBC signals of one described signal: itself; a byte of named bits becomes one 1-bit signal per bit
+// ("fault_rc_loss"); a signal in the CAN id (the VESC controller) none, since every controller has its own
+// messages here.
+void add_signals(const signals::MessageDesc& m, const signals::SignalDesc& d, const std::string& receiver,
+                 std::vector<Signal>& out) {
+  if (d.place != signals::Place::payload) return;
+  Signal s;
+  s.name = d.name;
+  s.start = d.start_bit;
+  s.length = d.length;
+  s.little_endian = d.order == signals::ByteOrder::little_endian;
+  s.is_signed = d.kind == signals::Kind::signed_int;
+  s.is_float = d.kind == signals::Kind::float32;
+  s.scale_num = d.scale_num;
+  s.scale_den = d.scale_den;
+  s.offset = d.offset;
+  s.unit = dbc_unit(m, d);
+  s.receiver = receiver;
+  s.desc = &d;
+  if (d.mux == signals::Mux::multiplexer) s.mux = "M";
+  if (d.mux == signals::Mux::multiplexed) s.mux = fmt::format("m{}", d.mux_value);
+  if (!d.value_bits) {
+    out.push_back(std::move(s));
+    return;
+  }
+  for (const auto& bit : d.values) {
+    Signal b = s;
+    b.name = fmt::format("{}_{}", d.name, bit.name);
+    b.start = d.start_bit + static_cast<unsigned>(bit.value);
+    b.length = 1;
+    b.is_signed = false;
+    b.scale_num = b.scale_den = 1;
+    b.unit.clear();
+    b.desc = nullptr;
+    out.push_back(std::move(b));
+  }
+}
+
+Message message_of(const signals::MessageDesc& m, std::uint32_t dbc_id, std::string name, std::string sender,
+                   const std::string& receiver, std::string comment) {
+  Message msg{dbc_id, std::move(name), m.length, std::move(sender), {}, std::move(comment)};
+  for (const auto& d : m.signals) add_signals(m, d, receiver, msg.signals);
+  return msg;
+}
+
+// Comments of the SAUL frames, by id.
+std::string saul_comment(std::uint32_t id) {
+  switch (id) {
+    case kVelocityCmdId: return "Velocity command, 20 Hz; the BALANCE board stops driving after 500 ms without one.";
+    case kPidGainId:
+      return "One PID gain per frame. gain_index (byte 0) is the multiplexer; the gain is a float32 little-endian in "
+             "bytes 4-7, declared as a multiplexed signal per index (kp m0, ki m1, kd m2) with SIG_VALTYPE_ 1. Bytes "
+             "2-3 are reserved (0). The three gains of one sequence number are applied together (docs/protocol.md "
+             "3).";
+    case kModeCmdId: return "Mode request; balance and manual are accepted only when the robot is already armed.";
+    case kConfigCmdId: return "Tilt limit (tilt_limit_x100 on the wire, 5.00 to 25.00 deg) and speed cap.";
+    case kTelemetryAId: return "Telemetry A, 10 Hz. pitch is pitch_x100 on the wire.";
+    case kTelemetryBId:
+      return "Telemetry B, 10 Hz: mechanical rpm of both wheels, battery (battery_mv on the wire), and the fault byte "
+             "(byte 6) as one signal per bit.";
+    case kCommandAckId:
+      return "Acknowledgement of one 0x301 set, 0x302 or 0x303; sequence is the 0x301 set's, 0 otherwise.";
+    default: return "";
+  }
 }
 
 std::vector<Message> saul_messages() {
-  const std::string orin = "Orin", balance = "BALANCE";
-  std::vector<Message> m;
-  m.push_back({kVelocityCmdId, "velocity_cmd", 4, orin,
-               {le("speed_mmps", 0, 16, true, 1, "mm/s", balance), le("steer_mrad", 2, 16, true, 1, "mrad", balance)},
-               "Velocity command, 20 Hz; the BALANCE board stops driving after 500 ms without one."});
-  Message gain{kPidGainId, "pid_gain", 8, orin, {}, ""};
-  Signal index = le("gain_index", 0, 8, false, 1, "", balance);
-  index.mux = "M";
-  gain.signals.push_back(index);
-  gain.signals.push_back(le("sequence", 1, 8, false, 1, "", balance));
-  for (unsigned i = 0; i < 3; ++i) {
-    Signal g = le(to_string(static_cast<Gain>(i)), 4, 32, false, 1, "", balance);
-    g.mux = fmt::format("m{}", i);
-    g.is_float = true;
-    gain.signals.push_back(g);
-  }
-  gain.comment =
-      "One PID gain per frame. gain_index (byte 0) is the multiplexer; the gain is a float32 little-endian in bytes "
-      "4-7, declared as a multiplexed signal per index (kp m0, ki m1, kd m2) with SIG_VALTYPE_ 1. Bytes 2-3 are "
-      "reserved (0). The three gains of one sequence number are applied together (docs/protocol.md 3).";
-  m.push_back(gain);
-  m.push_back({kModeCmdId, "mode_cmd", 1, orin, {le("mode", 0, 8, false, 1, "", balance)},
-               "Mode request; balance and manual are accepted only when the robot is already armed."});
-  m.push_back({kConfigCmdId, "config_cmd", 4, orin,
-               {le("tilt_limit", 0, 16, false, 100, "deg", balance),
-                le("max_speed_mmps", 2, 16, false, 1, "mm/s", balance)},
-               "Tilt limit (tilt_limit_x100 on the wire, 5.00 to 25.00 deg) and speed cap."});
-  m.push_back({kTelemetryAId, "telemetry_a", 7, balance,
-               {le("pitch", 0, 16, true, 100, "deg", orin), le("pid_out", 2, 16, true, 1, "", orin),
-                le("speed_mmps", 4, 16, true, 1, "mm/s", orin), le("state", 6, 8, false, 1, "", orin)},
-               "Telemetry A, 10 Hz. pitch is pitch_x100 on the wire."});
-  Message b{kTelemetryBId, "telemetry_b", 7, balance,
-            {le("vesc_l_rpm", 0, 16, true, 1, "rpm", orin), le("vesc_r_rpm", 2, 16, true, 1, "rpm", orin),
-             le("battery", 4, 16, false, 1000, "V", orin)},
-            "Telemetry B, 10 Hz: mechanical rpm of both wheels, battery (battery_mv on the wire), and the fault "
-            "byte (byte 6) as one signal per bit."};
-  for (unsigned bit = 0; bit < 8; ++bit) {
-    Signal f = le(std::string("fault_") + fault::bit_name(bit), 6, 1, false, 1, "", orin);
-    f.start = 48 + bit;
-    b.signals.push_back(f);
-  }
-  m.push_back(b);
-  m.push_back({kCommandAckId, "command_ack", 3, balance,
-               {le("command", 0, 8, false, 1, "", orin), le("sequence", 1, 8, false, 1, "", orin),
-                le("result", 2, 8, false, 1, "", orin)},
-               "Acknowledgement of one 0x301 set, 0x302 or 0x303; sequence is the 0x301 set's, 0 otherwise."});
-  return m;
+  std::vector<Message> out;
+  for (const auto& m : signals::messages(signals::Protocol::saul_can))
+    out.push_back(message_of(m, m.id, m.name, m.sender, m.receiver, saul_comment(m.id)));
+  return out;
 }
 
+// The VESC frames the robot uses, per controller: SET_RPM (BALANCE drives the wheels with it) and the status
+// frames, with their comments ("{}" is the controller id). The other commands, PING and PONG are left out.
+struct VescEntry {
+  vesc::Command command;
+  const char* comment;
+};
+constexpr VescEntry kVescInDbc[] = {
+    {vesc::Command::set_rpm, "SET_RPM to controller {}: electrical rpm (mechanical rpm x pole pairs)."},
+    {vesc::Command::status_1, "STATUS from controller {}."},
+    {vesc::Command::status_2, "STATUS_2 from controller {}."},
+    {vesc::Command::status_3, "STATUS_3 from controller {}."},
+    {vesc::Command::status_4, "STATUS_4 from controller {}."},
+    {vesc::Command::status_5,
+     "STATUS_5 from controller {}: tachometer counts 6 steps per electrical revolution; bytes 6-7 reserved."},
+    {vesc::Command::status_6, "STATUS_6 from controller {}."},
+};
+
 std::vector<Message> vesc_messages(std::uint8_t c) {
-  using vesc::Command;
-  const std::string me = fmt::format("VESC_{}", c);
-  const std::string balance = "BALANCE";
-  auto id = [c](Command cmd) { return kDbcExtended | vesc::make_eid(cmd, c); };
-  auto name = [c](const char* what) { return fmt::format("vesc_{}_{}", what, c); };
-  std::vector<Message> m;
-  m.push_back({id(Command::set_rpm), name("set_rpm"), 4, balance, {be("erpm", 0, 32, 1, "rpm", me)},
-               fmt::format("SET_RPM to controller {}: electrical rpm (mechanical rpm x pole pairs).", c)});
-  m.push_back({id(Command::status_1), name("status_1"), 8, me,
-               {be("erpm", 0, 32, 1, "rpm", balance), be("current", 4, 16, 10, "A", balance),
-                be("duty", 6, 16, 1000, "", balance)},
-               fmt::format("STATUS from controller {}.", c)});
-  m.push_back({id(Command::status_2), name("status_2"), 8, me,
-               {be("amp_hours", 0, 32, 10000, "Ah", balance), be("amp_hours_charged", 4, 32, 10000, "Ah", balance)},
-               fmt::format("STATUS_2 from controller {}.", c)});
-  m.push_back({id(Command::status_3), name("status_3"), 8, me,
-               {be("watt_hours", 0, 32, 10000, "Wh", balance),
-                be("watt_hours_charged", 4, 32, 10000, "Wh", balance)},
-               fmt::format("STATUS_3 from controller {}.", c)});
-  m.push_back({id(Command::status_4), name("status_4"), 8, me,
-               {be("temp_fet", 0, 16, 10, "degC", balance), be("temp_motor", 2, 16, 10, "degC", balance),
-                be("current_in", 4, 16, 10, "A", balance), be("pid_pos", 6, 16, 50, "deg", balance)},
-               fmt::format("STATUS_4 from controller {}.", c)});
-  m.push_back({id(Command::status_5), name("status_5"), 8, me,
-               {be("tachometer", 0, 32, 1, "", balance), be("voltage_in", 4, 16, 10, "V", balance)},
-               fmt::format("STATUS_5 from controller {}: tachometer counts 6 steps per electrical revolution; bytes "
-                           "6-7 reserved.", c)});
-  m.push_back({id(Command::status_6), name("status_6"), 8, me,
-               {be("adc1", 0, 16, 1000, "V", balance), be("adc2", 2, 16, 1000, "V", balance),
-                be("adc3", 4, 16, 1000, "V", balance), be("ppm", 6, 16, 1000, "", balance)},
-               fmt::format("STATUS_6 from controller {}.", c)});
-  return m;
+  // The description's node "VESC" is the controller the id names: VESC_<id> here.
+  const auto node = [c](const char* n) { return std::string_view(n) == "VESC" ? fmt::format("VESC_{}", c) : n; };
+  std::vector<Message> out;
+  for (const auto& e : kVescInDbc) {
+    const auto* m = signals::find(signals::Protocol::vesc_can, static_cast<std::uint32_t>(e.command));
+    out.push_back(message_of(*m, kDbcExtended | vesc::make_eid(e.command, c), fmt::format("{}_{}", m->name, c),
+                             node(m->sender), node(m->receiver), fmt::format(fmt::runtime(e.comment), c)));
+  }
+  return out;
 }
 
 std::string quoted(const std::string& s) {
@@ -214,27 +227,22 @@ std::string make_dbc(const DbcOptions& options) {
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)
     if (!msg.comment.empty()) out += fmt::format("CM_ BO_ {} {};\n", msg.dbc_id, quoted(msg.comment));
-  out += fmt::format("CM_ SG_ {} tilt_limit {};\n", kConfigCmdId, quoted("tilt_limit_x100 on the wire"));
-  out += fmt::format("CM_ SG_ {} pitch {};\n", kTelemetryAId, quoted("pitch_x100 on the wire"));
-  out += fmt::format("CM_ SG_ {} battery {};\n", kTelemetryBId, quoted("battery_mv on the wire"));
+  // A scaled signal saulctl shows as its wire integer gets that integer's name as its comment.
+  for (const auto& msg : messages)
+    for (const auto& s : msg.signals)
+      if (s.desc != nullptr && s.desc->text == signals::Text::raw && (s.scale_num != 1 || s.scale_den != 1))
+        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, quoted(std::string(s.desc->key) + " on the wire"));
   out += "\n";
 
-  // Value tables: the names saulctl decode prints.
-  auto values = [&out](std::uint32_t id, const char* signal, const std::vector<std::pair<unsigned, std::string>>& v) {
-    out += fmt::format("VAL_ {} {}", id, signal);
-    for (auto it = v.rbegin(); it != v.rend(); ++it) out += fmt::format(" {} {}", it->first, quoted(it->second));
-    out += " ;\n";
-  };
-  std::vector<std::pair<unsigned, std::string>> gains, modes, states, results;
-  for (unsigned i = 0; i < 3; ++i) gains.emplace_back(i, to_string(static_cast<Gain>(i)));
-  for (unsigned i = 0; i < 4; ++i) modes.emplace_back(i, to_string(static_cast<Mode>(i)));
-  for (unsigned i = 0; i < 6; ++i) states.emplace_back(i, to_string(static_cast<RobotState>(i)));
-  for (unsigned i = 0; i < 4; ++i) results.emplace_back(i, to_string(static_cast<AckResult>(i)));
-  values(kPidGainId, "gain_index", gains);
-  values(kModeCmdId, "mode", modes);
-  values(kTelemetryAId, "state", states);
-  values(kCommandAckId, "command", {{1, "pid_gain"}, {2, "mode_cmd"}, {3, "config_cmd"}});
-  values(kCommandAckId, "result", results);
+  // Value tables: the names saulctl decode prints (descending, as DBC editors write them).
+  for (const auto& msg : messages)
+    for (const auto& s : msg.signals) {
+      if (s.desc == nullptr || s.desc->values.empty() || s.desc->value_bits) continue;
+      out += fmt::format("VAL_ {} {}", msg.dbc_id, s.name);
+      for (auto it = s.desc->values.rbegin(); it != s.desc->values.rend(); ++it)
+        out += fmt::format(" {} {}", it->value, quoted(it->name));
+      out += " ;\n";
+    }
   out += "\n";
   for (const auto& msg : messages)
     for (const auto& s : msg.signals)

@@ -8,6 +8,7 @@
 
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/saul_can.hpp"
+#include "saulproto/core/signals.hpp"
 #include "saulproto/core/vesc.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -95,68 +96,111 @@ std::optional<double> PlotSeriesSpec::value(const PlotMessage& m) const {
   return divisor == 1 ? *v : *v / divisor;
 }
 
+namespace {
+
+const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t id, std::string_view name) {
+  return *signals::find_signal(*signals::find(protocol, id), name);
+}
+
+// A series of one described signal: the message's field is the signal's key, scaled into physical units when
+// saulctl shows it as the wire integer (pitch_x100 / 100); its unit is the signal's.
+PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
+                         std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
+  PlotSeriesSpec s;
+  s.label = std::move(label);
+  s.column = std::move(column);
+  s.message = std::move(message);
+  s.field = signal.key;
+  s.divisor = signal.text == signals::Text::raw ? static_cast<double>(signal.scale_den) / signal.scale_num : 1.0;
+  s.controller = controller;
+  return s;
+}
+
+std::string with_unit(std::string_view what, const signals::SignalDesc& signal) {
+  return fmt::format("{} [{}]", what, signal.unit);
+}
+
+}  // namespace
+
 std::vector<PlotPanelSpec> dashboard_panels() {
   using saulcan::TelemetryA;
   using saulcan::TelemetryB;
   using saulcan::VelocityCmd;
+  using signals::Protocol;
+  const auto& pitch = described(Protocol::saul_can, TelemetryA::kId, "pitch");
+  const auto& pid_out = described(Protocol::saul_can, TelemetryA::kId, "pid_out");
+  const auto& speed = described(Protocol::saul_can, TelemetryA::kId, "speed_mmps");
+  const auto& speed_cmd = described(Protocol::saul_can, VelocityCmd::kId, "speed_mmps");
+  const auto& wheel_l = described(Protocol::saul_can, TelemetryB::kId, "vesc_l_rpm");
+  const auto& wheel_r = described(Protocol::saul_can, TelemetryB::kId, "vesc_r_rpm");
+  const auto& battery = described(Protocol::saul_can, TelemetryB::kId, "battery");
+  const auto ib_state = static_cast<std::uint32_t>(interboard::State::kType);
+  const auto& uart_pitch = described(Protocol::interboard, ib_state, "pitch");
+  const auto& uart_pid_out = described(Protocol::interboard, ib_state, "pid_out");
+  const auto& erpm = described(Protocol::vesc_can, static_cast<std::uint32_t>(vesc::Status1::kCommand), "erpm");
+  const auto& voltage_in =
+      described(Protocol::vesc_can, static_cast<std::uint32_t>(vesc::Status5::kCommand), "voltage_in");
   const std::string uart_state = interboard::State::kName;
   const std::string status1 = vesc::Status1::kName;
   const std::string status5 = vesc::Status5::kName;
-  auto series = [](std::string label, std::string column, std::string message, std::string field,
-                   double divisor = 1, std::optional<std::uint8_t> controller = std::nullopt) {
-    PlotSeriesSpec s;
-    s.label = std::move(label);
-    s.column = std::move(column);
-    s.message = std::move(message);
-    s.field = std::move(field);
-    s.divisor = divisor;
-    s.controller = controller;
-    return s;
-  };
   const auto left = vesc::kLeftId;
   const auto right = vesc::kRightId;
+  // Titles name the quantity and the description's unit. The VESC ERPM panel shows no unit (ERPM is one).
   return {
-      {"pitch [deg]",
+      {with_unit(pitch.name, pitch),
        "no 0x400 telemetry_a or inter-board state messages",
-       {series("0x400", "pitch_deg", TelemetryA::kName, "pitch_x100", 100),
-        series("UART state", "uart_pitch_deg", uart_state, "pitch_x100", 100)}},
-      {"pid_out [permille]",
+       {series_of(pitch, "0x400", "pitch_deg", TelemetryA::kName),
+        series_of(uart_pitch, "UART state", "uart_pitch_deg", uart_state)}},
+      {with_unit(pid_out.name, pid_out),
        "no 0x400 telemetry_a or inter-board state messages",
-       {series("0x400", "pid_out", TelemetryA::kName, "pid_out"),
-        series("UART state", "uart_pid_out", uart_state, "pid_out")}},
-      {"speed [mm/s]",
+       {series_of(pid_out, "0x400", "pid_out", TelemetryA::kName),
+        series_of(uart_pid_out, "UART state", "uart_pid_out", uart_state)}},
+      {with_unit("speed", speed),
        "no 0x400 telemetry_a or 0x300 velocity_cmd frames",
-       {series("reported (0x400)", "speed_mmps", TelemetryA::kName, "speed_mmps"),
-        series("commanded (0x300)", "speed_cmd_mmps", VelocityCmd::kName, "speed_mmps")}},
-      {"wheel speed [rpm] (0x401)",
+       {series_of(speed, "reported (0x400)", "speed_mmps", TelemetryA::kName),
+        series_of(speed_cmd, "commanded (0x300)", "speed_cmd_mmps", VelocityCmd::kName)}},
+      {with_unit("wheel speed", wheel_l) + " (0x401)",
        "no 0x401 telemetry_b frames",
-       {series("left", "wheel_l_rpm", TelemetryB::kName, "vesc_l_rpm"),
-        series("right", "wheel_r_rpm", TelemetryB::kName, "vesc_r_rpm")}},
+       {series_of(wheel_l, "left", "wheel_l_rpm", TelemetryB::kName),
+        series_of(wheel_r, "right", "wheel_r_rpm", TelemetryB::kName)}},
       {"VESC ERPM (STATUS)",
        fmt::format("no VESC STATUS (vesc_status_1) frames from controllers {} and {}", left, right),
-       {series(fmt::format("left ({})", left), "vesc_l_erpm", status1, "erpm", 1, left),
-        series(fmt::format("right ({})", right), "vesc_r_erpm", status1, "erpm", 1, right)}},
-      {"battery [V]",
+       {series_of(erpm, fmt::format("left ({})", left), "vesc_l_erpm", status1, left),
+        series_of(erpm, fmt::format("right ({})", right), "vesc_r_erpm", status1, right)}},
+      {with_unit(battery.name, battery),
        fmt::format("no 0x401 telemetry_b or VESC STATUS_5 (vesc_status_5) frames from controllers {} and {}", left,
                    right),
-       {series("0x401", "battery_v", TelemetryB::kName, "battery_mv", 1000),
-        series(fmt::format("VESC {}", left), "vesc_l_v", status5, "voltage_in_v", 1, left),
-        series(fmt::format("VESC {}", right), "vesc_r_v", status5, "voltage_in_v", 1, right)}},
+       {series_of(battery, "0x401", "battery_v", TelemetryB::kName),
+        series_of(voltage_in, fmt::format("VESC {}", left), "vesc_l_v", status5, left),
+        series_of(voltage_in, fmt::format("VESC {}", right), "vesc_r_v", status5, right)}},
   };
 }
 
 // ---- state and fault changes ----------------------------------------------------------------------------------
 
+namespace {
+// The names of the robot state values (0x400 state) and of the fault bits (0x401 faults), from the description.
+const signals::SignalDesc& state_signal() {
+  return described(signals::Protocol::saul_can, saulcan::TelemetryA::kId, "state");
+}
+const signals::SignalDesc& fault_signal() {
+  return described(signals::Protocol::saul_can, saulcan::TelemetryB::kId, "faults");
+}
+std::string bit_name(unsigned bit) {
+  const char* name = signals::value_name(fault_signal(), bit);
+  return name != nullptr ? name : fmt::format("bit{}", bit);
+}
+}  // namespace
+
 std::string state_name(unsigned value) {
-  if (value <= static_cast<unsigned>(saulcan::RobotState::fault))
-    return saulcan::to_string(static_cast<saulcan::RobotState>(value));
+  if (const char* name = signals::value_name(state_signal(), value)) return name;
   return std::to_string(value);
 }
 
 std::string fault_names(unsigned bits) {
   std::string s;
   for (unsigned bit = 0; bit < 8; ++bit)
-    if ((bits & (1U << bit)) != 0) s += (s.empty() ? "" : "+") + std::string(saulcan::fault::bit_name(bit));
+    if ((bits & (1U << bit)) != 0) s += (s.empty() ? "" : "+") + bit_name(bit);
   return s.empty() ? "none" : s;
 }
 
@@ -164,9 +208,7 @@ std::string change_label(const StateChange& c) {
   if (c.kind == MarkerKind::state) return state_name(c.to);
   const unsigned from = c.from.value_or(0);
   std::string s;
-  auto add = [&s](char sign, unsigned bit) {
-    s += (s.empty() ? "" : " ") + std::string(1, sign) + saulcan::fault::bit_name(bit);
-  };
+  auto add = [&s](char sign, unsigned bit) { s += (s.empty() ? "" : " ") + std::string(1, sign) + bit_name(bit); };
   for (unsigned bit = 0; bit < 8; ++bit)
     if ((c.to & (1U << bit)) != 0 && (from & (1U << bit)) == 0) add('+', bit);
   for (unsigned bit = 0; bit < 8; ++bit)

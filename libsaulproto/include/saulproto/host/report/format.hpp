@@ -1,12 +1,15 @@
 // Text and JSON renderings of decoded messages, for saulctl and for logs.
 //
-// Works for any message type with kName and fields(visitor) (every core message has them), so a new message
-// type prints without touching this file.
+// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp): each signal's key,
+// and its value as the wire integer, its value name or its physical value, as the description says. Any other
+// message type with kName and fields(visitor) (Pride) prints its fields(), so it needs no change here either.
 #pragma once
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/core/crsf.hpp"
@@ -14,8 +17,25 @@
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/pride.hpp"
 #include "saulproto/core/result.hpp"
+#include "saulproto/core/signals.hpp"
 
 namespace saul::host {
+
+/// One signal of a decoded message: its description and its wire value (the characters, for a string).
+struct SignalValue {
+  const signals::SignalDesc* signal = nullptr;
+  std::int64_t raw = 0;
+  std::string text;
+};
+/// The signals a message carries, in order (multiplexed signals this frame does not carry left out), as the
+/// description reads them. message is nullptr for a message type without a description.
+struct SignalValues {
+  const signals::MessageDesc* message = nullptr;
+  std::vector<SignalValue> values;
+};
+SignalValues signal_values(const BusMessage& message);
+SignalValues signal_values(const interboard::Message& message);
+SignalValues signal_values(const crsf::Message& message);
 
 /// "velocity_cmd speed_mmps=1000 steer_mrad=-500"
 std::string describe(const BusMessage& message);
