@@ -8,7 +8,30 @@
 
 namespace saulctl {
 
+std::vector<std::string> input_format_names() {
+  using saul::host::CaptureFormat;
+  std::vector<std::string> names;
+  for (auto f : {CaptureFormat::candump, CaptureFormat::pcap, CaptureFormat::pcapng, CaptureFormat::asc,
+                 CaptureFormat::blf, CaptureFormat::trc, CaptureFormat::csv, CaptureFormat::gvret_csv,
+                 CaptureFormat::serial, CaptureFormat::sigrok, CaptureFormat::sigrok_json, CaptureFormat::pulseview_csv})
+    names.emplace_back(saul::host::to_string(f));
+  return names;
+}
+
+void add_input_format_option(CLI::App* cmd, std::string& input_format) {
+  cmd->add_option("--input-format", input_format,
+                  "read the file as this format instead of the one its content says (a .gz/.zst file is still "
+                  "decompressed first)")
+      ->check(CLI::IsMember(input_format_names()));
+}
+
+std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format) {
+  if (input_format.empty()) return std::nullopt;
+  return saul::host::capture_format_from_name(input_format);
+}
+
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
+  add_input_format_option(cmd, options.input_format);
   cmd->add_option("--protocol", options.protocol,
                   "serial captures: protocol of links the file does not name (sigrok/PulseView exports): "
                   "interboard, crsf, pride or raw (default: guessed from the first 4 KiB)")
@@ -43,6 +66,7 @@ saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& option
   saul::host::SerialReadOptions r;
   r.protocol = fallback_protocol(options);
   if (!options.samplerate.empty()) r.samplerate_hz = parse_rate_hz(options.samplerate);
+  r.format = input_format(options.input_format);
   return r;
 }
 

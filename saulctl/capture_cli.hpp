@@ -1,5 +1,6 @@
-// Options shared by the verbs that read capture files (decode, stats, plot): how to read logic-analyser exports
-// that do not say everything (--protocol, --samplerate).
+// Options shared by the verbs that read capture files (decode, stats, plot, replay): how to read logic-analyser
+// exports that do not say everything (--protocol, --samplerate), and --input-format for a file whose content
+// should not decide.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -8,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "saulproto/host/capture/serial_capture.hpp"
 
@@ -16,11 +18,19 @@ namespace saulctl {
 struct SerialCliOptions {
   std::string protocol;    ///< "", interboard, crsf, pride, raw
   std::string samplerate;  ///< "", "10M", "10MHz", "1000000"
+  std::string input_format;  ///< "", or a capture format name (--input-format)
 };
 
-/// Adds --protocol and --samplerate to a verb.
+/// The names --input-format accepts: every capture format, CAN and serial.
+std::vector<std::string> input_format_names();
+/// Adds --input-format to a verb.
+void add_input_format_option(CLI::App* cmd, std::string& input_format);
+/// The format --input-format names, or nullopt when it was not given.
+std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format);
+
+/// Adds --protocol, --samplerate and --input-format to a verb.
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options);
-/// The reader options they give; throws CLI::ValidationError for a bad sample rate.
+/// The reader options they give (the forced format included); throws CLI::ValidationError for a bad sample rate.
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options);
 /// The protocol for links whose capture names none, when --protocol was given.
 std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options);

@@ -1,7 +1,9 @@
-// saulctl convert: rewrite a capture file in another format (candump, pcap, pcapng, Vector ASC).
+// saulctl convert: rewrite a capture file in another format (candump, pcap, pcapng, Vector ASC and BLF, PEAK TRC,
+// python-can and SavvyCAN CSV; any of them gzip- or zstd-compressed).
 // All the work is in the host library (saulproto/host/capture/capture.hpp); this file parses arguments and reports.
 #include <fmt/core.h>
 
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
@@ -17,6 +19,7 @@ struct ConvertOptions {
   std::string in;
   std::string out;
   std::string format;  // output format; empty = from OUT's extension
+  std::string input_format;  // empty = from IN's content
 };
 
 /// Reads through another reader and draws the progress line (copy_frames() does the reading).
@@ -45,7 +48,7 @@ int run_convert(const ConvertOptions& opt) {
   std::unique_ptr<CaptureReader> reader;
   std::unique_ptr<CaptureWriter> writer;
   try {
-    reader = open_capture_reader(opt.in);
+    reader = open_capture_reader(opt.in, input_format(opt.input_format));
     writer = open_capture_writer(opt.out, format);
   } catch (const CaptureOpenError& e) {
     fmt::print(stderr, "saulctl convert: {}\n", e.what());
@@ -59,6 +62,12 @@ int run_convert(const ConvertOptions& opt) {
   });
   progress.finish();
   writer->close();
+  if (stats.frames == 0 && stats.corrupt > 0) {  // as decode: nothing could be read is a failure, not an empty file
+    std::remove(opt.out.c_str());
+    fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt records); {} not written\n", opt.in,
+               stats.corrupt, opt.out);
+    return kFailure;
+  }
   for (const auto& note : conversion_losses(stats, writer->format()))
     fmt::print(stderr, "saulctl convert: note: {}\n", note);
   fmt::print(stderr, "saulctl convert: {} frames from {} ({}) to {} ({}); {} corrupt records skipped\n", stats.frames,
@@ -70,19 +79,26 @@ int run_convert(const ConvertOptions& opt) {
 
 void add_convert_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<ConvertOptions>();
-  CLI::App* cmd = app.add_subcommand("convert", "Convert a capture file between candump, pcap, pcapng and ASC");
+  CLI::App* cmd = app.add_subcommand(
+      "convert", "Convert a capture file between candump, pcap, pcapng, ASC, BLF, TRC and CSV (compressed or not)");
   cmd->footer(
-      "\nThe input format is told by the file's content; the output format by OUT's extension\n"
-      "(.log .pcap .pcapng .asc) unless --format says. What each format keeps: docs/captures.md.\n"
-      "Corrupt input records are reported on stderr and skipped, as in decode.\n"
+      "\nThe input format is told by the file's content (--input-format to force one); gzip and zstd files\n"
+      "are decompressed on the fly. The output format comes from OUT's extension (.log .pcap .pcapng .asc\n"
+      ".blf .trc .csv, then .gz or .zst to compress) unless --format says. What each format keeps:\n"
+      "docs/captures.md. Corrupt input records are reported on stderr and skipped, as in decode; when\n"
+      "nothing could be read, convert fails (exit 1) and leaves no OUT.\n"
       "\nExamples:\n"
       "  saulctl convert captures/robot_bus.log run.pcapng     open it in Wireshark\n"
       "  saulctl convert run.pcap run.asc                       for CANalyzer/CANoe or python-can\n"
+      "  saulctl convert canoe.blf run.log.zst                  a BLF as a compressed candump log\n"
+      "  saulctl convert run.log run.csv --format gvret-csv     for SavvyCAN\n"
       "  saulctl convert vector.asc run.log && canplayer -I run.log\n");
-  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng or ASC)")->required();
+  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too)")
+      ->required();
   cmd->add_option("OUT", opt->out, "file to write (replaced if it exists)")->required();
-  cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng or asc")
-      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc"}));
+  cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv or gvret-csv")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv"}));
+  add_input_format_option(cmd, opt->input_format);
   cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }
 

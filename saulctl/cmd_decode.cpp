@@ -205,7 +205,8 @@ int run_decode(const DecodeOptions& opt) {
                    csv_quote(fields));
       } else {
         what = result ? saul::host::describe(result.value()) : std::string("!") + saul::to_string(result.reason());
-        fmt::print("{} {} {:<24} {}\n", stamp, reader.interface(), saul::host::format_candump_frame(f), what);
+        fmt::print("{} {} {:<24} {}\n", stamp, saul::host::candump_interface(reader.interface()),
+                   saul::host::format_candump_frame(f), what);
       }
     }
   }

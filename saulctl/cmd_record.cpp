@@ -25,6 +25,7 @@ struct RecordOptions {
   std::string format;
   std::string rotate_size;
   std::string rotate_time;
+  std::string compress;  // "", gz, zst
   std::string duration;
   std::uint64_t count = 0;
   std::string interface;
@@ -74,6 +75,10 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
     if (d.count() <= 0) throw CLI::ValidationError("--rotate-time", "must be at least 1 ms");
     r.max_duration_ns = static_cast<std::uint64_t>(d.count()) * 1'000'000ULL;
   }
+  if (!opt.compress.empty()) r.compress = *saul::host::compression_from_name(opt.compress);
+  if (saul::host::compression_from_extension(opt.output) != saul::host::Compression::none)
+    throw CLI::ValidationError("-o", "record writes plain files and compresses each one when it is finished: name it "
+                                     "without .gz/.zst and add --compress gz (or zst)");
   return r;
 }
 
@@ -93,10 +98,10 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!format) format = capture_format_from_extension(opt.output);
   if (!format)
     throw CLI::ValidationError("-o", "cannot tell the format of '" + opt.output +
-                                         "': name it .log, .pcap, .pcapng or .asc, or give --format");
+                                         "': name it .log, .pcap, .pcapng, .asc, .blf, .trc or .csv, or give --format");
   if (holds_serial_bytes(*format))
     throw CLI::ValidationError("--format", std::string(to_string(*format)) + " holds serial bytes; " + spec.text() +
-                                               " is a CAN link: use candump, pcap, pcapng or asc");
+                                               " is a CAN link: use candump, pcap, pcapng, asc, blf, trc or csv");
   const bool limited = !opt.duration.empty();
   const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   const std::string iface =
@@ -164,7 +169,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   chunk.link = spec.text();
   chunk.protocol = opt.protocol.empty() ? protocol_for_baud(spec.serial.baud) : *serial_protocol_from_name(opt.protocol);
 
-  auto port = open_serial(spec.device, spec.serial, spec.backend);
+  auto port = open_serial_link(spec);  // shared with other saulctl processes (shared_link.hpp)
   RotatingSerialWriter writer(opt.output, rotation_of(opt), [&](const std::string& path) {
     if (!opt.quiet) fmt::print(stderr, "record: writing {} (serial)\n", path);
   });
@@ -232,10 +237,14 @@ void add_record_command(CLI::App& app, Runner& run) {
   cmd->add_option("LINK", o->link, "can0 | slcan:/dev/ttyACM0 | serial:/dev/ttyUSB0@460800 (default: $SAUL_LINK)");
   cmd->add_option("-o,--output", o->output, "file to write (replaced); with rotation NAME-000.EXT, NAME-001.EXT, ...")
       ->required();
-  cmd->add_option("--format", o->format, "candump, pcap, pcapng, asc (CAN) or serial (default: from the extension)")
-      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "serial"}));
+  cmd->add_option("--format", o->format,
+                  "candump, pcap, pcapng, asc, blf, trc, csv, gvret-csv (CAN) or serial (default: from the extension)")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "serial"}));
   cmd->add_option("--rotate-size", o->rotate_size, "start a new file when this one holds this much (100M, 1G, 64k)");
   cmd->add_option("--rotate-time", o->rotate_time, "start a new file after this long (10m, 30s)");
+  cmd->add_option("--compress", o->compress, "gz or zst: compress each file once it is finished (in the background; "
+                                             "the plain file is removed), the last one when recording stops")
+      ->check(CLI::IsMember({"gz", "zst"}));
   cmd->add_option("--duration", o->duration, "stop after this long (500ms, 10s, 1m)");
   cmd->add_option("-n,--count", o->count, "stop after this many frames (serial: bytes)");
   cmd->add_option("--interface", o->interface, "CAN: interface name written in the file (default: can0, or the "
@@ -252,6 +261,7 @@ void add_record_command(CLI::App& app, Runner& run) {
       "\nExamples:\n"
       "  saulctl record can0 -o run.pcapng                        open it in Wireshark\n"
       "  saulctl record slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
+      "  saulctl record can0 -o run.blf --rotate-size 1G --compress zst   run-000.blf.zst, run-001.blf.zst, ...\n"
       "  saulctl record serial:/dev/ttyUSB0@460800 -o uart.serial  inter-board bytes; saulctl decode uart.serial\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {

@@ -261,7 +261,7 @@ int run_replay(const ReplayCliOptions& opt) {
     throw CLI::ValidationError("--from", opt.file + " holds CAN frames: --from picks a link of a serial capture "
                                                     "(select CAN ids with --id)");
 
-  auto open_pass = [&opt]() { return open_capture_reader(opt.file); };
+  auto open_pass = [&opt]() { return open_capture_reader(opt.file, input_format(opt.serial.input_format)); };
   ReplayPreview preview = preview_replay(*opened.frames, options);
   opened.frames.reset();
   // The rule, the same as for serial captures: motion frames are left out unless --allow-motion, and the

@@ -7,7 +7,7 @@ set -euo pipefail
 
 packages=(
   cmake ninja-build g++ pkg-config
-  libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev
+  libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev libzstd-dev
   catch2 libbenchmark-dev
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)

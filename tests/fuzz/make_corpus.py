@@ -81,11 +81,44 @@ with tempfile.TemporaryDirectory() as tmp:
     head = os.path.join(tmp, "head.log")
     with open(head, "w") as f:
         f.write("\n".join(bus[:20]) + "\n")
-    for fmt in ("pcap", "pcapng", "asc"):
-        dst = os.path.join(tmp, "head." + fmt)
-        if subprocess.run([saulctl, "convert", head, dst], capture_output=True).returncode == 0:
+    for fmt, ext in (("pcap", "pcap"), ("pcapng", "pcapng"), ("asc", "asc"), ("blf", "blf"), ("trc", "trc"),
+                     ("csv", "csv"), ("gvret_csv", "gvret.csv")):
+        dst = os.path.join(tmp, "head." + ext)
+        cmd = [saulctl, "convert", head, dst] + (["--format", "gvret-csv"] if fmt == "gvret_csv" else [])
+        if subprocess.run(cmd, capture_output=True).returncode == 0:
             with open(dst, "rb") as f:
                 put("capture_" + fmt, "robot_bus_head", f.read())
+    for method, ext in (("gzip", "log.gz"), ("zstd", "blf.zst")):
+        dst = os.path.join(tmp, "head." + ext)
+        if subprocess.run([saulctl, "convert", head, dst], capture_output=True).returncode == 0:
+            with open(dst, "rb") as f:
+                put("compressed_" + method, "robot_bus_head", f.read())
+    # The same frames as python-can writes them (BLF with its containers, TRC 2.1, CSV), when it is installed.
+    pycan = (
+        "import can, sys\n"
+        "msgs = list(can.LogReader(sys.argv[1]))\n"
+        "for path in sys.argv[2:]:\n"
+        "    w = can.Logger(path)\n"
+        "    for m in msgs: w.on_message_received(m)\n"
+        "    w.stop()\n")
+    outs = [os.path.join(tmp, "py." + ext) for ext in ("blf", "trc", "csv")]
+    if subprocess.run(["/usr/bin/python3", "-c", pycan, head] + outs, capture_output=True,
+                      env=dict(os.environ, TZ="UTC")).returncode == 0:
+        for path, fmt in zip(outs, ("blf", "trc", "csv")):
+            with open(path, "rb") as f:
+                put("capture_" + fmt, "python_can", f.read())
+
+# PEAK trace versions written by hand after PEAK's format description (1.1, 1.3 and 2.0 layouts).
+put("capture_trc", "v1_1", ";$FILEVERSION=1.1\r\n;$STARTTIME=45000.5\r\n"
+    "     1)         1.5  Rx         0300  4  E8 03 0C FE \r\n     2)         2.0  Tx     00000344  4  00 00 05 DC \r\n"
+    "     3)         2.5  Warng  FFFFFFFF  4  00 00 00 08  BUSHEAVY \r\n     4)         3.0  Rx         0123  2  RTR \r\n")
+put("capture_trc", "v1_3", ";$FILEVERSION=1.3\r\n;$STARTTIME=45000.5\r\n"
+    "     1)         1.5 1  Rx         0300 -  4    E8 03 0C FE\r\n     2)         2.0 2  Error  00000000 -  0\r\n")
+put("capture_trc", "v2_0", ";$FILEVERSION=2.0\r\n;$STARTTIME=45000.5\r\n;$COLUMNS=N,O,T,I,d,l,D\r\n"
+    "      1         1.500 DT     0300 Rx 4  E8 03 0C FE\r\n      2         1.600 ST          Rx    00 00 00 08\r\n"
+    "      3         1.700 RR     0123 Rx 2\r\n      4         1.800 FD     0400 Tx 12 00 00 00 00 00 00 00 00 00 00 00 00\r\n")
+put("capture_gvret_csv", "v1", "Time Stamp,ID,Extended,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n"
+    "1500,00000300,false,0,4,E8,03,0C,FE,00,00,00,00,\n")
 
 put("serial_serial", "interboard", read("captures/interboard_uart.serial"))
 put("serial_serial", "pride", read("captures/pride_uart.serial"))

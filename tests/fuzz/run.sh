@@ -22,6 +22,8 @@ cmake --build "$build" -j "${FUZZ_BUILD_JOBS:-1}" >/dev/null || { echo "fuzz: bu
 declare -A max_len=(
   [interboard]=256 [pride]=256 [crsf]=512 [dispatch]=416 [console]=256 [slcan]=256 [esp_slip]=512
   [capture_candump]=4096 [capture_pcap]=4096 [capture_pcapng]=4096 [capture_asc]=4096
+  [capture_blf]=4096 [capture_trc]=4096 [capture_csv]=4096 [capture_gvret_csv]=4096
+  [compressed_gzip]=4096 [compressed_zstd]=4096
   [serial_serial]=4096 [serial_sigrok]=4096 [serial_sigrok_json]=8192 [serial_pulseview_csv]=4096
   [bench_suite]=4096
 )

@@ -126,7 +126,7 @@ TEST_CASE("capture formats are told by content, then by extension") {
   CHECK(capture_format_from_extension("x.pcap") == CaptureFormat::pcap);
   CHECK_FALSE(capture_format_from_extension("a.b/run"));
   CHECK(capture_format_from_name("log") == CaptureFormat::candump);
-  CHECK_FALSE(capture_format_from_name("blf"));
+  CHECK_FALSE(capture_format_from_name("mf4"));
 }
 
 TEST_CASE("open_capture_reader: the bundled sample, and files that do not open") {

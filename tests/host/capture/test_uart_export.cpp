@@ -227,7 +227,8 @@ TEST_CASE("the committed sigrok-cli outputs give the bytes make_uart_vcd.py put 
     CHECK(guess_serial_protocol(expected) ==
           (name == "pride_uart" ? SerialProtocol::pride : SerialProtocol::interboard));
   }
-  const auto pride = read_file(root + "pride_uart.sigrok.txt", SerialReadOptions{SerialProtocol::pride, 1'000'000});
+  const auto pride = read_file(root + "pride_uart.sigrok.txt",
+                               SerialReadOptions{SerialProtocol::pride, 1'000'000, std::nullopt});
   REQUIRE(pride.size() == 48);
   // period 2's controller_status starts at byte 2 x 12 + 6 = 30; its battery byte (index 3) had the bad parity bit
   for (std::size_t i = 0; i < pride.size(); ++i) CHECK(pride[i].errors == (i == 33 ? uart_error::kParity : 0));

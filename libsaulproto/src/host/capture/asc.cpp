@@ -6,12 +6,20 @@
 #include <charconv>
 #include <stdexcept>
 #include "../util.hpp"
+#include "capture_io.hpp"
+#include "civil_time.hpp"
 
 namespace saul::host {
 namespace {
 
+using detail::kErrBusError;
+using detail::kFdUnsupported;
+
+using detail::Civil;
+using detail::civil_from_days;
+using detail::days_from_civil;
+
 constexpr std::uint64_t kAscNsPerSec = 1'000'000'000ULL;
-constexpr std::uint32_t kErrBusError = 0x080;  // CAN_ERR_BUSERROR: what asc2log makes of an ErrorFrame line
 
 constexpr std::array<std::string_view, 12> kMonths = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
                                                       "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
@@ -63,35 +71,6 @@ std::optional<std::uint64_t> parse_time(std::string_view s) {
     for (std::size_t i = f.size(); i < 9; ++i) frac *= 10;
   }
   return *sec * kAscNsPerSec + frac;
-}
-
-/// Days since 1970-01-01 of a proleptic Gregorian date (the usual era-based civil calendar algorithm).
-std::int64_t days_from_civil(std::int64_t y, unsigned m, unsigned d) {
-  y -= m <= 2 ? 1 : 0;
-  const std::int64_t era = (y >= 0 ? y : y - 399) / 400;
-  const auto yoe = static_cast<unsigned>(y - era * 400);
-  const unsigned mp = m > 2 ? m - 3 : m + 9;
-  const unsigned doy = (153 * mp + 2) / 5 + d - 1;
-  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-  return era * 146097 + static_cast<std::int64_t>(doe) - 719468;
-}
-
-struct Civil {
-  std::int64_t year;
-  unsigned month;  // 1..12
-  unsigned day;    // 1..31
-};
-
-Civil civil_from_days(std::int64_t z) {
-  z += 719468;
-  const std::int64_t era = (z >= 0 ? z : z - 146096) / 146097;
-  const auto doe = static_cast<unsigned>(z - era * 146097);
-  const unsigned yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
-  const unsigned doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-  const unsigned mp = (5 * doy + 2) / 153;
-  const unsigned d = doy - (153 * mp + 2) / 5 + 1;
-  const unsigned m = mp < 10 ? mp + 3 : mp - 9;
-  return {static_cast<std::int64_t>(yoe) + era * 400 + (m <= 2 ? 1 : 0), m, d};
 }
 
 std::optional<unsigned> month_of(std::string_view s) {
@@ -252,7 +231,7 @@ AscReader::Step AscReader::timed_line(std::string_view line) {
   if (!time) return corrupt(tokens_[0].first, "time must be seconds with up to 9 decimals, e.g. 1.250000");
   if (tokens_.size() < 2) return corrupt(line.size(), "nothing after the time");
   const auto [ch_col, ch] = tokens_[1];
-  if (iequals(ch, "CANFD")) return corrupt(ch_col, "CAN FD frame: the robot's bus is classic CAN, FD is not supported");
+  if (iequals(ch, "CANFD")) return canfd_line(line, *time);
   if (!all_digits(ch)) return Step::skipped;  // an event: "Start of measurement", "Trigger", ...
   if (tokens_.size() >= 3 && iequals(tokens_[2].second.substr(0, 10), "errorframe")) {
     const auto channel = parse_number(ch, 10);
@@ -306,8 +285,8 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
     if (tokens_.size() < 6) return corrupt(line.size(), "missing DLC after 'd'");
     const auto dlc = parse_number(tokens_[5].second, base_);
     if (!dlc) return corrupt(tokens_[5].first, "DLC is not a number");
-    if (*dlc > CanFrame::kMaxDlc) return corrupt(tokens_[5].first, "DLC above 8: classic CAN only");
-    f.dlc = static_cast<std::uint8_t>(*dlc);
+    if (*dlc > 15) return corrupt(tokens_[5].first, "DLC above 15");
+    f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);  // 9..15: 8 bytes
     if (tokens_.size() < std::size_t{6} + f.dlc)
       return corrupt(line.size(), fmt::format("{} data bytes announced, {} found", f.dlc, tokens_.size() - 6));
     for (std::size_t i = 0; i < f.dlc; ++i) {
@@ -319,6 +298,69 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
     // anything after the data (Vector's "Length = ... BitCount = ... ID = ...") is ignored
   } else {
     return corrupt(kind_col, "expected 'd' (data) or 'r' (remote) after the direction");
+  }
+  f.timestamp_ns = absolute(time_ns);
+  frame_ = f;
+  name_ = fmt::format("can{}", *channel - 1);
+  return Step::frame;
+}
+
+AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_ns) {
+  if (tokens_.size() < 5) return corrupt(line.size(), "CANFD line ends after the channel");
+  const auto channel = parse_number(tokens_[2].second, 10);
+  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[2].first, "channel must be 1..255");
+  if (iequals(tokens_[4].second.substr(0, 10), "errorframe") || iequals(tokens_[3].second.substr(0, 10), "errorframe")) {
+    CanFrame f;
+    f.error = true;
+    f.id = kErrBusError;
+    f.dlc = 8;
+    f.timestamp_ns = absolute(time_ns);
+    frame_ = f;
+    name_ = fmt::format("can{}", *channel - 1);
+    return Step::frame;
+  }
+  CanFrame f;
+  const auto [id_col, id_token] = tokens_[4];
+  std::string_view id_text = id_token;
+  if (id_text.back() == 'x' || id_text.back() == 'X') {
+    f.extended = true;
+    id_text.remove_suffix(1);
+  }
+  const auto id = parse_number(id_text, base_);
+  if (!id) return corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
+  if (*id > (f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId))
+    return corrupt(id_col, f.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended ids end in 'x')");
+  f.id = static_cast<std::uint32_t>(*id);
+  std::size_t k = 5;
+  if (k < tokens_.size() && !all_digits(tokens_[k].second)) ++k;  // the symbolic name, when the writer gives one
+  if (tokens_.size() < k + 4) return corrupt(line.size(), "expected BRS, ESI, DLC and data length after the id");
+  const auto brs = parse_number(tokens_[k].second, 10);
+  const auto esi = parse_number(tokens_[k + 1].second, 10);
+  const auto dlc = parse_number(tokens_[k + 2].second, base_);
+  const auto length = parse_number(tokens_[k + 3].second, 10);
+  if (!brs || !esi || *brs > 1 || *esi > 1) return corrupt(tokens_[k].first, "BRS and ESI must be 0 or 1");
+  if (!dlc || *dlc > 15) return corrupt(tokens_[k + 2].first, "DLC must be 0..F");
+  if (!length || *length > 64) return corrupt(tokens_[k + 3].first, "data length must be 0..64");
+  const std::size_t data = k + 4;
+  if (tokens_.size() < data + *length)
+    return corrupt(line.size(), fmt::format("{} data bytes announced, {} found", *length, tokens_.size() - data));
+  // After the data: message duration, bit count, then the flags (hex): EDL 0x1000 marks CAN FD, 0x10 remote.
+  const std::size_t flags_at = data + *length + 2;
+  std::optional<std::uint64_t> flags;
+  if (flags_at < tokens_.size()) flags = parse_number(tokens_[flags_at].second, 16);
+  const bool fd = flags ? (*flags & 0x1000) != 0 : (*brs == 1 || *esi == 1 || *length > 8 || *dlc > 8);
+  if (fd) return corrupt(tokens_[1].first, std::string(kFdUnsupported));
+  f.remote = flags ? (*flags & 0x10) != 0 : (*length == 0 && *dlc > 0);
+  if (*length > 8) return corrupt(tokens_[k + 3].first, "classic frame with more than 8 data bytes");
+  f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);
+  if (!f.remote) {
+    if (*length != f.dlc) return corrupt(tokens_[k + 3].first, fmt::format("data length {} but DLC {}", *length, *dlc));
+    for (std::size_t i = 0; i < f.dlc; ++i) {
+      const auto [col, text] = tokens_[data + i];
+      const auto b = text.size() <= 3 ? parse_number(text, base_) : std::nullopt;
+      if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
+      f.data[i] = static_cast<std::uint8_t>(*b);
+    }
   }
   f.timestamp_ns = absolute(time_ns);
   frame_ = f;

@@ -81,6 +81,15 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
     return fail(error, frame_start, "11-bit id above 7FF");
   }
   f.id = id;
+  // A raw DLC of 9..F after 8 data bytes (len8_dlc, can-utils since 2020.12: "3FF#55AA010203040506_D", "123#R8_D"):
+  // classic CAN carries 8 bytes then, which is what the frame keeps.
+  bool raw_dlc = false;
+  if (data.size() >= 2 && data[data.size() - 2] == '_') {
+    const int v = hex::value(data.back());
+    if (v < 9) return fail(error, data_col + data.size() - 1, "raw DLC suffix must be _9 to _F (after 8 data bytes)");
+    data.remove_suffix(2);
+    raw_dlc = true;
+  }
   if (!data.empty() && (data[0] == 'R' || data[0] == 'r')) {
     if (f.error) return fail(error, data_col, "an error frame cannot be a remote frame");
     f.remote = true;
@@ -106,6 +115,8 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
     }
     f.dlc = n;
   }
+  if (raw_dlc && f.dlc != 8)
+    return fail(error, data_col + data.size(), "a raw DLC suffix needs 8 data bytes (or R8)");
   out.frame = f;
   return true;
 }
@@ -132,10 +143,17 @@ std::string format_candump_frame(const CanFrame& frame) {
   return s;
 }
 
+std::string candump_interface(std::string_view interface) {
+  std::string name(interface.empty() ? std::string_view("can0") : interface);
+  for (char& c : name)
+    if (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F) c = '_';
+  return name;
+}
+
 std::string format_candump_line(const CanFrame& frame, std::string_view interface) {
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
-  return fmt::format("({:010}.{:06}) {} {}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000, interface,
-                     format_candump_frame(frame));
+  return fmt::format("({:010}.{:06}) {} {}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000,
+                     candump_interface(interface), format_candump_frame(frame));
 }
 
 CandumpReader::Status CandumpReader::next() {
@@ -154,9 +172,6 @@ CandumpReader::Status CandumpReader::next() {
 void CandumpWriter::write(const CanFrame& frame, std::string_view interface) {
   if (closed_) throw std::runtime_error("candump writer: write after close");
   check_writable(frame);
-  if (interface.empty()) interface = "can0";
-  if (interface.find_first_of(" \t\r\n") != std::string_view::npos)
-    throw std::invalid_argument(fmt::format("candump: interface name '{}' contains white space", interface));
   out_ << format_candump_line(frame, interface) << '\n';
   if (!out_) throw std::runtime_error("candump: write failed");
 }

@@ -11,10 +11,15 @@
 #include <streambuf>
 
 #include "saulproto/host/capture/asc.hpp"
+#include "saulproto/host/capture/blf.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/compressed.hpp"
+#include "saulproto/host/capture/csv_log.hpp"
+#include "saulproto/host/capture/gvret_csv.hpp"
 #include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
+#include "saulproto/host/capture/trc.hpp"
 #include "../util.hpp"
 
 namespace saul::host {
@@ -60,9 +65,23 @@ class ReplayBuf final : public std::streambuf {
 
 struct FileSource {
   std::filebuf file;
+  std::unique_ptr<ReplayBuf> raw;                 ///< compressed files: the file's bytes, head first
+  std::unique_ptr<DecompressingBuf> inflater;     ///< compressed files: what they hold
   std::unique_ptr<ReplayBuf> replay;
   std::istream stream{nullptr};
   std::optional<std::uint64_t> size;  ///< regular files only
+  bool reported = false;              ///< the decompression error went out as a corrupt record
+
+  /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with its size).
+  [[nodiscard]] std::uint64_t bytes_read() const { return raw ? raw->delivered() : replay->delivered(); }
+  /// After the reader's end: a decompression error, once, as a corrupt record that stops the reading.
+  bool take_error(CaptureError& error) {
+    if (!inflater || reported || inflater->error().empty()) return false;
+    reported = true;
+    error = CaptureError{0, inflater->error(), PositionKind::byte_offset, inflater->compressed_bytes(),
+                         Recovery::stop};
+    return true;
+  }
 };
 
 /// A reader that owns its file; the format reader works on the file's stream.
@@ -71,17 +90,23 @@ class FileReader final : public CaptureReader {
   FileReader(std::unique_ptr<FileSource> source, std::unique_ptr<CaptureReader> inner)
       : source_(std::move(source)), inner_(std::move(inner)) {}
 
-  Status next() override { return inner_->next(); }
+  Status next() override {
+    const Status st = inner_->next();
+    own_error_ = st == Status::end && source_->take_error(error_);
+    return own_error_ ? Status::corrupt : st;
+  }
   [[nodiscard]] const CanFrame& frame() const override { return inner_->frame(); }
   [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
-  [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
+  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
 
  private:
   std::unique_ptr<FileSource> source_;    // declared first: destroyed after the reader of its stream
   std::unique_ptr<CaptureReader> inner_;
+  CaptureError error_;
+  bool own_error_ = false;
 };
 
 /// A serial reader that owns its file.
@@ -89,16 +114,22 @@ class FileSerialReader final : public SerialCaptureReader {
  public:
   FileSerialReader(std::unique_ptr<FileSource> source, std::unique_ptr<SerialCaptureReader> inner)
       : source_(std::move(source)), inner_(std::move(inner)) {}
-  Status next() override { return inner_->next(); }
+  Status next() override {
+    const Status st = inner_->next();
+    own_error_ = st == Status::end && source_->take_error(error_);
+    return own_error_ ? Status::corrupt : st;
+  }
   [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
-  [[nodiscard]] const CaptureError& error() const override { return inner_->error(); }
+  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->replay->delivered(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
 
  private:
   std::unique_ptr<FileSource> source_;
   std::unique_ptr<SerialCaptureReader> inner_;
+  CaptureError error_;
+  bool own_error_ = false;
 };
 
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
@@ -125,6 +156,13 @@ bool looks_like_sigrok_annotation(std::string_view line) {
   return i > digits && i + 1 < line.size() && line[i] == ':' && line[i + 1] == ' ';
 }
 
+/// A PCAN message line of a version 1 trace: "     1)      1841.0  Rx ...": a number, ')', white space.
+bool looks_like_trc_message(std::string_view line) {
+  std::size_t i = 0;
+  while (i < line.size() && is_digit(line[i])) ++i;
+  return i > 0 && i + 1 < line.size() && line[i] == ')' && (line[i + 1] == ' ' || line[i + 1] == '\t');
+}
+
 /// A candump line has '#' in its third word; our serial log has the protocol name there.
 CaptureFormat candump_or_serial(std::string_view line) {
   std::size_t pos = 0;
@@ -140,25 +178,90 @@ CaptureFormat candump_or_serial(std::string_view line) {
   return CaptureFormat::serial;
 }
 
-/// Opens a file and works out its format from its first bytes (or `format`, or the extension).
+/// Reads up to kHeadBytes from a stream buffer, for detection (the ReplayBuf hands them out again).
+std::string read_head(std::streambuf& source) {
+  std::string head(kHeadBytes, '\0');
+  std::size_t got = 0;
+  while (got < head.size()) {  // a decompressor hands out its data in pieces
+    const std::streamsize n = source.sgetn(head.data() + got, static_cast<std::streamsize>(head.size() - got));
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  head.resize(got);
+  return head;
+}
+
+std::span<const std::uint8_t> head_bytes(const std::string& s) {
+  return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()};
+}
+
+/// What a text file that is not a candump log looks like, for the message that refuses it.
+std::string describe_other_text(std::string_view head) {
+  if (head.find("***BUSMASTER") != std::string_view::npos) return "a BusMaster log";
+  std::size_t pos = 0;
+  while (pos < head.size()) {
+    std::size_t end = head.find('\n', pos);
+    if (end == std::string_view::npos) end = head.size();
+    std::string_view line = head.substr(pos, end - pos);
+    pos = end + 1;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
+    if (line.empty()) continue;
+    std::string shown;
+    for (char c : line.substr(0, 60)) shown += (c >= 0x20 && c < 0x7F) ? c : '?';
+    return fmt::format("a text log whose first line is '{}{}'", shown, line.size() > 60 ? "..." : "");
+  }
+  return "a text log";
+}
+
+/// True when some line of `head` starts with '(' and a digit, as candump lines do.
+bool has_candump_line(std::string_view head) {
+  std::size_t pos = 0;
+  while (pos < head.size()) {
+    std::size_t end = head.find('\n', pos);
+    if (end == std::string_view::npos) end = head.size();
+    std::string_view line = head.substr(pos, end - pos);
+    pos = end + 1;
+    while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
+    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return true;
+  }
+  return false;
+}
+
+/// Opens a file and works out its format from its first bytes (or `format`, or the extension); a gzip or zstd
+/// file is opened through a decompressor and its content decides.
 std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<CaptureFormat>& format) {
   auto source = std::make_unique<FileSource>();
   if (!source->file.open(path, std::ios::in | std::ios::binary))
     throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
-  std::string head(kHeadBytes, '\0');
-  const std::streamsize got = source->file.sgetn(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
-  if (!format) {
-    format = detect_capture_format(
-        std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(head.data()), head.size()));
+  std::string head = read_head(source->file);
+  const Compression compression = detect_compression(head_bytes(head));
+  std::streambuf* content = &source->file;
+  if (compression != Compression::none) {
+    source->raw = std::make_unique<ReplayBuf>(source->file, std::move(head));
+    source->inflater = make_decompressing_buf(*source->raw, compression);
+    content = source->inflater.get();
+    head = read_head(*content);
+    if (head.empty() && !source->inflater->error().empty())
+      throw CaptureOpenError(fmt::format("'{}' ({}): {}", path, to_string(compression), source->inflater->error()));
   }
-  if (!format) format = capture_format_from_extension(path);
+  const bool forced = format.has_value();
+  if (!format) format = detect_capture_format(head_bytes(head));
+  const std::string_view inner_name = strip_compression_extension(path);
+  const bool by_extension = !format;
+  if (!format) format = capture_format_from_extension(inner_name);
   if (!format)
     throw CaptureOpenError(fmt::format(
-        "cannot tell the format of '{}': its content is not pcap, pcapng, candump, ASC, a serial log or a "
-        "sigrok/PulseView UART export, and its extension is none of .pcap .pcapng .log .asc .serial",
-        path));
-  source->replay = std::make_unique<ReplayBuf>(source->file, std::move(head));
+        "cannot tell the format of '{}'{}: its content is not pcap, pcapng, candump, ASC, BLF, TRC, python-can or "
+        "SavvyCAN CSV, a serial log or a sigrok/PulseView UART export, and its extension is none of .pcap .pcapng "
+        ".log .asc .blf .trc .csv .serial (--input-format names one)",
+        path, compression != Compression::none ? fmt::format(" ({}-compressed)", to_string(compression)) : ""));
+  if (!forced && by_extension && *format == CaptureFormat::candump && !head.empty() && !has_candump_line(head))
+    throw CaptureOpenError(fmt::format(
+        "'{}' is not a candump log: it is {}, and none of its first lines is a candump line \"(time) can0 "
+        "123#...\"; saulctl reads candump, pcap, pcapng, ASC, BLF, TRC and CSV logs (--input-format candump reads "
+        "it anyway)",
+        path, describe_other_text(head)));
+  source->replay = std::make_unique<ReplayBuf>(*content, std::move(head));
   source->stream.rdbuf(source->replay.get());
   std::error_code ec;
   if (std::filesystem::is_regular_file(path, ec)) {
@@ -171,8 +274,14 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
 /// A writer that owns its file and closes it.
 class FileWriter final : public CaptureWriter {
  public:
-  FileWriter(std::string path, std::unique_ptr<std::ofstream> file, CaptureFormat format)
-      : path_(std::move(path)), file_(std::move(file)), inner_(make_capture_writer(*file_, format)) {}
+  FileWriter(std::string path, std::unique_ptr<std::ofstream> file, CaptureFormat format, Compression compression)
+      : path_(std::move(path)), file_(std::move(file)) {
+    if (compression != Compression::none) {
+      packer_ = make_compressing_buf(*file_->rdbuf(), compression);
+      packed_ = std::make_unique<std::ostream>(packer_.get());
+    }
+    inner_ = make_capture_writer(packed_ ? *packed_ : *file_, format);
+  }
   ~FileWriter() override {
     try {
       close();
@@ -200,6 +309,7 @@ class FileWriter final : public CaptureWriter {
     std::string failure;
     try {
       inner_->close();
+      if (packer_) packer_->finish();
     } catch (const std::runtime_error& e) {
       failure = e.what();
     }
@@ -212,7 +322,9 @@ class FileWriter final : public CaptureWriter {
  private:
   std::string path_;
   std::unique_ptr<std::ofstream> file_;
-  std::unique_ptr<CaptureWriter> inner_;
+  std::unique_ptr<CompressingBuf> packer_;  // .gz/.zst: between the format writer and the file
+  std::unique_ptr<std::ostream> packed_;
+  std::unique_ptr<CaptureWriter> inner_;    // declared last: destroyed first
   bool closed_ = false;
 };
 
@@ -228,6 +340,14 @@ std::string_view to_string(CaptureFormat format) noexcept {
       return "pcapng";
     case CaptureFormat::asc:
       return "asc";
+    case CaptureFormat::blf:
+      return "blf";
+    case CaptureFormat::trc:
+      return "trc";
+    case CaptureFormat::csv:
+      return "csv";
+    case CaptureFormat::gvret_csv:
+      return "gvret-csv";
     case CaptureFormat::serial:
       return "serial";
     case CaptureFormat::sigrok:
@@ -245,6 +365,10 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
   if (name == "pcap") return CaptureFormat::pcap;
   if (name == "pcapng") return CaptureFormat::pcapng;
   if (name == "asc") return CaptureFormat::asc;
+  if (name == "blf") return CaptureFormat::blf;
+  if (name == "trc") return CaptureFormat::trc;
+  if (name == "csv") return CaptureFormat::csv;
+  if (name == "gvret-csv") return CaptureFormat::gvret_csv;
   if (name == "serial") return CaptureFormat::serial;
   if (name == "sigrok") return CaptureFormat::sigrok;
   if (name == "sigrok-json") return CaptureFormat::sigrok_json;
@@ -266,6 +390,9 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   if (x == "pcap" || x == "cap") return CaptureFormat::pcap;
   if (x == "pcapng" || x == "ntar") return CaptureFormat::pcapng;
   if (x == "asc") return CaptureFormat::asc;
+  if (x == "blf") return CaptureFormat::blf;
+  if (x == "trc") return CaptureFormat::trc;
+  if (x == "csv") return CaptureFormat::csv;
   if (x == "serial") return CaptureFormat::serial;
   return std::nullopt;
 }
@@ -280,6 +407,7 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     for (const auto& magic : kPcap)
       if (m == magic) return CaptureFormat::pcap;
     if (m == std::array<std::uint8_t, 4>{0x0A, 0x0D, 0x0D, 0x0A}) return CaptureFormat::pcapng;
+    if (m == std::array<std::uint8_t, 4>{'L', 'O', 'G', 'G'}) return CaptureFormat::blf;
   }
   const std::string_view text(reinterpret_cast<const char*>(head.data()), head.size());
   if (text.find('\0') != std::string_view::npos) return std::nullopt;
@@ -299,6 +427,10 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     if (line.starts_with("Sample,Time,Decoder,") || line.starts_with("\"Sample\",\"Time\",\"Decoder\","))
       return CaptureFormat::pulseview_csv;
     if (looks_like_sigrok_annotation(line)) return CaptureFormat::sigrok;
+    if (line.starts_with(";$FILEVERSION") || line.starts_with(";$STARTTIME") || looks_like_trc_message(line))
+      return CaptureFormat::trc;
+    if (line.starts_with("timestamp,arbitration_id,")) return CaptureFormat::csv;
+    if (starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
   }
   return std::nullopt;
 }
@@ -306,21 +438,29 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
 CaptureTraits capture_traits(CaptureFormat format) noexcept {
   switch (format) {
     case CaptureFormat::candump:
-      return {1000, true, false, true};
+      return {1000, true, false, true, true, true};
     case CaptureFormat::pcap:
-      return {1000, false, false, true};
+      return {1000, false, false, true, true, true};
     case CaptureFormat::pcapng:
-      return {1, true, false, true};
+      return {1, true, false, true, true, true};
     case CaptureFormat::asc:
-      return {1000, false, true, false};
+      return {1000, false, true, false, true, true};
+    case CaptureFormat::blf:
+      return {1, false, true, false, true, true};
+    case CaptureFormat::trc:
+      return {1000, false, true, false, true, true};
+    case CaptureFormat::csv:
+      return {1000, false, false, true, true, true};
+    case CaptureFormat::gvret_csv:
+      return {1000, false, true, false, false, false};
     case CaptureFormat::serial:
-      return {1000, true, false, false};
+      return {1000, true, false, false, false, false};
     case CaptureFormat::sigrok:
     case CaptureFormat::sigrok_json:
     case CaptureFormat::pulseview_csv:
-      return {1, true, false, false};
+      return {1, true, false, false, false, false};
   }
-  return {1000, false, false, false};
+  return {1000, false, false, false, false, false};
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
@@ -354,6 +494,14 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
       return std::make_unique<PcapngReader>(in);
     case CaptureFormat::asc:
       return std::make_unique<AscReader>(in);
+    case CaptureFormat::blf:
+      return std::make_unique<BlfReader>(in);
+    case CaptureFormat::trc:
+      return std::make_unique<TrcReader>(in);
+    case CaptureFormat::csv:
+      return std::make_unique<CsvLogReader>(in);
+    case CaptureFormat::gvret_csv:
+      return std::make_unique<GvretCsvReader>(in);
     case CaptureFormat::serial:
     case CaptureFormat::sigrok:
     case CaptureFormat::sigrok_json:
@@ -373,6 +521,14 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
       return std::make_unique<PcapngWriter>(out);
     case CaptureFormat::asc:
       return std::make_unique<AscWriter>(out);
+    case CaptureFormat::blf:
+      return std::make_unique<BlfWriter>(out);
+    case CaptureFormat::trc:
+      return std::make_unique<TrcWriter>(out);
+    case CaptureFormat::csv:
+      return std::make_unique<CsvLogWriter>(out);
+    case CaptureFormat::gvret_csv:
+      return std::make_unique<GvretCsvWriter>(out);
     case CaptureFormat::serial:
     case CaptureFormat::sigrok:
     case CaptureFormat::sigrok_json:
@@ -397,6 +553,7 @@ std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std:
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
                                                                 const SerialReadOptions& options,
                                                                 std::optional<CaptureFormat> format) {
+  if (!format) format = options.format;
   auto source = open_source(path, format);
   if (!holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("'{}' holds CAN frames ({}), not serial bytes", path, to_string(*format)));
@@ -406,6 +563,7 @@ std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::strin
 
 OpenedCapture open_capture(const std::string& path, const SerialReadOptions& options,
                            std::optional<CaptureFormat> format) {
+  if (!format) format = options.format;
   auto source = open_source(path, format);
   OpenedCapture opened;
   opened.format = *format;
@@ -424,21 +582,24 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
 }
 
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
-  if (!format) format = capture_format_from_extension(path);
+  const Compression compression = compression_from_extension(path);
+  if (!format) format = capture_format_from_extension(strip_compression_extension(path));
   if (!format)
-    throw CaptureOpenError(fmt::format(
-        "cannot tell which format to write to '{}': name it .log, .pcap, .pcapng or .asc, or give the format", path));
+    throw CaptureOpenError(fmt::format("cannot tell which format to write to '{}': name it .log, .pcap, .pcapng, "
+                                       ".asc, .blf, .trc or .csv (+ .gz or .zst to compress), or give the format",
+                                       path));
   if (holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
                                        to_string(*format)));
   auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
-  return std::make_unique<FileWriter>(path, std::move(file), *format);
+  return std::make_unique<FileWriter>(path, std::move(file), *format, compression);
 }
 
 CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt) {
   CopyStats stats;
+  const CaptureTraits traits = capture_traits(out.format());
   for (;;) {
     const auto status = in.next();
     if (status == CaptureReader::Status::end) break;
@@ -448,12 +609,18 @@ CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
       continue;
     }
     const std::string_view name = in.interface();
+    const CanFrame& frame = in.frame();
+    ++stats.frames;
+    if (frame.error) ++stats.error_frames;
+    if (frame.remote) ++stats.remote_frames;
+    if ((frame.error && !traits.error_frames) || (frame.remote && !traits.remote_frames)) {
+      ++stats.left_out;
+      continue;
+    }
     bool known = false;
     for (const auto& seen : stats.interfaces) known = known || seen == name;
     if (!known) stats.interfaces.emplace_back(name);
-    if (in.frame().error) ++stats.error_frames;
-    out.write(in.frame(), name);
-    ++stats.frames;
+    out.write(frame, name);
   }
   return stats;
 }
@@ -471,7 +638,17 @@ std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat
     if (!renamed.empty())
       notes.push_back(fmt::format("{} keeps no interface names: {}", to_string(format), renamed));
   }
-  if (!traits.error_details && stats.error_frames > 0)
+  if (format == CaptureFormat::candump) {
+    std::string renamed;
+    for (const auto& name : stats.interfaces)
+      if (candump_interface(name) != name)
+        renamed += fmt::format("{}'{}' reads back as '{}'", renamed.empty() ? "" : ", ", name, candump_interface(name));
+    if (!renamed.empty()) notes.push_back(fmt::format("candump writes white space in interface names as '_': {}", renamed));
+  }
+  if (stats.left_out > 0)
+    notes.push_back(fmt::format("{} holds no remote or error frames: {} of them left out ({} remote, {} error)",
+                                to_string(format), stats.left_out, stats.remote_frames, stats.error_frames));
+  else if (!traits.error_details && stats.error_frames > 0)
     notes.push_back(fmt::format("{} keeps no error-frame details: {} error frame(s) read back as a bus error "
                                 "(class 0x080, no data)",
                                 to_string(format), stats.error_frames));

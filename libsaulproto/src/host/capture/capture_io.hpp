@@ -7,8 +7,15 @@
 #include <istream>
 #include <limits>
 #include <ostream>
+#include <string_view>
 
 namespace saul::host::detail {
+
+/// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR with 8 zero bytes, as
+/// asc2log converts an ASC ErrorFrame (ASC, BLF and TRC error records).
+inline constexpr std::uint32_t kErrBusError = 0x080;
+/// The message for a CAN FD record, in every reader.
+inline constexpr std::string_view kFdUnsupported = "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
 
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
 inline constexpr std::uint32_t kSnaplen = 0xFFFF;

@@ -64,7 +64,7 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
     if (frame.remote) id_flags |= kRtrFlag;
   }
   for (int i = 0; i < 4; ++i) p[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(id_flags >> (24 - 8 * i));
-  p[4] = frame.dlc;
+  p[4] = frame.error ? 8 : frame.dlc;  // an error frame always carries 8 bytes (CAN_ERR_DLC), as the kernel sends it
   const auto payload = frame.payload();
   for (std::size_t i = 0; i < payload.size(); ++i) p[8 + i] = payload[i];
   return p;

@@ -18,6 +18,7 @@ using detail::load_u32;
 constexpr std::uint32_t kShb = 0x0A0D'0D0A;  // the same in both byte orders
 constexpr std::uint32_t kIdb = 0x0000'0001;
 constexpr std::uint32_t kEpb = 0x0000'0006;
+constexpr std::uint32_t kSpb = 0x0000'0003;
 constexpr std::uint32_t kByteOrderMagic = 0x1A2B'3C4D;
 /// Largest SHB/IDB/EPB body parsed; larger blocks of those types are reported and skipped. Bounds memory.
 constexpr std::uint32_t kMaxBody = 1024 * 1024;
@@ -173,7 +174,7 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
   if (length < header_bytes + 4 || length % 4 != 0 || (type == kShb && length < 28))
     return corrupt(start, Recovery::stop, fmt::format("block length {} is not valid", length));
   const std::uint32_t body_length = length - header_bytes - 4;
-  const bool wanted = type == kShb || type == kIdb || type == kEpb;
+  const bool wanted = type == kShb || type == kIdb || type == kEpb || type == kSpb;
   const bool parse = wanted && body_length <= kMaxBody;
   std::uint64_t got = 0;
   if (parse) {
@@ -206,6 +207,12 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
                      fmt::format("packet block of {} bytes is too long for a CAN packet", length));
     return packet_block(start);
   }
+  if (type == kSpb) {
+    if (!parse)
+      return corrupt(start, Recovery::next_block,
+                     fmt::format("simple packet block of {} bytes is too long for a CAN packet", length));
+    return simple_packet_block(start);
+  }
   if (type == kShb) {
     if (!parse) return corrupt(start, Recovery::stop, "section header block is too long");
     const std::uint16_t major = load_u16(body_.data(), big_);
@@ -224,6 +231,7 @@ PcapngReader::Step PcapngReader::interface_block(std::uint64_t start) {
     return corrupt(start, Recovery::next_block, "interface description block is too short");
   }
   iface.linktype = load_u16(body_.data(), big_);
+  iface.snaplen = load_u32(body_.data() + 4, big_);
   std::size_t pos = 8;
   while (pos + 4 <= n) {
     const std::uint16_t code = load_u16(body_.data() + pos, big_);
@@ -273,11 +281,32 @@ PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
     ns = ns > back ? ns - back : 0;
   }
   frame_.timestamp_ns = ns;
-  const std::span<const std::uint8_t> packet(body_.data() + 20, captured);
+  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_.data() + 20, captured));
+}
+
+PcapngReader::Step PcapngReader::socketcan_packet(std::uint64_t start, const Interface& iface,
+                                                  std::span<const std::uint8_t> packet) {
   const std::string_view why = decode_socketcan_packet(packet, frame_);
   if (!why.empty()) return corrupt(start, Recovery::next_block, std::string(why));
   name_ = iface.name;
   return Step::frame;
+}
+
+PcapngReader::Step PcapngReader::simple_packet_block(std::uint64_t start) {
+  // Original length, then the packet cut to interface 0's snap length (and padded): no interface id, no time.
+  const std::size_t n = body_.size();
+  if (n < 4) return corrupt(start, Recovery::next_block, "simple packet block is too short");
+  if (interfaces_.empty())
+    return corrupt(start, Recovery::next_block, "simple packet block before any interface description block");
+  const Interface& iface = interfaces_[0];
+  if (iface.linktype != kLinktypeCanSocketcan) return Step::skipped;
+  std::size_t captured = load_u32(body_.data(), big_);
+  if (iface.snaplen != 0 && captured > iface.snaplen) captured = iface.snaplen;
+  if (captured > n - 4)
+    return corrupt(start, Recovery::next_block,
+                   fmt::format("packet length {} runs past the end of its simple packet block", captured));
+  frame_.timestamp_ns.reset();
+  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_.data() + 4, captured));
 }
 
 // ---- writer ----

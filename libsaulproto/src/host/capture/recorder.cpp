@@ -4,8 +4,12 @@
 
 #include <cerrno>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 namespace saul::host {
 namespace {
@@ -35,7 +39,82 @@ void close_both(Writer& writer, std::ofstream& file, const std::string& path) {
   if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, failure));
 }
 
+/// Closes the current file (close_both), hands it to the compressor when there is one, and after the last file
+/// waits for the compressor and gives the last file's final name.
+template <class Writer>
+void close_and_compress(Writer& writer, std::ofstream& file, std::string& path, FileCompressor* compressor,
+                        bool last) {
+  close_both(writer, file, path);
+  if (!compressor) return;
+  compressor->add(path);
+  if (!last) return;
+  path += std::string(file_suffix(compressor->compression()));
+  compressor->finish();
+}
+
+std::unique_ptr<FileCompressor> compressor_for(const RotationOptions& options) {
+  if (options.compress == Compression::none) return nullptr;
+  return std::make_unique<FileCompressor>(options.compress);
+}
+
 }  // namespace
+
+struct FileCompressor::Queue {
+  std::mutex mutex;
+  std::condition_variable wake;
+  std::deque<std::string> paths;
+  bool busy = false;
+  bool stop = false;
+  std::string failure;
+  std::thread worker;
+};
+
+FileCompressor::FileCompressor(Compression compression) : compression_(compression), queue_(std::make_unique<Queue>()) {
+  queue_->worker = std::thread([q = queue_.get(), compression] {
+    std::unique_lock lock(q->mutex);
+    for (;;) {
+      q->wake.wait(lock, [q] { return q->stop || !q->paths.empty(); });
+      if (q->paths.empty()) return;  // stopping, nothing left
+      const std::string path = q->paths.front();
+      q->paths.pop_front();
+      q->busy = true;
+      lock.unlock();
+      std::string failure;
+      try {
+        compress_file(path, compression);
+      } catch (const std::runtime_error& e) {
+        failure = e.what();
+      }
+      lock.lock();
+      q->busy = false;
+      if (q->failure.empty()) q->failure = failure;
+      q->wake.notify_all();
+    }
+  });
+}
+
+FileCompressor::~FileCompressor() {
+  {
+    std::lock_guard lock(queue_->mutex);
+    queue_->stop = true;
+  }
+  queue_->wake.notify_all();
+  queue_->worker.join();  // what was added is still compressed
+}
+
+void FileCompressor::add(const std::string& path) {
+  {
+    std::lock_guard lock(queue_->mutex);
+    queue_->paths.push_back(path);
+  }
+  queue_->wake.notify_all();
+}
+
+void FileCompressor::finish() {
+  std::unique_lock lock(queue_->mutex);
+  queue_->wake.wait(lock, [q = queue_.get()] { return q->paths.empty() && !q->busy; });
+  if (!queue_->failure.empty()) throw std::runtime_error(queue_->failure);
+}
 
 std::string numbered_path(const std::string& path, unsigned index) {
   const std::size_t slash = path.find_last_of('/');
@@ -81,7 +160,7 @@ bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file
 
 RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
                                              std::function<void(const std::string&)> on_new_file)
-    : plan_(path, rotation), format_(format), on_new_file_(std::move(on_new_file)) {
+    : plan_(path, rotation), compressor_(compressor_for(rotation)), format_(format), on_new_file_(std::move(on_new_file)) {
   if (holds_serial_bytes(format))
     throw CaptureOpenError(fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
   current_path_ = plan_.path_for(0);
@@ -100,7 +179,7 @@ RotatingCaptureWriter::~RotatingCaptureWriter() {
 std::uint64_t RotatingCaptureWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
 
 void RotatingCaptureWriter::close_current() {
-  close_both(*inner_, *file_, current_path_);
+  close_and_compress(*inner_, *file_, current_path_, compressor_.get(), closed_);
 }
 
 void RotatingCaptureWriter::open_next() {
@@ -147,7 +226,7 @@ void RotatingCaptureWriter::close() {
 
 RotatingSerialWriter::RotatingSerialWriter(const std::string& path, RotationOptions rotation,
                                            std::function<void(const std::string&)> on_new_file)
-    : plan_(path, rotation), on_new_file_(std::move(on_new_file)) {
+    : plan_(path, rotation), compressor_(compressor_for(rotation)), on_new_file_(std::move(on_new_file)) {
   current_path_ = plan_.path_for(0);
   file_ = create(current_path_);
   inner_ = make_serial_capture_writer(*file_);
@@ -164,7 +243,7 @@ RotatingSerialWriter::~RotatingSerialWriter() {
 std::uint64_t RotatingSerialWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
 
 void RotatingSerialWriter::close_current() {
-  close_both(*inner_, *file_, current_path_);
+  close_and_compress(*inner_, *file_, current_path_, compressor_.get(), closed_);
 }
 
 void RotatingSerialWriter::open_next() {

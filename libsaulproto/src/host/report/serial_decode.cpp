@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <type_traits>
 
 #include "saulproto/host/report/format.hpp"
@@ -9,6 +10,18 @@
 
 namespace saul::host {
 namespace {
+
+/// Nominal baud rate of a protocol's link, for the time a chunk spends on the wire (10 bits a byte; Pride's 11
+/// are within the margin of the idle gap).
+std::uint64_t protocol_baud(SerialProtocol protocol) {
+  switch (protocol) {
+    case SerialProtocol::interboard: return 460'800;
+    case SerialProtocol::crsf: return 420'000;
+    case SerialProtocol::pride: return 38'400;
+    case SerialProtocol::raw: break;
+  }
+  return 115'200;
+}
 
 std::string hex(std::span<const std::uint8_t> bytes) {
   std::string s;
@@ -107,27 +120,84 @@ SerialStreamDecoder::SerialStreamDecoder(SerialProtocol protocol) : protocol_(pr
   }
 }
 
+void SerialStreamDecoder::deliver_crsf(const crsf::StreamDecoder& d, const crsf::Frame& f, const Callback& on_message) {
+  // Every byte before this frame is in an earlier frame or was skipped: the frame ends right after them.
+  const std::uint64_t size = f.payload_size + 4U;  // SYNC, LEN, TYPE, payload, CRC
+  frame_end_ = std::min<std::uint64_t>(d.counters().bytes_skipped + frame_bytes_ + size, extra_.bytes);
+  frame_bytes_ += size;
+  const auto r = crsf::decode(f);
+  if (r) {
+    on_message(SerialMessage(r.value()));
+  } else {
+    ++extra_.undecoded;
+    on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
+  }
+}
+
 void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callback& on_message) {
-  extra_.bytes += bytes.size();
-  std::visit(detail::Overload{[](std::monostate&) {},
-                      [&](interboard::StreamDecoder& d) {
-                        d.push(bytes, [&](const interboard::Message& m) { on_message(SerialMessage(m)); });
-                      },
-                      [&](pride::StreamDecoder& d) {
-                        d.push(bytes, [&](const pride::Message& m) { on_message(SerialMessage(m)); });
-                      },
+  // One byte at a time for interboard and Pride, so a message knows the byte that completed it.
+  auto per_byte = [&](auto& d) {
+    for (std::uint8_t b : bytes) {
+      recent_[extra_.bytes % recent_.size()] = b;
+      ++extra_.bytes;
+      if (auto m = d.push(b)) {
+        frame_end_ = extra_.bytes;
+        on_message(SerialMessage(*m));
+      }
+    }
+  };
+  std::visit(detail::Overload{[&](std::monostate&) { extra_.bytes += bytes.size(); },
+                      [&](interboard::StreamDecoder& d) { per_byte(d); },
+                      [&](pride::StreamDecoder& d) { per_byte(d); },
                       [&](crsf::StreamDecoder& d) {
-                        d.push(bytes, [&](const crsf::Frame& f) {
-                          const auto r = crsf::decode(f);
-                          if (r) {
-                            on_message(SerialMessage(r.value()));
-                          } else {
-                            ++extra_.undecoded;
-                            on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
-                          }
-                        });
+                        extra_.bytes += bytes.size();
+                        d.push(bytes, [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
+}
+
+std::size_t SerialStreamDecoder::pending() const {
+  return std::visit(detail::Overload{[](const std::monostate&) -> std::size_t { return 0; },
+                                     [](const auto& d) -> std::size_t { return d.pending(); }},
+                    decoder_);
+}
+
+void SerialStreamDecoder::abandon(const Callback& on_message) {
+  // interboard and Pride: the core only drops its candidate, so this drops it and pushes its bytes after the
+  // first again (they are the last bytes pushed), which is the rescan CRSF's flush() does itself.
+  auto rescan = [&](auto& d) {
+    while (d.pending() > 0) {
+      const std::size_t held = d.pending();
+      std::array<std::uint8_t, 64> again{};
+      for (std::size_t i = 0; i < held; ++i) again[i] = recent_[(extra_.bytes - held + i) % recent_.size()];
+      d.drop_partial();  // counts all `held` as skipped; only the first byte is
+      skip_adjust_ += held - 1;
+      ++extra_.incomplete;
+      for (std::size_t i = 1; i < held; ++i) {
+        if (auto m = d.push(again[i])) {
+          frame_end_ = extra_.bytes - held + i + 1;
+          on_message(SerialMessage(*m));
+        }
+      }
+    }
+  };
+  std::visit(detail::Overload{[](std::monostate&) {},
+                      [&](interboard::StreamDecoder& d) { rescan(d); },
+                      [&](pride::StreamDecoder& d) { rescan(d); },
+                      [&](crsf::StreamDecoder& d) {
+                        d.flush([&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                      }},
+             decoder_);
+}
+
+std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept {
+  switch (protocol) {
+    case SerialProtocol::crsf: return 1'748'000;       // Betaflight's CRSF_TIME_NEEDED_PER_FRAME_US
+    case SerialProtocol::pride: return 1'720'000;      // 6 bytes of 11 bits at 38400 baud
+    case SerialProtocol::interboard: return 1'000'000;  // 9 bytes at 460800 take 0.2 ms
+    case SerialProtocol::raw: break;
+  }
+  return UINT64_MAX;
 }
 
 void SerialStreamDecoder::note_uart_errors(std::uint8_t errors) {
@@ -145,15 +215,7 @@ void SerialStreamDecoder::finish(const Callback& on_message) {
                         d.drop_partial();
                       },
                       [&](crsf::StreamDecoder& d) {
-                        d.flush([&](const crsf::Frame& f) {
-                          const auto r = crsf::decode(f);
-                          if (r) {
-                            on_message(SerialMessage(r.value()));
-                          } else {
-                            ++extra_.undecoded;
-                            on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
-                          }
-                        });
+                        d.flush([&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
 }
@@ -167,14 +229,14 @@ SerialDecodeCounters SerialStreamDecoder::counters() const {
                         c.crc_errors = k.crc_errors;
                         c.length_errors = k.length_errors;
                         c.unknown_types = k.unknown_types;
-                        c.bytes_skipped = k.bytes_skipped;
+                        c.bytes_skipped = k.bytes_skipped - skip_adjust_;
                       },
                       [&](const pride::StreamDecoder& d) {
                         const auto& k = d.counters();
                         c.frames = k.frames;
                         c.crc_errors = k.checksum_errors;
                         c.out_of_range = k.out_of_range;
-                        c.bytes_skipped = k.bytes_skipped;
+                        c.bytes_skipped = k.bytes_skipped - skip_adjust_;
                       },
                       [&](const crsf::StreamDecoder& d) {
                         const auto& k = d.counters();
@@ -244,11 +306,47 @@ std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t
   return best;
 }
 
+SerialChunk SerialCaptureDecoder::chunk_of(const State& state, std::uint64_t end) const {
+  SerialChunk c;
+  c.link = state.name;
+  c.protocol = state.decoder->protocol();
+  for (const auto& [chunk_end, time] : state.recent) {
+    c.timestamp_ns = time;
+    if (chunk_end >= end) break;
+  }
+  return c;
+}
+
 void SerialCaptureDecoder::feed(State& state, const SerialChunk& chunk, const Callback& on_message) {
-  state.decoder->note_uart_errors(chunk.errors);
+  SerialStreamDecoder& d = *state.decoder;
+  d.note_uart_errors(chunk.errors);
+  const SerialProtocol protocol = d.protocol();
+  if (chunk.timestamp_ns && state.last_ns && d.pending() > 0 && *chunk.timestamp_ns > *state.last_ns) {
+    // The chunk's bytes arrived back to back at the end of the gap; before them the line was quiet this long.
+    const std::uint64_t on_wire = chunk.bytes.size() * 10'000'000'000ULL / protocol_baud(protocol);
+    const std::uint64_t gap = *chunk.timestamp_ns - *state.last_ns;
+    if (gap > on_wire && gap - on_wire > idle_gap_ns(protocol)) {
+      SerialStreamDecoder trial = d;
+      std::vector<std::pair<std::uint64_t, SerialMessage>> found;
+      trial.abandon([&](const SerialMessage& m) { found.emplace_back(trial.frame_end(), m); });
+      if (!found.empty()) {  // frames were hiding behind the candidate: it was no frame
+        d = std::move(trial);
+        for (const auto& [end, m] : found) on_message(chunk_of(state, end), protocol, m);
+      }
+    }
+  }
   if (chunk.timestamp_ns) state.last_ns = chunk.timestamp_ns;
-  const SerialProtocol protocol = state.decoder->protocol();
-  state.decoder->push(chunk.bytes, [&](const SerialMessage& m) { on_message(chunk, protocol, m); });
+  const std::uint64_t start = d.bytes_pushed();
+  state.recent.emplace_back(start + chunk.bytes.size(), chunk.timestamp_ns);
+  // Frames are at most 64 bytes and a candidate holds at most 64: older chunks cannot complete one any more.
+  while (state.recent.size() > 1 && state.recent[1].first + 128 <= start) state.recent.pop_front();
+  d.push(chunk.bytes, [&](const SerialMessage& m) {
+    if (d.frame_end() > start) {
+      on_message(chunk, protocol, m);
+    } else {
+      on_message(chunk_of(state, d.frame_end()), protocol, m);
+    }
+  });
 }
 
 void SerialCaptureDecoder::decide(State& state, const Callback& on_message) {
@@ -293,10 +391,7 @@ void SerialCaptureDecoder::finish(const Callback& on_message) {
   for (auto& s : states_) {
     if (!s.decided) decide(s, on_message);
     const SerialProtocol protocol = s.decoder->protocol();
-    SerialChunk last;
-    last.link = s.name;
-    last.timestamp_ns = s.last_ns;
-    s.decoder->finish([&](const SerialMessage& m) { on_message(last, protocol, m); });
+    s.decoder->finish([&](const SerialMessage& m) { on_message(chunk_of(s, s.decoder->frame_end()), protocol, m); });
   }
 }
 

@@ -17,8 +17,11 @@
 // machine. When no date parses, timestamps are the relative times alone. "timestamps relative" means each time
 // is counted from the previous frame (as asc2log reads it). Extended ids carry an 'x' suffix; "base dec" switches ids, DLCs and data
 // bytes to decimal. Channel N reads as interface "can<N-1>". An ErrorFrame line carries no SocketCAN class or
-// data: it reads as a bus error (id 0x080, 8 zero bytes), as asc2log converts it. CAN FD lines are reported as
-// unsupported.
+// data: it reads as a bus error (id 0x080, 8 zero bytes), as asc2log converts it. A classic DLC of 9..15 (CANoe
+// writes "3FF Tx d D 55 AA ...") means 8 data bytes. CANFD lines ("<time> CANFD <ch> <dir> <id> [<name>] <brs>
+// <esi> <dlc> <len> <data> <duration> <bits> <flags> ...") whose flags say classic CAN (no EDL bit 0x1000; remote
+// bit 0x10), as `log2asc -f` and CANoe on FD channels write them, read as classic frames; real CAN FD frames are
+// reported as unsupported.
 //
 // Reading is line by line; a corrupt line is reported with line and column and skipped. Lines of other events
 // (Statistic:, Start of measurement, TxRq transmit requests, ...) are skipped silently.
@@ -67,6 +70,7 @@ class AscReader final : public CaptureReader {
   Step parse_line(std::string_view line);
   Step timed_line(std::string_view line);
   Step frame_line(std::string_view line, std::uint64_t time_ns);
+  Step canfd_line(std::string_view line, std::uint64_t time_ns);
   Step corrupt(std::size_t column, std::string message);
   [[nodiscard]] std::uint64_t absolute(std::uint64_t time_ns);
 

@@ -2,7 +2,8 @@
 // `candump -l` writes, and as canplayer reads them.
 //
 // Frame syntax: 3 hex digits = 11-bit id, 8 = 29-bit id; "#R" or "#R<len>" remote; an id with the error flag
-// (0x20000000) is an error frame. Lines that do not start with '(' are comments to canplayer and are skipped.
+// (0x20000000) is an error frame; a raw-DLC suffix "_9".."_F" after 8 data bytes (or "R8") is accepted and the frame
+// keeps its 8 bytes. Lines that do not start with '(' are comments to canplayer and are skipped.
 // CAN FD lines ("##") are recognised and reported as unsupported: the robot's bus is classic CAN.
 // CandumpReader and CandumpWriter are the candump members of the capture interface (capture.hpp).
 #pragma once
@@ -30,8 +31,12 @@ using CandumpError = CaptureError;
 /// Parses one line (without its newline). On failure returns false and fills error.
 bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& error);
 
-/// Formats one frame as a log line without newline: "(sec.usec) iface ID#DATA". Frames without a timestamp
-/// get 0. Microsecond resolution, as `candump -l` writes by default.
+/// An interface name as one candump word: "" is "can0", white space and control characters become '_' (a pcapng
+/// if_name such as text2pcap's "Fake IF, text2pcap" would otherwise split the line).
+std::string candump_interface(std::string_view interface);
+
+/// Formats one frame as a log line without newline: "(sec.usec) iface ID#DATA" (iface as candump_interface()
+/// writes it). Frames without a timestamp get 0. Microsecond resolution, as `candump -l` writes by default.
 std::string format_candump_line(const CanFrame& frame, std::string_view interface);
 
 /// The compact frame text alone, e.g. "300#E8030CFE", "00000344#000005DC", "123#R4".
@@ -63,7 +68,7 @@ class CandumpReader final : public CaptureReader {
 };
 
 /// Writes `candump -l` lines ("(sec.usec) iface ID#DATA", LF), which canplayer replays and candump's tools read.
-/// Microsecond resolution. Interface names must not contain spaces.
+/// Microsecond resolution. White space in an interface name is written as '_'.
 class CandumpWriter final : public CaptureWriter {
  public:
   explicit CandumpWriter(std::ostream& out) : out_(out) {}

@@ -1,6 +1,7 @@
 // Capture files of CAN traffic, whatever their format: one reader and one writer interface, format detection by
-// content, and factories that open files. The formats themselves live in candump.hpp, pcap.hpp, pcapng.hpp and
-// asc.hpp; docs/captures.md says what each keeps and loses. Byte captures of the serial links share the format
+// content, and factories that open files. The formats themselves live in candump.hpp, pcap.hpp, pcapng.hpp,
+// asc.hpp, blf.hpp, trc.hpp, csv_log.hpp and gvret_csv.hpp; docs/captures.md says what each keeps and loses. Any of
+// them may be compressed (gzip or zstd, compressed.hpp): the file factories look through that by content. Byte captures of the serial links share the format
 // enum and its detection; their reader interface and open_capture(), which opens either kind, are in
 // serial_capture.hpp.
 //
@@ -30,6 +31,10 @@ enum class CaptureFormat : std::uint8_t {
   pcap,     ///< libpcap file, LINKTYPE_CAN_SOCKETCAN (227)
   pcapng,   ///< pcapng, interfaces with LINKTYPE_CAN_SOCKETCAN
   asc,      ///< Vector ASC text, as log2asc and python-can write it
+  blf,        ///< Vector BLF (binary logging format), zlib-compressed log containers
+  trc,        ///< PEAK PCAN-View/PCAN-Explorer trace, versions 1.0 to 2.1
+  csv,        ///< python-can's CSV log: timestamp,arbitration_id,extended,remote,error,dlc,data (base64)
+  gvret_csv,  ///< SavvyCAN's native CSV ("GVRET"): Time Stamp,ID,Extended,Dir,Bus,LEN,D1..D8
   // Byte captures of the UART links (serial_capture.hpp, uart_export.hpp): not CAN, read as SerialChunks.
   serial,         ///< saulctl's serial log, "(1700000000.000000) serial:/dev/ttyUSB0@460800:8N1 interboard AA05..."
   sigrok,         ///< sigrok-cli UART annotation text ("uart-1: AA", "1023-1195 uart-1: AA"), PulseView's export
@@ -40,17 +45,21 @@ enum class CaptureFormat : std::uint8_t {
 /// True for the formats that hold serial bytes rather than CAN frames.
 constexpr bool holds_serial_bytes(CaptureFormat format) noexcept { return format >= CaptureFormat::serial; }
 
-/// "candump", "pcap", "pcapng", "asc", "serial", "sigrok", "sigrok-json", "pulseview-csv".
+/// "candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "serial", "sigrok", "sigrok-json",
+/// "pulseview-csv".
 std::string_view to_string(CaptureFormat format) noexcept;
 /// The inverse of to_string; also accepts "log" for candump. Case-sensitive.
 std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept;
-/// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .serial (case-insensitive); nullopt otherwise.
+/// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .blf, .trc, .csv (python-can's), .serial
+/// (case-insensitive); nullopt otherwise, also for a compressed name (strip_compression_extension first).
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
 /// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
 /// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
 /// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),
 /// '{"traceEvents"' (sigrok JSON), a "Sample,Time,Decoder" header (PulseView CSV), or a sigrok annotation line
-/// ("uart-1: ..." or "START-END NAME: ..."). nullopt when none matches.
+/// ("uart-1: ..." or "START-END NAME: ..."), "LOGG" (BLF), a ";$FILEVERSION"/";$STARTTIME" line or a PCAN
+/// message line "N) ..." after ';' comments (TRC), python-can's or SavvyCAN's CSV header. nullopt when none matches
+/// (compressed data included: see detect_compression).
 std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t> head) noexcept;
 
 /// What a format can carry, so callers (and tests) know what a round trip keeps.
@@ -59,6 +68,8 @@ struct CaptureTraits {
   bool interface_names;         ///< names survive (candump, pcapng); otherwise see channel_order
   bool channel_order;           ///< only the order of first appearance survives (ASC channel N reads as can<N-1>)
   bool error_details;           ///< an error frame keeps its class bits and data bytes (not in ASC)
+  bool remote_frames;           ///< remote frames can be written (not in SavvyCAN's CSV)
+  bool error_frames;            ///< error frames can be written (not in SavvyCAN's CSV)
 };
 CaptureTraits capture_traits(CaptureFormat format) noexcept;
 
@@ -132,18 +143,22 @@ class CaptureWriter {
   [[nodiscard]] virtual CaptureFormat format() const = 0;
 };
 
-/// Opens a capture file for reading. The format is `format` when given, else detected from the content
-/// (detect_capture_format), else from the extension. Throws CaptureOpenError when the file cannot be opened, its
-/// format cannot be told, or its header is not usable, or it holds serial bytes (see open_capture). Works on
-/// pipes too (nothing is seeked).
+/// Opens a capture file for reading. A gzip or zstd file is decompressed on the fly (told by content, whatever its
+/// name). The format is `format` when given, else detected from the (decompressed) content
+/// (detect_capture_format), else from the extension (without .gz/.zst). Throws CaptureOpenError when the file
+/// cannot be opened, its format cannot be told, or its header is not usable, or it holds serial bytes (see
+/// open_capture), or the extension says candump but no line of its first 4 KiB is one (another tool's text log).
+/// Works on pipes too (nothing is seeked). A decompression error ends the reading with one corrupt record
+/// (Recovery::stop).
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// A reader of `format` over a stream the caller keeps alive. Throws CaptureOpenError for a bad binary header.
 std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format);
 
-/// Creates (truncates) a capture file. The format is `format` when given, else from the extension; throws
-/// CaptureOpenError when neither says, when it is a serial format (open_serial_capture_writer), or the file cannot
-/// be created.
+/// Creates (truncates) a capture file. The format is `format` when given, else from the extension; a name ending in
+/// .gz or .zst is compressed (the format then comes from the name without it: run.log.gz is a gzipped candump
+/// log). Throws CaptureOpenError when neither says, when it is a serial format (open_serial_capture_writer), or the
+/// file cannot be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// A writer of `format` onto a stream the caller keeps alive (and closes).
@@ -154,15 +169,19 @@ struct CopyStats {
   std::uint64_t frames = 0;
   std::uint64_t corrupt = 0;
   std::uint64_t error_frames = 0;
+  std::uint64_t remote_frames = 0;
+  std::uint64_t left_out = 0;  ///< frames the output format cannot hold (CaptureTraits), not written
   std::vector<std::string> interfaces;  ///< distinct names, in order of first appearance
 };
 
 /// Copies every frame of `in` to `out` (out is not closed). Corrupt records are passed to on_corrupt (may be
-/// empty) and skipped. Cost O(frames); memory O(distinct interfaces).
+/// empty) and skipped; remote and error frames that out's format cannot hold are left out and counted. Cost
+/// O(frames); memory O(distinct interfaces).
 CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt);
 
-/// Sentences saying what a copy into `format` lost (interface names, error-frame details); empty when nothing.
+/// Sentences saying what a copy into `format` lost (interface names, error-frame details, frames it cannot hold);
+/// empty when nothing.
 std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat format);
 
 /// Throws std::invalid_argument when `frame` cannot be written to any capture format.

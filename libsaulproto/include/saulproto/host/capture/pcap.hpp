@@ -31,7 +31,8 @@ inline constexpr std::uint32_t kLinktypeCanSocketcan = 227;
 std::string_view decode_socketcan_packet(std::span<const std::uint8_t> packet, CanFrame& out) noexcept;
 
 /// The 16-byte LINKTYPE_CAN_SOCKETCAN packet of a frame (CAN_MTU layout, id big-endian, data zero-padded; a remote
-/// frame carries its requested length in payload_length). The frame must be valid().
+/// frame carries its requested length in payload_length, an error frame 8 as the kernel's CAN_ERR_DLC, which
+/// Wireshark expects). The frame must be valid().
 std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noexcept;
 
 class PcapReader final : public CaptureReader {

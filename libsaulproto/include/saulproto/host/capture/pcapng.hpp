@@ -2,7 +2,8 @@
 // read them. Packets are the same as in pcap (pcap.hpp: CAN id big-endian, payload_length authoritative).
 //
 // Reading: Section Header Blocks in either byte order (a file may hold several sections), Interface Description
-// Blocks with if_name, if_tsresol (powers of 10 and of 2) and if_tsoffset, Enhanced Packet Blocks. Unknown block
+// Blocks with if_name, if_tsresol (powers of 10 and of 2) and if_tsoffset, Enhanced Packet Blocks, Simple Packet
+// Blocks (interface 0, no timestamp: their frames have none, and their length is cut to the snap length). Unknown block
 // types and packets of non-CAN interfaces are skipped by their length. A block with bad content but a sane length
 // is reported and skipped; a block length that is not a multiple of 4 (or below 12) or a file that ends inside a
 // block stops reading. An interface without if_name reads as "can<index>".
@@ -13,6 +14,7 @@
 #include <cstdint>
 #include <istream>
 #include <ostream>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -41,6 +43,7 @@ class PcapngReader final : public CaptureReader {
     std::uint16_t linktype = 0;
     std::uint8_t tsresol = 6;  ///< if_tsresol as stored: bit 7 clear = 10^-n s, set = 2^-n s
     std::int64_t tsoffset = 0;  ///< if_tsoffset, seconds
+    std::uint32_t snaplen = 0;  ///< 0: no limit
     std::string name;
   };
   enum class Step { frame, corrupt, skipped };
@@ -48,6 +51,8 @@ class PcapngReader final : public CaptureReader {
   Step block(std::uint64_t start, std::uint32_t type, std::uint32_t length, std::uint32_t header_bytes);
   Step interface_block(std::uint64_t start);
   Step packet_block(std::uint64_t start);
+  Step simple_packet_block(std::uint64_t start);
+  Step socketcan_packet(std::uint64_t start, const Interface& iface, std::span<const std::uint8_t> packet);
   Step corrupt(std::uint64_t offset, Recovery recovery, std::string message);
 
   std::istream& in_;

@@ -5,7 +5,8 @@
 // started before the frame that would go into a file that already holds max_bytes, or whose first frame is
 // max_duration older than this one (by the frames' own timestamps). Each file is closed properly (complete and
 // readable on its own: pcapng and pcap start with their headers again, ASC ends its trigger block) before the
-// next is opened.
+// next is opened. With RotationOptions::compress each finished file is then compressed into NAME-000.EXT.gz (or
+// .zst) on another thread while the recording goes on, and the plain file removed; close() waits for the last.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +17,7 @@
 #include <string>
 
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
 namespace saul::host {
@@ -23,7 +25,27 @@ namespace saul::host {
 struct RotationOptions {
   std::uint64_t max_bytes = 0;        ///< 0: no rotation by size
   std::uint64_t max_duration_ns = 0;  ///< 0: no rotation by time
+  Compression compress = Compression::none;  ///< compress every file once it is finished (the last one at close())
   [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
+};
+
+/// Compresses finished files on a thread of its own, in order (compress_file: NAME.gz or NAME.zst, the plain file
+/// removed). finish() waits for all and throws the first failure.
+class FileCompressor {
+ public:
+  explicit FileCompressor(Compression compression);
+  ~FileCompressor();
+  FileCompressor(const FileCompressor&) = delete;
+  FileCompressor& operator=(const FileCompressor&) = delete;
+  void add(const std::string& path);
+  /// Waits until every file added is compressed; throws std::runtime_error for the first that could not be.
+  void finish();
+  [[nodiscard]] Compression compression() const { return compression_; }
+
+ private:
+  struct Queue;
+  Compression compression_;
+  std::unique_ptr<Queue> queue_;
 };
 
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
@@ -61,6 +83,7 @@ class RotatingCaptureWriter final : public CaptureWriter {
   void flush() override;
   void close() override;
   [[nodiscard]] CaptureFormat format() const override { return format_; }
+  /// The file being written; after close() the last file's final name (with .gz/.zst when compressed).
   [[nodiscard]] const std::string& current_path() const { return current_path_; }
   [[nodiscard]] unsigned files() const { return index_ + 1; }
   [[nodiscard]] std::uint64_t bytes_in_file();  ///< of the current file, as written so far
@@ -69,6 +92,7 @@ class RotatingCaptureWriter final : public CaptureWriter {
   void open_next();
   void close_current();
   RotationPlan plan_;
+  std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
   CaptureFormat format_;
   std::function<void(const std::string&)> on_new_file_;
   std::unique_ptr<std::ofstream> file_;
@@ -98,6 +122,7 @@ class RotatingSerialWriter final : public SerialCaptureWriter {
   void open_next();
   void close_current();
   RotationPlan plan_;
+  std::unique_ptr<FileCompressor> compressor_;
   std::function<void(const std::string&)> on_new_file_;
   std::unique_ptr<std::ofstream> file_;
   std::unique_ptr<SerialCaptureWriter> inner_;

@@ -60,7 +60,8 @@ struct SerialChunk {
   bool operator==(const SerialChunk&) const = default;
 };
 
-/// How to read files that do not say everything themselves (logic-analyser exports).
+/// How to read files that do not say everything themselves (logic-analyser exports), and the format of a file
+/// whose content should not decide (`--input-format`).
 struct SerialReadOptions {
   /// The protocol of every chunk of a file that names none (sigrok, PulseView); raw when absent.
   std::optional<SerialProtocol> protocol;
@@ -68,6 +69,9 @@ struct SerialReadOptions {
   /// --protocol-decoder-samplenum, PulseView exports). 0 = unknown: such chunks carry no timestamp, except where
   /// the file has times of its own (the JSON trace, PulseView's Time column).
   std::uint64_t samplerate_hz = 0;
+  /// The file's format, CAN or serial, instead of the one its content says: used by open_capture() and
+  /// open_serial_capture_reader() when they are given no format of their own.
+  std::optional<CaptureFormat> format;
 };
 
 /// Reads chunks one at a time, in constant memory.

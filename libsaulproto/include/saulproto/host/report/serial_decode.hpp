@@ -5,12 +5,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -68,6 +71,18 @@ class SerialStreamDecoder {
   /// End of input: CRSF gives up its unfinished candidate (frames found behind it are still delivered),
   /// interboard and Pride drop theirs; all count it as incomplete.
   void finish(const Callback& on_message);
+  /// Bytes held in an unfinished frame.
+  [[nodiscard]] std::size_t pending() const;
+  /// Gives up the unfinished candidate as if it had been rejected: its first byte is skipped and the bytes after
+  /// it are scanned again, delivering the frames found, until nothing is pending; each candidate given up counts
+  /// as incomplete. For a line that went idle (docs/protocol.md): a receiver sends a frame's bytes back to back.
+  void abandon(const Callback& on_message);
+  /// While a message is being delivered: the stream offset just past the last byte of its frame (bytes pushed
+  /// are numbered from 0), so that a caller can tell which chunk completed it. Exact for CRSF; for interboard and
+  /// Pride the byte whose push delivered it.
+  [[nodiscard]] std::uint64_t frame_end() const { return frame_end_; }
+  /// Bytes pushed so far.
+  [[nodiscard]] std::uint64_t bytes_pushed() const { return extra_.bytes; }
 
   [[nodiscard]] SerialProtocol protocol() const { return protocol_; }
   [[nodiscard]] SerialDecodeCounters counters() const;
@@ -76,10 +91,19 @@ class SerialStreamDecoder {
   [[nodiscard]] nlohmann::json counters_json() const;
 
  private:
+  void deliver_crsf(const crsf::StreamDecoder& d, const crsf::Frame& f, const Callback& on_message);
   SerialProtocol protocol_;
   std::variant<std::monostate, interboard::StreamDecoder, crsf::StreamDecoder, pride::StreamDecoder> decoder_;
   SerialDecodeCounters extra_;  // bytes, undecoded, incomplete, uart errors: what the core decoders do not count
+  std::array<std::uint8_t, 64> recent_{};  // the last bytes pushed (a ring): abandon() rescans them (interboard, Pride)
+  std::uint64_t frame_end_ = 0;
+  std::uint64_t frame_bytes_ = 0;   // CRSF: bytes of the frames delivered
+  std::uint64_t skip_adjust_ = 0;   // interboard, Pride: bytes abandon() made the core count as skipped twice
 };
+
+/// How long a link must stay quiet before SerialCaptureDecoder gives up a frame in progress: the longest frame's
+/// time on the wire at the protocol's baud rate, at least 1 ms (CRSF: 1748 us, Betaflight's figure).
+std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept;
 
 /// The protocol of a byte stream: the decoder that finds the most frames, at least 2 of them and more than
 /// its decode errors; nullopt when none does. For captures that do not say (logic-analyser exports).
@@ -88,6 +112,11 @@ std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t
 /// Decodes every link of a capture, one SerialStreamDecoder per link, created as links appear (memory grows with
 /// the number of links only). A link whose chunks say raw gets `fallback` when given; else its protocol is
 /// guessed from its first guess_bytes bytes, which are held back until then (or until finish()).
+/// Every message comes with the chunk its frame's last byte came in (its time and link), however late the frame
+/// is found. When a link has been quiet for longer than idle_gap_ns() before a chunk (the gap between the chunks'
+/// times less the new chunk's own time on the wire), an unfinished candidate that hides frames behind it is given
+/// up first (SerialStreamDecoder::abandon), so those frames come out at once; a candidate that hides none is
+/// kept, since it may be a real frame that a USB adapter delivered in two reads.
 class SerialCaptureDecoder {
  public:
   /// A message, with the chunk that completed it (its time and link) and the link's protocol.
@@ -118,7 +147,11 @@ class SerialCaptureDecoder {
     std::vector<SerialChunk> held;  // while guessing
     std::size_t held_bytes = 0;
     std::optional<std::uint64_t> last_ns;  // of the last chunk fed
+    /// The chunks that may still hold bytes of a frame: (stream offset just past the chunk, its time).
+    std::deque<std::pair<std::uint64_t, std::optional<std::uint64_t>>> recent;
   };
+  /// The chunk that held byte `end - 1` of the link's stream (its time and the link's name).
+  SerialChunk chunk_of(const State& state, std::uint64_t end) const;
   void decide(State& state, const Callback& on_message);
   void feed(State& state, const SerialChunk& chunk, const Callback& on_message);
   std::optional<SerialProtocol> fallback_;

@@ -1,0 +1,134 @@
+// Vector BLF ("binary logging format"), as CANoe/CANalyzer, python-can's BLFWriter and SavvyCAN write it.
+//
+// Layout (little-endian throughout): a file header ("LOGG", its size, application and format versions, file and
+// uncompressed sizes, object count, start and stop time as Windows SYSTEMTIME), then objects. Every object starts
+// with "LOBJ", its header size, header version, object size and type, and is followed by (object size mod 4)
+// padding bytes. At the top level the objects are log containers (type 10) whose payload, zlib-compressed
+// (method 2) or stored (method 0), is a stream of further objects; an object may continue in the next container.
+// Object headers of version 1 and 2 carry a timestamp in 10 µs or 1 ns units, relative to the file header's start
+// time. The start time has no time zone: it is read as UTC, as for ASC (python-can and CANoe write local time).
+//
+// Reading: CAN_MESSAGE (1) and CAN_MESSAGE2 (86) as frames; CAN_ERROR (2) and CAN_ERROR_EXT (73) as error frames
+// (a bus error, class 0x080 with 8 zero bytes, like an ASC ErrorFrame: BLF error objects carry no SocketCAN
+// class); CAN_FD_MESSAGE (100) and CAN_FD_MESSAGE_64 (101) as classic frames when their EDL flag is clear,
+// otherwise reported as CAN FD (unsupported), like the FD records of the other formats. Every other object type
+// is counted (skipped_objects()) and skipped. Channel N reads as "can<N-1>". A classic DLC of 9..15 reads as 8
+// bytes.
+// Hostile files: every length is checked against what is left (an object of size 0 or smaller than its header is
+// corrupt, never a loop); a container may declare at most kMaxContainerBytes uncompressed and must inflate to
+// exactly that; an object longer than kMaxObjectBytes is corrupt. After a corrupt object or container the reader
+// looks for the next "LOBJ" and carries on. Memory stays below a few containers whatever the file.
+// Both cores: while next() parses one container, the next ones are inflated on another thread
+// (BlfReadOptions::parallel), at most kPrefetch containers ahead.
+//
+// Writing: a 144-byte header, then CAN_MESSAGE objects (header version 1, 1 ns timestamps relative to the first
+// frame's millisecond) and CAN_ERROR_EXT for error frames, in zlib containers of 128 KiB. Channels are numbered
+// 1, 2, ... in order of first appearance of each interface name. close() fixes the header's sizes, count and
+// stop time when the stream can seek back (a file); otherwise (a pipe, a .gz) they stay as first written.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <future>
+#include <istream>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/capture.hpp"
+
+namespace saul::host {
+
+struct BlfReadOptions {
+  bool parallel = true;  ///< inflate the next containers on another thread
+};
+
+class BlfReader final : public CaptureReader {
+ public:
+  static constexpr std::uint32_t kMaxContainerBytes = 16U << 20;  ///< uncompressed or compressed
+  static constexpr std::uint32_t kMaxObjectBytes = 1U << 20;
+  static constexpr std::size_t kPrefetch = 2;
+
+  /// Reads the file header; throws CaptureOpenError when the stream does not start with one.
+  explicit BlfReader(std::istream& in, BlfReadOptions options = {});
+  ~BlfReader() override;
+
+  Status next() override;
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return name_; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
+
+  /// The measurement start of the file header as ns since 1970 (UTC); 0 when it has none.
+  [[nodiscard]] std::uint64_t start_ns() const { return start_ns_; }
+  /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
+  [[nodiscard]] std::uint64_t skipped_objects() const { return skipped_objects_; }
+  /// Log containers read so far.
+  [[nodiscard]] std::uint64_t containers() const { return containers_; }
+
+  /// One inflated container: its bytes, or what is wrong with it; `offset` is where it starts in the file.
+  struct Container {
+    std::uint64_t offset = 0;
+    std::vector<std::uint8_t> bytes;
+    std::string error;
+    bool starts_fresh = false;  ///< a container after a gap (a corrupt one before it): no object continues into it
+  };
+
+ private:
+  enum class Step { frame, corrupt, skipped, need_more };
+  enum class Load { loaded, corrupt, none };
+  Status corrupt(std::uint64_t position, Recovery recovery, std::string message);
+  Step object();
+  Step can_object(std::uint32_t type, const std::uint8_t* body, std::uint32_t length, std::uint64_t time_ns);
+  Load load_container();
+  void schedule();
+  std::optional<std::future<Container>> read_top_level();
+  std::size_t read_top(std::uint8_t* dst, std::size_t n);
+  std::uint64_t resync_top();
+
+  std::istream& in_;
+  BlfReadOptions options_;
+  std::uint64_t offset_ = 0;           // bytes taken from the stream
+  std::vector<std::uint8_t> look_;     // bytes taken but to be read again (a resync found "LOBJ")
+  std::uint64_t start_ns_ = 0;
+  bool top_ended_ = false;
+  std::deque<std::future<Container>> pending_;
+  std::vector<std::uint8_t> buf_;  // the object stream: a tail of the previous container + the current one
+  std::size_t pos_ = 0;
+  std::uint64_t container_offset_ = 0;  // file offset of the container the bytes at pos_ came from
+  bool ended_ = false;
+  CanFrame frame_;
+  std::string name_;
+  CaptureError error_;
+  std::uint64_t skipped_objects_ = 0;
+  std::uint64_t containers_ = 0;
+};
+
+class BlfWriter final : public CaptureWriter {
+ public:
+  static constexpr std::size_t kContainerBytes = 128 * 1024;
+  explicit BlfWriter(std::ostream& out);
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
+
+ private:
+  void write_header(std::uint64_t file_size);
+  void write_container();
+  std::ostream& out_;
+  std::vector<std::string> channels_;
+  std::vector<std::uint8_t> buffer_;  // uncompressed objects not yet in a container
+  std::optional<std::uint64_t> start_ns_;
+  std::uint64_t stop_ns_ = 0;
+  std::uint64_t file_bytes_ = 0;
+  std::uint64_t uncompressed_bytes_ = 0;
+  std::uint32_t objects_ = 0;
+  bool header_written_ = false;
+  bool closed_ = false;
+};
+
+}  // namespace saul::host

@@ -1,0 +1,70 @@
+// python-can's CSV log (can.CSVWriter / can.CSVReader, "python -m can.logger -f run.csv"):
+//
+//   timestamp,arbitration_id,extended,remote,error,dlc,data
+//   1700000000.00125,0x938,1,0,0,8,///7UAAjAPo=
+//
+// timestamp: seconds (Python's repr of a float: read exactly as the decimal it prints, to the nanosecond);
+// arbitration_id: hex with 0x; extended, remote, error: 1 or 0; dlc: decimal; data: the payload in base64 (empty
+// for remote frames). An error frame keeps its SocketCAN class (the id) and data bytes, as python-can's socketcan
+// interface hands them over. The file has no channel: every frame reads as "can0", and the writer drops the
+// interface name. The columns are found by their names in the header line (python-can writes them in the order
+// above); a line that does not parse is reported with line and column and skipped.
+// Writing: the same header, timestamps with 6 decimals (microseconds), LF line ends.
+#pragma once
+
+#include <cstdint>
+#include <istream>
+#include <ostream>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/capture.hpp"
+
+namespace saul::host {
+
+/// Standard base64 (RFC 4648, with padding), as Python's base64.b64encode writes it.
+std::string base64_encode(std::span<const std::uint8_t> bytes);
+/// Decodes standard base64 (padding optional) into at most out.size() bytes; returns the count, or -1 when the text
+/// is not base64 or holds more than out.size() bytes.
+int base64_decode(std::string_view text, std::span<std::uint8_t> out);
+
+class CsvLogReader final : public CaptureReader {
+ public:
+  explicit CsvLogReader(std::istream& in) : in_(in) {}
+  Status next() override;
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return "can0"; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
+
+ private:
+  bool header(std::string_view line);
+  bool row(std::string_view line);
+  bool fail(std::size_t column, std::string message);
+  std::istream& in_;
+  std::string line_;
+  std::vector<std::size_t> field_;  // column index of timestamp, arbitration_id, extended, remote, error, dlc, data
+  std::size_t columns_ = 0;
+  bool have_header_ = false;
+  CanFrame frame_;
+  CaptureError error_;
+  std::uint64_t line_number_ = 0;
+};
+
+class CsvLogWriter final : public CaptureWriter {
+ public:
+  explicit CsvLogWriter(std::ostream& out);
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
+
+ private:
+  std::ostream& out_;
+  bool closed_ = false;
+};
+
+}  // namespace saul::host

@@ -1,0 +1,99 @@
+// PEAK trace files (.trc), as PCAN-View, PCAN-Explorer, PEAK-Converter and python-can write them. Lines starting
+// with ';' are comments, except the header directives ";$FILEVERSION=", ";$STARTTIME=" and ";$COLUMNS=".
+//
+//   1.0  (no $FILEVERSION)  "     1)      1841  0001    8  00 00 ..."        number) time(ms) id dlc data
+//   1.1   "     1)      1841.0  Rx         0001  8  00 00 ..."                 number) time type id dlc data
+//   1.2   "     1)      1841.0 1  Rx         0001  8  00 00 ..."               ... time bus type id dlc data
+//   1.3   "     1)      1841.0 1  Rx         0001 -  8  00 00 ..."             ... time bus type id reserved dlc data
+//   2.0   "      1      1059.900 DT     0300 Rx 7  00 00 ..."                  columns N,O,T,I,d,l,D by default
+//   2.1   "      1      1059.900 DT 1      0300 Rx -  7    00 00 ..."          columns N,O,T,B,I,d,R,L,D by default
+//
+// Version 2 files name their columns in $COLUMNS (N number, O offset, T type, B bus, I id, d direction, R reserved,
+// l length, L DLC, D data); the reader follows it. An id of more than 4 hex digits is a 29-bit id. Times are
+// milliseconds since $STARTTIME, a count of days since 1899-12-30 (read as UTC, like ASC's date: PEAK writes the
+// local time); without it, times are the offsets alone.
+// Types: 1.x Rx/Tx frames (data "RTR" for a remote frame), "Error" as an error frame, "Warng" (bus status) skipped;
+// 2.x DT data, RR remote, ER error frame, FD/FB/FE/BI CAN FD (reported as unsupported), ST/EC/EV skipped. An error
+// frame carries no SocketCAN class: it reads as a bus error (0x080, 8 zero bytes), as in ASC. Bus N reads as
+// "can<N-1>" (1.0, 1.1 and 2.0 files have no bus: "can0"). A classic DLC of 9..15 reads as 8 bytes.
+//
+// Writing: version 2.1 with the columns N,O,T,B,I,d,R,L,D, python-can's layout; times in ms with 3 decimals
+// (microseconds) from a $STARTTIME that is exact in the file (a multiple of 0.864 s, 1e-5 days, at or before the
+// first frame), so that start + offset gives each frame's microsecond back. Buses are numbered 1, 2, ... in order
+// of first appearance of each interface name. Remote frames as RR, error frames as ER.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <istream>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/capture.hpp"
+
+namespace saul::host {
+
+/// Parses a $STARTTIME value ("44548.6028595139", days since 1899-12-30) into ns since 1970 (UTC); nullopt when it
+/// is not a number or lies before 1970.
+std::optional<std::uint64_t> parse_trc_start_time(std::string_view days);
+
+class TrcReader final : public CaptureReader {
+ public:
+  explicit TrcReader(std::istream& in) : in_(in) {}
+
+  Status next() override;
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return name_; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
+
+  /// 10 for 1.0 (no $FILEVERSION), 11, 12, 13, 20, 21.
+  [[nodiscard]] int version() const { return version_; }
+
+ private:
+  enum class Step { frame, corrupt, skipped };
+  Step parse_line(std::string_view line);
+  Step directive(std::string_view line);
+  Step v1_line();
+  Step v2_line();
+  Step frame_from(std::size_t time_token, std::optional<std::size_t> bus_token, std::size_t id_token,
+                  std::size_t dlc_token, bool dlc_is_length, std::size_t data_token, bool remote);
+  Step corrupt(std::size_t column, std::string message);
+
+  std::istream& in_;
+  std::string line_;
+  std::size_t line_length_ = 0;  // without its CR
+  std::vector<std::pair<std::size_t, std::string_view>> tokens_;  // (column, text)
+  int version_ = 10;
+  std::optional<std::uint64_t> start_ns_;
+  std::string columns_;  // version 2: one letter per column, "NOTBIdRLD"
+  CanFrame frame_;
+  std::string name_ = "can0";
+  CaptureError error_;
+  std::uint64_t line_number_ = 0;
+};
+
+class TrcWriter final : public CaptureWriter {
+ public:
+  explicit TrcWriter(std::ostream& out) : out_(out) {}
+  void write(const CanFrame& frame, std::string_view interface) override;
+  void flush() override;
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
+
+ private:
+  void header(std::uint64_t first_ns);
+  std::ostream& out_;
+  std::vector<std::string> buses_;
+  std::uint64_t start_ns_ = 0;
+  std::uint64_t number_ = 0;
+  bool header_written_ = false;
+  bool closed_ = false;
+};
+
+}  // namespace saul::host

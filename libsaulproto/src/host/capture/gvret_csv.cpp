@@ -1,0 +1,145 @@
+#include "saulproto/host/capture/gvret_csv.hpp"
+
+#include <fmt/format.h>
+
+#include <stdexcept>
+
+#include "../util.hpp"
+#include "text_fields.hpp"
+
+namespace saul::host {
+namespace {
+
+std::string upper_trimmed(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  std::string out(s);
+  for (char& c : out)
+    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
+  return out;
+}
+
+}  // namespace
+
+bool GvretCsvReader::fail(std::size_t column, std::string message) {
+  error_.column = column;
+  error_.message = std::move(message);
+  error_.kind = PositionKind::line;
+  error_.position = line_number_;
+  error_.recovery = Recovery::next_line;
+  return false;
+}
+
+bool GvretCsvReader::header(std::string_view line) {
+  have_header_ = true;
+  std::vector<std::pair<std::size_t, std::string_view>> fields;
+  detail::split_fields(line, ',', fields);
+  std::optional<std::size_t> time, id, extended, bus, len, data;
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const std::string name = upper_trimmed(fields[i].second);
+    if (name == "TIME STAMP") time = i;
+    if (name == "ID") id = i;
+    if (name == "EXTENDED") extended = i;
+    if (name == "BUS") bus = i;
+    if (name == "LEN") len = i;
+    if (name == "D1") data = i;
+  }
+  if (!time || !id || !extended || !bus || !len || !data)
+    return fail(0, "not SavvyCAN's CSV header (Time Stamp,ID,Extended,Dir,Bus,LEN,D1,...)");
+  time_ = *time;
+  id_ = *id;
+  extended_ = *extended;
+  bus_ = *bus;
+  len_ = *len;
+  data_ = *data;
+  return true;
+}
+
+bool GvretCsvReader::row(std::string_view line) {
+  std::vector<std::pair<std::size_t, std::string_view>> f;
+  detail::split_fields(line, ',', f);
+  if (f.size() <= std::max({time_, id_, extended_, bus_, len_}))
+    return fail(line.size(), "fewer fields than the header names");
+  const auto us = detail::parse_decimal(f[time_].second);
+  if (!us || *us > UINT64_MAX / 1000) return fail(f[time_].first, "Time Stamp must be microseconds");
+  const auto id = f[id_].second.size() <= 8 ? detail::parse_hex(f[id_].second) : std::nullopt;
+  if (!id || *id > CanFrame::kMaxExtendedId) return fail(f[id_].first, "ID must be hexadecimal, at most 1FFFFFFF");
+  const std::string ext = upper_trimmed(f[extended_].second);
+  if (ext != "TRUE" && ext != "FALSE") return fail(f[extended_].first, "Extended must be true or false");
+  const auto bus = detail::parse_decimal(f[bus_].second);
+  if (!bus || *bus > 255) return fail(f[bus_].first, "Bus must be a number 0..255");
+  const auto len = detail::parse_decimal(f[len_].second);
+  if (!len) return fail(f[len_].first, "LEN must be a number");
+  if (*len > 8) return fail(f[len_].first, "LEN above 8 (CAN FD): the robot's bus is classic CAN, FD is not supported");
+  CanFrame fr;
+  fr.timestamp_ns = *us * 1000;
+  fr.id = static_cast<std::uint32_t>(*id);
+  fr.extended = ext == "TRUE" || *id > CanFrame::kMaxStandardId;  // SavvyCAN reads a long id as 29-bit too
+  fr.dlc = static_cast<std::uint8_t>(*len);
+  if (f.size() < data_ + fr.dlc)
+    return fail(line.size(), fmt::format("LEN is {} but {} data bytes follow", fr.dlc, f.size() > data_ ? f.size() - data_ : 0));
+  for (std::size_t i = 0; i < fr.dlc; ++i) {
+    const auto [col, text] = f[data_ + i];
+    const auto b = text.size() <= 2 ? detail::parse_hex(text) : std::nullopt;
+    if (!b) return fail(col, "data byte must be 1 or 2 hex digits");
+    fr.data[i] = static_cast<std::uint8_t>(*b);
+  }
+  frame_ = fr;
+  name_ = fmt::format("can{}", *bus);
+  return true;
+}
+
+GvretCsvReader::Status GvretCsvReader::next() {
+  while (std::getline(in_, line_)) {
+    ++line_number_;
+    std::string_view line = line_;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.remove_suffix(1);
+    if (line.empty()) continue;
+    if (!have_header_) {
+      if (line_number_ == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
+      if (!header(line)) return Status::corrupt;
+      continue;
+    }
+    if (row(line)) return Status::frame;
+    return Status::corrupt;
+  }
+  return Status::end;
+}
+
+// ---- writer ----
+
+GvretCsvWriter::GvretCsvWriter(std::ostream& out) : out_(out) {
+  out_ << "Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n";
+  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
+}
+
+void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("GVRET CSV writer: write after close");
+  check_writable(frame);
+  if (frame.remote || frame.error) return;  // the format has neither
+  if (interface.empty()) interface = "can0";
+  std::size_t bus = 0;
+  while (bus < buses_.size() && buses_[bus] != interface) ++bus;
+  if (bus == buses_.size()) {
+    if (buses_.size() == 256) throw std::invalid_argument("GVRET CSV: more than 256 interfaces");
+    buses_.emplace_back(interface);
+  }
+  std::string line = fmt::format("{},{:08X},{},Rx,{},{},", frame.timestamp_ns.value_or(0) / 1000, frame.id,
+                                 frame.extended ? "true" : "false", bus, frame.dlc);
+  for (std::size_t i = 0; i < 8; ++i) line += fmt::format("{:02X},", i < frame.dlc ? frame.data[i] : 0);
+  out_ << line << '\n';
+  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
+}
+
+void GvretCsvWriter::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
+}
+
+void GvretCsvWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  flush();
+}
+
+}  // namespace saul::host

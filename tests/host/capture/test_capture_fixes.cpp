@@ -1,0 +1,248 @@
+// Bugs found with other tools' files (issue 16), one test each: candump's raw-DLC suffix, ASC's DLC 9..15 and
+// classic frames on CANFD lines (log2asc -f), pcapng Simple Packet Blocks, error frames in pcap, interface names with
+// white space, another tool's text log named .log; and content detection of the new formats, --input-format,
+// and a broken compressed file reported as a corrupt record.
+#include <catch2/catch.hpp>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "saulproto/host/capture/asc.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+#include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+
+using namespace saul;
+using namespace saul::host;
+
+namespace {
+
+struct Read {
+  std::vector<CanFrame> frames;
+  std::vector<std::string> names;
+  std::vector<std::string> errors;
+  Recovery last_recovery = Recovery::next_line;
+};
+
+Read read_all(CaptureReader& r) {
+  Read out;
+  for (;;) {
+    const auto st = r.next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::frame) {
+      out.frames.push_back(r.frame());
+      out.names.emplace_back(r.interface());
+    } else {
+      out.errors.push_back(r.error().message);
+      out.last_recovery = r.error().recovery;
+    }
+  }
+  return out;
+}
+
+Read read(const std::string& bytes, CaptureFormat format) {
+  std::istringstream in(bytes);
+  auto r = make_capture_reader(in, format);
+  return read_all(*r);
+}
+
+std::optional<CaptureFormat> detect(std::string_view text) {
+  return detect_capture_format(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+
+void le32(std::string& s, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) s += static_cast<char>(v >> (8 * i));
+}
+
+struct TempDir {
+  std::filesystem::path path = std::filesystem::temp_directory_path() / ("saul_fixes_" + std::to_string(::getpid()));
+  TempDir() { std::filesystem::create_directories(path); }
+  ~TempDir() { std::filesystem::remove_all(path); }
+  std::string write(const std::string& name, const std::string& content) const {
+    const auto p = (path / name).string();
+    std::ofstream(p, std::ios::binary) << content;
+    return p;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("candump: the raw-DLC suffix can-utils writes since 2020.12") {
+  CandumpLine line;
+  CandumpError error;
+  REQUIRE(parse_candump_line("(1700000000.000000) can0 3FF#55AA010203040506_D", line, error));
+  CHECK((line.frame.id == 0x3FF && line.frame.dlc == 8 && line.frame.data[7] == 0x06));
+  REQUIRE(parse_candump_line("(1700000000.000000) can0 123#R8_D", line, error));
+  CHECK((line.frame.remote && line.frame.dlc == 8));
+  CHECK(!parse_candump_line("(1700000000.000000) can0 123#1122_D", line, error));
+  CHECK(error.message == "a raw DLC suffix needs 8 data bytes (or R8)");
+  CHECK(!parse_candump_line("(1700000000.000000) can0 3FF#55AA010203040506_8", line, error));
+  CHECK(error.message == "raw DLC suffix must be _9 to _F (after 8 data bytes)");
+}
+
+TEST_CASE("ASC: a classic DLC of 9..15 and CANFD lines that carry classic frames") {
+  const std::string header = "date Tue Nov 14 22:13:20 2023\nbase hex  timestamps absolute\nno internal events logged\n";
+  // CANoe 12 writes the DLC of a classic frame as it was on the wire: D = 13, 8 bytes follow
+  const Read dlc = read(header + "   0.001000 1  3FF             Tx   d D 55 AA 01 02 03 04 05 06\n", CaptureFormat::asc);
+  REQUIRE(dlc.frames.size() == 1);
+  CHECK((dlc.frames[0].dlc == 8 && dlc.frames[0].data[7] == 0x06));
+  // `log2asc -f -I t.log can0` (can-utils 2020.11) for 344x 00 00 05 DC, 123#R4, 7FF#1122, an FD frame with BRS;
+  // then a line with a symbolic name, as CANoe writes them
+  const Read fd = read(header +
+                           "   0.000000 CANFD   1 Rx        344x                                  0 0 4  4 00 00 05 DC   130000  130        0 0 0 0 0 0\n"
+                           "   0.001250 CANFD   1 Rx        123                                   0 0 4  0   130000  130       10 0 0 0 0 0\n"
+                           "   0.002000 CANFD   1 Rx        7FF                                   0 0 2  2 11 22   130000  130        0 0 0 0 0 0\n"
+                           "   0.003000 CANFD   1 Rx        123                                   1 0 3  3 11 22 33   130000  130     3000 0 0 0 0 0\n"
+                           "   0.004000 CANFD   2 Tx        300  velocity_cmd  0 0 4  4 E8 03 0C FE   130000  130        0 0 0 0 0 0\n",
+                       CaptureFormat::asc);
+  REQUIRE(fd.frames.size() == 4);
+  CHECK((fd.frames[0].id == 0x344 && fd.frames[0].extended && fd.frames[0].dlc == 4 && fd.frames[0].data[3] == 0xDC));
+  CHECK((fd.frames[1].remote && fd.frames[1].dlc == 4));
+  CHECK((fd.frames[2].id == 0x7FF && fd.frames[2].dlc == 2));
+  CHECK((fd.frames[3].id == 0x300 && fd.frames[3].data[0] == 0xE8));
+  CHECK(fd.names == std::vector<std::string>{"can0", "can0", "can0", "can1"});
+  CHECK(fd.errors == std::vector<std::string>{"CAN FD frame: the robot's bus is classic CAN, FD is not supported"});
+}
+
+TEST_CASE("pcapng: Simple Packet Blocks are read (interface 0, no timestamp)") {
+  std::string f;
+  le32(f, 0x0A0D0D0A);  // SHB
+  le32(f, 28);
+  le32(f, 0x1A2B3C4D);
+  f += std::string("\x01\x00\x00\x00", 4);
+  f += std::string(8, '\xFF');
+  le32(f, 28);
+  le32(f, 1);  // IDB: linktype 227, snaplen 0, if_name "can7"
+  le32(f, 28);
+  le32(f, 227);
+  le32(f, 0);
+  f += std::string("\x02\x00\x04\x00" "can7", 8);
+  le32(f, 28);
+  const std::string packet("\x00\x00\x03\x00\x02\x00\x00\x00\x11\x22\x00\x00\x00\x00\x00\x00", 16);
+  le32(f, 3);  // SPB: original length, then the packet
+  le32(f, 32);
+  le32(f, 16);
+  f += packet;
+  le32(f, 32);
+  le32(f, 3);  // a length past its block
+  le32(f, 32);
+  le32(f, 40);
+  f += packet;
+  le32(f, 32);
+  const Read r = read(f, CaptureFormat::pcapng);
+  REQUIRE(r.frames.size() == 1);
+  CHECK((r.frames[0].id == 0x300 && r.frames[0].dlc == 2 && r.frames[0].data[1] == 0x22));
+  CHECK(!r.frames[0].timestamp_ns);
+  CHECK(r.names[0] == "can7");
+  CHECK(r.errors == std::vector<std::string>{"packet length 40 runs past the end of its simple packet block"});
+}
+
+TEST_CASE("pcap: an error frame carries 8 bytes, as the kernel sends it (Wireshark marks 0 malformed)") {
+  CanFrame e;
+  e.error = true;
+  e.id = 0x004;
+  e.dlc = 0;  // whatever the source said
+  const auto p = encode_socketcan_packet(e);
+  CHECK(p == std::array<std::uint8_t, 16>{0x20, 0x00, 0x00, 0x04, 0x08, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0});
+  e.dlc = 8;
+  e.data = {0, 0x04, 0, 0, 0, 0, 0, 0};
+  CHECK(encode_socketcan_packet(e)[9] == 0x04);
+}
+
+TEST_CASE("candump: an interface name with white space (text2pcap's pcapng) is one word") {
+  CanFrame f;
+  f.id = 0x300;
+  f.dlc = 2;
+  f.data = {0x11, 0x22};
+  f.timestamp_ns = 1'700'000'000'000'000'000ULL;
+  CHECK(format_candump_line(f, "Fake IF, text2pcap") == "(1700000000.000000) Fake_IF,_text2pcap 300#1122");
+  std::ostringstream out;
+  CandumpWriter w(out);
+  w.write(f, "Fake IF, text2pcap");  // used to throw and abort the whole conversion
+  CHECK(out.str() == "(1700000000.000000) Fake_IF,_text2pcap 300#1122\n");
+  CopyStats stats;
+  stats.interfaces = {"Fake IF, text2pcap"};
+  CHECK(conversion_losses(stats, CaptureFormat::candump) ==
+        std::vector<std::string>{"candump writes white space in interface names as '_': 'Fake IF, text2pcap' reads "
+                                 "back as 'Fake_IF,_text2pcap'"});
+}
+
+TEST_CASE("a .log that is another tool's text log is refused, not read as an empty capture") {
+  TempDir dir;
+  const auto busmaster = dir.write("bm.log",
+                                   "***BUSMASTER Ver 3.2.2***\n***PROTOCOL CAN***\n***[START LOGGING SESSION]***\n"
+                                   "10:39:51:0105 Rx 1 0x0C1 s 8 00 00 00 00 00 00 00 00\n");
+  try {
+    (void)open_capture_reader(busmaster);
+    FAIL("opened");
+  } catch (const CaptureOpenError& e) {
+    CHECK(std::string(e.what()).find("is not a candump log: it is a BusMaster log") != std::string::npos);
+  }
+  const auto microchip = dir.write("mc.log", "Time(ms),ID,DLC,Data\n12.5,0x300,4,E8 03 0C FE\n");
+  CHECK_THROWS_WITH(open_capture_reader(microchip), Catch::Contains("whose first line is 'Time(ms),ID,DLC,Data'"));
+  // forced, it reads as canplayer would: no frame
+  auto forced = open_capture_reader(busmaster, CaptureFormat::candump);
+  CHECK(read_all(*forced).frames.empty());
+  auto empty = open_capture_reader(dir.write("empty.log", ""));  // an empty recording is still a capture
+  CHECK(read_all(*empty).frames.empty());
+}
+
+TEST_CASE("content detection of BLF, TRC and both CSVs; --input-format overrides it") {
+  CHECK(detect(std::string("LOGG\x90\0\0\0", 8)) == CaptureFormat::blf);
+  CHECK(detect(";$FILEVERSION=1.1\r\n;$STARTTIME=45000.5\r\n") == CaptureFormat::trc);
+  CHECK(detect(";##########\n;   Start time: 12.03.2015\n     1)      1841  0001    8  00\n") == CaptureFormat::trc);
+  CHECK(detect("timestamp,arbitration_id,extended,remote,error,dlc,data\n") == CaptureFormat::csv);
+  CHECK(detect("Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2\n") == CaptureFormat::gvret_csv);
+  CHECK(detect("TIME STAMP,ID,EXTENDED,BUS,LEN,D1\n") == CaptureFormat::gvret_csv);
+  CHECK(detect("Sample,Time,Decoder,Ann Row\n") == CaptureFormat::pulseview_csv);
+  CHECK(capture_format_from_extension("x.BLF") == CaptureFormat::blf);
+  CHECK(capture_format_from_extension("x.trc") == CaptureFormat::trc);
+  CHECK(capture_format_from_extension("x.log.gz") == std::nullopt);
+  CHECK(capture_format_from_name("gvret-csv") == CaptureFormat::gvret_csv);
+
+  TempDir dir;
+  const auto asc = dir.write("x.asc", "date Tue Nov 14 22:13:20 2023\n   0.001000 1  300  Rx   d 1 01\n");
+  SerialReadOptions options;
+  options.format = CaptureFormat::candump;
+  const OpenedCapture opened = open_capture(asc, options);
+  CHECK(opened.format == CaptureFormat::candump);  // forced: its lines are comments to candump
+  REQUIRE(opened.frames);
+  CHECK(read_all(*opened.frames).frames.empty());
+  CHECK(open_capture(asc).format == CaptureFormat::asc);
+}
+
+TEST_CASE("a broken compressed file ends with a corrupt record saying so") {
+  TempDir dir;
+  const auto path = (dir.path / "run.log.gz").string();
+  {
+    auto w = open_capture_writer(path);
+    CanFrame f;
+    f.id = 0x300;
+    f.dlc = 1;
+    for (std::uint8_t i = 0; i < 200; ++i) {
+      f.data[0] = i;
+      f.timestamp_ns = 1'700'000'000'000'000'000ULL + i * 1000ULL;
+      w->write(f, "can0");
+    }
+    w->close();
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const auto cut = dir.write("cut.gz", bytes.substr(0, bytes.size() / 2));
+  auto r = open_capture_reader(cut);
+  CHECK(r->format() == CaptureFormat::candump);
+  const Read got = read_all(*r);
+  CHECK(!got.frames.empty());
+  REQUIRE(!got.errors.empty());
+  CHECK(got.errors.back() == "the gzip file ends before its end marker (truncated?)");
+  CHECK(got.last_recovery == Recovery::stop);
+}
