@@ -108,7 +108,8 @@ saul::host::FlashPlan build_plan(const FlashOptions& opt) {
       throw CLI::ValidationError("--flash-size", "'" + opt.flash_size + "': use e.g. 4MB, 8MB, 16MB");
     plan.flash_size_source = "--flash-size";
   }
-  saul::host::check_plan(plan);
+  saul::host::check_plan(plan, opt.force);
+  for (const auto& w : plan.warnings) fmt::print(stderr, "saulctl: warning: {}\n", w);
   return plan;
 }
 
@@ -189,8 +190,10 @@ int check_robot(const FlashOptions& opt) {
     return kTimeout;
   }
   if (ack.status == saul::host::CommandOutcome::Status::rejected) {
-    fmt::print(stderr, "saulctl: robot check: the robot refused mode off ({}): not flashing\n",
-               saul::saulcan::to_string(ack.result));
+    fmt::print(stderr,
+               "saulctl: robot check: the robot refused mode off ({}): not flashing; see why with 'saulctl monitor "
+               "--link {}', or hold the robot and use --skip-robot-check\n",
+               saul::saulcan::to_string(ack.result), link->name());
     return kFailure;
   }
   // The acknowledgement says the command was taken; the telemetry says what the robot is doing now.
@@ -211,7 +214,9 @@ int check_robot(const FlashOptions& opt) {
     return kTimeout;
   }
   if (*state != saul::saulcan::RobotState::off && *state != saul::saulcan::RobotState::estop) {
-    fmt::print(stderr, "saulctl: robot check: the robot still reports state {} after mode off: not flashing\n",
+    fmt::print(stderr,
+               "saulctl: robot check: the robot still reports state {} after mode off: not flashing; bring it to rest "
+               "and disarm it (saulctl mode off, or its RC kill switch), then run again\n",
                saul::saulcan::to_string(*state));
     return kFailure;
   }
@@ -293,8 +298,11 @@ std::unique_ptr<saul::host::SerialPort> open_board_port(const std::string& path)
   } catch (const saul::host::SerialError& e) {
     if (e.kind() == saul::host::SerialError::Kind::busy) {
       const auto holders = holders_of(path);
-      fmt::print(stderr, "saulctl: {}{}{}\n", e.what(), holders.empty() ? "" : " - held by ",
-                 fmt::join(holders, ", "));
+      if (holders.empty())
+        fmt::print(stderr, "saulctl: {}\n", e.what());
+      else
+        fmt::print(stderr, "saulctl: {}: busy, held by {}: close it (a serial monitor?) and run again\n", path,
+                   fmt::join(holders, ", "));
       return nullptr;
     }
     throw;
@@ -411,9 +419,14 @@ int run_flash(const FlashOptions& opt) {
     // What was done before the failure, and what was left unverified.
     for (const auto& r : flasher.outcomes())
       if (r.state == saul::host::RegionOutcome::State::unverified) print_outcome(r);
-    fmt::print(stderr, "saulctl: {}\n", e.what());
-    if (const auto* fe = dynamic_cast<const FlashError*>(&e))
+    if (const auto* fe = dynamic_cast<const FlashError*>(&e)) {
+      fmt::print(stderr, "saulctl: {}\n", e.what());
       return fe->kind() == FlashError::Kind::no_answer ? kTimeout : kFailure;
+    }
+    // The port failing under us (a write that would not go out, a driver error): FlashError's lines carry their
+    // fix, the port's own do not.
+    fmt::print(stderr, "saulctl: {}: replug the board and flash again{}\n", e.what(),
+               flasher.outcomes().empty() ? "" : " (regions listed UNVERIFIED may not boot until then)");
     return kFailure;
   }
 
@@ -464,7 +477,8 @@ void add_flash_command(CLI::App& app, Runner& run) {
       ->capture_default_str()
       ->check(CLI::Range(9600, 4000000));
   cmd->add_flag("--no-compress", o->no_compress, "send the image uncompressed (FLASH_DATA instead of FLASH_DEFL_DATA)");
-  cmd->add_flag("--force", o->force, "write regions even when their flash MD5 already matches");
+  cmd->add_flag("--force", o->force,
+                "write anyway: regions whose flash MD5 already matches, a non-image at 0x0, an ELF file");
   cmd->add_flag("--no-reset", o->no_reset, "the board is already in download mode (BOOT held, RESET tapped)");
   cmd->add_option("--reset", o->reset,
                   "only reset the board, write nothing: bootloader (into download mode) | app (into its "

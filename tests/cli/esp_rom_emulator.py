@@ -13,7 +13,9 @@ then it writes --report (JSON) and saves --flash-file. Nothing in it waits on a 
 spends the time the bytes would take on a real UART.
 
 Fault injection: --silent (no chip in download mode), --chatter (the app's boot text instead of answers),
---mute-download (the ROM's download banner, then nothing), --echo (a loopback), --bad-checksum-block N, --drop-byte-in-block N, --vanish-after BYTES.
+--mute-download (the ROM's download banner, then nothing), --echo (a loopback), --bad-checksum-block N, --drop-byte-in-block N, --vanish-after BYTES,
+--write-error-block N (flash write error 0x08 for data block N, every time), --quiet-from-block N (no answer from
+data block N on).
 """
 import argparse
 import hashlib
@@ -50,6 +52,7 @@ SECTOR = 0x1000
 
 ERR_INVALID = 0x05
 ERR_CHECKSUM = 0x07
+ERR_FLASH_WRITE = 0x08
 ERR_DEFLATE = 0x0B
 DOWNLOAD_TEXT = (b"ESP-ROM:esp32s3-20210327\r\nBuild:Mar 27 2021\r\nrst:0x1 (POWERON),boot:0x0 (DOWNLOAD(USB/UART0))\r\n"
                  b"waiting for download\r\n")
@@ -133,6 +136,8 @@ class Rom:
             return
         if op in (0x03, 0x11):
             self.data_blocks += 1
+            if self.a.quiet_from_block is not None and self.data_blocks >= self.a.quiet_from_block:
+                return  # the chip stopped answering mid-write
             if self.a.drop_byte_in_block == self.data_blocks:
                 data = data[: len(data) // 2] + data[len(data) // 2 + 1:]  # one byte lost on the line
         name = OP_NAMES.get(op, hex(op))
@@ -254,6 +259,8 @@ class Rom:
         if checksum != expect or self.a.bad_checksum_block == self.data_blocks:
             self.a.bad_checksum_block = None  # once
             return self.fail(op, 0xC1 if self.stub else ERR_CHECKSUM)
+        if self.a.write_error_block == seq + 1:
+            return self.fail(op, ERR_FLASH_WRITE)
         if seq == w["seq"] - 1:  # the same block again (its answer was lost): already written
             self.report["duplicate_blocks"] += 1
             return self.respond(op)
@@ -369,6 +376,8 @@ def main():
     p.add_argument("--echo", action="store_true", help="send back whatever arrives")
     p.add_argument("--bad-checksum-block", type=int, help="report a checksum error for data block N (1-based), once")
     p.add_argument("--drop-byte-in-block", type=int, help="lose one byte of data block N (1-based)")
+    p.add_argument("--write-error-block", type=int, help="answer data block N (1-based) with a flash write error")
+    p.add_argument("--quiet-from-block", type=int, help="stop answering from the Nth data block received on")
     p.add_argument("--vanish-after", type=int, help="close the port after receiving this many bytes")
     p.add_argument("--baud-pacing", action="store_true", help="spend the time the bytes would take at the baud rate")
     p.add_argument("--link", help="also make this symlink to the pty")

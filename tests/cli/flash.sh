@@ -56,6 +56,17 @@ args = '''{
 open(os.path.join(out, 'build', 'flasher_args.json'), 'w').write(args.replace('CHIP', 'esp32s3'))
 os.makedirs(os.path.join(out, 'c3build'))
 open(os.path.join(out, 'c3build', 'flasher_args.json'), 'w').write(args.replace('CHIP', 'esp32c3'))
+# The build's settings disagree with the bootloader's header (dio, 8MB, 80m): qio, 4MB, 40m.
+os.makedirs(os.path.join(out, 'mismatch'))
+for name in ('bootloader', 'partition_table'):
+    os.symlink(os.path.join(out, 'build', name), os.path.join(out, 'mismatch', name))
+os.symlink(os.path.join(out, 'app.bin'), os.path.join(out, 'mismatch', 'saul_balance.bin'))
+mis = args.replace('CHIP', 'esp32s3').split('"flash_settings"')
+mis[1] = mis[1].replace('"dio"', '"qio"', 1).replace('"8MB"', '"4MB"', 1).replace('"80m"', '"40m"', 1)
+open(os.path.join(out, 'mismatch', 'flasher_args.json'), 'w').write('"flash_settings"'.join(mis))
+# An ELF file (what the linker writes beside the .bin): ELF magic, 64-bit, little-endian, Xtensa (machine 94).
+elf = b'\x7fELF' + bytes([1, 1, 1, 0]) + bytes(8) + struct.pack('<HHI', 2, 94, 1) + bytes(4096)
+open(os.path.join(out, 'app.elf'), 'wb').write(elf)
 EOF
 
 # --- helpers ----------------------------------------------------------------------------------------------------
@@ -172,7 +183,7 @@ check "... says it runs its application and shows what it said" \
 
 rom mute --mute-download -- --board balance --connect-attempts 1 "$out/app.bin"
 check "a chip in download mode that never answers is told apart (a line problem)" \
-  bash -c "test $(rc mute) -eq 3 && grep -q 'the chip is in download mode (its boot log says so) but never answered SYNC' '$out/mute.err'"
+  bash -c "test $(rc mute) -eq 3 && grep -q 'the chip is in download mode (its boot log says so: \"ESP-ROM.*waiting for download\") but never answered SYNC: .*unplug, replug and run again$' '$out/mute.err'"
 
 rom echo --echo -- --board io --connect-attempts 1 "$out/app.bin"
 check "a loopback is recognised as one" \
@@ -233,6 +244,36 @@ check "a port of unknown identity without --board is a usage error naming --boar
 "$saulctl" flash --board balance --port /dev/null 0x10800 "$out/app.bin" >/dev/null 2>"$out/align.err"
 check "an offset off a 4 KiB sector is refused" grep -q 'not on a 4 KiB sector boundary' "$out/align.err"
 
+# --- what the ROM could not boot, and a build that disagrees with its bootloader ---------------------------------
+rom elf -- --board balance "$out/app.elf"
+check "an ELF file is refused with exit 1" test "$(rc elf)" -eq 1
+check "... saying so and naming the .bin beside it" \
+  grep -q "app.elf: this is an ELF file (the linker's output), not a flash image: flash $out/app.bin, the .bin idf.py wrote beside it (--force writes it anyway)$" "$out/elf.err"
+check "... before a byte is sent to the board" json elf "r['bytes_in'] == 0"
+rom elfforce --flash-file "$out/flash10.bin" -- --board balance --force "$out/app.elf"
+check "--force writes the ELF anyway, with a warning" \
+  bash -c "test $(rc elfforce) -eq 0 && grep -q 'warning: .*app.elf: this is an ELF file.*written anyway (--force)' '$out/elfforce.err'"
+check "... byte for byte" same "$out/flash10.bin" 0x10000 "$out/app.elf"
+rom notimage -- --board balance 0x0 "$out/pt.bin" 0x10000 "$out/app.bin"
+check "a file at 0x0 without the image magic 0xE9 is refused with exit 1" \
+  bash -c "test $(rc notimage) -eq 1 && grep -q 'pt.bin at 0x0: not an ESP image (first byte 0xAA, an image starts with 0xE9)' '$out/notimage.err'"
+check "... before a byte is sent to the board" json notimage "r['bytes_in'] == 0"
+rom mismatch --flash-file "$out/flash11.bin" --flash-size 0x800000 -- --board balance --build-dir "$out/mismatch"
+check "a bootloader header that disagrees with flasher_args.json still flashes (exit 0)" test "$(rc mismatch)" -eq 0
+check "... with one warning naming mode, size and frequency" \
+  grep -q 'warning: bootloader/bootloader.bin: its header says flash mode dio (flasher_args.json: qio), flash size 8 MB (flasher_args.json: 4MB), flash frequency 80m (flasher_args.json: 40m); .*rebuild (idf.py build) so they agree$' "$out/mismatch.err"
+check "a build that agrees with its bootloader gives no warning" bash -c "! grep -q warning '$out/build.err'"
+
+# --- failures mid-write end with their fix ----------------------------------------------------------------------
+rom werr --write-error-block 2 -- --board balance --no-compress "$out/app2.bin"
+check "a flash write error exits 1" test "$(rc werr)" -eq 1
+check "... and says what to do" \
+  grep -q 'block 2 of 64 of .*app2.bin refused 3 times, the region at 0x10000 is UNVERIFIED: flash write error (read-back mismatch) (error 0x08): the flash did not take the data .*the module.s flash is faulty$' "$out/werr.err"
+rom quiet --quiet-from-block 3 -- --board balance "$out/app.bin"
+check "no answer mid-write exits 3" test "$(rc quiet)" -eq 3
+check "... with the fix" \
+  grep -q 'no answer to block 3 of .* after 3 tries: .*UNVERIFIED: reset the board into download mode (or replug it) and flash again$' "$out/quiet.err"
+
 # --- the robot check --------------------------------------------------------------------------------------------
 robot_run() {  # robot_run NAME ROBOT-ARGS... : a robot, then a flash with --link to it
   local name=$1; shift
@@ -250,7 +291,7 @@ check "robot check: mode off acknowledged and 0x400 OFF, then flashed" \
 check "robot check: it sent mode off (0x302 00)" grep -q '^t302100$' "$out/robot_off.lines"
 robot_run robot_balancing --state 1
 check "robot check: still BALANCE after mode off -> refused, exit 1" \
-  bash -c "test $(rc robot_balancing) -eq 1 && grep -q 'still reports state BALANCE' '$out/robot_balancing.err'"
+  bash -c "test $(rc robot_balancing) -eq 1 && grep -q 'still reports state BALANCE after mode off: not flashing; .*then run again$' '$out/robot_balancing.err'"
 check "robot check: ... and the board was not touched" json robot_balancing "r['bytes_in'] == 0"
 robot_run robot_silent --no-ack
 check "robot check: no acknowledgement -> exit 3 with the way out" \

@@ -355,6 +355,63 @@ TEST_CASE("flash: the plan is checked before the board is touched") {
   CHECK(kind_of(other) == FlashError::Kind::wrong_chip);
 }
 
+TEST_CASE("flash: what the ROM cannot boot is refused unless forced; a header that disagrees with the build warns") {
+  auto one = [](std::uint32_t offset, std::vector<std::uint8_t> data, const char* name) {
+    FlashPlan p;
+    p.images.push_back({offset, std::move(data), name});
+    return p;
+  };
+  // ELF magic (7F 'E' 'L' 'F'), as the linker writes build/<project>.elf.
+  std::vector<std::uint8_t> elf = {0x7F, 'E', 'L', 'F', 1, 1, 1, 0};
+  elf.resize(4096);
+  auto plan = one(0x10000, elf, "build/app.elf");
+  try {
+    check_plan(plan);
+    FAIL("an ELF accepted");
+  } catch (const FlashError& e) {
+    CHECK(e.kind() == FlashError::Kind::input);
+    CHECK_THAT(e.what(), Catch::StartsWith("build/app.elf: this is an ELF file") &&
+                             Catch::EndsWith("(--force writes it anyway)"));
+  }
+  plan = one(0x10000, elf, "build/app.elf");
+  check_plan(plan, true);
+  REQUIRE(plan.warnings.size() == 1);
+  CHECK_THAT(plan.warnings[0], Catch::EndsWith("written anyway (--force)"));
+
+  // A partition table (magic AA 50) is fine at 0x8000, not at 0x0 where the ROM looks for the bootloader.
+  std::vector<std::uint8_t> table = {0xAA, 0x50, 0x01, 0x02};
+  table.resize(3072, 0xFF);
+  plan = one(0x8000, table, "pt.bin");
+  check_plan(plan);
+  CHECK(plan.warnings.empty());
+  plan = one(0x0, table, "pt.bin");
+  CHECK_THROWS_WITH(check_plan(plan), Catch::Contains("pt.bin at 0x0: not an ESP image (first byte 0xAA, an image "
+                                                      "starts with 0xE9)"));
+
+  // app_image's header: byte 2 = 2 (dio), byte 3 = 0x2F (size code 2 = 4 MB, frequency code 0xF = 80m).
+  auto with_settings = [&](const char* mode, const char* size, const char* freq) {
+    auto p = one(0x0, app_image(4096), "bootloader.bin");
+    p.settings_mode = mode;
+    p.settings_size = size;
+    p.settings_freq = freq;
+    check_plan(p);
+    return p.warnings;
+  };
+  CHECK(with_settings("dio", "4MB", "80m").empty());
+  CHECK(with_settings("keep", "detect", "keep").empty());  // nothing to compare
+  auto w = with_settings("qio", "4MB", "80m");
+  REQUIRE(w.size() == 1);
+  CHECK_THAT(w[0], Catch::StartsWith("bootloader.bin: its header says flash mode dio (flasher_args.json: qio); "));
+  w = with_settings("DIO", "16MB", "40m");
+  REQUIRE(w.size() == 1);
+  CHECK_THAT(w[0], Catch::Contains("says flash size 4 MB (flasher_args.json: 16MB), flash frequency 80m "
+                                   "(flasher_args.json: 40m); "));
+  // The refusal texts end with what to do.
+  CHECK_THAT(refusal_text(0x08), Catch::StartsWith("flash write error") && Catch::EndsWith("faulty"));
+  CHECK_THAT(refusal_text(0x07), Catch::Contains("(error 0x07): a noisy line: run again with a lower --baud"));
+  CHECK_THAT(refusal_text(0x0B), Catch::EndsWith("run again with --no-compress"));
+}
+
 TEST_CASE("flash: after a USB-Serial/JTAG reset the IO board is found again by its serial number") {
   PortInfo before{"/dev/ttyACM0",      "",     "Espressif", "USB JTAG/serial debug unit",
                   "48:27:E2:C9:0A:88", 0x303A, 0x1001,      ""};

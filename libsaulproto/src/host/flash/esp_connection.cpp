@@ -34,6 +34,37 @@ std::string printable(const std::string& raw) {
 
 }  // namespace
 
+std::string refusal_text(std::uint8_t error) {
+  const char* fix = nullptr;
+  switch (error) {
+    case 0x07:  // invalid checksum
+    case 0xC1:
+    case 0xC0:  // stub: bad data length
+      fix = "a noisy line: run again with a lower --baud (e.g. 115200) or a shorter USB cable";
+      break;
+    case 0x08:  // flash write error
+    case 0xC4:
+    case 0xC5:
+      fix = "the flash did not take the data (write-protected, or a flash size/mode the chip's flash does not "
+            "have): check --flash-size and the build's flash settings, then run again; if it repeats, the "
+            "module's flash is faulty";
+      break;
+    case 0x09:
+    case 0x0A:
+      fix = "the flash did not read back: check --flash-size, then run again; if it repeats, the module's flash "
+            "is faulty";
+      break;
+    case 0x0B:
+    case 0xC7:
+      fix = "the loader could not inflate the data: run again with --no-compress";
+      break;
+    default:
+      fix = "reset the board into download mode and run again";
+      break;
+  }
+  return fmt::format("{} (error 0x{:02X}): {}", esp::error_text(error), error, fix);
+}
+
 // --- reset sequences -------------------------------------------------------------------------------------------
 
 const char* to_string(ResetStyle style) {
@@ -143,13 +174,13 @@ esp::Response EspConnection::command(esp::Op op, std::span<const std::uint8_t> p
   if (!r)
     throw FlashError(FlashError::Kind::no_answer,
                      fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
-                                 "broke (reset it into download mode and run again)",
+                                 "broke: reset it into download mode (or replug it) and run again",
                                  port_.path(), esp::to_string(op), timeout.count()));
   if (!r->ok())
     throw FlashError(
         FlashError::Kind::refused,
-        fmt::format("{}: {} refused by the {} loader: {} (error 0x{:02X})", port_.path(), esp::to_string(op),
-                    chip_.loader == esp::Loader::rom ? "ROM" : "stub", esp::error_text(r->error), r->error));
+        fmt::format("{}: {} refused by the {} loader: {}", port_.path(), esp::to_string(op),
+                    chip_.loader == esp::Loader::rom ? "ROM" : "stub", refusal_text(r->error)));
   return *r;
 }
 
@@ -179,14 +210,13 @@ std::string EspConnection::diagnose_silence() const {
     if (seen.size() > 120) seen = seen.substr(0, 117) + "...";
     if (noise_.find("waiting for download") != std::string::npos || noise_.find("DOWNLOAD(") != std::string::npos)
       return fmt::format(
-          "{}: the chip is in download mode (its boot log says so) but never answered SYNC: a line "
-          "problem between the adapter and the chip (loose TX/RX, wrong level); unplug, replug and "
-          "run again. Seen: \"{}\"",
+          "{}: the chip is in download mode (its boot log says so: \"{}\") but never answered SYNC: a line "
+          "problem between the adapter and the chip (loose TX/RX, wrong level): unplug, replug and run again",
           port_.path(), seen);
     return fmt::format(
         "{}: the board sent text but never answered the bootloader's SYNC: it is running its "
-        "application, not in download mode (the {} reset did not reach GPIO0?). {}. Seen: \"{}\"",
-        port_.path(), to_string(options_.reset), by_hand, seen);
+        "application, not in download mode (the {} reset did not reach GPIO0?). Seen: \"{}\". {}",
+        port_.path(), to_string(options_.reset), seen, by_hand);
   }
   return fmt::format(
       "{}: no serial data received: the board is not in download mode (not powered, a charge-only "
@@ -203,7 +233,7 @@ const ChipInfo& EspConnection::connect() {
     }
     drain(milliseconds(0));
     for (int i = 0; i < 5 && !synced; ++i) {
-      if (cancelled()) throw FlashError(FlashError::Kind::interrupted, "interrupted while connecting");
+      if (cancelled()) throw FlashError(FlashError::Kind::interrupted, "interrupted while connecting: nothing was written; run again");
       synced = try_sync();
     }
   }

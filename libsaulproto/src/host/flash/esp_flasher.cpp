@@ -4,16 +4,14 @@
 #include "saulproto/host/flash/esp_flasher.hpp"
 
 #include <fmt/format.h>
+#include <nettle/md5.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
-
-#include "saulproto/core/bytes.hpp"
 
 namespace saul::host {
 
@@ -41,73 +39,15 @@ std::string lower(std::string s) {
   return s;
 }
 
-// --- MD5 (RFC 1321), written from the RFC's description. O(n), 64 bytes at a time. ----------------------------
-
-const std::array<std::uint32_t, 64>& md5_table() {
-  // T[i] = floor(2^32 * |sin(i + 1)|), as the RFC defines it (checked against its test suite in the tests).
-  static const std::array<std::uint32_t, 64> t = [] {
-    std::array<std::uint32_t, 64> v{};
-    for (std::size_t i = 0; i < 64; ++i)
-      v[i] = static_cast<std::uint32_t>(std::floor(std::fabs(std::sin(static_cast<double>(i + 1))) * 4294967296.0));
-    return v;
-  }();
-  return t;
-}
-
-void md5_block(std::array<std::uint32_t, 4>& h, const std::uint8_t* p) {
-  static constexpr unsigned kShift[64] = {7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22, 7, 12, 17, 22,
-                                          5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20, 5, 9,  14, 20,
-                                          4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23, 4, 11, 16, 23,
-                                          6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21, 6, 10, 15, 21};
-  const auto& t = md5_table();
-  std::uint32_t m[16];
-  for (std::size_t i = 0; i < 16; ++i) m[i] = bytes::get_u32le(p + 4 * i);
-  std::uint32_t a = h[0], b = h[1], c = h[2], d = h[3];
-  for (std::size_t i = 0; i < 64; ++i) {
-    std::uint32_t f = 0;
-    std::size_t g = 0;
-    if (i < 16) {
-      f = (b & c) | (~b & d);
-      g = i;
-    } else if (i < 32) {
-      f = (d & b) | (~d & c);
-      g = (5 * i + 1) % 16;
-    } else if (i < 48) {
-      f = b ^ c ^ d;
-      g = (3 * i + 5) % 16;
-    } else {
-      f = c ^ (b | ~d);
-      g = (7 * i) % 16;
-    }
-    const std::uint32_t x = a + f + t[i] + m[g];
-    a = d;
-    d = c;
-    c = b;
-    b = b + ((x << kShift[i]) | (x >> (32 - kShift[i])));
-  }
-  h[0] += a;
-  h[1] += b;
-  h[2] += c;
-  h[3] += d;
-}
-
 }  // namespace
 
 esp::Md5 md5_of(std::span<const std::uint8_t> data) {
-  std::array<std::uint32_t, 4> h{0x67452301, 0xefcdab89, 0x98badcfe, 0x10325476};
-  std::size_t i = 0;
-  for (; i + 64 <= data.size(); i += 64) md5_block(h, data.data() + i);
-  // Tail: the rest, 0x80, zeros to 56 mod 64, then the length in bits (64-bit LE).
-  std::array<std::uint8_t, 128> tail{};
-  const std::size_t rest = data.size() - i;
-  std::copy(data.begin() + static_cast<std::ptrdiff_t>(i), data.end(), tail.begin());
-  tail[rest] = 0x80;
-  const std::size_t tail_len = rest < 56 ? 64 : 128;
-  const std::uint64_t bits = static_cast<std::uint64_t>(data.size()) * 8;
-  for (std::size_t k = 0; k < 8; ++k) tail[tail_len - 8 + k] = static_cast<std::uint8_t>(bits >> (8 * k));
-  for (std::size_t k = 0; k < tail_len; k += 64) md5_block(h, tail.data() + k);
+  md5_ctx ctx;
+  md5_init(&ctx);
+  md5_update(&ctx, data.size(), data.data());
   esp::Md5 out{};
-  for (std::size_t k = 0; k < 4; ++k) bytes::put_u32le(&out[4 * k], h[k]);
+  static_assert(std::tuple_size_v<esp::Md5> == MD5_DIGEST_SIZE);
+  md5_digest(&ctx, out.size(), out.data());
   return out;
 }
 
@@ -127,7 +67,8 @@ std::vector<std::uint8_t> deflate(std::span<const std::uint8_t> data) {
   uLongf size = compressBound(static_cast<uLong>(data.size()));
   std::vector<std::uint8_t> out(size);
   if (compress2(out.data(), &size, data.data(), static_cast<uLong>(data.size()), 9) != Z_OK)
-    throw FlashError(FlashError::Kind::input, "zlib could not compress the image (out of memory?)");
+    throw FlashError(FlashError::Kind::input,
+                     "zlib could not compress the image (out of memory?): run again with --no-compress");
   out.resize(size);
   return out;
 }
@@ -146,12 +87,16 @@ FlashImage load_image(std::uint32_t offset, const std::filesystem::path& path) {
     throw FlashError(FlashError::Kind::input,
                      fmt::format("{}: is a folder; for an ESP-IDF build folder use --build-dir", path.string()));
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw FlashError(FlashError::Kind::input, fmt::format("{}: cannot be read (permissions?)", path.string()));
+  if (!in)
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: cannot be read: check its permissions (ls -l) and run again", path.string()));
   FlashImage img;
   img.offset = offset;
   img.name = path.string();
   img.data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  if (img.data.empty()) throw FlashError(FlashError::Kind::input, fmt::format("{}: the file is empty", path.string()));
+  if (img.data.empty())
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: the file is empty: build again (idf.py build) or fix the path", path.string()));
   return img;
 }
 
@@ -203,7 +148,9 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
   try {
     in >> j;
   } catch (const std::exception& e) {
-    throw FlashError(FlashError::Kind::input, fmt::format("{}: not valid JSON: {}", json_path.string(), e.what()));
+    throw FlashError(FlashError::Kind::input,
+                     fmt::format("{}: not valid JSON ({}): run 'idf.py build' again to rewrite it", json_path.string(),
+                                 e.what()));
   }
   FlashPlan plan;
   if (j.contains("extra_esptool_args") && j["extra_esptool_args"].contains("chip") &&
@@ -216,25 +163,108 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
                                  json_path.string(), plan.target_chip));
   if (!j.contains("flash_files") || !j["flash_files"].is_object() || j["flash_files"].empty())
     throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: has no \"flash_files\" (not an ESP-IDF flasher_args.json?)", json_path.string()));
+                     fmt::format("{}: has no \"flash_files\", so it is not an ESP-IDF flasher_args.json: give the "
+                                 "build folder idf.py wrote, or OFFSET FILE pairs",
+                                 json_path.string()));
   for (const auto& [key, value] : j["flash_files"].items()) {
     const auto offset = parse_offset(key);
     if (!offset || !value.is_string())
       throw FlashError(FlashError::Kind::input,
-                       fmt::format("{}: flash_files entry \"{}\" is not OFFSET: \"file\"", json_path.string(), key));
+                       fmt::format("{}: flash_files entry \"{}\" is not OFFSET: \"file\": run 'idf.py build' again "
+                                   "to rewrite it, or give OFFSET FILE pairs",
+                                   json_path.string(), key));
     FlashImage img = load_image(*offset, base / value.get<std::string>());
     img.name = value.get<std::string>();
     plan.images.push_back(std::move(img));
   }
-  if (j.contains("flash_settings") && j["flash_settings"].contains("flash_size") &&
-      j["flash_settings"]["flash_size"].is_string()) {
-    plan.flash_size = parse_flash_size(j["flash_settings"]["flash_size"].get<std::string>());
+  if (j.contains("flash_settings") && j["flash_settings"].is_object()) {
+    const auto& fs = j["flash_settings"];
+    auto text = [&fs](const char* key) { return fs.contains(key) && fs[key].is_string() ? fs[key].get<std::string>() : ""; };
+    plan.settings_mode = text("flash_mode");
+    plan.settings_size = text("flash_size");
+    plan.settings_freq = text("flash_freq");
+    plan.flash_size = parse_flash_size(plan.settings_size);
     if (plan.flash_size) plan.flash_size_source = "flasher_args.json";
   }
   return plan;
 }
 
-void check_plan(FlashPlan& plan) {
+namespace {
+
+bool is_elf(std::span<const std::uint8_t> d) {
+  return d.size() >= 4 && d[0] == 0x7F && d[1] == 'E' && d[2] == 'L' && d[3] == 'F';
+}
+
+// What the ROM cannot boot, refused as esptool does: an ELF anywhere (the linker's output, not a flash image), and
+// at 0x0, where the ROM looks for the second-stage bootloader, anything without the image magic 0xE9.
+void check_kind(const FlashImage& img, bool force, std::vector<std::string>& warnings) {
+  std::string problem;
+  if (is_elf(img.data)) {
+    std::filesystem::path bin = img.name;
+    bin.replace_extension(".bin");
+    std::error_code ec;
+    const std::string hint = bin.string() != img.name && std::filesystem::exists(bin, ec)
+                                 ? fmt::format("flash {}, the .bin idf.py wrote beside it", bin.string())
+                                 : "flash the .bin idf.py wrote (build/<project>.bin, build/bootloader/bootloader.bin)";
+    problem = fmt::format("{}: this is an ELF file (the linker's output), not a flash image: {}", img.name, hint);
+  } else if (img.offset == 0 && img.data[0] != esp::kImageMagic) {
+    problem = fmt::format("{} at 0x0: not an ESP image (first byte 0x{:02X}, an image starts with 0x{:02X}), so the "
+                          "ROM would not boot: 0x0 takes the bootloader, build/bootloader/bootloader.bin",
+                          img.name, img.data[0], esp::kImageMagic);
+  }
+  if (problem.empty()) return;
+  if (!force) throw FlashError(FlashError::Kind::input, problem + " (--force writes it anyway)");
+  warnings.push_back(problem + "; written anyway (--force)");
+}
+
+// esptool's names of the header's codes for the ESP32-S3 (targets/esp32s3.py): mode in byte 2, frequency in the
+// low nibble of byte 3.
+constexpr std::array<std::pair<std::uint8_t, const char*>, 4> kModes{{{0, "qio"}, {1, "qout"}, {2, "dio"}, {3, "dout"}}};
+constexpr std::array<std::pair<std::uint8_t, const char*>, 3> kFreqs{{{0xF, "80m"}, {0x0, "40m"}, {0x2, "20m"}}};
+
+template <std::size_t N>
+const char* name_of(const std::array<std::pair<std::uint8_t, const char*>, N>& table, std::uint8_t code) {
+  for (const auto& [c, n] : table)
+    if (c == code) return n;
+  return nullptr;
+}
+template <std::size_t N>
+bool names_one(const std::array<std::pair<std::uint8_t, const char*>, N>& table, const std::string& name) {
+  return std::any_of(table.begin(), table.end(), [&](const auto& e) { return name == e.second; });
+}
+
+// The bootloader's header against flasher_args.json: esptool (idf.py flash) rewrites the header to match the
+// settings, saulctl writes the file as it is, so a disagreement means the board boots with the header's.
+void check_settings(FlashPlan& plan) {
+  if (plan.settings_mode.empty() && plan.settings_size.empty() && plan.settings_freq.empty()) return;
+  for (const auto& img : plan.images) {
+    if (img.offset != 0) continue;
+    const auto h = esp::parse_image_header(img.data);
+    if (!h) continue;
+    std::vector<std::string> differ;
+    const char* mode = name_of(kModes, h->flash_mode);
+    const std::string want_mode = lower(plan.settings_mode);  // "keep" and the like: nothing to compare
+    if (mode && names_one(kModes, want_mode) && want_mode != mode)
+      differ.push_back(fmt::format("flash mode {} (flasher_args.json: {})", mode, plan.settings_mode));
+    const std::uint32_t size = esp::flash_size_from_code(h->flash_size_code);
+    const std::uint32_t want_size = parse_flash_size(plan.settings_size);  // 0 for "detect", "keep"
+    if (size && want_size && size != want_size)
+      differ.push_back(fmt::format("flash size {} (flasher_args.json: {})", size_text(size), plan.settings_size));
+    const char* freq = name_of(kFreqs, h->flash_freq_code);
+    const std::string want_freq = lower(plan.settings_freq);
+    if (freq && names_one(kFreqs, want_freq) && want_freq != freq)
+      differ.push_back(fmt::format("flash frequency {} (flasher_args.json: {})", freq, plan.settings_freq));
+    if (differ.empty()) continue;
+    plan.warnings.push_back(fmt::format(
+        "{}: its header says {}; esptool would rewrite the header to the build's settings, saulctl writes the file "
+        "as it is, so the board boots with the header's: rebuild (idf.py build) so they agree",
+        img.name, fmt::join(differ, ", ")));
+  }
+}
+
+}  // namespace
+
+void check_plan(FlashPlan& plan, bool force) {
   using K = FlashError::Kind;
   if (plan.images.empty())
     throw FlashError(K::input, "nothing to flash: give FILE [--offset], OFFSET FILE pairs or --build-dir");
@@ -249,15 +279,17 @@ void check_plan(FlashPlan& plan) {
     const auto& img = plan.images[i];
     if (img.offset % esp::kSectorSize != 0)
       throw FlashError(K::input, fmt::format("{}: offset 0x{:X} is not on a 4 KiB sector boundary (the flash is erased "
-                                             "by whole sectors)",
+                                             "by whole sectors): use a multiple of 0x1000",
                                              img.name, img.offset));
     if (i > 0) {
       const auto& prev = plan.images[i - 1];
       const std::uint64_t prev_end = prev.offset + static_cast<std::uint64_t>(prev.data.size());
       if (prev_end > img.offset)
-        throw FlashError(K::input, fmt::format("{} (0x{:X}..0x{:X}) overlaps {} at 0x{:X}", prev.name, prev.offset,
-                                               prev_end, img.name, img.offset));
+        throw FlashError(K::input, fmt::format("{} (0x{:X}..0x{:X}) overlaps {} at 0x{:X}: fix the offsets (or the "
+                                               "wrong file)",
+                                               prev.name, prev.offset, prev_end, img.name, img.offset));
     }
+    check_kind(img, force, plan.warnings);
     if (auto h = esp::parse_image_header(img.data); h && h->chip_id != esp::kChipIdEsp32s3) {
       const char* name = esp::chip_name(h->chip_id);
       throw FlashError(K::wrong_chip,
@@ -279,6 +311,7 @@ void check_plan(FlashPlan& plan) {
     plan.flash_size = kDefaultFlashSize;
     plan.flash_size_source = "assumed: the smallest ESP32-S3 module; pass --flash-size for more";
   }
+  check_settings(plan);
   for (const auto& img : plan.images) {
     const std::uint64_t end = img.offset + static_cast<std::uint64_t>(padded_for_flash(img.data).size());
     if (end > plan.flash_size)
@@ -315,8 +348,9 @@ esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
   auto md5 = esp::parse_md5(r.data);
   if (!md5)
     throw FlashError(FlashError::Kind::protocol,
-                     fmt::format("{}: SPI_FLASH_MD5 answered {} bytes, not an MD5 ({})", port_.path(), r.data.size(),
-                                 saul::to_string(md5.reason())));
+                     fmt::format("{}: SPI_FLASH_MD5 answered {} bytes, not an MD5 ({}): reset the board into "
+                                 "download mode and run again",
+                                 port_.path(), r.data.size(), saul::to_string(md5.reason())));
   return *md5;
 }
 
@@ -367,11 +401,13 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
         if (!r)
           throw FlashError(FlashError::Kind::no_answer,
                            fmt::format("{}: no answer to block {} of {} of {} after {} tries: the board left download "
-                                       "mode or the connection broke",
-                                       port_.path(), seq + 1, blocks, image.name, kBlockAttempts));
+                                       "mode or the connection broke mid-write, the region at 0x{:X} is UNVERIFIED: "
+                                       "reset the board into download mode (or replug it) and flash again",
+                                       port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset));
         throw FlashError(FlashError::Kind::refused,
-                         fmt::format("{}: block {} of {} of {} refused {} times: {} (error 0x{:02X})", port_.path(),
-                                     seq + 1, blocks, image.name, kBlockAttempts, esp::error_text(r->error), r->error));
+                         fmt::format("{}: block {} of {} of {} refused {} times, the region at 0x{:X} is UNVERIFIED: {}",
+                                     port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset,
+                                     refusal_text(r->error)));
       }
       ++out.retries;
     }

@@ -52,6 +52,10 @@ class FlashError : public std::runtime_error {
   Kind kind_;
 };
 
+/// A loader's failure status as one phrase that ends with what to do: "invalid checksum in message (error 0x07):
+/// a noisy line: run again with a lower --baud ...".
+std::string refusal_text(std::uint8_t error);
+
 // ---------------------------------------------------------------------------------------------------------------
 // Reset sequences
 

@@ -36,6 +36,10 @@ struct FlashPlan {
   std::uint32_t flash_size = 0;   ///< bytes; 0 = not known yet
   std::string flash_size_source;  ///< where flash_size came from ("--flash-size", "flasher_args.json", ...)
   std::string target_chip;        ///< from flasher_args.json ("esp32s3"), else empty
+  /// flasher_args.json's flash_settings as written there ("dio", "8MB", "80m"), else empty: compared with the
+  /// bootloader image's header, which esptool would rewrite to match them and saulctl writes as it is.
+  std::string settings_mode, settings_size, settings_freq;
+  std::vector<std::string> warnings;  ///< from check_plan: what does not stop the flash but should be read
 };
 
 /// Reads one file to write at offset. FlashError(input) for a missing, unreadable or empty file.
@@ -52,7 +56,10 @@ std::optional<std::uint32_t> parse_offset(const std::string& text);
 /// images built for the ESP32-S3 (an image header's chip id), a build folder made for esp32s3, and every image
 /// inside the flash. Fills flash_size when unknown: from a bootloader image's header at 0x0, else 4 MB (the
 /// smallest ESP32-S3 module) with the source saying so. FlashError(input / too_large / wrong_chip).
-void check_plan(FlashPlan& plan);
+/// Like esptool, refuses what the ROM cannot boot at 0x0 (no image magic 0xE9) and an ELF file anywhere, unless
+/// `force` (then they are warnings). Adds a warning when the bootloader header's flash mode, size or frequency
+/// disagree with flasher_args.json's flash_settings.
+void check_plan(FlashPlan& plan, bool force = false);
 
 // ---------------------------------------------------------------------------------------------------------------
 // The flasher
@@ -115,7 +122,7 @@ class EspFlasher : public EspConnection {
   std::vector<RegionOutcome> outcomes_;
 };
 
-/// The MD5 of data (RFC 1321), for comparing with SPI_FLASH_MD5.
+/// The MD5 of data (RFC 1321, computed by Debian's nettle), for comparing with SPI_FLASH_MD5.
 esp::Md5 md5_of(std::span<const std::uint8_t> data);
 std::string to_hex(const esp::Md5& md5);
 
