@@ -25,6 +25,12 @@ samples=(
   "pride_uart.serial|"
   "pride_uart.sigrok.txt|--protocol pride --samplerate 1M"
   "pride_uart.sigrok.json|--protocol pride"
+  "robot_bus.blf|"
+  "robot_bus.trc.zst|"
+  "robot_bus.csv|"
+  "robot_bus.gvret.csv|"
+  "robot_bus.fd.asc|"
+  "robot_bus.log.gz|"
 )
 
 tmp=$(mktemp -d)

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "formats_test.hpp"
 #include "saulproto/host/capture/blf.hpp"
 
 using namespace saul;
@@ -107,19 +108,8 @@ struct Read {
 Read read(const Bytes& file, bool parallel = true) {
   std::istringstream in(std::string(file.begin(), file.end()));
   BlfReader r(in, BlfReadOptions{parallel});
-  Read out;
-  for (int guard = 0; guard < 100000; ++guard) {
-    const auto st = r.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::frame) {
-      out.frames.push_back(r.frame());
-      out.names.emplace_back(r.interface());
-    } else {
-      out.errors.push_back(r.error().message);
-    }
-  }
-  out.skipped = r.skipped_objects();
-  return out;
+  const auto all = capture_test::read_all(r);
+  return {all.frames, all.names, capture_test::messages(all), r.skipped_objects()};
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "formats_test.hpp"
 #include "saulproto/host/capture/asc.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
@@ -23,34 +24,12 @@ using namespace saul::host;
 
 namespace {
 
-struct Read {
-  std::vector<CanFrame> frames;
-  std::vector<std::string> names;
-  std::vector<std::string> errors;
-  Recovery last_recovery = Recovery::next_line;
-};
+using capture_test::messages;
+using capture_test::read_all;
+using capture_test::Read;
+using capture_test::TempDir;
 
-Read read_all(CaptureReader& r) {
-  Read out;
-  for (;;) {
-    const auto st = r.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::frame) {
-      out.frames.push_back(r.frame());
-      out.names.emplace_back(r.interface());
-    } else {
-      out.errors.push_back(r.error().message);
-      out.last_recovery = r.error().recovery;
-    }
-  }
-  return out;
-}
-
-Read read(const std::string& bytes, CaptureFormat format) {
-  std::istringstream in(bytes);
-  auto r = make_capture_reader(in, format);
-  return read_all(*r);
-}
+Read read(const std::string& bytes, CaptureFormat format) { return capture_test::read_text(bytes, format); }
 
 std::optional<CaptureFormat> detect(std::string_view text) {
   return detect_capture_format(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
@@ -59,17 +38,6 @@ std::optional<CaptureFormat> detect(std::string_view text) {
 void le32(std::string& s, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) s += static_cast<char>(v >> (8 * i));
 }
-
-struct TempDir {
-  std::filesystem::path path = std::filesystem::temp_directory_path() / ("saul_fixes_" + std::to_string(::getpid()));
-  TempDir() { std::filesystem::create_directories(path); }
-  ~TempDir() { std::filesystem::remove_all(path); }
-  std::string write(const std::string& name, const std::string& content) const {
-    const auto p = (path / name).string();
-    std::ofstream(p, std::ios::binary) << content;
-    return p;
-  }
-};
 
 }  // namespace
 
@@ -107,7 +75,7 @@ TEST_CASE("ASC: a classic DLC of 9..15 and CANFD lines that carry classic frames
   CHECK((fd.frames[2].id == 0x7FF && fd.frames[2].dlc == 2));
   CHECK((fd.frames[3].id == 0x300 && fd.frames[3].data[0] == 0xE8));
   CHECK(fd.names == std::vector<std::string>{"can0", "can0", "can0", "can1"});
-  CHECK(fd.errors == std::vector<std::string>{"CAN FD frame: the robot's bus is classic CAN, FD is not supported"});
+  CHECK(messages(fd) == std::vector<std::string>{"CAN FD frame: the robot's bus is classic CAN, FD is not supported"});
 }
 
 TEST_CASE("pcapng: Simple Packet Blocks are read (interface 0, no timestamp)") {
@@ -140,7 +108,7 @@ TEST_CASE("pcapng: Simple Packet Blocks are read (interface 0, no timestamp)") {
   CHECK((r.frames[0].id == 0x300 && r.frames[0].dlc == 2 && r.frames[0].data[1] == 0x22));
   CHECK(!r.frames[0].timestamp_ns);
   CHECK(r.names[0] == "can7");
-  CHECK(r.errors == std::vector<std::string>{"packet length 40 runs past the end of its simple packet block"});
+  CHECK(messages(r) == std::vector<std::string>{"packet length 40 runs past the end of its simple packet block"});
 }
 
 TEST_CASE("pcap: an error frame carries 8 bytes, as the kernel sends it (Wireshark marks 0 malformed)") {
@@ -174,7 +142,7 @@ TEST_CASE("candump: an interface name with white space (text2pcap's pcapng) is o
 }
 
 TEST_CASE("a .log that is another tool's text log is refused, not read as an empty capture") {
-  TempDir dir;
+  TempDir dir("fixes");
   const auto busmaster = dir.write("bm.log",
                                    "***BUSMASTER Ver 3.2.2***\n***PROTOCOL CAN***\n***[START LOGGING SESSION]***\n"
                                    "10:39:51:0105 Rx 1 0x0C1 s 8 00 00 00 00 00 00 00 00\n");
@@ -206,7 +174,7 @@ TEST_CASE("content detection of BLF, TRC and both CSVs; --input-format overrides
   CHECK(capture_format_from_extension("x.log.gz") == std::nullopt);
   CHECK(capture_format_from_name("gvret-csv") == CaptureFormat::gvret_csv);
 
-  TempDir dir;
+  TempDir dir("fixes");
   const auto asc = dir.write("x.asc", "date Tue Nov 14 22:13:20 2023\n   0.001000 1  300  Rx   d 1 01\n");
   SerialReadOptions options;
   options.format = CaptureFormat::candump;
@@ -218,7 +186,7 @@ TEST_CASE("content detection of BLF, TRC and both CSVs; --input-format overrides
 }
 
 TEST_CASE("a broken compressed file ends with a corrupt record saying so") {
-  TempDir dir;
+  TempDir dir("fixes");
   const auto path = (dir.path / "run.log.gz").string();
   {
     auto w = open_capture_writer(path);
@@ -243,6 +211,6 @@ TEST_CASE("a broken compressed file ends with a corrupt record saying so") {
   const Read got = read_all(*r);
   CHECK(!got.frames.empty());
   REQUIRE(!got.errors.empty());
-  CHECK(got.errors.back() == "the gzip file ends before its end marker (truncated?)");
-  CHECK(got.last_recovery == Recovery::stop);
+  CHECK(got.errors.back().message == "the gzip file ends before its end marker (truncated?)");
+  CHECK(got.errors.back().recovery == Recovery::stop);
 }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "formats_test.hpp"
 #include "saulproto/host/capture/csv_log.hpp"
 #include "saulproto/host/capture/gvret_csv.hpp"
 
@@ -16,30 +17,9 @@ using namespace saul::host;
 
 namespace {
 
-struct Read {
-  std::vector<CanFrame> frames;
-  std::vector<std::string> names;
-  std::vector<std::string> errors;
-};
-
-template <class Reader>
-Read read(const std::string& text) {
-  std::istringstream in(text);
-  Reader r(in);
-  Read out;
-  for (;;) {
-    const auto st = r.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::frame) {
-      out.frames.push_back(r.frame());
-      out.names.emplace_back(r.interface());
-    } else {
-      out.errors.push_back(std::to_string(r.error().position) + ":" + std::to_string(r.error().column + 1) + " " +
-                           r.error().message);
-    }
-  }
-  return out;
-}
+using capture_test::located;
+using capture_test::Read;
+using capture_test::read_with;
 
 }  // namespace
 
@@ -58,7 +38,7 @@ TEST_CASE("base64 as Python's base64 module writes it") {
 }
 
 TEST_CASE("python-can CSV: rows as CSVWriter writes them, error frames with their class") {
-  const Read r = read<CsvLogReader>(
+  const Read r = read_with<CsvLogReader>(
       "timestamp,arbitration_id,extended,remote,error,dlc,data\n"
       "1700000000.00125,0x938,1,0,0,8,///7UAAjAPo=\n"
       "1700000000.0,0x344,1,0,0,4,AAAF3A==\n"
@@ -74,8 +54,8 @@ TEST_CASE("python-can CSV: rows as CSVWriter writes them, error frames with thei
   CHECK((r.frames[3].error && r.frames[3].id == 0x004 && r.frames[3].data[1] == 0x04));  // SocketCAN class kept
   CHECK(*r.frames[4].timestamp_ns == 10'000ULL);  // Python writes 0.00001 as 1e-05
   CHECK(r.names == std::vector<std::string>(5, "can0"));
-  CHECK(r.errors == std::vector<std::string>{"7:14 11-bit id above 7FF (extended is 0)", "8:28 dlc 4 but 3 data bytes"});
-  CHECK(read<CsvLogReader>("time,id\n1,2\n").errors.front() ==
+  CHECK(located(r) == std::vector<std::string>{"7:14 11-bit id above 7FF (extended is 0)", "8:28 dlc 4 but 3 data bytes"});
+  CHECK(located(read_with<CsvLogReader>("time,id\n1,2\n")).front() ==
         "1:1 not python-can's CSV header (timestamp,arbitration_id,extended,remote,error,dlc,data)");
 }
 
@@ -96,7 +76,7 @@ TEST_CASE("python-can CSV writer: python-can's header and row layout") {
 }
 
 TEST_CASE("SavvyCAN CSV: both layouts, 29-bit by flag or by size, bus numbers") {
-  const Read v2 = read<GvretCsvReader>(
+  const Read v2 = read_with<GvretCsvReader>(
       "Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n"
       "39747828,000005EB,false,Rx,0,8,E8,45,85,4B,4A,28,36,69,\n"
       "39747900,00000938,true,Tx,1,2,FF,FF,00,00,00,00,00,00,\n"
@@ -109,10 +89,10 @@ TEST_CASE("SavvyCAN CSV: both layouts, 29-bit by flag or by size, bus numbers") 
   CHECK((v2.frames[1].id == 0x938 && v2.frames[1].extended && v2.frames[1].dlc == 2));
   CHECK((v2.frames[2].id == 0x1B38 && v2.frames[2].extended));  // above 7FF: 29-bit, as SavvyCAN reads it
   CHECK(v2.names == std::vector<std::string>{"can0", "can1", "can0"});
-  CHECK(v2.errors == std::vector<std::string>{
+  CHECK(located(v2) == std::vector<std::string>{
                          "5:30 LEN above 8 (CAN FD): the robot's bus is classic CAN, FD is not supported",
                          "6:37 LEN is 4 but 2 data bytes follow"});
-  const Read v1 = read<GvretCsvReader>(
+  const Read v1 = read_with<GvretCsvReader>(
       "Time Stamp,ID,Extended,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n1500,00000300,false,2,4,E8,03,0C,FE,00,00,00,00,\n");
   REQUIRE(v1.frames.size() == 1);
   CHECK((v1.frames[0].dlc == 4 && v1.frames[0].data[3] == 0xFE && v1.names[0] == "can2"));

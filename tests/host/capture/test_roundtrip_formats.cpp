@@ -5,14 +5,13 @@
 // content. A new format is one more line in kFormats.
 #include <catch2/catch.hpp>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "formats_test.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 
@@ -159,8 +158,8 @@ TEST_CASE("every capture format: write, read back, compare (plain, gzip, zstd)")
 }
 
 TEST_CASE("every capture format through files: .gz and .zst names compress, the content decides when reading") {
-  const auto dir = std::filesystem::temp_directory_path() / ("saul_roundtrip_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const capture_test::TempDir scratch("roundtrip");
+  const auto& dir = scratch.path;
   for (const FormatCase& fc : kFormats) {
     for (std::string suffix : {"", ".gz", ".zst"}) {
       const std::string path = (dir / (std::string("run.") + fc.extension + suffix)).string();
@@ -182,7 +181,6 @@ TEST_CASE("every capture format through files: .gz and .zst names compress, the 
       CHECK(reader->bytes_read() == *reader->bytes_total());  // progress counts the file's (compressed) bytes
     }
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("copy_frames leaves out what the output format cannot hold and says so") {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "formats_test.hpp"
 #include "saulproto/host/capture/trc.hpp"
 
 using namespace saul;
@@ -13,28 +14,17 @@ using namespace saul::host;
 
 namespace {
 
-struct Read {
-  std::vector<CanFrame> frames;
-  std::vector<std::string> names;
-  std::vector<std::string> errors;  // "LINE:COLUMN message"
+using capture_test::located;
+
+struct TrcRead : capture_test::Read {
   int version = 0;
 };
 
-Read read(const std::string& text) {
+TrcRead read(const std::string& text) {
   std::istringstream in(text);
   TrcReader r(in);
-  Read out;
-  for (;;) {
-    const auto st = r.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::frame) {
-      out.frames.push_back(r.frame());
-      out.names.emplace_back(r.interface());
-    } else {
-      out.errors.push_back(std::to_string(r.error().position) + ":" + std::to_string(r.error().column + 1) + " " +
-                           r.error().message);
-    }
-  }
+  TrcRead out;
+  static_cast<capture_test::Read&>(out) = capture_test::read_all(r);
   out.version = r.version();
   return out;
 }
@@ -55,7 +45,7 @@ TEST_CASE("TRC start time: days since 1899-12-30, exact to the nanosecond") {
 }
 
 TEST_CASE("TRC 1.0 and 1.1: PCAN-View's layouts") {
-  const Read v10 = read(
+  const TrcRead v10 = read(
       ";##########################################################################\r\n"
       ";   Start time: 12.03.2015 14:53:28.547\r\n"
       "     1)      1841  0001    8  00 11 22 33 44 55 66 77\r\n"
@@ -68,7 +58,7 @@ TEST_CASE("TRC 1.0 and 1.1: PCAN-View's layouts") {
   CHECK(*v10.frames[0].timestamp_ns == 1'841'000'000ULL);  // no $STARTTIME: offsets only
   CHECK((v10.frames[1].id == 0x344 && v10.frames[1].extended));
 
-  const Read v11 = read(
+  const TrcRead v11 = read(
       ";$FILEVERSION=1.1\r\n;$STARTTIME=45000.5\r\n;\r\n"
       "     1)      1841.0  Rx         0300  4  E8 03 0C FE \r\n"
       "     2)      1851.3  Tx     00000344  4  00 00 05 DC \r\n"
@@ -85,16 +75,16 @@ TEST_CASE("TRC 1.0 and 1.1: PCAN-View's layouts") {
   CHECK((v11.frames[2].remote && v11.frames[2].dlc == 4 && v11.frames[2].id == 0x123));
   CHECK((v11.frames[3].error && v11.frames[3].id == 0x080));
   CHECK(v11.names == std::vector<std::string>{"can0", "can0", "can0", "can0"});
-  CHECK(v11.errors == std::vector<std::string>{"9:48 4 data bytes announced, 2 found",
+  CHECK(located(v11) == std::vector<std::string>{"9:48 4 data bytes announced, 2 found",
                                                "10:22 unknown message type 'Fd'"});
 }
 
 TEST_CASE("TRC 1.2 and 1.3: the bus column, 1.3's reserved column") {
-  const Read v12 = read(";$FILEVERSION=1.2\n;$STARTTIME=45000.5\n     1)      1841.0 2  Rx         0300  2  E8 03\n");
+  const TrcRead v12 = read(";$FILEVERSION=1.2\n;$STARTTIME=45000.5\n     1)      1841.0 2  Rx         0300  2  E8 03\n");
   REQUIRE(v12.frames.size() == 1);
   CHECK(v12.names[0] == "can1");
   CHECK(v12.frames[0].dlc == 2);
-  const Read v13 = read(
+  const TrcRead v13 = read(
       ";$FILEVERSION=1.3\n;$STARTTIME=44548.6028595139\n"
       "     1)        17535.4 1  Tx    00000100 -  8    00 00 00 00 00 00 00 01\n"
       "     2)        19295.4 2  Rx        0000 -  13   00 00 00 00 00 00 00 02\n"
@@ -109,7 +99,7 @@ TEST_CASE("TRC 1.2 and 1.3: the bus column, 1.3's reserved column") {
 }
 
 TEST_CASE("TRC 2.0 and 2.1: columns from $COLUMNS, message types") {
-  const Read v20 = read(
+  const TrcRead v20 = read(
       ";$FILEVERSION=2.0\r\n;$STARTTIME=45000.5\r\n;$COLUMNS=N,O,T,I,d,l,D\r\n"
       "      1      1059.900 DT     0300 Rx 7  00 00 00 00 04 00 00\r\n"
       "      2      1060.000 ST          Rx    00 00 00 08\r\n"
@@ -126,10 +116,10 @@ TEST_CASE("TRC 2.0 and 2.1: columns from $COLUMNS, message types") {
   CHECK(*v20.frames[1].timestamp_ns == kStart45000 + 1'298'945'000ULL);
   CHECK((v20.frames[2].error && v20.frames[2].id == 0x080));
   CHECK((v20.frames[3].remote && v20.frames[3].dlc == 3));
-  CHECK(v20.errors == std::vector<std::string>{"7:23 CAN FD frame: the robot's bus is classic CAN, FD is not supported"});
+  CHECK(located(v20) == std::vector<std::string>{"7:23 CAN FD frame: the robot's bus is classic CAN, FD is not supported"});
 
   // 2.1 as PEAK-Converter and python-can write it, then the same frames with the columns in another order
-  const Read v21 = read(
+  const TrcRead v21 = read(
       ";$FILEVERSION=2.1\n;$STARTTIME=44548.6028595139\n;$COLUMNS=N,O,T,B,I,d,R,L,D\n"
       "      1     17535.400 DT 1  00000100 Tx -  8    00 00 00 00 00 00 00 00\n"
       "      2     17540.300 ST 1         - Rx -  4    00 00 00 08\n"
@@ -138,10 +128,10 @@ TEST_CASE("TRC 2.0 and 2.1: columns from $COLUMNS, message types") {
   REQUIRE(v21.frames.size() == 2);
   CHECK(*v21.frames[1].timestamp_ns == kStart44548 + 19'295'400'000ULL);
   CHECK(v21.names == std::vector<std::string>{"can0", "can1"});
-  const Read moved = read(";$FILEVERSION=2.1\n;$COLUMNS=N,O,T,I,B,d,L,D\n 1 1.5 DT 07FF 2 Tx 2 AA BB\n");
+  const TrcRead moved = read(";$FILEVERSION=2.1\n;$COLUMNS=N,O,T,I,B,d,L,D\n 1 1.5 DT 07FF 2 Tx 2 AA BB\n");
   REQUIRE(moved.frames.size() == 1);
   CHECK((moved.frames[0].id == 0x7FF && moved.frames[0].data[1] == 0xBB && moved.names[0] == "can1"));
-  CHECK(read(";$FILEVERSION=3.0\n").errors == std::vector<std::string>{
+  CHECK(located(read(";$FILEVERSION=3.0\n")) == std::vector<std::string>{
                                                 "1:15 TRC file version '3.0' is not one of 1.0 1.1 1.2 1.3 2.0 2.1"});
 }
 
@@ -184,7 +174,7 @@ TEST_CASE("TRC writer: version 2.1 lines, an exact start time, buses by first ap
   CHECK(lines[3] == "      1       635.456 DT  1 00000938 Rx -  2    AB CD");
   CHECK(lines[4] == "      2       635.456 RR  2     0123 Rx -  4");
   CHECK(lines[5] == "      3      1635.456 ER  1        - Rx -  0");
-  const Read back = read(out.str());
+  const TrcRead back = read(out.str());
   REQUIRE(back.frames.size() == 3);
   CHECK(*back.frames[0].timestamp_ns == 1'700'000'000'123'456'000ULL);  // microseconds kept
   CHECK(back.names == std::vector<std::string>{"can0", "can1", "can0"});

@@ -257,21 +257,31 @@ AscReader::Step AscReader::timed_line(std::string_view line) {
   return Step::skipped;  // an event of the channel: "Statistic:", "SV:", ...
 }
 
-AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_ns) {
-  const auto channel = parse_number(tokens_[1].second, 10);
-  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[1].first, "channel must be 1..255");
-  CanFrame f;
-  const auto [id_col, id_token] = tokens_[2];
+bool AscReader::parse_id(std::size_t token, CanFrame& f) {
+  const auto [id_col, id_token] = tokens_[token];
   std::string_view id_text = id_token;
   if (id_text.back() == 'x' || id_text.back() == 'X') {
     f.extended = true;
     id_text.remove_suffix(1);
   }
   const auto id = parse_number(id_text, base_);
-  if (!id) return corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
-  if (*id > (f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId))
-    return corrupt(id_col, f.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended ids end in 'x')");
+  if (!id) {
+    corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
+    return false;
+  }
+  if (*id > (f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId)) {
+    corrupt(id_col, f.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended ids end in 'x')");
+    return false;
+  }
   f.id = static_cast<std::uint32_t>(*id);
+  return true;
+}
+
+AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_ns) {
+  const auto channel = parse_number(tokens_[1].second, 10);
+  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[1].first, "channel must be 1..255");
+  CanFrame f;
+  if (!parse_id(2, f)) return Step::corrupt;
   if (tokens_.size() < 5) return corrupt(line.size(), "expected 'd' (data) or 'r' (remote) after the direction");
   const auto [kind_col, kind] = tokens_[4];
   if (kind == "r" || kind == "R") {
@@ -320,17 +330,7 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
     return Step::frame;
   }
   CanFrame f;
-  const auto [id_col, id_token] = tokens_[4];
-  std::string_view id_text = id_token;
-  if (id_text.back() == 'x' || id_text.back() == 'X') {
-    f.extended = true;
-    id_text.remove_suffix(1);
-  }
-  const auto id = parse_number(id_text, base_);
-  if (!id) return corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
-  if (*id > (f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId))
-    return corrupt(id_col, f.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended ids end in 'x')");
-  f.id = static_cast<std::uint32_t>(*id);
+  if (!parse_id(4, f)) return Step::corrupt;
   std::size_t k = 5;
   if (k < tokens_.size() && !all_digits(tokens_[k].second)) ++k;  // the symbolic name, when the writer gives one
   if (tokens_.size() < k + 4) return corrupt(line.size(), "expected BRS, ESI, DLC and data length after the id");
@@ -381,13 +381,7 @@ void AscWriter::header(std::uint64_t first_ns) {
 void AscWriter::write(const CanFrame& frame, std::string_view interface) {
   if (closed_) throw std::runtime_error("ASC writer: write after close");
   check_writable(frame);
-  if (interface.empty()) interface = "can0";
-  std::size_t index = 0;
-  while (index < channels_.size() && channels_[index] != interface) ++index;
-  if (index == channels_.size()) {
-    if (channels_.size() == 255) throw std::invalid_argument("ASC: more than 255 interfaces");
-    channels_.emplace_back(interface);
-  }
+  const std::size_t index = detail::channel_index(channels_, interface, 255, "ASC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!header_written_) header(ns);
   const std::uint64_t rel = ns > start_ns_ ? ns - start_ns_ : 0;
@@ -409,10 +403,7 @@ void AscWriter::write(const CanFrame& frame, std::string_view interface) {
   if (!out_) throw std::runtime_error("ASC: write failed");
 }
 
-void AscWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("ASC: write failed");
-}
+void AscWriter::flush() { detail::flush_checked(out_, "ASC"); }
 
 void AscWriter::close() {
   if (closed_) return;

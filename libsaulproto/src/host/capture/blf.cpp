@@ -515,13 +515,7 @@ void BlfWriter::write_container() {
 void BlfWriter::write(const CanFrame& frame, std::string_view interface) {
   if (closed_) throw std::runtime_error("BLF writer: write after close");
   check_writable(frame);
-  if (interface.empty()) interface = "can0";
-  std::size_t index = 0;
-  while (index < channels_.size() && channels_[index] != interface) ++index;
-  if (index == channels_.size()) {
-    if (channels_.size() == 0xFFFF) throw std::invalid_argument("BLF: more than 65535 interfaces");
-    channels_.emplace_back(interface);
-  }
+  const std::size_t index = detail::channel_index(channels_, interface, 0xFFFF, "BLF");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!start_ns_) start_ns_ = ns - ns % 1'000'000;  // SYSTEMTIME holds milliseconds
   stop_ns_ = std::max(stop_ns_, ns);

@@ -7,7 +7,10 @@
 #include <istream>
 #include <limits>
 #include <ostream>
+#include <stdexcept>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace saul::host::detail {
 
@@ -16,6 +19,26 @@ namespace saul::host::detail {
 inline constexpr std::uint32_t kErrBusError = 0x080;
 /// The message for a CAN FD record, in every reader.
 inline constexpr std::string_view kFdUnsupported = "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
+
+/// The number of `interface` among the interfaces a writer has seen, in order of first appearance (0-based);
+/// a new one is added. Throws std::invalid_argument when there would be more than `max` (the format's limit).
+inline std::size_t channel_index(std::vector<std::string>& seen, std::string_view interface, std::size_t max,
+                                 std::string_view format) {
+  if (interface.empty()) interface = "can0";
+  std::size_t index = 0;
+  while (index < seen.size() && seen[index] != interface) ++index;
+  if (index == seen.size()) {
+    if (seen.size() == max) throw std::invalid_argument(std::string(format) + ": more interfaces than the format numbers");
+    seen.emplace_back(interface);
+  }
+  return index;
+}
+
+/// Flushes a writer's stream; throws std::runtime_error("<format>: write failed") when the stream has failed.
+inline void flush_checked(std::ostream& out, std::string_view format) {
+  out.flush();
+  if (!out) throw std::runtime_error(std::string(format) + ": write failed");
+}
 
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
 inline constexpr std::uint32_t kSnaplen = 0xFFFF;

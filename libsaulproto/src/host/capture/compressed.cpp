@@ -39,17 +39,47 @@ bool write_all(std::streambuf& sink, const char* src, std::size_t n) {
 
 // ---- reading ----
 
-class GzipInflater final : public DecompressingBuf {
+/// What both decompressors keep: the source, the output buffer, the count of compressed bytes, the first error.
+class InflaterBase : public DecompressingBuf {
  public:
-  explicit GzipInflater(std::streambuf& source) : source_(source) {
+  [[nodiscard]] std::uint64_t compressed_bytes() const override { return compressed_; }
+  [[nodiscard]] const std::string& error() const override { return error_; }
+
+ protected:
+  explicit InflaterBase(std::streambuf& source) : source_(source) {}
+  /// Reads more compressed bytes into `dst`; 0 at the end of the source.
+  std::size_t take(char* dst, std::size_t n) {
+    const std::size_t got = read_some(source_, dst, n);
+    compressed_ += got;
+    return got;
+  }
+  /// Hands out `n` decompressed bytes of out_.
+  int_type hand_out(std::size_t n) {
+    setg(out_.data(), out_.data(), out_.data() + n);
+    return traits_type::to_int_type(*gptr());
+  }
+  void fail(std::string message) {
+    if (error_.empty()) error_ = std::move(message);
+    done_ = true;
+  }
+
+  std::array<char, kBufferBytes> out_{};
+  bool done_ = false;
+
+ private:
+  std::streambuf& source_;
+  std::uint64_t compressed_ = 0;
+  std::string error_;
+};
+
+class GzipInflater final : public InflaterBase {
+ public:
+  explicit GzipInflater(std::streambuf& source) : InflaterBase(source) {
     if (inflateInit2(&z_, 15 + 32) != Z_OK) throw std::runtime_error("zlib: cannot start inflating");
   }
   ~GzipInflater() override { inflateEnd(&z_); }
   GzipInflater(const GzipInflater&) = delete;
   GzipInflater& operator=(const GzipInflater&) = delete;
-
-  [[nodiscard]] std::uint64_t compressed_bytes() const override { return compressed_; }
-  [[nodiscard]] const std::string& error() const override { return error_; }
 
  protected:
   int_type underflow() override {
@@ -74,10 +104,7 @@ class GzipInflater final : public DecompressingBuf {
       } else if (r != Z_OK && r != Z_BUF_ERROR) {
         fail(fmt::format("gzip data is corrupt: {}", z_.msg ? z_.msg : "inflate failed"));
       }
-      if (produced > 0) {
-        setg(out_.data(), out_.data(), out_.data() + produced);
-        return traits_type::to_int_type(*gptr());
-      }
+      if (produced > 0) return hand_out(produced);
     }
     return traits_type::eof();
   }
@@ -85,35 +112,24 @@ class GzipInflater final : public DecompressingBuf {
  private:
   std::size_t pos() const { return static_cast<std::size_t>(reinterpret_cast<const char*>(z_.next_in) - in_.data()); }
   bool refill() {
-    const std::size_t n = read_some(source_, in_.data(), in_.size());
+    const std::size_t n = take(in_.data(), in_.size());
     if (n == 0) {
       if (in_member_) fail("the gzip file ends before its end marker (truncated?)");
       done_ = true;
       return false;
     }
-    compressed_ += n;
     z_.next_in = reinterpret_cast<Bytef*>(in_.data());
     z_.avail_in = static_cast<uInt>(n);
     return true;
   }
-  void fail(std::string message) {
-    if (error_.empty()) error_ = std::move(message);
-    done_ = true;
-  }
-
-  std::streambuf& source_;
   z_stream z_{};
   std::array<char, kBufferBytes> in_{};
-  std::array<char, kBufferBytes> out_{};
-  std::uint64_t compressed_ = 0;
-  std::string error_;
-  bool done_ = false;
   bool in_member_ = true;
 };
 
-class ZstdInflater final : public DecompressingBuf {
+class ZstdInflater final : public InflaterBase {
  public:
-  explicit ZstdInflater(std::streambuf& source) : source_(source), d_(ZSTD_createDCtx()) {
+  explicit ZstdInflater(std::streambuf& source) : InflaterBase(source), d_(ZSTD_createDCtx()) {
     if (!d_) throw std::runtime_error("zstd: cannot start decompressing");
     ZSTD_DCtx_setParameter(d_, ZSTD_d_windowLogMax, kZstdWindowLogMax);
   }
@@ -121,21 +137,17 @@ class ZstdInflater final : public DecompressingBuf {
   ZstdInflater(const ZstdInflater&) = delete;
   ZstdInflater& operator=(const ZstdInflater&) = delete;
 
-  [[nodiscard]] std::uint64_t compressed_bytes() const override { return compressed_; }
-  [[nodiscard]] const std::string& error() const override { return error_; }
-
  protected:
   int_type underflow() override {
     if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
     while (!done_) {
       if (in_.pos == in_.size && !output_pending_) {
-        const std::size_t n = read_some(source_, in_data_.data(), in_data_.size());
+        const std::size_t n = take(in_data_.data(), in_data_.size());
         if (n == 0) {
           if (frame_open_) fail("the zstd file ends before the end of its frame (truncated?)");
           done_ = true;
           break;
         }
-        compressed_ += n;
         in_ = {in_data_.data(), n, 0};
       }
       ZSTD_outBuffer out{out_.data(), out_.size(), 0};
@@ -146,28 +158,15 @@ class ZstdInflater final : public DecompressingBuf {
       }
       frame_open_ = r != 0;
       output_pending_ = out.pos == out.size;
-      if (out.pos > 0) {
-        setg(out_.data(), out_.data(), out_.data() + out.pos);
-        return traits_type::to_int_type(*gptr());
-      }
+      if (out.pos > 0) return hand_out(out.pos);
     }
     return traits_type::eof();
   }
 
  private:
-  void fail(std::string message) {
-    if (error_.empty()) error_ = std::move(message);
-    done_ = true;
-  }
-
-  std::streambuf& source_;
   ZSTD_DCtx* d_;
   std::array<char, kBufferBytes> in_data_{};
-  std::array<char, kBufferBytes> out_{};
   ZSTD_inBuffer in_{nullptr, 0, 0};
-  std::uint64_t compressed_ = 0;
-  std::string error_;
-  bool done_ = false;
   bool frame_open_ = false;
   bool output_pending_ = false;
 };

@@ -5,7 +5,7 @@
 #include <array>
 #include <stdexcept>
 
-#include "../util.hpp"
+#include "capture_io.hpp"
 #include "text_fields.hpp"
 
 namespace saul::host {
@@ -91,16 +91,10 @@ int base64_decode(std::string_view text, std::span<std::uint8_t> out) {
 // ---- reader ----
 
 bool CsvLogReader::fail(std::size_t column, std::string message) {
-  error_.column = column;
-  error_.message = std::move(message);
-  error_.kind = PositionKind::line;
-  error_.position = line_number_;
-  error_.recovery = Recovery::next_line;
-  return false;
+  return detail::line_error(error_, line_number_, column, std::move(message));
 }
 
 bool CsvLogReader::header(std::string_view line) {
-  have_header_ = true;
   std::vector<std::pair<std::size_t, std::string_view>> fields;
   detail::split_fields(line, ',', fields);
   field_.assign(kColumns.size(), 0);
@@ -167,20 +161,9 @@ bool CsvLogReader::row(std::string_view line) {
 }
 
 CsvLogReader::Status CsvLogReader::next() {
-  while (std::getline(in_, line_)) {
-    ++line_number_;
-    std::string_view line = line_;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    if (line.empty()) continue;
-    if (!have_header_) {
-      if (line_number_ == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
-      if (!header(line)) return Status::corrupt;
-      continue;
-    }
-    if (row(line)) return Status::frame;
-    return Status::corrupt;
-  }
-  return Status::end;
+  return detail::next_csv_record(
+      in_, line_, line_number_, have_header_, [this](std::string_view l) { return header(l); },
+      [this](std::string_view l) { return row(l); });
 }
 
 // ---- writer ----
@@ -200,10 +183,7 @@ void CsvLogWriter::write(const CanFrame& frame, std::string_view /*interface*/) 
   if (!out_) throw std::runtime_error("CSV: write failed");
 }
 
-void CsvLogWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("CSV: write failed");
-}
+void CsvLogWriter::flush() { detail::flush_checked(out_, "CSV"); }
 
 void CsvLogWriter::close() {
   if (closed_) return;

@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <optional>
 #include <stdexcept>
 
-#include "../util.hpp"
+#include "capture_io.hpp"
 #include "text_fields.hpp"
 
 namespace saul::host {
@@ -22,16 +24,10 @@ std::string upper_trimmed(std::string_view s) {
 }  // namespace
 
 bool GvretCsvReader::fail(std::size_t column, std::string message) {
-  error_.column = column;
-  error_.message = std::move(message);
-  error_.kind = PositionKind::line;
-  error_.position = line_number_;
-  error_.recovery = Recovery::next_line;
-  return false;
+  return detail::line_error(error_, line_number_, column, std::move(message));
 }
 
 bool GvretCsvReader::header(std::string_view line) {
-  have_header_ = true;
   std::vector<std::pair<std::size_t, std::string_view>> fields;
   detail::split_fields(line, ',', fields);
   std::optional<std::size_t> time, id, extended, bus, len, data;
@@ -90,20 +86,13 @@ bool GvretCsvReader::row(std::string_view line) {
 }
 
 GvretCsvReader::Status GvretCsvReader::next() {
-  while (std::getline(in_, line_)) {
-    ++line_number_;
-    std::string_view line = line_;
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.remove_suffix(1);
-    if (line.empty()) continue;
-    if (!have_header_) {
-      if (line_number_ == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
-      if (!header(line)) return Status::corrupt;
-      continue;
-    }
-    if (row(line)) return Status::frame;
-    return Status::corrupt;
-  }
-  return Status::end;
+  auto trimmed = [](std::string_view l) {
+    while (!l.empty() && l.back() == ' ') l.remove_suffix(1);
+    return l;
+  };
+  return detail::next_csv_record(
+      in_, line_, line_number_, have_header_, [&](std::string_view l) { return header(trimmed(l)); },
+      [&](std::string_view l) { return row(trimmed(l)); });
 }
 
 // ---- writer ----
@@ -117,13 +106,7 @@ void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
   if (closed_) throw std::runtime_error("GVRET CSV writer: write after close");
   check_writable(frame);
   if (frame.remote || frame.error) return;  // the format has neither
-  if (interface.empty()) interface = "can0";
-  std::size_t bus = 0;
-  while (bus < buses_.size() && buses_[bus] != interface) ++bus;
-  if (bus == buses_.size()) {
-    if (buses_.size() == 256) throw std::invalid_argument("GVRET CSV: more than 256 interfaces");
-    buses_.emplace_back(interface);
-  }
+  const std::size_t bus = detail::channel_index(buses_, interface, 256, "GVRET CSV");
   std::string line = fmt::format("{},{:08X},{},Rx,{},{},", frame.timestamp_ns.value_or(0) / 1000, frame.id,
                                  frame.extended ? "true" : "false", bus, frame.dlc);
   for (std::size_t i = 0; i < 8; ++i) line += fmt::format("{:02X},", i < frame.dlc ? frame.data[i] : 0);
@@ -131,10 +114,7 @@ void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
   if (!out_) throw std::runtime_error("GVRET CSV: write failed");
 }
 
-void GvretCsvWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
-}
+void GvretCsvWriter::flush() { detail::flush_checked(out_, "GVRET CSV"); }
 
 void GvretCsvWriter::close() {
   if (closed_) return;

@@ -4,10 +4,14 @@
 
 #include <charconv>
 #include <cstdint>
+#include <istream>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include "saulproto/host/capture/capture.hpp"
 
 namespace saul::host::detail {
 
@@ -67,6 +71,40 @@ inline std::optional<std::uint64_t> parse_scaled(std::string_view s, std::uint64
     value += digit;
   }
   return value;
+}
+
+/// Fills a text reader's error for a bad line (reading goes on at the next line); returns false.
+inline bool line_error(CaptureError& error, std::uint64_t line, std::size_t column, std::string message) {
+  error = CaptureError{column, std::move(message), PositionKind::line, line, Recovery::next_line};
+  return false;
+}
+
+/// The next line of a text capture, without its CR and, on line 1, without a UTF-8 byte-order mark; nullopt at
+/// the end. `buffer` holds it; `number` counts lines from 1.
+inline std::optional<std::string_view> next_line(std::istream& in, std::string& buffer, std::uint64_t& number) {
+  if (!std::getline(in, buffer)) return std::nullopt;
+  ++number;
+  std::string_view line = buffer;
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  if (number == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
+  return line;
+}
+
+/// next() of a CSV reader: a header line first (header(line) false: corrupt), then one frame per line (row(line)
+/// false: corrupt); blank lines are skipped.
+template <class Header, class Row>
+CaptureReader::Status next_csv_record(std::istream& in, std::string& buffer, std::uint64_t& number,
+                                      bool& have_header, Header&& header, Row&& row) {
+  while (const auto line = next_line(in, buffer, number)) {
+    if (line->find_first_not_of(" \t") == std::string_view::npos) continue;
+    if (!have_header) {
+      have_header = true;
+      if (!header(*line)) return CaptureReader::Status::corrupt;
+      continue;
+    }
+    return row(*line) ? CaptureReader::Status::frame : CaptureReader::Status::corrupt;
+  }
+  return CaptureReader::Status::end;
 }
 
 }  // namespace saul::host::detail

@@ -45,11 +45,8 @@ std::optional<std::uint64_t> parse_trc_start_time(std::string_view days) {
 // ---- reader ----
 
 TrcReader::Status TrcReader::next() {
-  while (std::getline(in_, line_)) {
-    ++line_number_;
-    std::string_view line = line_;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    switch (parse_line(line)) {
+  while (const auto line = detail::next_line(in_, line_, line_number_)) {
+    switch (parse_line(*line)) {
       case Step::frame: return Status::frame;
       case Step::corrupt: return Status::corrupt;
       case Step::skipped: break;
@@ -59,12 +56,26 @@ TrcReader::Status TrcReader::next() {
 }
 
 TrcReader::Step TrcReader::corrupt(std::size_t column, std::string message) {
-  error_.column = column;
-  error_.message = std::move(message);
-  error_.kind = PositionKind::line;
-  error_.position = line_number_;
-  error_.recovery = Recovery::next_line;
+  detail::line_error(error_, line_number_, column, std::move(message));
   return Step::corrupt;
+}
+
+TrcReader::Step TrcReader::error_frame(std::size_t time_token, std::optional<std::size_t> bus_token) {
+  const auto [time_col, time_text] = tokens_[time_token];
+  const auto offset = detail::parse_scaled(time_text, 1'000'000, 6);
+  if (!offset) return corrupt(time_col, "time offset must be milliseconds, e.g. 1059.900");
+  CanFrame f;
+  f.error = true;
+  f.id = kErrBusError;
+  f.dlc = 8;
+  f.timestamp_ns = start_ns_.value_or(0) + *offset;
+  frame_ = f;
+  name_ = "can0";
+  if (bus_token && *bus_token < tokens_.size()) {
+    const auto bus = detail::parse_decimal(tokens_[*bus_token].second);
+    if (bus && *bus > 0 && *bus <= 255) name_ = fmt::format("can{}", *bus - 1);
+  }
+  return Step::frame;
 }
 
 TrcReader::Step TrcReader::parse_line(std::string_view line) {
@@ -178,22 +189,7 @@ TrcReader::Step TrcReader::v1_line() {
   if (tokens_.size() <= type_token) return corrupt(line_length_, "expected time and message type");
   const auto [type_col, type] = tokens_[type_token];
   if (type == "Warng") return Step::skipped;  // bus status (BUSHEAVY, BUSOFF ...)
-  if (type == "Error") {
-    const auto offset = detail::parse_scaled(tokens_[1].second, 1'000'000, 6);
-    if (!offset) return corrupt(tokens_[1].first, "time offset must be milliseconds, e.g. 1841.0");
-    CanFrame f;
-    f.error = true;
-    f.id = kErrBusError;
-    f.dlc = 8;
-    f.timestamp_ns = start_ns_.value_or(0) + *offset;
-    frame_ = f;
-    name_ = "can0";
-    if (has_bus) {
-      const auto bus = detail::parse_decimal(tokens_[2].second);
-      if (bus && *bus > 0 && *bus <= 255) name_ = fmt::format("can{}", *bus - 1);
-    }
-    return Step::frame;
-  }
+  if (type == "Error") return error_frame(1, has_bus ? std::optional<std::size_t>(2) : std::nullopt);
   if (type != "Rx" && type != "Tx") return corrupt(type_col, fmt::format("unknown message type '{}'", type));
   const std::size_t id_token = type_token + 1;
   const std::size_t dlc_token = id_token + (version_ == 13 ? 2 : 1);
@@ -214,22 +210,7 @@ TrcReader::Step TrcReader::v2_line() {
   if (type == "FD" || type == "FB" || type == "FE" || type == "BI") return corrupt(type_col, std::string(kFdUnsupported));
   const std::size_t o = columns_.find('O');
   if (o >= tokens_.size()) return corrupt(line_length_, "line has fewer columns than $COLUMNS");
-  if (type == "ER") {
-    const auto offset = detail::parse_scaled(tokens_[o].second, 1'000'000, 6);
-    if (!offset) return corrupt(tokens_[o].first, "time offset must be milliseconds, e.g. 1059.900");
-    CanFrame f;
-    f.error = true;
-    f.id = kErrBusError;
-    f.dlc = 8;
-    f.timestamp_ns = start_ns_.value_or(0) + *offset;
-    frame_ = f;
-    name_ = "can0";
-    if (const auto b = index('B'); b && *b < tokens_.size()) {
-      const auto bus = detail::parse_decimal(tokens_[*b].second);
-      if (bus && *bus > 0 && *bus <= 255) name_ = fmt::format("can{}", *bus - 1);
-    }
-    return Step::frame;
-  }
+  if (type == "ER") return error_frame(o, index('B'));
   if (type != "DT" && type != "RR") return corrupt(type_col, fmt::format("unknown message type '{}'", type));
   const bool by_length = index('l').has_value();
   const std::size_t length = by_length ? *index('l') : *index('L');
@@ -266,13 +247,7 @@ void TrcWriter::header(std::uint64_t first_ns) {
 void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
   if (closed_) throw std::runtime_error("TRC writer: write after close");
   check_writable(frame);
-  if (interface.empty()) interface = "can0";
-  std::size_t index = 0;
-  while (index < buses_.size() && buses_[index] != interface) ++index;
-  if (index == buses_.size()) {
-    if (buses_.size() == 255) throw std::invalid_argument("TRC: more than 255 interfaces");
-    buses_.emplace_back(interface);
-  }
+  const std::size_t index = detail::channel_index(buses_, interface, 255, "TRC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!header_written_) header(ns);
   const std::uint64_t us = (ns > start_ns_ ? ns - start_ns_ : 0) / 1000;
@@ -291,10 +266,7 @@ void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
   if (!out_) throw std::runtime_error("TRC: write failed");
 }
 
-void TrcWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("TRC: write failed");
-}
+void TrcWriter::flush() { detail::flush_checked(out_, "TRC"); }
 
 void TrcWriter::close() {
   if (closed_) return;

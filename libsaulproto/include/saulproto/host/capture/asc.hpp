@@ -71,6 +71,7 @@ class AscReader final : public CaptureReader {
   Step timed_line(std::string_view line);
   Step frame_line(std::string_view line, std::uint64_t time_ns);
   Step canfd_line(std::string_view line, std::uint64_t time_ns);
+  bool parse_id(std::size_t token, CanFrame& frame);  ///< false after reporting it corrupt
   Step corrupt(std::size_t column, std::string message);
   [[nodiscard]] std::uint64_t absolute(std::uint64_t time_ns);
 

@@ -64,6 +64,7 @@ class TrcReader final : public CaptureReader {
   Step frame_from(std::size_t time_token, std::optional<std::size_t> bus_token, std::size_t id_token,
                   std::size_t dlc_token, bool dlc_is_length, std::size_t data_token, bool remote);
   Step corrupt(std::size_t column, std::string message);
+  Step error_frame(std::size_t time_token, std::optional<std::size_t> bus_token);
 
   std::istream& in_;
   std::string line_;
