@@ -2,6 +2,11 @@
 // for each failure. Only host-library calls (list_serial_ports, open_serial, open_can_link).
 #include <fmt/core.h>
 
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <optional>
 
@@ -31,6 +36,9 @@ struct Checks {
     fmt::print("FAIL {}: {}\n     fix: {}\n", what, detail, fix);
   }
   void skip(const std::string& what, const std::string& why) { fmt::print("-    {}: {}\n", what, why); }
+  void warn(const std::string& what, const std::string& detail, const std::string& fix) {
+    fmt::print("WARN {}: {}\n     fix: {}\n", what, detail, fix);
+  }
 };
 
 void check_ports(Checks& c, bool needed) {
@@ -148,6 +156,55 @@ void check_socketcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds w
   }
 }
 
+// ModemManager probes every new ttyACM with AT commands, which a CANable2 on slcan firmware (USB 16d0:117e) takes
+// for slcan commands. The saulctl package's udev rule (packaging/60-saulctl-canable.rules) sets
+// ID_MM_DEVICE_IGNORE on it; any rules file naming 16d0, 117e and ID_MM_DEVICE_IGNORE counts. SAUL_SYSROOT (for
+// tests) reads /proc and the rule folders under another root.
+bool modemmanager_running(const std::filesystem::path& root) {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(root / "proc", ec)) {
+    const auto name = entry.path().filename().string();
+    if (name.empty() || !std::isdigit(static_cast<unsigned char>(name[0]))) continue;
+    std::ifstream comm(entry.path() / "comm");
+    std::string line;
+    if (std::getline(comm, line) && line == "ModemManager") return true;
+  }
+  return false;
+}
+
+std::optional<std::filesystem::path> canable_mm_rule(const std::filesystem::path& root) {
+  for (const char* dir : {"etc/udev/rules.d", "run/udev/rules.d", "usr/local/lib/udev/rules.d", "usr/lib/udev/rules.d",
+                          "lib/udev/rules.d"}) {
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(root / dir, ec)) {
+      if (entry.path().extension() != ".rules") continue;
+      std::ifstream in(entry.path());
+      std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      for (auto& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      if (text.find("16d0") != std::string::npos && text.find("117e") != std::string::npos &&
+          text.find("id_mm_device_ignore") != std::string::npos)
+        return entry.path();
+    }
+  }
+  return std::nullopt;
+}
+
+void check_modemmanager(Checks& c) {
+  const char* sysroot = std::getenv("SAUL_SYSROOT");
+  const std::filesystem::path root = sysroot != nullptr && *sysroot != '\0' ? sysroot : "/";
+  if (!modemmanager_running(root)) {
+    c.ok("ModemManager", "not running");
+  } else if (const auto rule = canable_mm_rule(root)) {
+    c.ok("ModemManager", "running; " + rule->string() + " keeps it off the CANable2 (slcan)");
+  } else {
+    c.warn("ModemManager", "running, and no udev rule keeps it off a CANable2 on slcan firmware (USB 16d0:117e): "
+                           "its AT-command probe garbles slcan",
+           "install the saulctl package (its udev rule sets ID_MM_DEVICE_IGNORE), or copy "
+           "packaging/60-saulctl-canable.rules to /etc/udev/rules.d/ and run 'sudo udevadm control --reload-rules', "
+           "then replug; or: sudo systemctl disable --now ModemManager");
+  }
+}
+
 int run_doctor(const DoctorOptions& opt) {
   const auto wait = parse_duration(opt.wait);
   std::optional<saul::host::LinkSpec> spec;
@@ -158,6 +215,7 @@ int run_doctor(const DoctorOptions& opt) {
   }
   Checks c;
   check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
+  check_modemmanager(c);
   if (!spec) {
     c.skip("link", "none given (--link or SAUL_LINK); link checks skipped");
   } else if (spec->kind == saul::host::LinkSpec::Kind::slcan) {
@@ -184,7 +242,8 @@ void add_doctor_command(CLI::App& app, Runner& run) {
   add_link_option(cmd, o->link);
   cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str();
   cmd->footer(
-      "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); for slcan: port exists, permission, busy,\n"
+      "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); ModemManager (a warning when it runs\n"
+      "without the CANable2 udev rule); for slcan: port exists, permission, busy,\n"
       "channel opens, bus traffic, error state; for SocketCAN: interface exists, up, bus traffic, error state.\n"
       "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
       "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");

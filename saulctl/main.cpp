@@ -3,6 +3,10 @@
 
 #include "commands.hpp"
 
+#ifndef SAULCTL_VERSION
+#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
+#endif
+
 int main(int argc, char** argv) {
   CLI::App app{
       "saulctl - bench tool for the SAUL-TEE robot: decode, sniff and drive its CAN bus and serial links.\n"
@@ -15,7 +19,7 @@ int main(int argc, char** argv) {
       "Exit codes: 0 ok, 1 failure, 2 usage error, 3 timeout or no answer.",
       "saulctl"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "saulctl 0.1.0");
+  app.set_version_flag("--version", "saulctl " SAULCTL_VERSION);
 
   saulctl::Runner run;
   saulctl::add_decode_command(app, run);

@@ -14,6 +14,8 @@ packages=(
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)
   qemu-system-x86 busybox-static cpio kmod  # the real-kernel harness (tests/vm; can-utils too)
   clang libclang-rt-14-dev  # libFuzzer + ASan/UBSan runtimes of the fuzz targets (tests/fuzz/run.sh)
+  pybind11-dev python3-pybind11 python3-dev python3-pytest  # the Python module and its tests (python/)
+  help2man dpkg-dev man-db  # the .deb: man page, dpkg-shlibdeps, man -l on the page (packaging/, tests/package)
 )
 if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)
