@@ -2,6 +2,7 @@
 #include <fmt/core.h>
 
 #include "commands.hpp"
+#include "usage.hpp"
 
 #ifndef SAULCTL_VERSION
 #define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
@@ -43,7 +44,10 @@ int main(int argc, char** argv) {
   saulctl::add_dbc_command(app, run);
 
   try {
-    app.parse(argc, argv);
+    auto args = saulctl::expand_help_verb(app, argc, argv);  // "saulctl help VERB" is "saulctl VERB --help"
+    std::vector<char*> argp;
+    for (auto& a : args) argp.push_back(a.data());
+    app.parse(static_cast<int>(argp.size()), argp.data());
   } catch (const CLI::CallForHelp&) {
     fmt::print("{}", app.help());
     return saulctl::kOk;
@@ -56,15 +60,17 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // Subcommand help (--help after a verb) arrives here as CallForHelp of the subcommand too.
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    fmt::print(stderr, "saulctl: {} (see saulctl --help)\n", e.what());
-    return saulctl::kUsage;
+    return saulctl::report_usage_error(app, e);  // names the verb, suggests the nearest word, points to its help
   }
   if (!run) {
     fmt::print(stderr, "saulctl: no verb to run (see saulctl --help)\n");
     return saulctl::kUsage;
   }
   try {
-    return run();
+    const int rc = run();
+    // A verb's own usage errors (its checks after parsing) point to its help too.
+    if (rc == saulctl::kUsage) fmt::print(stderr, "saulctl: see '{} --help'\n", saulctl::verb_path(app));
+    return rc;
   } catch (const std::exception& e) {
     fmt::print(stderr, "saulctl: {}\n", e.what());
     return saulctl::kFailure;

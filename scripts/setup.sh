@@ -10,6 +10,7 @@ packages=(
   libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev libzstd-dev
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
+  zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)
   qemu-system-x86 busybox-static cpio kmod  # the real-kernel harness (tests/vm; can-utils too)
