@@ -36,5 +36,6 @@ void add_pride_command(CLI::App& app, Runner& run);
 void add_doctor_command(CLI::App& app, Runner& run);
 void add_completion_command(CLI::App& app, Runner& run);  // keep last in main(): it walks the others
 void add_dbc_command(CLI::App& app, Runner& run);
+void add_wireshark_command(CLI::App& app, Runner& run);
 
 }  // namespace saulctl

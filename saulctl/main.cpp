@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   saulctl::add_doctor_command(app, run);
   saulctl::add_completion_command(app, run);
   saulctl::add_dbc_command(app, run);
+  saulctl::add_wireshark_command(app, run);
 
   try {
     auto args = saulctl::expand_help_verb(app, argc, argv);  // "saulctl help VERB" is "saulctl VERB --help"

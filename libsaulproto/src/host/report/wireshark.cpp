@@ -1,0 +1,265 @@
+#include "saulproto/host/report/wireshark.hpp"
+
+#include <fmt/format.h>
+
+#include <string_view>
+
+#include "saulproto/core/signals.hpp"
+
+namespace saul::host {
+namespace {
+
+using signals::ByteOrder;
+using signals::Check;
+using signals::Kind;
+using signals::MessageDesc;
+using signals::Mux;
+using signals::Place;
+using signals::Protocol;
+using signals::SignalDesc;
+using signals::Text;
+
+/// A Lua string literal (the descriptions are ASCII; quotes and backslashes escaped anyway).
+std::string lua_string(std::string_view s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+/// The ProtoField type of a signal's field: what its JSON value is.
+const char* field_type(const SignalDesc& s) {
+  if (s.kind == Kind::string || s.text == Text::name) return "string";
+  if (s.text == Text::physical || s.kind == Kind::float32) return "double";
+  return s.kind == Kind::signed_int || s.offset != 0 ? "int32" : "uint32";  // the robot's signals: 32 bits at most
+}
+
+const char* text_mode(const SignalDesc& s) {
+  switch (s.text) {
+    case Text::raw: return "raw";
+    case Text::name: return "name";
+    case Text::physical: return "physical";
+    case Text::physical_int: return "physical_int";
+  }
+  return "raw";
+}
+
+template <class F>
+void each_message(F&& f) {
+  for (Protocol p : {Protocol::saul_can, Protocol::vesc_can})
+    for (const MessageDesc& m : signals::messages(p)) f(p, m);
+}
+
+/// Each (message, key) once: multiplexed signals may share a key (0x301's kp/ki/kd are all "value").
+template <class F>
+void each_field(F&& f) {
+  each_message([&](Protocol, const MessageDesc& m) {
+    for (std::size_t i = 0; i < m.signals.size(); ++i) {
+      bool seen = false;
+      for (std::size_t j = 0; j < i; ++j) seen = seen || std::string_view(m.signals[j].key) == m.signals[i].key;
+      if (!seen) f(m, m.signals[i]);
+    }
+  });
+}
+
+std::string field_name(const MessageDesc& m, const SignalDesc& s) { return fmt::format("saul.{}.{}", m.name, s.key); }
+
+std::string signal_table(const SignalDesc& s) {
+  std::string values;
+  for (const auto& v : s.values) values += fmt::format("[{}] = {}, ", v.value, lua_string(v.name));
+  return fmt::format(
+      "      {{ name = {}, key = {}, unit = {}, at = \"{}\", start = {}, bits = {}, kind = \"{}\", order = \"{}\",\n"
+      "        num = {}, den = {}, offset = {:.17g}, min = {}, max = {}, checked = {}, text = \"{}\", mux = \"{}\",\n"
+      "        mux_value = {}, values = {{ {}}}, value_bits = {} }},\n",
+      lua_string(s.name), lua_string(s.key), lua_string(s.unit),
+      s.place == Place::can_id ? "can_id" : "payload", s.start_bit, s.length,
+      s.kind == Kind::string        ? "string"
+      : s.kind == Kind::float32     ? "float32"
+      : s.kind == Kind::signed_int  ? "signed"
+                                    : "unsigned",
+      s.order == ByteOrder::little_endian ? "le" : "be", s.scale_num, s.scale_den, s.offset, s.min, s.max,
+      s.check == Check::decoder ? "true" : "false", text_mode(s),
+      s.mux == Mux::multiplexer ? "multiplexer" : s.mux == Mux::multiplexed ? "multiplexed" : "none", s.mux_value,
+      values, s.value_bits ? "true" : "false");
+}
+
+// The part of the script that does not depend on the descriptions: reading bits, values, the tree.
+constexpr std::string_view kEngine = R"LUA(
+-- Bits are numbered as in a DBC file (core/signals.hpp): little-endian fields start at their least significant
+-- bit (8 * byte + bit) and grow upwards; big-endian ones start at their most significant bit and go down the
+-- byte, then on to bit 7 of the next byte.
+local function read_raw(s, bytes)
+  local p = s.order == "le" and (s.start + s.bits - 1) or s.start
+  local u = 0
+  for i = s.bits - 1, 0, -1 do
+    local b = bytes[math.floor(p / 8) + 1]
+    if b == nil then return nil end
+    if math.floor(b / 2 ^ (p % 8)) % 2 == 1 then u = u + 2 ^ i end
+    if s.order == "le" then p = p - 1 elseif p % 8 == 0 then p = p + 15 else p = p - 1 end
+  end
+  if s.kind == "signed" and u >= 2 ^ (s.bits - 1) then u = u - 2 ^ s.bits end
+  return u
+end
+
+local function float32(u)
+  local sign = u >= 2 ^ 31 and -1 or 1
+  local e = math.floor(u / 2 ^ 23) % 256
+  local m = u % 2 ^ 23
+  if e == 0 then return sign * m * 2 ^ -149 end
+  if e == 255 then return m == 0 and sign * math.huge or 0 / 0 end
+  return sign * (1 + m / 2 ^ 23) * 2 ^ (e - 127)
+end
+
+local function physical(s, raw)
+  if s.kind == "float32" then return float32(raw) end
+  return raw * s.num / s.den + s.offset
+end
+
+local function round(x)  -- halves away from zero, as saulctl's llround
+  if x >= 0 then return math.floor(x + 0.5) end
+  return -math.floor(-x + 0.5)
+end
+
+-- The value saulctl decode --json gives, and the words for the tree.
+local function shown(s, raw)
+  if s.text == "name" then return s.values[raw] or tostring(raw) end
+  if s.text == "physical" then return physical(s, raw) end
+  if s.text == "physical_int" then return round(physical(s, raw)) end
+  if s.kind == "float32" then return float32(raw) end
+  return raw
+end
+
+local function number_text(x)
+  if x == math.floor(x) and math.abs(x) < 2 ^ 53 then return string.format("%d", x) end
+  return string.format("%.6g", x)
+end
+
+local function label(s, raw)
+  local text
+  if s.value_bits then
+    local set = {}
+    for bit = 0, s.bits - 1 do
+      if math.floor(raw / 2 ^ bit) % 2 == 1 then set[#set + 1] = s.values[bit] or ("bit " .. bit) end
+    end
+    text = number_text(raw) .. (#set > 0 and (" (" .. table.concat(set, ", ") .. ")") or " (none)")
+  elseif s.text == "name" or next(s.values) ~= nil then
+    text = (s.values[raw] or "?") .. " (" .. number_text(raw) .. ")"
+  else
+    text = number_text(physical(s, raw)) .. (s.unit ~= "" and (" " .. s.unit) or "")
+  end
+  if s.key ~= s.name then text = text .. "  [" .. s.key .. " = " .. tostring(shown(s, raw)) .. "]" end
+  return s.name .. ": " .. text
+end
+
+local f_id = Field.new("can.id")
+local f_xtd = Field.new("can.flags.xtd")
+local f_rtr = Field.new("can.flags.rtr")
+local f_err = Field.new("can.flags.err")
+local f_len = Field.new("can.len")
+
+function saul.dissector(tvb, pinfo, tree)
+  local id = f_id()
+  if id == nil or f_len() == nil then return end
+  if (f_rtr() and f_rtr().value) or (f_err() and f_err().value) then return end
+  id = id.value
+  local extended = f_xtd() and f_xtd().value
+  local m, protocol
+  if extended then
+    local command = math.floor(id / 256)
+    if command <= 255 then m = VESC[command] end
+    protocol = "VESC"
+  else
+    m = SAUL[id]
+    protocol = "SAUL"
+  end
+  if m == nil then return end
+  local length = f_len().value
+  if tvb:len() < 8 + length then return end
+  local range = tvb(8, length)
+  local bytes = {}
+  for i = 0, length - 1 do bytes[i + 1] = range:range(i, 1):uint() end
+  local id_bytes = {}
+  for i = 0, 3 do id_bytes[i + 1] = math.floor(id / 2 ^ (8 * i)) % 256 end
+
+  pinfo.cols.protocol:set(protocol)
+  pinfo.cols.info:append(" " .. m.name)
+  local t = tree:add(saul, range, "SAUL-TEE " .. protocol .. " " .. m.name)
+  t:add(F.message, range, m.name)
+  local problem
+  if (m.exact and length ~= m.length) or length < m.length then problem = "wrong_dlc" end
+  local mux
+  for _, s in ipairs(m.signals) do
+    if s.mux == "multiplexer" then mux = read_raw(s, s.at == "can_id" and id_bytes or bytes) end
+  end
+  for _, s in ipairs(m.signals) do
+    if s.mux ~= "multiplexed" or mux == s.mux_value then
+      local raw = read_raw(s, s.at == "can_id" and id_bytes or bytes)
+      if raw ~= nil then
+        if s.checked and (raw < s.min or raw > s.max) then problem = problem or "out_of_range" end
+        local item = t:add(FIELDS[m.name][s.key], range, shown(s, raw))
+        item:set_text(label(s, raw))
+      end
+    end
+  end
+  if problem then
+    t:add(F.problem, range, problem)
+    t:add_proto_expert_info(E.rejected, "saulctl rejects this frame: " .. problem)
+  end
+end
+
+register_postdissector(saul)
+)LUA";
+
+}  // namespace
+
+std::vector<std::string> wireshark_field_names() {
+  std::vector<std::string> names = {"saul.message", "saul.problem"};
+  each_field([&](const MessageDesc& m, const SignalDesc& s) { names.push_back(field_name(m, s)); });
+  return names;
+}
+
+std::string wireshark_dissector_lua() {
+  std::string out =
+      "-- SAUL-TEE robot: its SAUL frames (0x300-0x303, 0x400-0x402) and VESC frames in Wireshark, a Lua\n"
+      "-- post-dissector for SocketCAN captures (pcap/pcapng, link type 227).\n"
+      "-- Generated by `saulctl wireshark` from libsaulproto's message descriptions (core/signals*.hpp): do not\n"
+      "-- edit, generate it again. Use: wireshark -X lua_script:saul.lua run.pcapng, or copy it into\n"
+      "-- ~/.local/lib/wireshark/plugins/. Fields: saul.message, saul.problem, saul.<message>.<key> (the values\n"
+      "-- `saulctl decode --json` prints); the tree shows every signal in physical units.\n"
+      "local saul = Proto(\"saul\", \"SAUL-TEE robot CAN (SAUL and VESC frames)\")\n"
+      "local F = {\n"
+      "  message = ProtoField.string(\"saul.message\", \"Message\"),\n"
+      "  problem = ProtoField.string(\"saul.problem\", \"Rejected by saulctl\"),\n"
+      "}\n"
+      "local FIELDS = {}\n";
+  each_field([&](const MessageDesc& m, const SignalDesc& s) {
+    out += fmt::format("FIELDS[{0}] = FIELDS[{0}] or {{}}\n", lua_string(m.name));
+    out += fmt::format("FIELDS[{}][{}] = ProtoField.{}({}, {})\n", lua_string(m.name), lua_string(s.key),
+                       field_type(s), lua_string(field_name(m, s)),
+                       lua_string(fmt::format("{} {}", m.name, s.key)));
+  });
+  out +=
+      "local all = { F.message, F.problem }\n"
+      "for _, fields in pairs(FIELDS) do for _, f in pairs(fields) do all[#all + 1] = f end end\n"
+      "saul.fields = all\n"
+      "local E = { rejected = ProtoExpert.new(\"saul.rejected\", \"Frame rejected by saulctl's decoder\",\n"
+      "                                     expert.group.MALFORMED, expert.severity.WARN) }\n"
+      "saul.experts = { E.rejected }\n\n"
+      "-- The messages, from core/signals*.hpp. SAUL by 11-bit id, VESC by command (29-bit id bits 15..8).\n";
+  for (Protocol p : {Protocol::saul_can, Protocol::vesc_can}) {
+    out += p == Protocol::saul_can ? "local SAUL = {\n" : "local VESC = {\n";
+    for (const MessageDesc& m : signals::messages(p)) {
+      out += fmt::format("  [0x{:X}] = {{ name = {}, length = {}, exact = {}, signals = {{\n", m.id,
+                         lua_string(m.name), m.length, m.exact_length ? "true" : "false");
+      for (const SignalDesc& s : m.signals) out += signal_table(s);
+      out += "  } },\n";
+    }
+    out += "}\n";
+  }
+  out += kEngine;
+  return out;
+}
+
+}  // namespace saul::host
