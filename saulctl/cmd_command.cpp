@@ -41,20 +41,38 @@ std::string hint_for(saul::saulcan::AckResult r, std::uint8_t command) {
 }
 
 int report(const CommandOptions& opt, const std::string& what, const saul::host::CanLink& link,
-           const CommandOutcome& out, std::uint8_t command, milliseconds timeout) {
+           const CommandOutcome& out, std::uint8_t command, milliseconds timeout, double written_ms = -1,
+           const std::optional<saul::host::StateCheck>& state = std::nullopt) {
+  using saul::host::StateCheck;
   const double ms = static_cast<double>(out.latency.count()) / 1000.0;
+  const bool differs = state && state->result == StateCheck::Result::differs;
   if (opt.json) {
     nlohmann::json j;
     j["command"] = what;
     j["link"] = link.name();
+    if (const auto how = link.sharing(); !how.empty()) j["shared"] = how;
+    if (written_ms >= 0) j["written_ms"] = written_ms;
     j["status"] = saul::host::to_string(out.status);
     if (out.status != CommandOutcome::Status::no_answer) {
       j["result"] = saul::saulcan::to_string(out.result);
       j["latency_ms"] = ms;
     }
+    if (state) {
+      j["state"] = {{"expected", saul::saulcan::to_string(state->expected)},
+                    {"seen", state->seen ? saul::saulcan::to_string(*state->seen) : nullptr},
+                    {"result", state->result == StateCheck::Result::confirmed ? "confirmed"
+                               : differs                                      ? "differs"
+                                                                              : "no_telemetry"},
+                    {"after_ms", static_cast<double>(state->after.count()) / 1000.0}};
+      if (state->result != StateCheck::Result::confirmed) j["state"]["note"] = state->text();
+    }
     fmt::print("{}\n", j.dump());
   } else if (out.status == CommandOutcome::Status::applied) {
-    fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
+    if (state && state->result == StateCheck::Result::confirmed)
+      fmt::print("{}: applied ({:.1f} ms); {}\n", what, ms, state->text());
+    else
+      fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
+    if (state && state->result != StateCheck::Result::confirmed) fmt::print(stderr, "saulctl: {}: {}\n", what, state->text());
   } else if (out.status == CommandOutcome::Status::rejected) {
     fmt::print(stderr, "saulctl: {}: {} - {}\n", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
   } else {
@@ -64,7 +82,7 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
                what, timeout.count(), link.name());
   }
   switch (out.status) {
-    case CommandOutcome::Status::applied: return kOk;
+    case CommandOutcome::Status::applied: return differs ? kFailure : kOk;
     case CommandOutcome::Status::rejected: return kFailure;
     case CommandOutcome::Status::no_answer: return kTimeout;
   }
@@ -87,19 +105,35 @@ int run_mode(const CommandOptions& opt) {
   const auto out = mode == saul::saulcan::Mode::estop
                        ? client.wait_for_ack(0x02, std::nullopt, steady_clock::now(), timeout)
                        : client.set_mode(mode, timeout);
-  return report(opt, "mode " + opt.mode, *link, out, 0x02, timeout);
+  std::optional<saul::host::StateCheck> state;
+  if (out.status == CommandOutcome::Status::applied) state = client.confirm_state(saul::host::state_for(mode));
+  return report(opt, "mode " + opt.mode, *link, out, 0x02, timeout, -1, state);
 }
 
 int run_estop(const CommandOptions& opt) {
-  // No confirmation, no delay: open, send, then report whether BALANCE acknowledged.
+  // No confirmation, no delay: open (or join the saulctl that holds the adapter), send, then report whether
+  // BALANCE acknowledged. The frame's way out is timed: command start -> the write to the adapter (measured by the
+  // owner when the link is shared).
+  const auto started = steady_clock::now();
   const auto spec = resolve_link(opt.link);
   const auto timeout = parse_duration(opt.timeout);
   auto link = saul::host::open_can_link(spec);
   saul::host::RobotClient client(*link);
   const auto t0 = steady_clock::now();
   client.send_estop();
+  const double open_ms = duration<double, std::milli>(t0 - started).count();
+  const double send_ms = static_cast<double>(link->stats().last_send_ns) / 1e6;
+  if (!opt.json) {
+    const auto how = link->sharing();
+    fmt::print(stderr, "estop: written to the adapter {:.2f} ms after the command started ({:.2f} ms opening, "
+                       "{:.2f} ms sending{})\n",
+               open_ms + send_ms, open_ms, send_ms, how.empty() ? "" : "; " + how);
+  }
   const auto out = client.wait_for_ack(0x02, std::nullopt, t0, timeout);
-  return report(opt, "estop", *link, out, 0x02, timeout);
+  std::optional<saul::host::StateCheck> state;
+  if (out.status == CommandOutcome::Status::applied)
+    state = client.confirm_state(saul::saulcan::RobotState::estop);
+  return report(opt, "estop", *link, out, 0x02, timeout, open_ms + send_ms, state);
 }
 
 int run_pid(const CommandOptions& opt) {
@@ -155,7 +189,9 @@ void attach_runner(CLI::App* cmd, const std::shared_ptr<CommandOptions>& o, Runn
 }  // namespace
 
 void add_command_commands(CLI::App& app, Runner& run) {
-  const char* exits = "\nExit codes: 0 applied, 1 rejected or error, 2 usage or not confirmed, 3 no acknowledgement.\n";
+  const char* exits =
+      "\nExit codes: 0 applied, 1 rejected or error (or, for mode and estop, acknowledged but the robot's 0x400 shows\n"
+      "another state), 2 usage or not confirmed, 3 no acknowledgement.\n";
   {
     auto o = std::make_shared<CommandOptions>();
     auto* cmd = app.add_subcommand("mode", "Set the robot's mode (0x302) and wait for its acknowledgement");

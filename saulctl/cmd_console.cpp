@@ -13,6 +13,7 @@
 #include "live.hpp"
 #include "saulproto/core/console.hpp"
 #include "saulproto/host/link/serial_port.hpp"
+#include "saulproto/host/link/shared_link.hpp"
 
 namespace saulctl {
 namespace {
@@ -145,7 +146,7 @@ int run_console(const ConsoleOptions& opt) {
   const auto timeout = parse_duration(opt.timeout);
   saul::host::SerialSettings settings;
   settings.baud = opt.baud;
-  auto port = saul::host::open_serial(opt.port, settings);
+  auto port = saul::host::open_shared_serial(opt.port, settings);
   std::string pending;
   if (!opt.command.empty())
     return one_command(opt, *port, fmt::format("{}", fmt::join(opt.command, " ")), timeout, pending);

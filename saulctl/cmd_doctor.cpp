@@ -14,7 +14,9 @@
 #include "live.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/link/device_holders.hpp"
 #include "saulproto/host/link/serial_port.hpp"
+#include "saulproto/host/link/shared_link.hpp"
 
 namespace saulctl {
 namespace {
@@ -91,13 +93,44 @@ void check_traffic(Checks& c, saul::host::CanLink& link, milliseconds wait) {
     c.ok("error state", saul::host::to_string(state));
 }
 
+// A saulctl of this user that holds the device and shares it is fine: the checks go through it (another program
+// holding it is named by open_serial's error, with its pid).
+enum class Sharing { none, shared, refused };
+Sharing check_sharing(Checks& c, const std::string& dev) {
+  std::optional<saul::host::ShareInfo> share;
+  try {
+    share = saul::host::query_share(dev);
+  } catch (const LinkError& e) {
+    c.fail("not busy", e.what(), "stop the other user's saulctl, or check " + saul::host::share_directory_path());
+    return Sharing::refused;
+  }
+  if (!share) return Sharing::none;
+  c.ok("port exists", dev);
+  c.ok("not busy", fmt::format("{} is held by {} as {} and shared with this user's saulctl commands ({} other{} now)",
+                               dev, share->owner_text(), share->link, share->clients, share->clients == 1 ? "" : "s"));
+  return Sharing::shared;
+}
+
+std::string holder_fix(const std::string& dev) {
+  const auto holders = saul::host::device_holders(dev);
+  if (holders.empty()) return "find it with: sudo fuser -v " + dev;
+  const auto& h = holders.front();
+  return h.is_saulctl() ? fmt::format("stop it (kill {}), then run this again", h.pid)
+                        : fmt::format("quit {} (or: kill {}); saulctl shares a port only with other saulctl commands",
+                                      h.name, h.pid);
+}
+
 void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait) {
   const std::string& dev = spec.device;
+  const Sharing sharing = check_sharing(c, dev);
+  if (sharing == Sharing::refused) return;
   try {
-    auto port = saul::host::open_serial(dev, saul::host::SerialSettings{}, spec.backend);
-    c.ok("port exists", dev);
-    c.ok("permission", "can open " + dev);
-    c.ok("not busy", dev + " is free");
+    if (sharing == Sharing::none) {
+      auto port = saul::host::open_serial(dev, saul::host::SerialSettings{}, spec.backend);
+      c.ok("port exists", dev);
+      c.ok("permission", "can open " + dev);
+      c.ok("not busy", dev + " is free");
+    }
   } catch (const SerialError& e) {
     switch (e.kind()) {
       case SerialError::Kind::not_found:
@@ -111,8 +144,7 @@ void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait)
         return;
       case SerialError::Kind::busy:
         c.ok("port exists", dev);
-        c.ok("permission", "can open " + dev);
-        c.fail("not busy", dev + " is held by another program", "find and stop it: fuser -v " + dev);
+        c.fail("not busy", e.what(), holder_fix(dev));
         return;
       default:
         c.fail("port exists", e.what(), "unplug and replug the adapter; dmesg shows what the kernel says");
@@ -121,7 +153,8 @@ void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait)
   }
   try {
     auto link = saul::host::open_can_link(spec);
-    c.ok("slcan channel", fmt::format("opened at {} bit/s", spec.bitrate));
+    const auto how = link->sharing();
+    c.ok("slcan channel", fmt::format("opened at {} bit/s{}", spec.bitrate, how.empty() ? "" : " (" + how + ")"));
     check_traffic(c, *link, wait);
   } catch (const std::exception& e) {
     c.fail("slcan channel", e.what(),
@@ -224,8 +257,9 @@ int run_doctor(const DoctorOptions& opt) {
     check_socketcan(c, *spec, wait);
   } else {
     try {
-      auto port = saul::host::open_serial(spec->device, spec->serial, spec->backend);
-      c.ok("serial link", spec->device + " opens");
+      auto port = saul::host::open_serial_link(*spec);
+      const auto how = port->sharing();
+      c.ok("serial link", spec->device + " opens" + (how.empty() ? "" : " (" + how + ")"));
     } catch (const std::exception& e) {
       c.fail("serial link", e.what(), "see 'saulctl ports' for the path; dialout group for permission");
     }

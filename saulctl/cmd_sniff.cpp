@@ -1,10 +1,13 @@
 // saulctl sniff: live decode of everything on a CAN link or a serial byte link.
 #include <fmt/core.h>
 
+#include <poll.h>
 #include <unistd.h>
 
+#include <array>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "commands.hpp"
 #include "live.hpp"
@@ -13,6 +16,7 @@
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
 #include "saulproto/host/link/socketcan.hpp"
+#include "tui.hpp"
 
 namespace saulctl {
 namespace {
@@ -59,20 +63,28 @@ saul::host::TimeMode time_mode(const std::string& t) {
                     : t == "delta" ? saul::host::TimeMode::delta : saul::host::TimeMode::absolute;
 }
 
+// The filters go in at open: in the kernel before the socket is bound (SocketCAN), before the first frame is
+// queued (slcan, shared links), so not one frame of another id is printed.
+std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
+  saul::host::LinkOpenOptions o;
+  o.listen_only = opt.listen_only;
+  for (const auto& t : opt.filters) o.filters.push_back(parse_filter(t));
+  return saul::host::open_can_link(spec, o);
+}
+
 int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
-  auto link = saul::host::open_can_link(spec, opt.listen_only);
-  std::vector<saul::host::CanFilter> filters;
-  for (const auto& t : opt.filters) filters.push_back(parse_filter(t));
-  link->set_filters(filters);
+  auto link = open_filtered(opt, spec);
   const bool limited = !opt.duration.empty();
   const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
   const auto start = steady_clock::now();
   saul::host::TimeColumn column(time_mode(opt.time));
   std::uint64_t shown = 0;
   auto state = link->stats().state;
-  if (!opt.json)
-    fmt::print(stderr, "sniff: listening on {} (timestamps: {}); Ctrl-C to stop\n", link->name(),
-               saul::host::to_string(link->timestamp_source()));
+  if (!opt.json) {
+    const std::string shared = link->sharing();
+    fmt::print(stderr, "sniff: listening on {} (timestamps: {}{}); Ctrl-C to stop\n", link->name(),
+               saul::host::to_string(link->timestamp_source()), shared.empty() ? "" : "; " + shared);
+  }
   int status = kOk;
   try {
     while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
@@ -104,13 +116,17 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
     status = report_link_error(e);
   }
   const auto s = link->stats();
-  fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}\n", shown,
-             s.rx_frames, s.tx_frames, s.rx_dropped, s.error_frames, s.bus_off_events, saul::host::to_string(s.state));
+  fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}{}\n", shown,
+             s.rx_frames, s.tx_frames, s.rx_dropped, s.error_frames, s.bus_off_events, saul::host::to_string(s.state),
+             s.filtered_late ? fmt::format("; {} frames of other ids came past the kernel filter and were dropped",
+                                           s.filtered_late)
+                             : "");
   return status;
 }
 
 
-// --top: one row per id, redrawn in place on a terminal (twice a second); otherwise printed once at the end.
+// --top: one row per id, a full-screen view on a terminal (tui.hpp, redrawn ten times a second); the table printed
+// once at the end in any case.
 struct TopRow {
   std::array<std::uint8_t, 8> data{};
   std::array<std::uint8_t, 8> previous{};
@@ -119,11 +135,16 @@ struct TopRow {
   bool has = false;
 };
 
-std::string top_table(const saul::host::BusStats& stats, const std::map<saul::host::BusStats::IdKey, TopRow>& rows,
-                      const std::string& link_name, double recent_load, bool colour) {
-  std::string out;
+double whole_run_load(const saul::host::BusStats& stats) {
   double load = 0;
   for (const auto& [name, l] : stats.interfaces()) load = stats.load_percent(l, saul::host::StuffBits::worst_case);
+  return load;
+}
+
+std::string top_table(const saul::host::BusStats& stats, const std::map<saul::host::BusStats::IdKey, TopRow>& rows,
+                      const std::string& link_name, double recent_load) {
+  std::string out;
+  const double load = whole_run_load(stats);
   out += fmt::format("{}: {} frames, {} error frames, bus load {:.1f} % (whole run), {:.1f} % (last interval), "
                      "stuff bits worst case at {} bit/s\n",
                      link_name, stats.frames(), stats.error_frames(), load, recent_load, stats.options().bitrate);
@@ -137,8 +158,7 @@ std::string top_table(const saul::host::BusStats& stats, const std::map<saul::ho
       for (std::size_t i = 0; i < r.dlc && i < 8; ++i) {
         const bool changed = r.seen_before && r.data[i] != r.previous[i];
         if (!data.empty()) data += ' ';
-        if (changed && colour) data += fmt::format("\x1b[1;7m{:02X}\x1b[0m", r.data[i]);
-        else data += fmt::format("{:02X}{}", r.data[i], changed ? "*" : "");
+        data += fmt::format("{:02X}{}", r.data[i], changed ? "*" : "");
       }
     }
     const auto& c = st.cadence;
@@ -149,70 +169,144 @@ std::string top_table(const saul::host::BusStats& stats, const std::map<saul::ho
   return out;
 }
 
+// The full-screen --top: the same table, columns narrowed to the terminal (80 columns: no jitter, a shorter type),
+// changed bytes in reverse video, error frames and a bad bus state in red, and the view's keys.
+void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
+              const std::map<saul::host::BusStats::IdKey, TopRow>& rows, const saul::host::CanLink& link,
+              double recent_load, const ViewCommands& keys, const std::string& lost) {
+  using tui::Style;
+  s.begin();
+  const int w = s.width();
+  const int h = s.height();
+  const bool wide = w >= 100;
+  const auto st = link.stats();
+  int c = s.put(0, 0, "sniff --top  ", Style::title);
+  c = s.put(0, c, link.name());
+  if (const auto how = link.sharing(); !how.empty()) s.put(0, c, "  (" + how + ")", Style::dim);
+  c = s.put(1, 0, fmt::format("{} frames  ", stats.frames()));
+  c = s.put(1, c, fmt::format("{} error frames", stats.error_frames()), stats.error_frames() ? Style::bad : Style::normal);
+  c = s.put(1, c, fmt::format("  load {:.1f} % now, {:.1f} % whole run  bus ", recent_load, whole_run_load(stats)));
+  using CS = saul::host::ControllerState;
+  s.put(1, c, saul::host::to_string(st.state),
+        st.state == CS::bus_off || st.state == CS::passive ? Style::bad : st.state == CS::warning ? Style::warn
+                                                                                                   : Style::normal);
+  if (!lost.empty()) s.put(2, 0, "LINK LOST: " + lost, Style::bad);
+  const int type_w = wide ? 18 : 14;
+  s.put(3, 0, wide ? fmt::format("{:>8} {:<18} {:>8} {:>8} {:>9} {:>9}  {}", "ID", "TYPE", "COUNT", "RATE/Hz",
+                                 "PERIOD/ms", "JITTER/ms", "LAST DATA")
+                   : fmt::format("{:>8} {:<14} {:>7} {:>7} {:>9}  {}", "ID", "TYPE", "COUNT", "RATE/Hz", "PERIOD/ms",
+                                 "LAST DATA"),
+        Style::dim);
+  int row = 4;
+  const int last_row = h - 3;
+  std::size_t left = stats.ids().size();
+  for (const auto& [key, ist] : stats.ids()) {
+    if (row > last_row || (row == last_row && left > 1)) {
+      s.put(row, 0, fmt::format("... {} more ids (a taller terminal shows them)", left), Style::dim);
+      break;
+    }
+    --left;
+    const auto& cad = ist.cadence;
+    const std::string id = key.first ? fmt::format("{:08X}", key.second) : fmt::format("{:>8}", fmt::format("{:03X}", key.second));
+    std::string type = ist.type.substr(0, static_cast<std::size_t>(type_w));
+    const bool error = ist.type.find("error") != std::string::npos;
+    c = s.put(row, 0, wide ? fmt::format("{:>8} {:<18} {:>8} {:>8.1f} {:>9.2f} {:>9.2f}  ", id, type, cad.count,
+                                         cad.rate_hz(), cad.mean_gap_ns / 1e6, cad.jitter_ns() / 1e6)
+                           : fmt::format("{:>8} {:<14} {:>7} {:>7.1f} {:>9.2f}  ", id, type, cad.count, cad.rate_hz(),
+                                         cad.mean_gap_ns / 1e6),
+              error ? Style::bad : Style::normal);
+    if (const auto it = rows.find(key); it != rows.end()) {
+      const TopRow& r = it->second;
+      for (std::size_t i = 0; i < r.dlc && i < 8; ++i) {
+        const bool changed = r.seen_before && r.data[i] != r.previous[i];
+        c = s.put(row, c, fmt::format("{:02X}", r.data[i]), changed ? Style::inverse : Style::normal);
+        c = s.put(row, c, " ");
+      }
+    }
+    ++row;
+  }
+  if (const auto status = keys.status(); !status.empty()) s.put(h - 2, 0, status, keys.status_style());
+  s.put(h - 1, 0, ViewCommands::help(), Style::inverse);
+  s.show();
+}
+
 int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
-  auto link = saul::host::open_can_link(spec, opt.listen_only);
-  std::vector<saul::host::CanFilter> filters;
-  for (const auto& t : opt.filters) filters.push_back(parse_filter(t));
-  link->set_filters(filters);
+  auto link = open_filtered(opt, spec);
   const bool limited = !opt.duration.empty();
   const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
-  const bool tty = ::isatty(STDOUT_FILENO) != 0;
+  auto screen = tui::Screen::open();
+  std::optional<ViewCommands> keys;
+  if (screen) keys.emplace(*link);
   saul::host::BusStatsOptions bo;
   bo.bitrate = spec.kind == saul::host::LinkSpec::Kind::slcan ? spec.bitrate : 500'000;
   saul::host::BusStats stats(bo);
   std::map<saul::host::BusStats::IdKey, TopRow> rows;
   const auto start = steady_clock::now();
   auto interval_start = start;
-  auto next_draw = start + milliseconds(500);
+  auto next_draw = start;
   std::uint64_t interval_bits = 0;
   double recent_load = 0;
   std::uint64_t shown = 0;
+  std::string lost;
   int status = kOk;
-  try {
-    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
-      auto wait = milliseconds(100);
-      const auto now = steady_clock::now();
-      if (limited) {
-        const auto left = duration_cast<milliseconds>(duration - (now - start));
-        if (left.count() <= 0) break;
-        wait = std::min(wait, left);
-      }
-      if (now >= next_draw) {
-        const double secs = std::chrono::duration<double>(now - interval_start).count();
+  while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
+    const auto now = steady_clock::now();
+    if (limited && now - start >= duration) break;
+    if (now >= next_draw) {
+      const double secs = std::chrono::duration<double>(now - interval_start).count();
+      if (secs >= 0.5 || interval_start == start) {
         recent_load = secs > 0 ? 100.0 * static_cast<double>(interval_bits) / (secs * static_cast<double>(bo.bitrate)) : 0;
         interval_bits = 0;
         interval_start = now;
-        next_draw = now + milliseconds(500);
-        if (tty) {
-          fmt::print("\x1b[H\x1b[2J{}", top_table(stats, rows, link->name(), recent_load, true));
-          std::fflush(stdout);
-        }
       }
-      auto f = link->receive(wait);
-      if (!f) continue;
-      if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
-      stats.add(*f, link->name());
-      ++shown;
-      if (f->error) continue;
-      interval_bits += saul::host::can_frame_bits(*f, saul::host::StuffBits::worst_case);
-      TopRow& r = rows[{f->extended, f->id}];
-      r.seen_before = r.has;
-      r.has = true;
-      r.previous = r.data;
-      r.data = f->data;
-      r.dlc = f->remote ? 0 : f->dlc;
+      next_draw = now + milliseconds(screen ? 100 : 500);
+      if (screen) draw_top(*screen, stats, rows, *link, recent_load, *keys, lost);
     }
-  } catch (const std::exception& e) {
-    status = report_link_error(e);
+    // A key or a frame, whichever comes first (ESTOP does not wait for the next redraw).
+    std::array<pollfd, 2> fds{{{screen ? STDIN_FILENO : -1, POLLIN, 0}, {lost.empty() ? link->poll_handle() : -1, POLLIN, 0}}};
+    ::poll(fds.data(), fds.size(), 50);
+    if (screen) {
+      bool quit = false;
+      for (int k; (k = screen->key()) >= 0;) quit = quit || keys->key(k);
+      if (quit) break;
+    }
+    if (!lost.empty()) continue;
+    try {
+      while (auto f = link->receive(milliseconds(0))) {
+        if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
+        stats.add(*f, link->name());
+        if (keys) keys->frame(*f);
+        ++shown;
+        if (!f->error) {
+          interval_bits += saul::host::can_frame_bits(*f, saul::host::StuffBits::worst_case);
+          TopRow& r = rows[{f->extended, f->id}];
+          r.seen_before = r.has;
+          r.has = true;
+          r.previous = r.data;
+          r.data = f->data;
+          r.dlc = f->remote ? 0 : f->dlc;
+        }
+        if (opt.count != 0 && shown >= opt.count) break;
+      }
+    } catch (const std::exception& e) {
+      status = screen ? kFailure : report_link_error(e);
+      if (!screen) break;
+      lost = e.what();  // the view stays, says so; q leaves
+    }
   }
-  if (tty) fmt::print("\x1b[H\x1b[2J");
-  fmt::print("{}", top_table(stats, rows, link->name(), recent_load, tty));
+  const bool had_screen = screen != nullptr;
+  screen.reset();
+  if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
+  keys.reset();
+  if (!lost.empty()) fmt::print(stderr, "saulctl: link lost: {}\n", lost);
+  // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.
+  fmt::print("{}", top_table(stats, rows, link->name(), recent_load));
   std::fflush(stdout);
   return status;
 }
 
 int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
-  auto port = saul::host::open_serial(spec.device, spec.serial, spec.backend);
+  auto port = saul::host::open_serial_link(spec);
   const bool limited = !opt.duration.empty();
   const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
   const auto start = steady_clock::now();
@@ -282,8 +376,9 @@ void add_sniff_command(CLI::App& app, Runner& run) {
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "JSON Lines, one object per frame");
   cmd->add_flag("--top", o->top,
-                "per-id view redrawn in place: count, rate, period, jitter, last data (changed bytes marked), bus "
-                "load; printed once at the end when stdout is no terminal");
+                "per-id table: count, rate, period, jitter, last data (changed bytes marked), bus load and state; a "
+                "full-screen view on a terminal (keys: e or space = ESTOP, o = mode off, q = quit), printed once at "
+                "the end in any case");
   cmd->add_flag("--listen-only", o->listen_only, "slcan: open the adapter silent (no ACKs on the bus)");
   cmd->footer(
       "\nOne line per frame, the same format as 'saulctl decode'. Controller state changes (error-warning, "

@@ -7,10 +7,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 
 #include "commands.hpp"
+#include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/serial_port.hpp"
+#include "saulproto/host/link/shared_link.hpp"
 
 namespace saulctl {
 
@@ -98,6 +101,95 @@ int report_link_error(const std::exception& e) {
     if (le->kind() == saul::host::LinkError::Kind::timeout) return kTimeout;
   }
   return kFailure;
+}
+
+namespace {
+// The shared link's notices while a view is up (they may come from the owner's serving thread).
+std::mutex g_view_notice_mu;
+std::string g_view_notice;
+}  // namespace
+
+ViewCommands::ViewCommands(saul::host::CanLink& link) : link_(&link) {
+  saul::host::set_share_notice([](const std::string& text) {
+    std::lock_guard lock(g_view_notice_mu);
+    g_view_notice = text;
+  });
+}
+
+ViewCommands::~ViewCommands() {
+  saul::host::set_share_notice(nullptr);
+  std::lock_guard lock(g_view_notice_mu);
+  if (!g_view_notice.empty()) fmt::print(stderr, "saulctl: {}\n", g_view_notice);  // the view is gone: say it once
+  g_view_notice.clear();
+}
+
+void ViewCommands::send(std::uint8_t mode, const char* what) {
+  const auto t0 = std::chrono::steady_clock::now();
+  last_what_ = what;
+  try {
+    link_->send(saul::saulcan::encode(saul::saulcan::ModeCmd{static_cast<saul::saulcan::Mode>(mode)}),
+                std::chrono::milliseconds(100));
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    last_result_ = fmt::format("sent ({:.2f} ms), waiting for the 0x402", ms);
+    last_bad_ = false;
+    waiting_since_ = t0;
+    waiting_mode_ = mode;
+  } catch (const std::exception& e) {
+    last_result_ = fmt::format("NOT SENT: {}", e.what());
+    last_bad_ = true;
+  }
+  std::lock_guard lock(g_view_notice_mu);
+  g_view_notice.clear();  // the command is the news now
+}
+
+bool ViewCommands::key(int k) {
+  switch (k) {
+    case 'e':
+    case 'E':
+    case ' ':
+      ++estops_;
+      send(3, "ESTOP");
+      return false;
+    case 'o':
+    case 'O': send(0, "mode off"); return false;
+    case 'q':
+    case 'Q': return true;
+    default: return false;
+  }
+}
+
+void ViewCommands::frame(const saul::CanFrame& f) {
+  if (!waiting_since_) return;
+  const auto ack = saul::saulcan::decode_command_ack(f);
+  if (!ack || ack->command != 0x02) return;
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - *waiting_since_).count();
+  last_bad_ = ack->result != saul::saulcan::AckResult::applied;
+  last_result_ = last_bad_ ? fmt::format("{} ({:.1f} ms)", saul::saulcan::to_string(ack->result), ms)
+                           : fmt::format("acknowledged ({:.1f} ms)", ms);
+  waiting_since_.reset();
+}
+
+std::string ViewCommands::status() const {
+  {
+    std::lock_guard lock(g_view_notice_mu);
+    if (!g_view_notice.empty()) return g_view_notice;
+  }
+  if (last_what_.empty()) return "";
+  if (waiting_since_ && std::chrono::steady_clock::now() - *waiting_since_ > std::chrono::seconds(1))
+    return last_what_ + ": sent, no acknowledgement within 1 s (is BALANCE on the bus?)";
+  return last_what_ + ": " + last_result_;
+}
+
+tui::Style ViewCommands::status_style() const {
+  if (last_bad_ || (waiting_since_ && std::chrono::steady_clock::now() - *waiting_since_ > std::chrono::seconds(1)))
+    return tui::Style::bad;
+  return last_what_ == "ESTOP" ? tui::Style::warn : tui::Style::normal;
+}
+
+std::string ViewCommands::summary() const {
+  if (last_what_.empty()) return "";
+  return fmt::format("{} ESTOP{} sent from the keyboard; last: {}: {}", estops_, estops_ == 1 ? "" : "s", last_what_,
+                     last_result_);
 }
 
 }  // namespace saulctl

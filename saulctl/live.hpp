@@ -6,9 +6,11 @@
 
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <string>
 
 #include "saulproto/host/link/link_spec.hpp"
+#include "tui.hpp"
 
 namespace saulctl {
 
@@ -30,5 +32,41 @@ std::chrono::milliseconds parse_duration(const std::string& text);
 
 /// Maps a LinkError to saulctl's exit code and prints it as one line.
 int report_link_error(const std::exception& e);
+
+/// The keys every full-screen view takes, and what became of them: e or space = ESTOP (always, at once: the frame
+/// is written before the key is even shown), o = mode off, q = quit. The acknowledgements (0x402) come in through
+/// frame(). Notices of the shared link are kept for the status line while it lives.
+class ViewCommands {
+ public:
+  explicit ViewCommands(saul::host::CanLink& link);
+  ~ViewCommands();
+  ViewCommands(const ViewCommands&) = delete;
+  ViewCommands& operator=(const ViewCommands&) = delete;
+
+  /// A key from the view; true when it asks to quit.
+  bool key(int k);
+  /// Every frame the view receives (acknowledgements of what was sent).
+  void frame(const saul::CanFrame& f);
+  /// The link to use from now on (after the view reopened a lost one).
+  void relink(saul::host::CanLink& link) { link_ = &link; }
+  /// What was last sent and what became of it, or the latest notice; "" for nothing.
+  [[nodiscard]] std::string status() const;
+  [[nodiscard]] tui::Style status_style() const;
+  [[nodiscard]] static const char* help() { return " e/space ESTOP   o mode off   q quit "; }
+  [[nodiscard]] int estops_sent() const { return estops_; }
+  /// The summary's line about them ("ESTOP sent 1 time, acknowledged"), "" when nothing was sent.
+  [[nodiscard]] std::string summary() const;
+
+ private:
+  void send(std::uint8_t mode, const char* what);
+
+  saul::host::CanLink* link_;
+  int estops_ = 0;
+  std::string last_what_;
+  std::string last_result_;
+  bool last_bad_ = false;
+  std::optional<std::chrono::steady_clock::time_point> waiting_since_;
+  std::uint8_t waiting_mode_ = 0;
+};
 
 }  // namespace saulctl

@@ -8,6 +8,7 @@ set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config
   libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev libzstd-dev
+  libncurses-dev tmux  # saulctl's full-screen views; tmux drives them in tests/cli/views.sh
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
   zsh  # the zsh completion check (tests/cli/completion.sh)

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "saulproto/host/link/shared_link.hpp"
 #include "saulproto/host/link/slcan_link.hpp"
 #include "saulproto/host/link/socketcan.hpp"
 
@@ -74,19 +75,38 @@ LinkSpec parse_link_spec(const std::string& text) {
   return spec;
 }
 
-std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, bool listen_only) {
+std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options) {
   switch (spec.kind) {
-    case LinkSpec::Kind::socketcan: return open_socketcan(spec.device);
+    case LinkSpec::Kind::socketcan: {
+      SocketCanOptions o;
+      o.filters = options.filters;
+      return open_socketcan(spec.device, o);
+    }
     case LinkSpec::Kind::slcan: {
+      if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters);
       SlcanOptions o;
       o.bitrate = spec.bitrate;
-      o.listen_only = listen_only;
+      o.listen_only = options.listen_only;
       o.backend = spec.backend;
-      return open_slcan(spec.device, o);
+      auto link = open_slcan(spec.device, o);
+      link->set_filters(options.filters);
+      return link;
     }
     case LinkSpec::Kind::serial: break;
   }
   throw std::invalid_argument(fmt::format("'{}' is a serial byte link, not a CAN bus", spec.text()));
+}
+
+std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, bool listen_only) {
+  LinkOpenOptions o;
+  o.listen_only = listen_only;
+  return open_can_link(spec, o);
+}
+
+std::unique_ptr<SerialPort> open_serial_link(const LinkSpec& spec) {
+  if (spec.kind != LinkSpec::Kind::serial)
+    throw std::invalid_argument(fmt::format("'{}' is a CAN link, not a serial byte link", spec.text()));
+  return open_shared_serial(spec.device, spec.serial, spec.backend);
 }
 
 }  // namespace saul::host

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <libserialport.h>
 #include <poll.h>
+#include <sys/file.h>
 #include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
@@ -12,6 +13,8 @@
 #include <cerrno>
 #include <climits>
 #include <cstring>
+
+#include "saulproto/host/link/device_holders.hpp"
 
 namespace saul::host {
 
@@ -59,6 +62,66 @@ SerialError gone_error(const std::string& path) {
   return {SerialError::Kind::gone, fmt::format("{}: device disappeared (unplugged or reset?)", path)};
 }
 
+// A device someone else has: name them (from /proc, or a UUCP lock file) and say what to do.
+SerialError held_error(const std::string& path) {
+  auto holders = device_holders(path);
+  if (holders.empty())
+    if (auto h = uucp_lock_holder(path)) holders.push_back(*h);
+  if (holders.empty())
+    return {SerialError::Kind::busy,
+            fmt::format("{} is busy: another program holds it (one this user cannot see; find it with: "
+                        "sudo fuser -v {})",
+                        path, path)};
+  const bool saulctl = holders.front().is_saulctl();
+  return {SerialError::Kind::busy,
+          fmt::format("{} is held by {}: {}", path, describe_holders(holders),
+                      saulctl ? "stop it first, or run this command while it runs to go through it"
+                              : "close it first (saulctl shares a device only with other saulctl commands)")};
+}
+
+// This process's hold on a device: a descriptor of its own with an advisory lock (flock: what other saulctl
+// processes test) and, once the port is configured, TIOCEXCL (other programs' opens then fail with EBUSY; root's
+// are let through by the kernel, the lock and the /proc check still see them). Taken before the port is configured,
+// so a port in use is never reconfigured under its holder.
+class DeviceClaim {
+ public:
+  explicit DeviceClaim(const std::string& path) : path_(path) {
+    fd_ = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) {
+      const int e = errno;
+      if (e == EBUSY) throw held_error(path);  // TIOCEXCL of another program
+      throw open_error(path, e);
+    }
+    if (!::isatty(fd_)) return;  // not a terminal: the port's own open says what is wrong
+    bool taken = ::flock(fd_, LOCK_EX | LOCK_NB) != 0;
+    // A program that opened the device without locking it (cat, screen, a terminal program, ModemManager) is
+    // found in /proc, one that locks the UUCP way by its lock file. Another saulctl seen there without the lock is
+    // only trying it (it closes again at once, or joins this one), not using the device.
+    if (!taken) {
+      for (const auto& h : device_holders(path)) taken = taken || !h.is_saulctl();
+      taken = taken || uucp_lock_holder(path).has_value();
+    }
+    if (taken) {
+      ::close(fd_);
+      fd_ = -1;
+      throw held_error(path);
+    }
+  }
+  DeviceClaim(const DeviceClaim&) = delete;
+  DeviceClaim& operator=(const DeviceClaim&) = delete;
+  ~DeviceClaim() {
+    if (fd_ < 0) return;
+    if (exclusive_) ::ioctl(fd_, TIOCNXCL);  // a pty's far end keeps the tty alive: do not leave it locked
+    ::close(fd_);
+  }
+  void make_exclusive() { exclusive_ = fd_ >= 0 && ::ioctl(fd_, TIOCEXCL) == 0; }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  bool exclusive_ = false;
+};
+
 speed_t standard_speed(std::uint32_t baud) {
   switch (baud) {
     case 9600: return B9600;
@@ -95,7 +158,8 @@ bool wait_fd(int fd, short events, milliseconds timeout, const std::string& path
 
 class TermiosPort final : public SerialPort {
  public:
-  TermiosPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {
+  TermiosPort(std::string path, const SerialSettings& s)
+      : path_(std::move(path)), settings_(s), claim_(path_) {
     fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd_ < 0) throw open_error(path_, errno);
     termios t{};
@@ -133,6 +197,7 @@ class TermiosPort final : public SerialPort {
       ::close(fd_);
       throw SerialError(SerialError::Kind::config, why);
     }
+    claim_.make_exclusive();
   }
   ~TermiosPort() override {
     if (fd_ >= 0) ::close(fd_);
@@ -196,10 +261,12 @@ class TermiosPort final : public SerialPort {
   [[nodiscard]] const std::string& path() const override { return path_; }
   [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
   [[nodiscard]] const char* backend() const override { return "termios"; }
+  [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
   std::string path_;
   SerialSettings settings_;
+  DeviceClaim claim_;
   int fd_ = -1;
 };
 
@@ -209,6 +276,12 @@ class LibSerialPort final : public SerialPort {
     if (sp_get_port_by_name(path_.c_str(), &port_) != SP_OK) {
       // libserialport finds ports through sysfs; a path it cannot find is either absent or not a tty.
       throw open_error(path_, ::access(path_.c_str(), F_OK) == 0 ? ENODEV : ENOENT);
+    }
+    try {
+      claim_ = std::make_unique<DeviceClaim>(path_);  // before sp_open, which configures the port
+    } catch (...) {
+      sp_free_port(port_);
+      throw;
     }
     if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) {
       const int e = sp_last_error_code();
@@ -237,6 +310,7 @@ class LibSerialPort final : public SerialPort {
       sp_free_port(port_);
       throw SerialError(SerialError::Kind::config, why);
     }
+    claim_->make_exclusive();
   }
   ~LibSerialPort() override {
     sp_close(port_);
@@ -284,10 +358,12 @@ class LibSerialPort final : public SerialPort {
   [[nodiscard]] const std::string& path() const override { return path_; }
   [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
   [[nodiscard]] const char* backend() const override { return "libserialport"; }
+  [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
   std::string path_;
   SerialSettings settings_;
+  std::unique_ptr<DeviceClaim> claim_;
   sp_port* port_ = nullptr;
   int fd_ = -1;
 };

@@ -105,6 +105,7 @@ class SlcanLink final : public CanLink {
   }
   [[nodiscard]] const std::string& name() const override { return name_; }
   [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::host_read; }
+  [[nodiscard]] int poll_handle() const override { return port_->poll_handle(); }
 
  private:
   // Reads one chunk and parses it; returns false on timeout.

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstring>
@@ -94,6 +95,9 @@ class SocketCanLink final : public CanLink {
     ::setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one);
     ::setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof one);
     if (options.receive_own) ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &one, sizeof one);
+    // Filters before bind: a socket receives from the moment it is bound, so a filter set later lets every frame
+    // queued in between through (seen on a busy bus: other ids printed by sniff --id).
+    if (!options.filters.empty()) set_filters(options.filters);
     sockaddr_can addr{};
     addr.can_family = AF_CAN;
     addr.can_ifindex = static_cast<int>(index);
@@ -119,12 +123,15 @@ class SocketCanLink final : public CanLink {
     cf.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0U) | (frame.remote ? CAN_RTR_FLAG : 0U);
     cf.len = frame.dlc;
     std::memcpy(cf.data, frame.data.data(), 8);
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    const auto start = std::chrono::steady_clock::now();
+    const auto deadline = start + timeout;
     bool retried = false;
     for (;;) {
       const ssize_t n = ::send(fd_, &cf, sizeof cf, MSG_DONTWAIT);
       if (n == static_cast<ssize_t>(sizeof cf)) {
         ++stats_.tx_frames;
+        stats_.last_send_ns = static_cast<std::uint64_t>(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
         return;
       }
       const int e = errno;
@@ -150,8 +157,18 @@ class SocketCanLink final : public CanLink {
   }
 
   std::optional<CanFrame> receive(std::chrono::milliseconds timeout) override {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      auto f = receive_one(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
+      // As the kernel filter is set (set_filters): data frames only; remote frames do not pass a filter.
+      if (!f || filters_.empty() || (!f->remote && passes(filters_, *f))) return f;
+      ++stats_.filtered_late;  // the kernel's filter let it through: only possible when it was set after bind
+    }
+  }
+
+  std::optional<CanFrame> receive_one(std::chrono::milliseconds timeout) {
     pollfd p{fd_, POLLIN, 0};
-    const int r = ::poll(&p, 1, static_cast<int>(std::min<long long>(timeout.count(), INT_MAX)));
+    const int r = ::poll(&p, 1, static_cast<int>(std::clamp<long long>(timeout.count(), 0, INT_MAX)));
     if (r < 0) {
       if (errno == EINTR) return std::nullopt;
       throw LinkError(LinkError::Kind::io, fmt::format("{}: poll failed: {}", name_, std::strerror(errno)));
@@ -209,6 +226,7 @@ class SocketCanLink final : public CanLink {
   }
 
   void set_filters(const std::vector<CanFilter>& filters) override {
+    filters_ = filters;
     std::vector<can_filter> k;
     for (const auto& f : filters) {
       can_filter cf{};
@@ -233,11 +251,13 @@ class SocketCanLink final : public CanLink {
   [[nodiscard]] LinkStats stats() const override { return stats_; }
   [[nodiscard]] const std::string& name() const override { return name_; }
   [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::kernel; }
+  [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
   std::string name_;
   int fd_ = -1;
   LinkStats stats_;
+  std::vector<CanFilter> filters_;
 };
 
 }  // namespace

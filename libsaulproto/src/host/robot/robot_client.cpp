@@ -1,5 +1,7 @@
 #include "saulproto/host/robot/robot_client.hpp"
 
+#include <fmt/format.h>
+
 #include "saulproto/core/dispatch.hpp"
 
 namespace saul::host {
@@ -36,6 +38,66 @@ CommandOutcome RobotClient::wait_for_ack(std::uint8_t command, std::optional<std
     out.latency = duration_cast<microseconds>(steady_clock::now() - sent_at);
     return out;
   }
+}
+
+saulcan::RobotState state_for(saulcan::Mode mode) { return static_cast<saulcan::RobotState>(mode); }
+
+namespace {
+
+const char* way_out(saulcan::RobotState expected, saulcan::RobotState seen) {
+  using S = saulcan::RobotState;
+  switch (seen) {
+    case S::tilt_cutoff: return "it tilted past its limit: stand it upright, disarm, then arm again (3 s button hold)";
+    case S::fault: return "a fault is latched: 'saulctl monitor' shows which; clear it, disarm, then arm again";
+    case S::estop: return "ESTOP is latched: leaving it needs disarm and a fresh arming";
+    case S::off:
+      return expected == S::balance || expected == S::manual
+                 ? "it fell back to OFF: is it still armed (RC ARM switch up, IO board powered)?"
+                 : "";
+    default: return "watch it with 'saulctl monitor'";
+  }
+}
+
+}  // namespace
+
+std::string StateCheck::text() const {
+  using R = Result;
+  const double ms = static_cast<double>(after.count()) / 1000.0;
+  switch (result) {
+    case R::confirmed: return fmt::format("robot state {} ({:.0f} ms later in 0x400)", saulcan::to_string(expected), ms);
+    case R::differs:
+      return fmt::format("acknowledged, but the robot reports {} instead of {}: {}", saulcan::to_string(*seen),
+                         saulcan::to_string(expected), way_out(expected, *seen));
+    case R::no_telemetry:
+      return fmt::format("no 0x400 telemetry within {} ms to show the state (is BALANCE sending? 'saulctl sniff' "
+                         "shows the bus)",
+                         RobotClient::kStateConfirmTime.count());
+  }
+  return "";
+}
+
+StateCheck RobotClient::confirm_state(saulcan::RobotState expected, milliseconds timeout) {
+  StateCheck out;
+  out.expected = expected;
+  const auto start = steady_clock::now();
+  const auto deadline = start + timeout;
+  for (;;) {
+    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() < 0) break;
+    const auto frame = link_.receive(left);
+    if (!frame) continue;
+    if (observer_) observer_(*frame);
+    const auto a = saulcan::decode_telemetry_a(*frame);
+    if (!a) continue;
+    out.seen = a->state;
+    out.after = duration_cast<microseconds>(steady_clock::now() - start);
+    if (a->state == expected) {
+      out.result = StateCheck::Result::confirmed;
+      return out;
+    }
+  }
+  if (out.seen) out.result = StateCheck::Result::differs;
+  return out;
 }
 
 CommandOutcome RobotClient::set_mode(saulcan::Mode mode, milliseconds timeout) {

@@ -48,6 +48,10 @@ struct LinkStats {
   std::uint64_t recoveries = 0;      ///< restarts after bus-off
   std::uint64_t tx_retries = 0;      ///< sends that met a full queue (ENOBUFS) and waited
   std::uint64_t rejected_input = 0;  ///< adapter output that could not be parsed (slcan)
+  std::uint64_t filtered_late = 0;   ///< frames the kernel passed that the filters refuse (re-checked in software)
+  /// The last send(): from the call to the frame's write to the device returning, in ns (0 = not measured). Through
+  /// a shared link (shared_link.hpp) it is measured to the owner's write, so it includes the hop between processes.
+  std::uint64_t last_send_ns = 0;
   ControllerState state = ControllerState::unknown;
 };
 
@@ -75,6 +79,11 @@ class CanLink {
   [[nodiscard]] virtual LinkStats stats() const = 0;
   [[nodiscard]] virtual const std::string& name() const = 0;
   [[nodiscard]] virtual TimestampSource timestamp_source() const = 0;
+  /// A descriptor that polls readable when receive() may have a frame (-1 when there is none).
+  [[nodiscard]] virtual int poll_handle() const { return -1; }
+  /// How this link is shared with other saulctl processes (shared_link.hpp): "" when it is not,
+  /// "shared with 2 other saulctl", "through saulctl monitor (pid 77)".
+  [[nodiscard]] virtual std::string sharing() const { return {}; }
 };
 
 /// Software filter check, shared by the transports that cannot filter in hardware.

@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/serial_port.hpp"
@@ -28,7 +29,20 @@ struct LinkSpec {
 /// Parses a link name; throws std::invalid_argument with a message that shows the accepted forms.
 LinkSpec parse_link_spec(const std::string& text);
 
+struct LinkOpenOptions {
+  bool listen_only = false;        ///< slcan: open the adapter silent
+  std::vector<CanFilter> filters;  ///< in force before the first frame is received (SocketCAN: set before bind)
+  /// slcan: share the adapter with other saulctl processes (shared_link.hpp): join its owner or become it.
+  /// Off: hold it alone (a second saulctl gets "busy", naming this one).
+  bool share = true;
+};
+
 /// Opens a CAN link (SocketCAN or slcan). Throws LinkError; std::invalid_argument for a serial spec.
+std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options);
 std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, bool listen_only = false);
+
+/// Opens a serial byte link (LinkSpec::Kind::serial), shared with other saulctl processes (shared_link.hpp).
+/// Throws SerialError; std::invalid_argument for a CAN spec.
+std::unique_ptr<SerialPort> open_serial_link(const LinkSpec& spec);
 
 }  // namespace saul::host

@@ -66,6 +66,12 @@ class SerialPort {
   [[nodiscard]] virtual const SerialSettings& settings() const = 0;
   /// "termios" or "libserialport".
   [[nodiscard]] virtual const char* backend() const = 0;
+  /// A descriptor that polls readable when read() has bytes (-1 when there is none): the shared-link owner
+  /// waits on it together with its clients' sockets.
+  [[nodiscard]] virtual int poll_handle() const { return -1; }
+  /// How the port is shared with other saulctl processes (shared_link.hpp): "" when it is not,
+  /// "shared with 1 other saulctl", "through saulctl record (pid 77)".
+  [[nodiscard]] virtual std::string sharing() const { return {}; }
 
   void write(const std::string& text, std::chrono::milliseconds timeout) {
     write(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()), timeout);
@@ -74,6 +80,10 @@ class SerialPort {
 
 enum class SerialBackend : std::uint8_t { automatic, termios, libserialport };
 
+/// Opens a port for this process alone: an advisory lock (flock) and TIOCEXCL hold it, and a port that another
+/// process has open is refused with SerialError(busy) naming it ("/dev/ttyACM0 is held by minicom (pid 4121)",
+/// device_holders.hpp). Verbs that can share a device with other saulctl processes open it through
+/// shared_link.hpp instead.
 std::unique_ptr<SerialPort> open_serial(const std::string& path, const SerialSettings& settings,
                                         SerialBackend backend = SerialBackend::automatic);
 

@@ -1,13 +1,15 @@
 // SocketCAN raw socket: can0 (CANable2 with candleLight firmware), vcan0, any Linux CAN netdev.
 //
 // Receives with kernel timestamps (SO_TIMESTAMPNS), counts kernel drops (SO_RXQ_OVFL), subscribes to all error
-// frames and tracks the controller state from them; filters run in the kernel (CAN_RAW_FILTER).
+// frames and tracks the controller state from them; filters run in the kernel (CAN_RAW_FILTER), installed before
+// bind when given at open (a filter set after bind lets the frames queued in between through).
 // This machine's kernel may have no CAN at all: opening then fails with a clear message (the QEMU harness in
 // tests/vm runs these paths against vcan in a real kernel).
 #pragma once
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "saulproto/host/link/can_link.hpp"
 
@@ -15,6 +17,9 @@ namespace saul::host {
 
 struct SocketCanOptions {
   bool receive_own = false;  ///< CAN_RAW_RECV_OWN_MSGS: see our own frames (for tests)
+  /// Installed before the socket is bound, so not one frame of another id is queued for it; receive() checks them
+  /// again in software (LinkStats::filtered_late counts what the kernel let through).
+  std::vector<CanFilter> filters;
 };
 
 std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const SocketCanOptions& options = {});

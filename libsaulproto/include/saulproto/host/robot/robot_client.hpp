@@ -8,6 +8,7 @@
 #include <chrono>
 #include <functional>
 #include <optional>
+#include <string>
 
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/link/can_link.hpp"
@@ -22,6 +23,20 @@ struct CommandOutcome {
 };
 
 const char* to_string(CommandOutcome::Status s);
+
+/// What the robot did after an acknowledged mode change, as its 0x400 telemetry shows it.
+struct StateCheck {
+  enum class Result { confirmed, differs, no_telemetry };
+  Result result = Result::no_telemetry;
+  saulcan::RobotState expected = saulcan::RobotState::off;
+  std::optional<saulcan::RobotState> seen;  ///< the last state 0x400 reported (when one came)
+  std::chrono::microseconds after{0};       ///< acknowledgement -> the 0x400 that decided
+  /// One line for the user: what the robot does now and, when it differs, what to do.
+  [[nodiscard]] std::string text() const;
+};
+
+/// The robot state a mode command asks for (mode 0..3 name states 0..3).
+saulcan::RobotState state_for(saulcan::Mode mode);
 
 class RobotClient {
  public:
@@ -47,6 +62,15 @@ class RobotClient {
   /// Waits for one acknowledgement of `command` (and `sequence` when given); other frames go to the observer.
   CommandOutcome wait_for_ack(std::uint8_t command, std::optional<std::uint8_t> sequence,
                               std::chrono::steady_clock::time_point sent_at, std::chrono::milliseconds timeout);
+
+  /// After an acknowledged mode change: waits up to `timeout` for a 0x400 that shows `expected` (0x400 comes at
+  /// 10 Hz; the first one after the acknowledgement may still carry the old state, so it waits for a match and
+  /// reports the last state seen when none came). Other frames go to the observer.
+  StateCheck confirm_state(saulcan::RobotState expected,
+                           std::chrono::milliseconds timeout = kStateConfirmTime);
+
+  /// Three 0x400 periods.
+  static constexpr std::chrono::milliseconds kStateConfirmTime{300};
 
   [[nodiscard]] std::uint8_t last_sequence() const { return sequence_; }
 

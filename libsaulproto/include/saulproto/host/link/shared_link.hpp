@@ -1,0 +1,71 @@
+// One adapter, many saulctl processes.
+//
+// A serial adapter (an slcan CANable, a board's USB console, a UART tap) has one owner: the first saulctl process
+// that opens it holds it exclusively (serial_port.hpp: flock + TIOCEXCL) and serves it to later saulctl processes
+// of the same user over a local socket named after the device, in a private directory:
+//   $SAUL_RUNTIME_DIR, else $XDG_RUNTIME_DIR/saulctl, else /tmp/saulctl-UID   (mode 0700, owned by the user)
+//   /dev/ttyACM0 -> ttyACM0.sock, /dev/pts/3 -> pts-3.sock
+// A later `estop`, `mode`, `sniff`, `record`, `console`... on that device goes through the owner as if it had opened
+// the device itself:
+//  - CAN: every client sees every frame of the bus, and the frames any client (or the owner) sends, as SocketCAN's
+//    loopback does (never its own). An ESTOP (0x302 mode 3) from a client is written before anything else waiting,
+//    and even through an owner opened listen-only (which then leaves listen-only, and says so).
+//  - serial: every client reads every byte the device sends; what a client writes goes to the device.
+// Both ends check the other's user with SO_PEERCRED: a connection from another account is refused and told why, and
+// a socket served by another account is not used. Confirmation of motion stays with the command (saulctl asks
+// before it opens anything), so a shared link needs the same confirmation as a direct one.
+// When the owner exits, its clients are told; one of them takes the device over and the others reconnect to it
+// (each prints one line saying so). When the device disappears, every client ends with the owner's "disappeared"
+// error. A device held by a program that is not saulctl is refused with its name and pid (device_holders.hpp).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/link/serial_port.hpp"
+
+namespace saul::host {
+
+/// The private directory of the sharing sockets (see above), created 0700 when missing. Throws LinkError(permission)
+/// when it exists but another user owns it or can open it.
+std::string share_directory();
+/// The directory's path without creating or checking it.
+std::string share_directory_path();
+/// The socket a device is shared on (symlinks resolved first).
+std::string share_socket_path(const std::string& device);
+
+/// Who may use a share: the owner's own user only (root is not let into a user's share, nor a user into root's).
+bool share_peer_allowed(unsigned peer_uid, unsigned owner_uid);
+
+/// What a share's owner tells about it.
+struct ShareInfo {
+  int owner_pid = 0;
+  std::string owner_command;  ///< "saulctl monitor"
+  std::string link;           ///< "slcan:/dev/pts/3@500000", "serial:/dev/ttyACM1@115200:8N1"
+  bool listen_only = false;
+  int clients = 0;            ///< other saulctl processes using it now
+  [[nodiscard]] std::string owner_text() const;  ///< "saulctl monitor (pid 77)"
+};
+
+/// Asks the owner of `device`, if a saulctl process of this user shares it, without joining (doctor). Throws
+/// LinkError(permission) when the socket is served by another user.
+std::optional<ShareInfo> query_share(const std::string& device);
+
+/// Opens an slcan link shared as described above: joins the owner, or becomes it. `command` names this process
+/// in the owner's and the others' messages ("saulctl estop"); empty: taken from /proc/self/cmdline.
+std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,
+                                           const std::vector<CanFilter>& filters);
+
+/// Opens a serial byte link shared as described above.
+std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,
+                                               SerialBackend backend = SerialBackend::automatic);
+
+/// Where the sharing's one-line notices go ("the owner stopped; this saulctl now holds ..."). The default writes
+/// "saulctl: <text>" lines on stderr; a full-screen view puts them in its status line instead. Thread-safe.
+void set_share_notice(std::function<void(const std::string&)> sink);
+
+}  // namespace saul::host

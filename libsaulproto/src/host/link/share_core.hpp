@@ -1,0 +1,247 @@
+// The machinery behind shared_link.hpp, private to src/host/link: the messages between saulctl processes, the
+// owner's serving thread (OwnerCore) and the client's socket (ClientSocket). The CAN and serial shares build on it
+// in shared_link.cpp.
+//
+// Messages are SOCK_SEQPACKET datagrams on an AF_UNIX socket (one message per send, boundaries kept), fields in
+// the host's byte order (both ends are on this machine), first byte the type:
+//   hello    client -> owner   version, kind, pid, command, link text, listen-only
+//   welcome  owner -> client   version, owner pid, owner command, link text, listen-only, clients
+//   refuse   owner -> client   why (one line); the owner closes the connection after it
+//   frame    both ways         a CAN frame; from a client with a token and its send time (steady clock)
+//   sent     owner -> client   token, ok, latency (client's send time -> device write), error kind and text
+//   bytes    both ways         serial bytes; from a client with a token
+//   stats    owner -> client   the adapter's LinkStats and the frames dropped for this client
+//   bye      owner -> client   reason (exit / gone) and one line
+#pragma once
+
+#include <sys/types.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/link/shared_link.hpp"
+
+namespace saul::host::share {
+
+inline constexpr std::uint16_t kVersion = 1;
+enum class Msg : std::uint8_t { hello = 1, welcome, refuse, frame, sent, bytes, stats, bye };
+enum class Kind : std::uint8_t { can = 0, serial = 1 };
+enum class ByeReason : std::uint8_t { exit = 0, gone = 1 };
+
+/// Thrown inside a client when its owner has left without the device going away: the handle takes over.
+struct OwnerLeft : std::runtime_error {
+  explicit OwnerLeft(const std::string& who) : std::runtime_error(who) {}
+};
+
+class Out {
+ public:
+  explicit Out(Msg m) { b_.push_back(static_cast<std::uint8_t>(m)); }
+  Out& u8(std::uint8_t v) { b_.push_back(v); return *this; }
+  Out& u16(std::uint16_t v) { return raw(&v, sizeof v); }
+  Out& u32(std::uint32_t v) { return raw(&v, sizeof v); }
+  Out& u64(std::uint64_t v) { return raw(&v, sizeof v); }
+  Out& str(const std::string& s);
+  Out& bytes(std::span<const std::uint8_t> d);
+  Out& frame(const CanFrame& f);
+  Out& stats(const LinkStats& s);
+  [[nodiscard]] std::vector<std::uint8_t> take() { return std::move(b_); }
+
+ private:
+  Out& raw(const void* p, std::size_t n);
+  std::vector<std::uint8_t> b_;
+};
+
+/// Reads a message; a short or malformed one throws std::out_of_range (the peer is then dropped).
+class In {
+ public:
+  explicit In(std::span<const std::uint8_t> m) : m_(m) {}
+  Msg type() { return static_cast<Msg>(u8()); }
+  std::uint8_t u8();
+  std::uint16_t u16();
+  std::uint32_t u32();
+  std::uint64_t u64();
+  std::string str();
+  std::vector<std::uint8_t> bytes();
+  CanFrame frame();
+  LinkStats stats();
+
+ private:
+  void take(void* p, std::size_t n);
+  std::span<const std::uint8_t> m_;
+  std::size_t pos_ = 0;
+};
+
+/// 0x302 with mode 3: what always goes first.
+bool is_estop(const CanFrame& f);
+
+/// The steady clock in ns (CLOCK_MONOTONIC: the same clock in every process of this machine).
+std::uint64_t steady_ns();
+
+/// "saulctl monitor" for this process (from /proc/self/cmdline).
+std::string self_command();
+
+/// The notice sink (shared_link.hpp).
+void notice(const std::string& text);
+
+/// Sends one message without blocking. sent / full (try later) / closed (the peer is gone).
+enum class SendResult { sent, full, closed };
+SendResult send_message(int fd, const std::vector<std::uint8_t>& m);
+/// Receives one message without blocking: true with `m` filled; false when none is waiting; `closed` set on EOF.
+bool receive_message(int fd, std::vector<std::uint8_t>& m, bool& closed);
+/// Waits up to `timeout` for fd to poll `events`; false on timeout or a signal.
+bool wait_fd_event(int fd, short events, std::chrono::milliseconds timeout);
+
+/// The hello a client sends and the owner checks.
+struct Hello {
+  std::uint16_t version = kVersion;
+  Kind kind = Kind::can;
+  bool probe = false;  ///< doctor: only asks, does not join
+  std::uint32_t pid = 0;
+  std::string command;
+  std::string link;  ///< the client's link text, for messages
+  std::uint32_t rate = 0;  ///< CAN bitrate, or serial baud rate
+  std::string format;      ///< serial: "8N1"
+  bool listen_only = false;
+};
+
+/// The owner's side: the listening socket, the clients, and a thread that polls the device and the sockets.
+/// The CAN and serial owners derive from it and implement the hooks; the hooks run on the serving thread.
+class OwnerCore {
+ public:
+  OwnerCore(const OwnerCore&) = delete;
+  OwnerCore& operator=(const OwnerCore&) = delete;
+
+ protected:
+  struct Client {
+    int fd = -1;
+    pid_t pid = 0;
+    std::string command;
+    bool greeted = false;
+    bool dead = false;
+    std::deque<std::vector<std::uint8_t>> outbox;  ///< answers that must arrive (sent, stats, bye)
+    std::uint64_t dropped = 0;                      ///< frames or bytes it was too slow to take
+    std::chrono::steady_clock::time_point next_stats{};
+    [[nodiscard]] std::string text() const;
+  };
+
+  OwnerCore(std::string device, Kind kind, std::string link_text, bool listen_only);
+  virtual ~OwnerCore();
+
+  /// Creates the socket (a notice instead when the directory is not private: then nothing is shared) and starts
+  /// the serving thread, which polls `device_fd`.
+  void start_serving(int device_fd);
+  /// Stops the thread and removes the socket; clients stay connected until release_clients().
+  void stop_serving();
+  /// Tells every client why the owner leaves (after the device is closed, so one can take it over) and closes them.
+  void release_clients(ByeReason reason, const std::string& text);
+
+  /// Hooks, on the serving thread.
+  /// The device polled readable (or hung up): read it; true when there may be more already read and waiting.
+  virtual bool pump_device() = 0;
+  virtual void on_message(Client& from, Msg type, In& in) = 0;
+  virtual std::vector<std::uint8_t> stats_for(const Client& c) = 0;
+  /// "" to accept a hello, else why not.
+  virtual std::string refuse_reason(const Hello& h) = 0;
+
+  /// For the hooks: answers that must arrive; frames or bytes that may be dropped for a slow client.
+  void send_control(Client& c, std::vector<std::uint8_t> m);
+  void send_droppable(Client& c, const std::vector<std::uint8_t>& m);
+  /// Every greeted client but `except`.
+  void broadcast(const std::vector<std::uint8_t>& m, const Client* except);
+  /// From any thread: broadcast `m` from the serving thread (the owner's own sends, looped back to clients).
+  void post_broadcast(std::vector<std::uint8_t> m);
+  /// The device is gone: clients get `text`, the socket goes, the device is no longer polled.
+  void device_gone(const std::string& text);
+
+  [[nodiscard]] int client_count() const { return clients_count_.load(); }
+  [[nodiscard]] bool serving() const { return serving_.load(); }
+  [[nodiscard]] const std::string& link_text() const { return link_text_; }
+  [[nodiscard]] bool owner_listen_only() const { return listen_only_; }
+  void set_owner_listen_only(bool v) { listen_only_ = v; }
+
+ private:
+  void run();
+  void accept_client();
+  void read_client(Client& c, std::vector<std::pair<Client*, std::vector<std::uint8_t>>>& batch);
+  void handle(Client& c, const std::vector<std::uint8_t>& m);
+  void flush(Client& c);
+  void wake();
+
+  std::string device_;
+  Kind kind_;
+  std::string link_text_;
+  bool listen_only_;
+  std::string socket_path_;
+  int listen_fd_ = -1;
+  int wake_fd_ = -1;
+  int device_fd_ = -1;
+  std::vector<std::unique_ptr<Client>> clients_;
+  std::atomic<int> clients_count_{0};
+  std::mutex posted_mu_;
+  std::deque<std::vector<std::uint8_t>> posted_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<bool> serving_{false};
+  std::thread thread_;
+};
+
+/// The client's side: a connected, greeted socket.
+class ClientSocket {
+ public:
+  /// Connects to the owner of `device` and says hello. nullptr when nobody serves it (no socket, or a stale one).
+  /// Throws LinkError(permission) when another user serves it or the owner refuses this user, LinkError(busy) when
+  /// the owner refuses the hello (another kind or rate, another version).
+  static std::unique_ptr<ClientSocket> connect(const std::string& device, const Hello& hello, ShareInfo& info);
+  ~ClientSocket();
+  ClientSocket(const ClientSocket&) = delete;
+  ClientSocket& operator=(const ClientSocket&) = delete;
+
+  [[nodiscard]] int fd() const { return fd_; }
+  /// Sends, waiting up to `timeout` for room; throws OwnerLeft when the owner has gone.
+  void send(const std::vector<std::uint8_t>& m, std::chrono::milliseconds timeout);
+  /// Waits up to `timeout` for one message; false on timeout or a signal. Throws OwnerLeft on EOF.
+  bool next(std::vector<std::uint8_t>& m, std::chrono::milliseconds timeout);
+
+  const ShareInfo& owner() const { return info_; }
+
+ private:
+  explicit ClientSocket(int fd) : fd_(fd) {}
+  int fd_ = -1;
+  ShareInfo info_;
+};
+
+/// True when a saulctl process (of this user, or any for root) has `device` open.
+bool saulctl_holds(const std::string& device);
+
+/// The open procedure both shares use: join an owner, or become one; while another saulctl holds the device but
+/// is not serving yet (starting, or handing over), retry for up to two seconds.
+template <class Handle>
+std::unique_ptr<Handle> join_or_own(const std::string& device, const std::function<std::unique_ptr<Handle>()>& join,
+                                    const std::function<std::unique_ptr<Handle>()>& own) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  for (;;) {
+    if (auto h = join()) return h;
+    try {
+      return own();
+    } catch (const LinkError& e) {
+      if (e.kind() != LinkError::Kind::busy || !saulctl_holds(device) || std::chrono::steady_clock::now() > deadline)
+        throw;
+    } catch (const SerialError& e) {
+      if (e.kind() != SerialError::Kind::busy || !saulctl_holds(device) || std::chrono::steady_clock::now() > deadline)
+        throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the holder is about to serve, or just left
+  }
+}
+
+}  // namespace saul::host::share

@@ -1,0 +1,756 @@
+// Shared CAN and serial links (shared_link.hpp) on the machinery of share_core.hpp.
+#include "saulproto/host/link/shared_link.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <climits>
+#include <condition_variable>
+#include <cstring>
+
+#include "saulproto/host/link/device_holders.hpp"
+#include "saulproto/host/link/slcan_link.hpp"
+#include "share_core.hpp"
+
+namespace saul::host {
+namespace share {
+
+using namespace std::chrono;
+
+namespace {
+
+constexpr std::size_t kMaxQueuedFrames = 8192;
+constexpr std::size_t kMaxQueuedBytes = 1 << 16;
+
+/// What the owner keeps for its own process: frames or bytes the serving thread read, waited for on an eventfd
+/// (a poll, so a signal still interrupts the wait).
+class LocalInbox {
+ public:
+  LocalInbox() : event_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+  ~LocalInbox() { ::close(event_); }
+  LocalInbox(const LocalInbox&) = delete;
+  LocalInbox& operator=(const LocalInbox&) = delete;
+  void signal() const {
+    const std::uint64_t one = 1;
+    [[maybe_unused]] const auto n = ::write(event_, &one, sizeof one);
+  }
+  /// Waits for a signal until `deadline`; false on timeout or a signal of the process.
+  bool wait(steady_clock::time_point deadline) const {
+    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() < 0) return false;
+    if (!wait_fd_event(event_, POLLIN, left)) return false;
+    std::uint64_t n = 0;
+    [[maybe_unused]] const auto got = ::read(event_, &n, sizeof n);
+    return true;
+  }
+  [[nodiscard]] int fd() const { return event_; }
+  std::mutex mu;
+
+ private:
+  int event_;
+};
+
+LinkError link_error_of(const SerialError& e) {
+  switch (e.kind()) {
+    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
+    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
+    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
+    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
+    default: return {LinkError::Kind::io, e.what()};
+  }
+}
+
+SerialError serial_error_of(const LinkError& e) {
+  switch (e.kind()) {
+    case LinkError::Kind::not_found: return {SerialError::Kind::not_found, e.what()};
+    case LinkError::Kind::permission: return {SerialError::Kind::permission, e.what()};
+    case LinkError::Kind::busy: return {SerialError::Kind::busy, e.what()};
+    case LinkError::Kind::gone: return {SerialError::Kind::gone, e.what()};
+    default: return {SerialError::Kind::io, e.what()};
+  }
+}
+
+std::string owner_sharing(int clients) {
+  return clients == 0 ? std::string("shared, no other saulctl now")
+                      : fmt::format("shared with {} other saulctl", clients);
+}
+
+std::string self_text() { return fmt::format("{} (pid {})", self_command(), ::getpid()); }
+
+// The answer to a client's send: Msg::sent with its token.
+std::vector<std::uint8_t> sent_message(std::uint32_t token, std::uint64_t client_ns, const std::string& error,
+                                       std::uint8_t kind) {
+  const std::uint64_t now = steady_ns();
+  return Out(Msg::sent)
+      .u32(token)
+      .u8(error.empty() ? 1 : 0)
+      .u64(now > client_ns ? now - client_ns : 0)
+      .u8(kind)
+      .str(error)
+      .take();
+}
+
+/// The client side of an answer to a send: waits for Msg::sent of `token`, handing everything else to `other`.
+/// Returns the latency the owner measured; throws the owner's error, or timeout.
+template <class Other, class Error>
+std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::time_point deadline, Other&& other,
+                         Error&& error) {
+  std::vector<std::uint8_t> m;
+  for (;;) {
+    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() < 0)
+      throw LinkError(LinkError::Kind::timeout,
+                      fmt::format("{} did not confirm the write in time", sock.owner().owner_text()));
+    if (!sock.next(m, left)) continue;
+    In in(m);
+    const Msg type = in.type();
+    if (type != Msg::sent) {
+      other(type, in);
+      continue;
+    }
+    if (in.u32() != token) continue;
+    const bool ok = in.u8() != 0;
+    const std::uint64_t latency = in.u64();
+    const auto kind = in.u8();
+    const std::string text = in.str();
+    if (!ok) error(kind, text);
+    return latency;
+  }
+}
+
+// ---- CAN ------------------------------------------------------------------------------------------------------------
+
+class CanOwner final : public CanLink, private OwnerCore {
+ public:
+  CanOwner(std::unique_ptr<CanLink> real, const LinkSpec& spec, bool listen_only, std::vector<CanFilter> filters)
+      : OwnerCore(spec.device, Kind::can, spec.text(), listen_only),
+        real_(std::move(real)),
+        bitrate_(spec.bitrate),
+        filters_(std::move(filters)) {
+    start_serving(real_->poll_handle());
+  }
+  ~CanOwner() override {
+    stop_serving();
+    std::string gone;
+    {
+      std::lock_guard lock(inbox_.mu);
+      gone = gone_text_;
+    }
+    real_.reset();  // closes the channel and the device: a client can take it over now
+    release_clients(gone.empty() ? ByeReason::exit : ByeReason::gone, gone.empty() ? self_text() + " stopped" : gone);
+  }
+
+  void send(const CanFrame& frame, milliseconds timeout) override {
+    const auto t0 = steady_clock::now();
+    {
+      std::lock_guard lock(io_);
+      if (owner_listen_only() && is_estop(frame)) leave_listen_only("this process");
+      real_->send(frame, timeout);
+    }
+    last_send_ns_ = static_cast<std::uint64_t>(duration_cast<nanoseconds>(steady_clock::now() - t0).count());
+    CanFrame looped = frame;
+    looped.timestamp_ns = realtime_ns();
+    post_broadcast(Out(Msg::frame).frame(looped).u32(0).u64(0).take());
+  }
+
+  std::optional<CanFrame> receive(milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    for (;;) {
+      {
+        std::lock_guard lock(inbox_.mu);
+        if (!queue_.empty()) {
+          CanFrame f = queue_.front();
+          queue_.pop_front();
+          return f;
+        }
+        if (!gone_text_.empty()) throw LinkError(gone_kind_, gone_text_);
+      }
+      if (!inbox_.wait(deadline)) return std::nullopt;
+    }
+  }
+
+  void set_filters(const std::vector<CanFilter>& filters) override {
+    std::lock_guard lock(inbox_.mu);
+    filters_ = filters;
+  }
+  bool recover(std::string& hint) override {
+    std::lock_guard lock(io_);
+    return real_->recover(hint);
+  }
+  [[nodiscard]] LinkStats stats() const override {
+    LinkStats s;
+    {
+      std::lock_guard lock(io_);
+      s = real_->stats();
+    }
+    std::lock_guard lock(inbox_.mu);
+    s.rx_dropped += dropped_;
+    s.last_send_ns = last_send_ns_;
+    return s;
+  }
+  [[nodiscard]] const std::string& name() const override { return real_->name(); }
+  [[nodiscard]] TimestampSource timestamp_source() const override { return real_->timestamp_source(); }
+  [[nodiscard]] int poll_handle() const override { return inbox_.fd(); }
+  [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
+
+ private:
+  void deliver(const CanFrame& f) {
+    {
+      std::lock_guard lock(inbox_.mu);
+      if (!passes(filters_, f)) return;
+      if (queue_.size() >= kMaxQueuedFrames) {
+        queue_.pop_front();
+        ++dropped_;
+      }
+      queue_.push_back(f);
+    }
+    inbox_.signal();
+  }
+
+  void leave_listen_only(const std::string& who) {
+    std::string hint;
+    real_->recover(hint);  // slcan: "C\rO\r", the channel reopened in normal mode
+    set_owner_listen_only(false);
+    notice(fmt::format("{}: left listen-only to put an ESTOP from {} on the bus", real_->name(), who));
+  }
+
+  bool pump_device() override {
+    std::vector<CanFrame> got;
+    std::optional<LinkError> error;
+    {
+      std::lock_guard lock(io_);
+      try {
+        while (got.size() < 512) {
+          auto f = real_->receive(milliseconds(0));
+          if (!f) break;
+          got.push_back(*f);
+        }
+      } catch (const LinkError& e) {
+        error = e;
+      }
+    }
+    for (const auto& f : got) {
+      deliver(f);
+      broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), nullptr);
+    }
+    if (error) {
+      {
+        std::lock_guard lock(inbox_.mu);
+        gone_text_ = error->what();
+        gone_kind_ = error->kind();
+      }
+      inbox_.signal();
+      device_gone(error->what());
+    }
+    return got.size() >= 512;
+  }
+
+  void on_message(Client& from, Msg type, In& in) override {
+    if (type != Msg::frame) return;
+    CanFrame f = in.frame();
+    const std::uint32_t token = in.u32();
+    const std::uint64_t client_ns = in.u64();
+    std::string error;
+    auto kind = LinkError::Kind::io;
+    const bool estop = is_estop(f);
+    if (owner_listen_only() && !estop) {
+      error = fmt::format("{} holds {} listen-only: it sends nothing but an ESTOP (stop it, or run without "
+                          "--listen-only)", self_text(), real_->name());
+      kind = LinkError::Kind::unsupported;
+    } else {
+      std::lock_guard lock(io_);
+      try {
+        if (owner_listen_only()) leave_listen_only(from.text());
+        real_->send(f, milliseconds(200));
+      } catch (const LinkError& e) {
+        error = e.what();
+        kind = e.kind();
+      }
+    }
+    send_control(from, sent_message(token, client_ns, error, static_cast<std::uint8_t>(kind)));
+    if (!error.empty()) return;
+    f.timestamp_ns = realtime_ns();
+    deliver(f);
+    broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), &from);
+  }
+
+  std::vector<std::uint8_t> stats_for(const Client& c) override {
+    LinkStats s;
+    {
+      std::lock_guard lock(io_);
+      s = real_->stats();
+    }
+    return Out(Msg::stats).stats(s).u64(c.dropped).take();
+  }
+
+  std::string refuse_reason(const Hello& h) override {
+    if (h.kind != Kind::can)
+      return fmt::format("{} is held by {} as {}, a CAN link, not as a serial byte link", real_->name(), self_text(),
+                         link_text());
+    if (h.rate != bitrate_)
+      return fmt::format("{} is held by {} at {} bit/s, not {} bit/s: use --link {}", real_->name(), self_text(),
+                         bitrate_, h.rate, link_text());
+    return "";
+  }
+
+  mutable std::mutex io_;  ///< the device: the serving thread's reads, every write
+  std::unique_ptr<CanLink> real_;
+  std::uint32_t bitrate_;
+  mutable LocalInbox inbox_;  ///< its mutex guards what follows
+  std::vector<CanFilter> filters_;
+  std::deque<CanFrame> queue_;
+  std::uint64_t dropped_ = 0;
+  std::string gone_text_;
+  LinkError::Kind gone_kind_ = LinkError::Kind::gone;
+  std::atomic<std::uint64_t> last_send_ns_{0};
+};
+
+class CanClient final : public CanLink {
+ public:
+  CanClient(std::unique_ptr<ClientSocket> sock, const LinkSpec& spec, std::vector<CanFilter> filters)
+      : sock_(std::move(sock)), name_("slcan:" + spec.device), filters_(std::move(filters)) {}
+
+  void send(const CanFrame& frame, milliseconds timeout) override {
+    if (frame.error || !frame.valid())
+      throw LinkError(LinkError::Kind::unsupported, fmt::format("{}: cannot send an error or invalid frame", name_));
+    const auto t0 = steady_clock::now();
+    const std::uint32_t token = ++token_;
+    sock_->send(Out(Msg::frame).frame(frame).u32(token).u64(steady_ns()).take(), timeout);
+    last_send_ns_ = await_sent(
+        *sock_, token, t0 + timeout + milliseconds(500), [this](Msg type, In& in) { take(type, in); },
+        [](std::uint8_t kind, const std::string& text) {
+          throw LinkError(static_cast<LinkError::Kind>(kind), text);
+        });
+  }
+
+  std::optional<CanFrame> receive(milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    std::vector<std::uint8_t> m;
+    for (;;) {
+      if (!queue_.empty()) {
+        CanFrame f = queue_.front();
+        queue_.pop_front();
+        return f;
+      }
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() < 0 || !sock_->next(m, left)) return std::nullopt;
+      In in(m);
+      const Msg type = in.type();
+      take(type, in);
+    }
+  }
+
+  void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }
+  bool recover(std::string& hint) override {
+    hint = fmt::format("{} holds the adapter: recovery is its to do (or stop it and run this again)",
+                       sock_->owner().owner_text());
+    return false;
+  }
+  [[nodiscard]] LinkStats stats() const override {
+    LinkStats s = stats_;
+    s.rx_dropped += owner_dropped_ + dropped_;
+    s.last_send_ns = last_send_ns_;
+    return s;
+  }
+  [[nodiscard]] const std::string& name() const override { return name_; }
+  [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::host_read; }
+  [[nodiscard]] int poll_handle() const override { return sock_->fd(); }
+  [[nodiscard]] std::string sharing() const override { return "through " + sock_->owner().owner_text(); }
+
+ private:
+  void take(Msg type, In& in) {
+    switch (type) {
+      case Msg::frame: {
+        const CanFrame f = in.frame();
+        if (!passes(filters_, f)) return;
+        if (queue_.size() >= kMaxQueuedFrames) {
+          queue_.pop_front();
+          ++dropped_;
+        }
+        queue_.push_back(f);
+        return;
+      }
+      case Msg::stats:
+        stats_ = in.stats();
+        owner_dropped_ = in.u64();
+        return;
+      case Msg::bye: {
+        const auto reason = static_cast<ByeReason>(in.u8());
+        const std::string text = in.str();
+        if (reason == ByeReason::gone) throw LinkError(LinkError::Kind::gone, text);
+        throw OwnerLeft(text);
+      }
+      default: return;
+    }
+  }
+
+  std::unique_ptr<ClientSocket> sock_;
+  std::string name_;
+  std::vector<CanFilter> filters_;
+  std::deque<CanFrame> queue_;
+  LinkStats stats_;
+  std::uint64_t owner_dropped_ = 0;
+  std::uint64_t dropped_ = 0;
+  std::uint64_t last_send_ns_ = 0;
+  std::uint32_t token_ = 0;
+};
+
+/// A handle that stays valid when the owner leaves: it joins the next owner or becomes it, says so in one line,
+/// and repeats the call that met the owner's exit.
+template <class T>
+class Attachment {
+ public:
+  using Opener = std::function<std::unique_ptr<T>()>;
+  Attachment(std::string device, Opener join, Opener own)
+      : device_(std::move(device)), join_(std::move(join)), own_(std::move(own)) {
+    impl_ = join_or_own<T>(device_, join_, own_);
+  }
+  template <class F>
+  auto call(F&& f) {
+    for (int attempt = 0;; ++attempt) {
+      try {
+        return f(*impl_);
+      } catch (const OwnerLeft& e) {
+        if (attempt >= 3) throw LinkError(LinkError::Kind::gone, std::string(e.what()) + ", and taking over failed");
+        take_over(e.what());
+      }
+    }
+  }
+  T& impl() const { return *impl_; }
+
+ private:
+  void take_over(const std::string& why) {
+    impl_.reset();
+    impl_ = join_or_own<T>(device_, join_, own_);
+    const std::string how = impl_->sharing();
+    notice(fmt::format("{}; {}", why,
+                       how.rfind("through ", 0) == 0
+                           ? "now " + how
+                           : fmt::format("{} now holds {} and shares it", self_text(), device_)));
+  }
+
+  std::string device_;
+  Opener join_, own_;
+  std::unique_ptr<T> impl_;
+};
+
+class SharedCanLink final : public CanLink {
+ public:
+  SharedCanLink(const LinkSpec& spec, bool listen_only, const std::vector<CanFilter>& filters)
+      : filters_(filters),
+        link_(
+            spec.device,
+            [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
+              Hello h;
+              h.kind = Kind::can;
+              h.command = self_command();
+              h.link = spec.text();
+              h.rate = spec.bitrate;
+              h.listen_only = listen_only;
+              ShareInfo info;
+              auto sock = ClientSocket::connect(spec.device, h, info);
+              if (!sock) return nullptr;
+              return std::make_unique<CanClient>(std::move(sock), spec, filters_);
+            },
+            [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
+              SlcanOptions o;
+              o.bitrate = spec.bitrate;
+              o.listen_only = listen_only;
+              o.backend = spec.backend;
+              return std::make_unique<CanOwner>(open_slcan(spec.device, o), spec, listen_only, filters_);
+            }) {}
+
+  void send(const CanFrame& frame, milliseconds timeout) override {
+    link_.call([&](CanLink& l) { l.send(frame, timeout); });
+  }
+  std::optional<CanFrame> receive(milliseconds timeout) override {
+    return link_.call([&](CanLink& l) { return l.receive(timeout); });
+  }
+  void set_filters(const std::vector<CanFilter>& filters) override {
+    filters_ = filters;
+    link_.impl().set_filters(filters);
+  }
+  bool recover(std::string& hint) override { return link_.impl().recover(hint); }
+  [[nodiscard]] LinkStats stats() const override { return link_.impl().stats(); }
+  [[nodiscard]] const std::string& name() const override { return link_.impl().name(); }
+  [[nodiscard]] TimestampSource timestamp_source() const override { return link_.impl().timestamp_source(); }
+  [[nodiscard]] int poll_handle() const override { return link_.impl().poll_handle(); }
+  [[nodiscard]] std::string sharing() const override { return link_.impl().sharing(); }
+
+ private:
+  std::vector<CanFilter> filters_;  // before link_: the openers read it
+  Attachment<CanLink> link_;
+};
+
+// ---- serial ---------------------------------------------------------------------------------------------------------
+
+std::string serial_text(const std::string& device, const SerialSettings& s) {
+  return fmt::format("serial:{}@{}:{}", device, s.baud, to_string(s));
+}
+
+class SerialOwner final : public SerialPort, private OwnerCore {
+ public:
+  explicit SerialOwner(std::unique_ptr<SerialPort> real)
+      : OwnerCore(real->path(), Kind::serial, serial_text(real->path(), real->settings()), false), real_(std::move(real)) {
+    start_serving(real_->poll_handle());
+  }
+  ~SerialOwner() override {
+    stop_serving();
+    std::string gone;
+    {
+      std::lock_guard lock(inbox_.mu);
+      gone = gone_text_;
+    }
+    real_.reset();
+    release_clients(gone.empty() ? ByeReason::exit : ByeReason::gone, gone.empty() ? self_text() + " stopped" : gone);
+  }
+
+  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    for (;;) {
+      {
+        std::lock_guard lock(inbox_.mu);
+        if (!bytes_.empty()) {
+          const std::size_t n = std::min(buf.size(), bytes_.size());
+          std::copy_n(bytes_.begin(), n, buf.begin());
+          bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
+          return n;
+        }
+        if (!gone_text_.empty()) throw SerialError(SerialError::Kind::gone, gone_text_);
+      }
+      if (!inbox_.wait(deadline)) return 0;
+    }
+  }
+  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
+    std::lock_guard lock(io_);
+    real_->write(data, timeout);
+  }
+  void set_modem_lines(bool dtr, bool rts) override {
+    std::lock_guard lock(io_);
+    real_->set_modem_lines(dtr, rts);
+  }
+  void set_baud(std::uint32_t baud) override {
+    std::lock_guard lock(io_);
+    real_->set_baud(baud);
+  }
+  [[nodiscard]] const std::string& path() const override { return real_->path(); }
+  [[nodiscard]] const SerialSettings& settings() const override { return real_->settings(); }
+  [[nodiscard]] const char* backend() const override { return real_->backend(); }
+  [[nodiscard]] int poll_handle() const override { return inbox_.fd(); }
+  [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
+
+ private:
+  bool pump_device() override {
+    std::array<std::uint8_t, 4096> buf{};
+    std::size_t n = 0;
+    std::string error;
+    {
+      std::lock_guard lock(io_);
+      try {
+        n = real_->read(buf, milliseconds(0));
+      } catch (const SerialError& e) {
+        error = e.what();
+      }
+    }
+    if (n > 0) {
+      {
+        std::lock_guard lock(inbox_.mu);
+        bytes_.insert(bytes_.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
+        if (bytes_.size() > kMaxQueuedBytes)
+          bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(bytes_.size() - kMaxQueuedBytes));
+      }
+      inbox_.signal();
+      broadcast(Out(Msg::bytes).u32(0).bytes(std::span<const std::uint8_t>(buf.data(), n)).take(), nullptr);
+    }
+    if (!error.empty()) {
+      {
+        std::lock_guard lock(inbox_.mu);
+        gone_text_ = error;
+      }
+      inbox_.signal();
+      device_gone(error);
+    }
+    return n == buf.size();
+  }
+
+  void on_message(Client& from, Msg type, In& in) override {
+    if (type != Msg::bytes) return;
+    const std::uint32_t token = in.u32();
+    const auto data = in.bytes();
+    const std::uint64_t client_ns = steady_ns();
+    std::string error;
+    auto kind = LinkError::Kind::io;
+    {
+      std::lock_guard lock(io_);
+      try {
+        real_->write(data, milliseconds(1000));
+      } catch (const SerialError& e) {
+        error = e.what();
+        kind = link_error_of(e).kind();
+      }
+    }
+    send_control(from, sent_message(token, client_ns, error, static_cast<std::uint8_t>(kind)));
+  }
+
+  std::vector<std::uint8_t> stats_for(const Client& c) override {
+    return Out(Msg::stats).stats(LinkStats{}).u64(c.dropped).take();
+  }
+
+  std::string refuse_reason(const Hello& h) override {
+    if (h.kind != Kind::serial)
+      return fmt::format("{} is held by {} as {}, a serial byte link, not as a CAN adapter", real_->path(),
+                         self_text(), link_text());
+    if (h.rate != real_->settings().baud || h.format != to_string(real_->settings()))
+      return fmt::format("{} is held by {} at {} {}, not {} {}", real_->path(), self_text(), real_->settings().baud,
+                         to_string(real_->settings()), h.rate, h.format);
+    return "";
+  }
+
+  mutable std::mutex io_;
+  std::unique_ptr<SerialPort> real_;
+  mutable LocalInbox inbox_;
+  std::deque<std::uint8_t> bytes_;
+  std::string gone_text_;
+};
+
+class SerialClient final : public SerialPort {
+ public:
+  SerialClient(std::unique_ptr<ClientSocket> sock, std::string path, const SerialSettings& settings)
+      : sock_(std::move(sock)), path_(std::move(path)), settings_(settings) {}
+
+  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
+    const auto deadline = steady_clock::now() + timeout;
+    std::vector<std::uint8_t> m;
+    for (;;) {
+      if (!bytes_.empty()) {
+        const std::size_t n = std::min(buf.size(), bytes_.size());
+        std::copy_n(bytes_.begin(), n, buf.begin());
+        bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
+        return n;
+      }
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() < 0 || !sock_->next(m, left)) return 0;
+      In in(m);
+      const Msg type = in.type();
+      take(type, in);
+    }
+  }
+  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
+    const std::uint32_t token = ++token_;
+    const auto t0 = steady_clock::now();
+    try {
+      sock_->send(Out(Msg::bytes).u32(token).bytes(data).take(), timeout);
+      await_sent(
+          *sock_, token, t0 + timeout + milliseconds(1000), [this](Msg type, In& in) { take(type, in); },
+          [](std::uint8_t kind, const std::string& text) {
+            throw serial_error_of(LinkError(static_cast<LinkError::Kind>(kind), text));
+          });
+    } catch (const LinkError& e) {
+      throw serial_error_of(e);
+    }
+  }
+  void set_modem_lines(bool, bool) override {
+    throw SerialError(SerialError::Kind::config,
+                      fmt::format("{}: the modem lines belong to {}, which holds the port", path_,
+                                  sock_->owner().owner_text()));
+  }
+  [[nodiscard]] const std::string& path() const override { return path_; }
+  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
+  [[nodiscard]] const char* backend() const override { return "shared"; }
+  [[nodiscard]] int poll_handle() const override { return sock_->fd(); }
+  [[nodiscard]] std::string sharing() const override { return "through " + sock_->owner().owner_text(); }
+
+ private:
+  void take(Msg type, In& in) {
+    if (type == Msg::bytes) {
+      in.u32();
+      const auto data = in.bytes();
+      bytes_.insert(bytes_.end(), data.begin(), data.end());
+      if (bytes_.size() > kMaxQueuedBytes)
+        bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(bytes_.size() - kMaxQueuedBytes));
+    } else if (type == Msg::bye) {
+      const auto reason = static_cast<ByeReason>(in.u8());
+      const std::string text = in.str();
+      if (reason == ByeReason::gone) throw SerialError(SerialError::Kind::gone, text);
+      throw OwnerLeft(text);
+    }
+  }
+
+  std::unique_ptr<ClientSocket> sock_;
+  std::string path_;
+  SerialSettings settings_;
+  std::deque<std::uint8_t> bytes_;
+  std::uint32_t token_ = 0;
+};
+
+class SharedSerialPort final : public SerialPort {
+ public:
+  SharedSerialPort(const std::string& path, const SerialSettings& settings, SerialBackend backend)
+      : port_(
+            path,
+            [path, settings]() -> std::unique_ptr<SerialPort> {
+              Hello h;
+              h.kind = Kind::serial;
+              h.command = self_command();
+              h.link = serial_text(path, settings);
+              h.rate = settings.baud;
+              h.format = to_string(settings);
+              ShareInfo info;
+              std::unique_ptr<ClientSocket> sock;
+              try {
+                sock = ClientSocket::connect(path, h, info);
+              } catch (const LinkError& e) {
+                throw serial_error_of(e);
+              }
+              if (!sock) return nullptr;
+              return std::make_unique<SerialClient>(std::move(sock), path, settings);
+            },
+            [path, settings, backend]() -> std::unique_ptr<SerialPort> {
+              return std::make_unique<SerialOwner>(open_serial(path, settings, backend));
+            }) {}
+
+  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
+    return port_.call([&](SerialPort& p) { return p.read(buf, timeout); });
+  }
+  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
+    port_.call([&](SerialPort& p) { p.write(data, timeout); });
+  }
+  void set_modem_lines(bool dtr, bool rts) override { port_.impl().set_modem_lines(dtr, rts); }
+  void set_baud(std::uint32_t baud) override { port_.impl().set_baud(baud); }
+  [[nodiscard]] const std::string& path() const override { return port_.impl().path(); }
+  [[nodiscard]] const SerialSettings& settings() const override { return port_.impl().settings(); }
+  [[nodiscard]] const char* backend() const override { return port_.impl().backend(); }
+  [[nodiscard]] int poll_handle() const override { return port_.impl().poll_handle(); }
+  [[nodiscard]] std::string sharing() const override { return port_.impl().sharing(); }
+
+ private:
+  Attachment<SerialPort> port_;
+};
+
+}  // namespace
+}  // namespace share
+
+std::optional<ShareInfo> query_share(const std::string& device) {
+  share::Hello h;
+  h.probe = true;
+  h.command = share::self_command();
+  ShareInfo info;
+  auto sock = share::ClientSocket::connect(device, h, info);
+  if (!sock) return std::nullopt;
+  return info;
+}
+
+std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,
+                                           const std::vector<CanFilter>& filters) {
+  return std::make_unique<share::SharedCanLink>(spec, listen_only, filters);
+}
+
+std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,
+                                               SerialBackend backend) {
+  return std::make_unique<share::SharedSerialPort>(path, settings, backend);
+}
+
+}  // namespace saul::host

@@ -1,0 +1,353 @@
+// Exclusive serial ports and shared links (host/link/device_holders.hpp, shared_link.hpp) on pseudo-terminals this
+// test creates. The far end of each pty is the test itself: it reads exactly what the links write and answers.
+// Expected slcan bytes are written out by hand (t<id><len><data>\r): 0x302 mode 3 = "t302103\r".
+// Another user is played by a forked child that drops to uid 65534 (only when the test runs as root).
+#include <catch2/catch.hpp>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+
+#include "saulproto/core/saul_can.hpp"
+#include "saulproto/host/link/device_holders.hpp"
+#include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/link/shared_link.hpp"
+
+using namespace std::chrono;
+using namespace saul::host;
+
+namespace {
+
+/// A pseudo-terminal whose master the test reads and writes; links open `path`.
+struct TestPty {
+  int master = -1, slave = -1;
+  std::string path;
+  std::string got;  ///< everything read from the master so far
+  TestPty() {
+    char name[128] = {};
+    REQUIRE(::openpty(&master, &slave, name, nullptr, nullptr) == 0);
+    termios t{};
+    ::tcgetattr(slave, &t);
+    ::cfmakeraw(&t);
+    ::tcsetattr(slave, TCSANOW, &t);
+    path = name;
+  }
+  ~TestPty() {
+    if (master >= 0) ::close(master);
+    if (slave >= 0) ::close(slave);
+  }
+  /// Reads until `got` ends with `tail` (true) or 5 s pass (false).
+  bool read_until_ends(const std::string& tail) {
+    const auto end = steady_clock::now() + seconds(5);
+    while (got.size() < tail.size() || got.compare(got.size() - tail.size(), tail.size(), tail) != 0) {
+      const auto left = duration_cast<milliseconds>(end - steady_clock::now()).count();
+      if (left <= 0) return false;
+      pollfd p{master, POLLIN, 0};
+      if (::poll(&p, 1, static_cast<int>(left)) <= 0) return false;
+      char buf[4096];
+      const ssize_t n = ::read(master, buf, sizeof buf);
+      if (n <= 0) return false;
+      got.append(buf, static_cast<std::size_t>(n));
+    }
+    return true;
+  }
+  void send(const std::string& s) const { REQUIRE(::write(master, s.data(), s.size()) == static_cast<ssize_t>(s.size())); }
+};
+
+/// A private socket directory for one test (SAUL_RUNTIME_DIR), removed at the end.
+struct RuntimeDir {
+  std::string path;
+  RuntimeDir() {
+    char tmpl[] = "/tmp/saul-share-test-XXXXXX";
+    REQUIRE(::mkdtemp(tmpl) != nullptr);
+    path = tmpl;
+    ::setenv("SAUL_RUNTIME_DIR", path.c_str(), 1);
+  }
+  ~RuntimeDir() {
+    ::unsetenv("SAUL_RUNTIME_DIR");
+    std::filesystem::remove_all(path);
+  }
+};
+
+LinkSpec slcan_spec(const std::string& device) { return parse_link_spec("slcan:" + device); }
+
+/// The next frame within 5 s.
+std::optional<saul::CanFrame> next_frame(CanLink& link) {
+  const auto end = steady_clock::now() + seconds(5);
+  while (steady_clock::now() < end)
+    if (auto f = link.receive(milliseconds(100))) return f;
+  return std::nullopt;
+}
+
+saul::CanFrame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  saul::CanFrame f;
+  f.id = id;
+  f.dlc = static_cast<std::uint8_t>(bytes.size());
+  std::copy(bytes.begin(), bytes.end(), f.data.begin());
+  return f;
+}
+
+const std::string kOpen = "C\rS6\rO\r";
+
+}  // namespace
+
+TEST_CASE("share: who may use a share, where its socket is", "[link][share]") {
+  CHECK(share_peer_allowed(1000, 1000));
+  CHECK_FALSE(share_peer_allowed(1001, 1000));
+  CHECK_FALSE(share_peer_allowed(0, 1000));  // not even root
+  CHECK_FALSE(share_peer_allowed(1000, 0));
+  RuntimeDir dir;
+  CHECK(share_socket_path("/dev/ttyACM7-not-here") == dir.path + "/ttyACM7-not-here.sock");
+  CHECK(share_socket_path("/dev/pts/999999") == dir.path + "/pts-999999.sock");
+}
+
+TEST_CASE("share: the socket directory must be this user's alone", "[link][share]") {
+  RuntimeDir dir;
+  REQUIRE(::chmod(dir.path.c_str(), 0700) == 0);
+  CHECK(share_directory() == dir.path);
+  REQUIRE(::chmod(dir.path.c_str(), 0755) == 0);
+  CHECK_THROWS_WITH(share_directory(), Catch::Contains("can be entered by other users (mode 755)"));
+  REQUIRE(::chmod(dir.path.c_str(), 0700) == 0);
+  if (::geteuid() == 0) {
+    REQUIRE(::chown(dir.path.c_str(), 65534, 65534) == 0);
+    CHECK_THROWS_WITH(share_directory(), Catch::Contains("belongs to uid 65534"));
+  }
+}
+
+TEST_CASE("exclusive: a port has one owner; another holder is named", "[link][exclusive]") {
+  TestPty pty;
+  auto first = open_serial(pty.path, SerialSettings{});
+  // A second open in this process meets the lock (the /proc scan leaves this process out, so no name).
+  CHECK_THROWS_AS(open_serial(pty.path, SerialSettings{}), SerialError);
+  first.reset();
+  CHECK_NOTHROW(open_serial(pty.path, SerialSettings{}));
+
+  // Another process with the pty's slave open is a holder; one that also holds the master is the far end.
+  int ready[2], quit[2];
+  REQUIRE(::pipe(ready) == 0);
+  REQUIRE(::pipe(quit) == 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(pty.master);  // a plain holder: only the slave
+    char c = 1;
+    [[maybe_unused]] auto w = ::write(ready[1], &c, 1);
+    [[maybe_unused]] auto r = ::read(quit[0], &c, 1);
+    ::_exit(0);
+  }
+  char c = 0;
+  REQUIRE(::read(ready[0], &c, 1) == 1);
+  const auto holders = device_holders(pty.path);
+  REQUIRE(holders.size() == 1);
+  CHECK(holders[0].pid == child);
+  try {
+    open_serial(pty.path, SerialSettings{});
+    FAIL("opened a port another process holds");
+  } catch (const SerialError& e) {
+    CHECK(e.kind() == SerialError::Kind::busy);
+    CHECK_THAT(e.what(), Catch::Contains(pty.path + " is held by " + holders[0].name + " (pid " + std::to_string(child) +
+                                         ")"));
+  }
+  REQUIRE(::write(quit[1], &c, 1) == 1);
+  ::waitpid(child, nullptr, 0);
+
+  const pid_t far_end = ::fork();  // holds master and slave, as the simulator does
+  if (far_end == 0) {
+    char d = 1;
+    [[maybe_unused]] auto w = ::write(ready[1], &d, 1);
+    [[maybe_unused]] auto r = ::read(quit[0], &d, 1);
+    ::_exit(0);
+  }
+  REQUIRE(::read(ready[0], &c, 1) == 1);
+  CHECK(device_holders(pty.path).empty());
+  CHECK_NOTHROW(open_serial(pty.path, SerialSettings{}));
+  REQUIRE(::write(quit[1], &c, 1) == 1);
+  ::waitpid(far_end, nullptr, 0);
+  for (int fd : {ready[0], ready[1], quit[0], quit[1]}) ::close(fd);
+}
+
+TEST_CASE("share: frames one sends are seen by the others, never by the sender", "[link][share]") {
+  RuntimeDir dir;
+  TestPty pty;
+  auto owner = open_can_link(slcan_spec(pty.path));
+  REQUIRE(pty.read_until_ends(kOpen));
+  auto client = open_can_link(slcan_spec(pty.path));
+  CHECK(owner->sharing() == "shared with 1 other saulctl");
+  CHECK_THAT(client->sharing(), Catch::StartsWith("through ") && Catch::EndsWith("(pid " + std::to_string(::getpid()) + ")"));
+  CHECK(pty.got == kOpen);  // the client opened nothing itself
+
+  client->send(frame(0x123, {0xAB}), milliseconds(500));
+  REQUIRE(pty.read_until_ends("t1231AB\r"));
+  auto seen = next_frame(*owner);
+  REQUIRE(seen);
+  CHECK(seen->same_wire(frame(0x123, {0xAB})));
+  CHECK(client->stats().last_send_ns > 0);
+
+  owner->send(frame(0x456, {0x01, 0x02}), milliseconds(500));
+  REQUIRE(pty.read_until_ends("t45620102\r"));
+  seen = next_frame(*client);
+  REQUIRE(seen);
+  CHECK(seen->same_wire(frame(0x456, {0x01, 0x02})));
+
+  pty.send("t7FF0\r");  // from the bus: both see it, and the client did not get its own 0x123 back
+  seen = next_frame(*owner);
+  REQUIRE(seen);
+  CHECK(seen->id == 0x7FF);
+  seen = next_frame(*client);
+  REQUIRE(seen);
+  CHECK(seen->id == 0x7FF);
+  CHECK_FALSE(client->receive(milliseconds(0)));
+}
+
+TEST_CASE("share: filters given at open hold before the first frame, per process", "[link][share]") {
+  RuntimeDir dir;
+  TestPty pty;
+  LinkOpenOptions only_400;
+  only_400.filters = {CanFilter{0x400, 0x7FF, false}};
+  auto owner = open_can_link(slcan_spec(pty.path), only_400);
+  REQUIRE(pty.read_until_ends(kOpen));
+  auto client = open_can_link(slcan_spec(pty.path));  // no filter
+  pty.send("t1001AA\rt4001BB\r");
+  auto a = next_frame(*owner);
+  REQUIRE(a);
+  CHECK(a->id == 0x400);
+  auto b1 = next_frame(*client);
+  auto b2 = next_frame(*client);
+  REQUIRE((b1 && b2));
+  CHECK(b1->id == 0x100);
+  CHECK(b2->id == 0x400);
+}
+
+TEST_CASE("share: the owner leaving hands the adapter to a client, which says so", "[link][share]") {
+  RuntimeDir dir;
+  TestPty pty;
+  std::vector<std::string> notices;
+  set_share_notice([&](const std::string& s) { notices.push_back(s); });
+  auto owner = open_can_link(slcan_spec(pty.path));
+  REQUIRE(pty.read_until_ends(kOpen));
+  auto client = open_can_link(slcan_spec(pty.path));
+  owner.reset();  // "C\r", then the client is told
+  CHECK_FALSE(client->receive(milliseconds(500)));  // meets the owner's exit and takes over
+  REQUIRE(pty.read_until_ends(kOpen + "C\r" + kOpen));
+  REQUIRE(notices.size() == 1);
+  CHECK_THAT(notices[0], Catch::Contains("stopped; ") && Catch::Contains("now holds " + pty.path + " and shares it"));
+  CHECK_THAT(client->sharing(), Catch::StartsWith("shared"));
+  pty.send("t1001CC\r");
+  auto f = next_frame(*client);
+  REQUIRE(f);
+  CHECK(f->data[0] == 0xCC);
+  set_share_notice(nullptr);
+}
+
+TEST_CASE("share: an ESTOP goes through an owner opened listen-only; nothing else does", "[link][share]") {
+  RuntimeDir dir;
+  TestPty pty;
+  std::vector<std::string> notices;
+  set_share_notice([&](const std::string& s) { notices.push_back(s); });
+  LinkOpenOptions silent;
+  silent.listen_only = true;
+  auto owner = open_can_link(slcan_spec(pty.path), silent);
+  // The stock firmware does not answer V: after its wait the link opens silent with M1.
+  REQUIRE(pty.read_until_ends("C\rS6\rV\rM1\rO\r"));
+  auto client = open_can_link(slcan_spec(pty.path));
+  CHECK_THROWS_WITH(client->send(frame(0x300, {0, 0, 0, 0}), milliseconds(500)), Catch::Contains("listen-only"));
+  client->send(saul::saulcan::encode(saul::saulcan::ModeCmd{saul::saulcan::Mode::estop}), milliseconds(500));
+  REQUIRE(pty.read_until_ends("C\rS6\rV\rM1\rO\rC\rO\rt302103\r"));
+  REQUIRE(notices.size() == 1);
+  CHECK_THAT(notices[0], Catch::Contains("left listen-only to put an ESTOP"));
+  set_share_notice(nullptr);
+}
+
+TEST_CASE("share: the adapter disappearing ends the owner and its clients with the same error", "[link][share]") {
+  RuntimeDir dir;
+  auto pty = std::make_unique<TestPty>();
+  auto owner = open_can_link(slcan_spec(pty->path));
+  REQUIRE(pty->read_until_ends(kOpen));
+  auto client = open_can_link(slcan_spec(pty->path));
+  ::close(pty->master);
+  pty->master = -1;
+  CHECK_THROWS_WITH(next_frame(*owner), Catch::Contains("disappeared"));
+  try {
+    next_frame(*client);
+    FAIL("the client did not see the adapter go");
+  } catch (const LinkError& e) {
+    CHECK(e.kind() == LinkError::Kind::gone);
+    CHECK_THAT(e.what(), Catch::Contains("disappeared"));
+  }
+}
+
+TEST_CASE("share: another user is refused and nothing it sends reaches the adapter", "[link][share]") {
+  if (::geteuid() != 0) {
+    WARN("skipped: needs root to play another user");
+    return;
+  }
+  RuntimeDir dir;
+  TestPty pty;
+  std::vector<std::string> notices;
+  set_share_notice([&](const std::string& s) { notices.push_back(s); });
+  auto owner = open_can_link(slcan_spec(pty.path));
+  REQUIRE(pty.read_until_ends(kOpen));
+  const std::string sock = share_socket_path(pty.path);
+  // As if the directory's and the socket's protection had failed: only the peer check is left.
+  REQUIRE(::chmod(dir.path.c_str(), 0755) == 0);
+  REQUIRE(::chmod(sock.c_str(), 0777) == 0);
+  // What the child tries to send after the refusal, by hand: a frame message (type 4) carrying 0x302 [03] with token 1: id u32, flags,
+  // dlc, 8 data bytes, stamped flag, stamp u64, token u32, send time u64 (host byte order).
+  std::uint8_t msg[1 + 4 + 1 + 1 + 8 + 1 + 8 + 4 + 8] = {4};
+  const std::uint32_t id = 0x302, token = 1;
+  std::memcpy(msg + 1, &id, 4);
+  msg[6] = 1;  // dlc
+  msg[7] = 3;  // mode 3
+  std::memcpy(msg + 1 + 4 + 1 + 1 + 8 + 1 + 8, &token, 4);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, sock.c_str(), sock.size() + 1);
+  int result[2];
+  REQUIRE(::pipe(result) == 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    char answer[512] = {};
+    ssize_t n = -1;
+    if (::setresgid(65534, 65534, 65534) == 0 && ::setresuid(65534, 65534, 65534) == 0) {
+      const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+      if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) {
+        n = ::recv(fd, answer, sizeof answer, 0);  // the refusal
+        char more;
+        if (::recv(fd, &more, 1, 0) != 0) n = -2;  // then the end of the connection
+        if (::send(fd, msg, sizeof msg, MSG_NOSIGNAL) >= 0) n = -3;  // and nothing more is taken
+      }
+    }
+    [[maybe_unused]] auto w = ::write(result[1], answer, n > 0 ? static_cast<std::size_t>(n) : 0);
+    ::_exit(n > 0 ? 0 : 1);
+  }
+  ::close(result[1]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  std::string answer;
+  char buf[512];
+  for (ssize_t n; (n = ::read(result[0], buf, sizeof buf)) > 0;) answer.append(buf, static_cast<std::size_t>(n));
+  ::close(result[0]);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  REQUIRE(answer.size() > 1);
+  CHECK(answer[0] == 3);  // refuse
+  CHECK_THAT(answer, Catch::Contains("is shared only with its owner's user (uid 0); uid 65534 may not use it"));
+  // Nothing of the child's reached the adapter: the next bytes are the owner's own marker frame.
+  owner->send(frame(0x7AA, {0x55}), milliseconds(500));
+  REQUIRE(pty.read_until_ends("t7AA155\r"));
+  CHECK(pty.got == kOpen + "t7AA155\r");
+  set_share_notice(nullptr);
+  REQUIRE(notices.size() == 1);  // the owner says it refused someone
+  CHECK_THAT(notices[0], Catch::Contains("from uid 65534 (pid " + std::to_string(child) + "): another user"));
+}
