@@ -1,7 +1,8 @@
-// saulctl plot: the telemetry of a capture over time, with the robot's state and fault changes marked, as an SVG,
-// one self-contained HTML page, or CSV. What is drawn (the default dashboard, or the fields of one message) and
-// the two streaming passes are the host library's (saulproto/host/report/telemetry_plot.hpp, plot.hpp); this file parses
-// the arguments, picks the output format and writes the file.
+// saulctl plot: the telemetry of a capture over time, with the robot's state and fault changes marked, as one
+// self-contained interactive HTML page, an SVG/PNG/PDF report drawn by gnuplot, or CSV. What is drawn (the default
+// dashboard, or the fields of one message) and the two streaming passes are the host library's
+// (saulproto/host/report/telemetry_plot.hpp, plot.hpp); this file parses the arguments, picks the output format
+// and writes the file.
 #include <fmt/core.h>
 #include <fmt/format.h>
 
@@ -33,20 +34,17 @@ std::string plural(std::uint64_t n, const char* word) { return fmt::format("{} {
 
 std::string base_name(const std::string& path) { return path.substr(path.find_last_of('/') + 1); }
 
-/// svg, html or csv: --format, else the extension of -o, else svg.
+/// html, svg, png, pdf or csv: --format, else the extension of -o, else html.
 std::string output_format(const PlotOptions& opt) {
   if (!opt.format.empty()) return opt.format;
-  if (opt.output.empty() || opt.output == "-") return "svg";
+  if (opt.output.empty() || opt.output == "-") return "html";
   const auto dot = opt.output.find_last_of('.');
   std::string ext = dot == std::string::npos ? "" : opt.output.substr(dot + 1);
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == "png")
-    throw CLI::ValidationError("-o", "PNG needs a rasteriser: write .svg and convert it, e.g. rsvg-convert -o "
-                                     "plot.png plot.svg");
-  if (ext == "svg" || ext == "csv" || ext == "html") return ext;
+  if (ext == "html" || ext == "svg" || ext == "png" || ext == "pdf" || ext == "csv") return ext;
   if (ext == "htm") return "html";
-  throw CLI::ValidationError("-o", "write .svg (a picture), .html (the picture and a table of the state and fault "
-                                   "changes) or .csv (the numbers), or say --format svg|html|csv");
+  throw CLI::ValidationError("-o", "write .html (the interactive page), .svg, .png or .pdf (a picture) or .csv (the "
+                                   "numbers), or say --format html|svg|png|pdf|csv");
 }
 
 int run_plot(const PlotOptions& opt) {
@@ -70,26 +68,31 @@ int run_plot(const PlotOptions& opt) {
                                                      fallback_protocol(opt.serial)));
   for (const auto& note : plotter.left_out()) fmt::print(stderr, "saulctl plot: {}\n", note);
 
-  std::ofstream file;
-  if (output != "-") {
-    file.open(output, std::ios::out | std::ios::trunc);
-    if (!file) {
-      fmt::print(stderr, "saulctl plot: cannot create '{}'\n", output);
+  if (format == "svg" || format == "png" || format == "pdf") {
+    std::fflush(stdout);  // gnuplot writes to the same standard output with -o -
+    render_static(plotter.document(kStaticColumns), format, output == "-" ? "" : output);
+  } else {
+    // The page's scripts are read before the file is created, so a missing package leaves no empty file behind.
+    const auto dygraphs = format == "html" ? load_dygraphs() : DygraphsAssets{};
+    std::ofstream file;
+    if (output != "-") {
+      file.open(output, std::ios::out | std::ios::trunc);
+      if (!file) {
+        fmt::print(stderr, "saulctl plot: cannot create '{}': check the folder exists and is writable\n", output);
+        return kFailure;
+      }
+    }
+    std::ostream& out = output == "-" ? std::cout : file;
+    if (format == "csv")
+      plotter.write_csv(out);
+    else
+      out << render_html(plotter.document(kInteractiveColumns), dygraphs);
+    out.flush();
+    if (file.is_open()) file.close();
+    if (!out) {
+      fmt::print(stderr, "saulctl plot: cannot write '{}': is the disk full?\n", output);
       return kFailure;
     }
-  }
-  std::ostream& out = output == "-" ? std::cout : file;
-  if (format == "csv")
-    plotter.write_csv(out);
-  else if (format == "html")
-    out << render_html(plotter.document());
-  else
-    out << render_svg(plotter.document());
-  out.flush();
-  if (file.is_open()) file.close();
-  if (!out) {
-    fmt::print(stderr, "saulctl plot: cannot write '{}'\n", output);
-    return kFailure;
   }
 
   std::vector<std::string> titles;
@@ -123,10 +126,10 @@ void add_plot_command(CLI::App& app, Runner& run) {
   auto* cmd = app.add_subcommand("plot", "Plot a capture's telemetry over time, state and fault changes marked");
   cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
   cmd->add_option("-o,--output", opt->output,
-                  "run.svg, run.html or run.csv (by the extension), - for stdout; default: FILE's name with the "
-                  "format's extension");
-  cmd->add_option("--format", opt->format, "svg, html or csv, whatever the extension of -o")
-      ->check(CLI::IsMember({"svg", "html", "csv"}));
+                  "run.html, run.svg, run.png, run.pdf or run.csv (by the extension), - for stdout; default: FILE's "
+                  "name with the format's extension");
+  cmd->add_option("--format", opt->format, "html, svg, png, pdf or csv, whatever the extension of -o")
+      ->check(CLI::IsMember({"html", "svg", "png", "pdf", "csv"}));
   cmd->add_option("--id", opt->id,
                   "plot one message instead of the dashboard: a CAN id (0x400) or a message name (telemetry_a, state)");
   cmd->add_option("--field", opt->fields,
@@ -146,23 +149,23 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "first --max-markers changes are drawn, the picture counts the rest.\n"
       "\n"
       "Time 0 is the first plotted message (a capture without timestamps is drawn by message number). Long\n"
-      "captures are binned to one column per pixel keeping each column's first, lowest, highest and last value,\n"
-      "so spikes stay visible; two passes over the file, constant memory.\n"
+      "captures are binned into columns keeping each column's first, lowest, highest and last value, so spikes\n"
+      "stay visible; two passes over the file, constant memory.\n"
       "\n"
-      "Output, by the extension of -o or --format:\n"
-      "  .svg   the picture, one file any browser or Inkscape opens\n"
-      "  .html  one self-contained page (nothing fetched): the same picture, then a table of the state and\n"
-      "         fault changes with their times\n"
+      "Output, by the extension of -o or --format (default .html):\n"
+      "  .html  one self-contained interactive page (Debian's dygraphs inlined, nothing fetched): drag to zoom,\n"
+      "         shift-drag to pan, every panel follows on a date-time axis, sample points once zoomed in; then\n"
+      "         a table of the state and fault changes with their times\n"
+      "  .svg .png .pdf   a static report drawn by gnuplot (gnuplot-nox)\n"
       "  .csv   the numbers: time_s and one column per series drawn (plus state, faults), empty cells where a\n"
       "         message does not carry a column; with --id, time_s and the fields\n"
-      "PNG is refused: convert the SVG (rsvg-convert -o run.png run.svg).\n"
       "\n"
       "Examples:\n"
-      "  saulctl plot run.log -o run.svg                  # the dashboard after a tuning run\n"
-      "  saulctl plot run.log -o run.html                 # the same, plus the table of state/fault changes\n"
+      "  saulctl plot run.log                             # run.html: the dashboard after a tuning run\n"
+      "  saulctl plot run.log -o run.pdf                  # the same on paper\n"
       "  saulctl plot captures/robot_bus.log --format html -o - > bus.html\n"
       "  saulctl plot run.pcapng -o run.csv               # the dashboard's numbers for a spreadsheet\n"
-      "  saulctl plot run.log --max-markers 200 -o run.svg   # a run with many state/fault changes\n"
+      "  saulctl plot run.log --max-markers 200 -o run.png   # a run with many state/fault changes\n"
       "  saulctl plot captures/robot_bus.log --id 0x400 --field pitch_x100 -o pitch.svg\n"
       "  saulctl plot run.log --id telemetry_a --field pitch_x100,pid_out,speed_mmps -o tuning.svg\n"
       "  saulctl plot run.log --id 0x944 -o status.svg   # every field of VESC STATUS from controller 68\n"
@@ -182,6 +185,9 @@ void add_plot_command(CLI::App& app, Runner& run) {
         fmt::print(stderr, "saulctl plot: {}\n", e.what());
         return kFailure;
       } catch (const saul::host::CaptureOpenError& e) {
+        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        return kFailure;
+      } catch (const saul::host::PlotOutputError& e) {
         fmt::print(stderr, "saulctl plot: {}\n", e.what());
         return kFailure;
       }

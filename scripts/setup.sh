@@ -11,6 +11,7 @@ packages=(
   libncurses-dev tmux  # saulctl's full-screen views; tmux drives them in tests/cli/views.sh
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
+  libjs-dygraphs gnuplot-nox chromium  # saulctl plot: HTML page, SVG/PNG/PDF reports; headless browser test
   zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)

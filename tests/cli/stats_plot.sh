@@ -65,9 +65,16 @@ check "stats of a missing file exits 1" test $? -eq 1
 check "a bad --bitrate is a usage error (exit 2)" test $? -eq 2
 
 # --- plot ---------------------------------------------------------------------------------------------------
+# Static pictures are gnuplot's (SVG, PNG, PDF), the page is dygraphs' (its drawing is checked in a browser by
+# plot_browser.sh): here the files, what they say, and the numbers.
+export out
+xml_ok() { python3 -c "import xml.etree.ElementTree as E, sys; E.parse(sys.argv[1])" "$1" 2>/dev/null; }
+# texts FILE STRING: how many SVG text elements say exactly STRING
+texts() { grep -o ">[^<>]*</text>" "$1" | grep -cxF ">$2</text>"; }
+export -f xml_ok texts
 "$saulctl" plot "$log" --id 0x400 --field pitch_x100,pid_out -o "$out/p.svg" 2>"$out/plot.err"
-check "plot writes an SVG with one line per field" \
-  bash -c "test $? -eq 0 && head -c 5 '$out/p.svg' | grep -q '<?xml' && test \$(grep -c '<polyline' '$out/p.svg') -eq 2"
+check "plot -o .svg: an SVG drawn by gnuplot, one panel per field (30 points each)" \
+  bash -c "test $? -eq 0 && xml_ok '$out/p.svg' && grep -q 'Produced by GNUPLOT' '$out/p.svg' && test \$(grep -c '(30 points)</text>' '$out/p.svg') -eq 2"
 check "plot says what it drew: 30 telemetry frames over 2.9 s" grep -q '30 points of 0x400 (pitch_x100, pid_out) over 2.900 s' "$out/plot.err"
 "$saulctl" plot "$log" --id telemetry_a --field pitch_x100 -o "$out/p.csv" 2>/dev/null
 # pitch = round(150 sin(3t)) once armed (t >= 0.5 s): at t = 1.0 s (telemetry at +0.9991 s) round(150 sin 3) = 21
@@ -76,32 +83,45 @@ check "plot -o .csv: a header and the 30 points; pitch 21 at 1.0 s" \
 "$saulctl" plot "$log" --id 0x400 --field pitch -o "$out/x.svg" 2>"$out/field.err"
 check "an unknown field exits 2 and lists the message's fields" \
   bash -c "test $? -eq 2 && grep -q 'it has pitch_x100, pid_out, speed_mmps, state' '$out/field.err'"
-"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/x.png" 2>"$out/png.err"
-check "PNG is refused with a hint (exit 2)" bash -c "test $? -eq 2 && grep -q 'rsvg-convert' '$out/png.err'"
+"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/x.png" 2>/dev/null
+# PNG: 8-byte signature, then IHDR with width and height (big-endian): 1600 x (110 + 300 per panel) = 1600 x 410.
+check "plot -o .png: a PNG of 1600 x 410 px for one panel" \
+  bash -c "test $? -eq 0 && python3 -c \"import struct,sys; d=open('$out/x.png','rb').read(24); sys.exit(0 if d[:8]==b'\x89PNG\r\n\x1a\n' and struct.unpack('>II', d[16:24])==(1600,410) else 1)\""
+"$saulctl" plot "$log" -o "$out/run.pdf" 2>/dev/null
+check "plot -o .pdf: a PDF" bash -c "test $? -eq 0 && head -c 5 '$out/run.pdf' | grep -q '%PDF-' && test \$(wc -c <'$out/run.pdf') -gt 5000"
+PATH=/nonexistent "$saulctl" plot "$log" -o "$out/nognuplot.svg" 2>"$out/nognuplot.err"
+check "without gnuplot: exit 1 saying which package draws SVG, PNG and PDF" \
+  bash -c "test $? -eq 1 && grep -q 'apt install gnuplot-nox' '$out/nognuplot.err'"
 "$saulctl" plot "$root/captures/interboard_uart.serial" --id state --field pitch_x100 -o "$out/s.csv" 2>/dev/null
 check "plot reads serial captures by message name" grep -qx '0.000000,-1234' "$out/s.csv"
 
 # --- plot: the dashboard, state/fault markers, HTML ---------------------------------------------------------
 # robot_bus.log (make_robot_bus.py) has every message the dashboard draws: 30 0x400 + 30 0x401 + 44 0x300 + 2 x 30
 # VESC STATUS + 2 x 15 STATUS_5 = 194 messages, from the first 0x400 at +0.0009 s to the last STATUS_5 at
-# step 295 + 0.8 ms = +2.9508 s: 2.9499 s.
+# step 295 + 0.8 ms = +2.9508 s: 2.9499 s. Its timestamps start at 1763800000.000900 = 2025-11-22 08:26:40.0009 UTC.
 "$saulctl" plot "$log" -o "$out/run.svg" 2>"$out/dash.err"
 check "plot without --id draws the dashboard: 6 panels of 194 messages over 2.950 s" \
   bash -c "test $? -eq 0 && grep -q 'saulctl plot: 194 messages over 2.950 s in 6 panels (pitch \[deg\], pid_out \[permille\], speed \[mm/s\], wheel speed \[rpm\] (0x401), VESC ERPM (STATUS), battery \[V\]) written to $out/run.svg' '$out/dash.err'"
-check "the dashboard SVG: a panel title per panel, a line per series (1 + 1 + 2 + 2 + 2 + 3)" \
-  bash -c "head -c 5 '$out/run.svg' | grep -q '<?xml' && test \$(grep -c '<polyline' '$out/run.svg') -eq 11 && grep -q '>pitch \[deg\] (30 points)<' '$out/run.svg' && grep -q '>VESC ERPM (STATUS) (60 points)<' '$out/run.svg'"
-# The state goes OFF (first seen, t = 0) -> BALANCE at step 50 (+0.5009 s, t = 0.5); the faults stay 0. On the
-# 2.9499 s axis, 880 px wide from x = 70: 70 + 0.5 / 2.9499 x 880 = 219.2. Both markers on all 6 panels.
-check "state changes marked on every panel: OFF at 0 s, BALANCE at 0.5 s (x = 219.2)" \
-  bash -c "test \$(grep -c 'class=\"marker\" x1=\"70.0\"' '$out/run.svg') -eq 6 && test \$(grep -c 'class=\"marker\" x1=\"219.2\"' '$out/run.svg') -eq 6 && grep -q '>BALANCE</text>' '$out/run.svg' && grep -q '2 state/fault changes, all marked' '$out/run.svg' && grep -q 'saulctl plot: 2 state/fault changes marked' '$out/dash.err'"
+check "the dashboard SVG: each panel titled with its points, the series in the keys" \
+  bash -c "xml_ok '$out/run.svg' && test \$(texts '$out/run.svg' 'pitch [deg] (30 points)') -eq 1 && test \$(texts '$out/run.svg' 'VESC ERPM (STATUS) (60 points)') -eq 1 && test \$(texts '$out/run.svg' 'commanded (0x300)') -eq 1 && test \$(texts '$out/run.svg' 'right (56)') -eq 1"
+check "the title has a date, not a raw epoch; the axis the time of day of 0" \
+  bash -c "test \$(texts '$out/run.svg' 'robot_bus.log: telemetry (194 messages from 2025-11-22 08:26:40.001 UTC)') -eq 1 && test \$(texts '$out/run.svg' 'time since 08:26:40.001 UTC [s]') -eq 1 && ! grep -q 1763800000 '$out/run.svg'"
+# The state goes OFF (first seen, t = 0) -> BALANCE at step 50 (t = 0.5 s); the faults stay 0: both labelled on all
+# six panels.
+check "state changes marked on every panel: OFF and BALANCE" \
+  bash -c "test \$(texts '$out/run.svg' OFF) -eq 6 && test \$(texts '$out/run.svg' BALANCE) -eq 6 && grep -q 'saulctl plot: 2 state/fault changes marked' '$out/dash.err'"
 
 "$saulctl" plot "$log" -o "$out/run.html" 2>/dev/null
-check "plot -o .html: one self-contained page (no http, src, href, script, link) with the SVG inline" \
-  bash -c "test $? -eq 0 && head -n 1 '$out/run.html' | grep -qx '<!DOCTYPE html>' && ! grep -qiE 'http|src=|href=|<script|<link|@import|url\(' '$out/run.html' && test \$(grep -c '<svg ' '$out/run.html') -eq 1 && test \$(grep -c '<polyline' '$out/run.html') -eq 11"
-check "the page's table: OFF first seen at 0.000000 (1763800000.000900), BALANCE at 0.500000 (1763800000.500900)" \
-  bash -c "grep -q '<td class=\"num\">0.000000</td><td class=\"num\">1763800000.000900</td><td>state</td><td>OFF (first seen)</td>' '$out/run.html' && grep -q '<td class=\"num\">0.500000</td><td class=\"num\">1763800000.500900</td><td>state</td><td>OFF -&gt; BALANCE</td>' '$out/run.html'"
+check "plot -o .html: one page, its scripts inline (no src, no link), dygraphs from Debian" \
+  bash -c "test $? -eq 0 && head -n 1 '$out/run.html' | grep -qx '<!DOCTYPE html>' && python3 '$root/tests/cli/plot_page.py' '$out/run.html' && grep -qF \"\$(head -c 200 /usr/share/javascript/dygraphs/dygraph.min.js)\" '$out/run.html'"
+check "the page's table: OFF first seen at 0.000000 (08:26:40.001), BALANCE at 0.500000 (08:26:40.501)" \
+  bash -c "grep -q '<td class=\"num\">0.000000</td><td class=\"num\">2025-11-22 08:26:40.001 UTC</td><td>state</td><td>OFF (first seen)</td>' '$out/run.html' && grep -q '<td class=\"num\">0.500000</td><td class=\"num\">2025-11-22 08:26:40.501 UTC</td><td>state</td><td>OFF -&gt; BALANCE</td>' '$out/run.html'"
+check "the page's data: 6 panels from 0 to 2.9499 s, the day and the time of day of 0" \
+  bash -c "python3 '$root/tests/cli/plot_page.py' '$out/run.html' --data | grep -qx '6 panels 0..2.9499 2025-11-22 30400.0009'"
 "$saulctl" plot "$log" --format html -o - 2>/dev/null | cmp -s - "$out/run.html"
 check "--format html -o - writes the same page to stdout" test $? -eq 0
+(cd "$out" && "$saulctl" plot "$log" 2>/dev/null)
+check "without -o: the page, named after the capture (robot_bus.html)" cmp -s "$out/robot_bus.html" "$out/run.html"
 
 "$saulctl" plot "$log" -o "$out/run.csv" 2>/dev/null
 # At t = 1.0 s (0x400 at +1.0009 s): pitch round(150 sin 3) = 21 -> 0.21 deg, pid_out int(21 x 0.8) = 16,
@@ -115,24 +135,24 @@ check "plot -o .csv without --id: the dashboard's columns, one row per message, 
 check "a capture lacking frames: the panels without data are left out, on stderr" \
   bash -c "test $? -eq 0 && test \$(grep -c ': left out, ' '$out/g.err') -eq 3 && grep -q '^saulctl plot: pitch \[deg\]: left out, no 0x400 telemetry_a' '$out/g.err' && grep -q '^saulctl plot: VESC ERPM (STATUS): left out' '$out/g.err' && grep -q 'in 3 panels (speed \[mm/s\], wheel speed \[rpm\] (0x401), battery \[V\])' '$out/g.err'"
 check "the fault change marked and listed: +rc_loss +orin_timeout at 0.070 s" \
-  bash -c "grep -q '>+rc_loss +orin_timeout</text>' '$out/g.html' && grep -q '<td class=\"num\">0.070000</td><td class=\"num\">1763800000.070000</td><td>faults</td><td>none -&gt; rc_loss+orin_timeout</td>' '$out/g.html'"
+  bash -c "grep -qF '\"label\":\"+rc_loss +orin_timeout\",\"t\":0.07' '$out/g.html' && grep -q '<td class=\"num\">0.070000</td><td class=\"num\">2025-11-22 08:26:40.070 UTC</td><td>faults</td><td>none -&gt; rc_loss+orin_timeout</td>' '$out/g.html'"
 
-# Marker cap: 12 telemetry frames alternating OFF/BALANCE, 100 ms apart = 12 changes; --max-markers 5 draws 5 on each
-# of the 3 panels 0x400 fills (pitch, pid_out, speed) and counts the other 7 in the picture.
+# Marker cap: 12 telemetry frames alternating OFF/BALANCE, 100 ms apart = 12 changes; --max-markers 5 draws the
+# first 5 (OFF, BALANCE, OFF, BALANCE, OFF) on each of the 3 panels 0x400 fills (pitch, pid_out, speed).
 awk 'BEGIN { for (i = 0; i < 12; i++) printf "(%d.%06d) can0 400#0000000000000%d\n", 1 + int(i / 10), (i % 10) * 100000, i % 2 }' \
   >"$out/toggle.log"
 "$saulctl" plot "$out/toggle.log" --max-markers 5 -o "$out/t.svg" 2>"$out/t.err"
 check "--max-markers 5: 5 of 12 changes drawn on each panel, the other 7 counted in the picture and on stderr" \
-  bash -c "test $? -eq 0 && test \$(grep -c 'class=\"marker\"' '$out/t.svg') -eq 15 && grep -q '12 state/fault changes: the first 5 are marked, 7 more are not' '$out/t.svg' && grep -q '12 state/fault changes, the first 5 marked' '$out/t.err'"
+  bash -c "test $? -eq 0 && test \$(texts '$out/t.svg' OFF) -eq 9 && test \$(texts '$out/t.svg' BALANCE) -eq 6 && grep -q '12 state/fault changes: the first 5 are marked, 7 more are not' '$out/t.svg' && grep -q '12 state/fault changes, the first 5 marked' '$out/t.err'"
 
 "$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/id.svg" 2>/dev/null
 check "--id plots keep the markers: OFF and BALANCE on the one panel" \
-  bash -c "test \$(grep -c 'class=\"marker\"' '$out/id.svg') -eq 2"
+  bash -c "test \$(texts '$out/id.svg' OFF) -eq 1 && test \$(texts '$out/id.svg' BALANCE) -eq 1"
 "$saulctl" plot "$log" --format csv -o "$out/p.dat" 2>/dev/null
 check "--format csv whatever the extension" bash -c "test $? -eq 0 && head -n 1 '$out/p.dat' | grep -q '^time_s,pitch_deg,'"
 "$saulctl" plot "$log" -o "$out/p.txt" 2>"$out/ext.err"
 check "an unknown extension without --format is a usage error (exit 2)" \
-  bash -c "test $? -eq 2 && grep -q 'svg|html|csv' '$out/ext.err'"
+  bash -c "test $? -eq 2 && grep -q 'html|svg|png|pdf|csv' '$out/ext.err'"
 "$saulctl" plot "$log" --field pitch_x100 -o "$out/x.svg" 2>"$out/f.err"
 check "--field without --id is a usage error (exit 2)" bash -c "test $? -eq 2 && grep -q 'needs --id' '$out/f.err'"
 "$saulctl" plot "$root/captures/pride_uart.serial" -o "$out/pride.svg" 2>"$out/pride.err"
@@ -140,7 +160,7 @@ check "nothing the dashboard draws (a Pride capture): exit 1 and a hint to use -
   bash -c "test $? -eq 1 && grep -q 'name a message with --id and --field' '$out/pride.err' && test ! -e '$out/pride.svg'"
 "$saulctl" plot --help >"$out/help" 2>&1
 check "plot --help explains the dashboard, the markers and the formats with examples" \
-  bash -c "grep -q 'Without --id, draws the telemetry dashboard' '$out/help' && grep -q 'saulctl plot run.log -o run.html' '$out/help' && grep -q -- '--max-markers' '$out/help'"
+  bash -c "grep -q 'Without --id, draws the telemetry dashboard' '$out/help' && grep -q 'saulctl plot run.log -o run.pdf' '$out/help' && grep -q -- '--max-markers' '$out/help' && grep -q 'drag to zoom' '$out/help'"
 
 echo "$fails failed"
 exit $((fails > 0))

@@ -1,5 +1,5 @@
-// Recording into rotating files, and the SVG plot: file names, sizes, rotation by time and size with every file
-// complete on its own; plot binning, ticks and the document.
+// Recording into rotating files: file names, sizes, rotation by time and size with every file complete on its
+// own. (The plot's binning and ticks are tested in tests/host/report/test_plot.cpp.)
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "saulproto/host/capture/capture.hpp"
-#include "saulproto/host/report/plot.hpp"
 #include "saulproto/host/capture/recorder.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
@@ -142,37 +141,3 @@ TEST_CASE("serial recordings rotate too") {
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("plot: ticks, binning that keeps spikes, and the SVG") {
-  CHECK(nice_ticks(0, 10, 5) == std::vector<double>{0, 2, 4, 6, 8, 10});
-  const auto small = nice_ticks(-0.3, 0.3, 6);
-  const std::vector<double> expected{-0.3, -0.2, -0.1, 0, 0.1, 0.2, 0.3};
-  REQUIRE(small.size() == expected.size());
-  for (std::size_t i = 0; i < small.size(); ++i) CHECK(small[i] == Approx(expected[i]).margin(1e-12));
-  CHECK(nice_ticks(1, 1) == std::vector<double>{1});
-
-  PlotBinner binner(0, 10, 5);  // 2 s per column
-  for (int i = 0; i < 1000; ++i) binner.add(i * 0.01, 1.0);
-  binner.add(4.5, 99.0);  // one spike in the third column
-  binner.add(11, 2.0);    // past the end: the last column
-  CHECK(binner.count() == 1002);
-  CHECK(binner.max() == 99.0);
-  const auto points = binner.points();
-  CHECK(points.size() <= 5 * 4);
-  bool spike = false;
-  for (const auto& p : points) spike = spike || (p.v == 99.0 && p.t == 4.5);
-  CHECK(spike);
-  for (std::size_t i = 1; i < points.size(); ++i) CHECK(points[i - 1].t <= points[i].t);
-
-  PlotDocument doc;
-  doc.title = "pitch & <pid>";
-  doc.t0 = 0;
-  doc.t1 = 10;
-  doc.panels.push_back(PlotPanel{"0x400 telemetry_a: pitch_x100", binner});
-  const std::string svg = render_svg(doc);
-  CHECK(svg.starts_with("<?xml"));
-  CHECK(svg.find("<svg xmlns=\"http://www.w3.org/2000/svg\"") != std::string::npos);
-  CHECK(svg.find("pitch &amp; &lt;pid&gt;") != std::string::npos);
-  CHECK(svg.find("<polyline") != std::string::npos);
-  CHECK(svg.find("(1002 points)") != std::string::npos);
-  CHECK(svg.ends_with("</svg>\n"));
-}

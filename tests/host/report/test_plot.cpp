@@ -59,6 +59,9 @@ CanFrame status5(std::uint64_t ms, std::uint8_t controller, std::int16_t volts_x
   return at(vesc::encode(s), kT0 + ms * kMs);
 }
 
+// Stand-ins for Debian's dygraphs files: the page must carry them inline, whatever they hold.
+DygraphsAssets fake_dygraphs() { return {"/* dygraph.min.js */", "/* dygraph.min.css */", "/* synchronizer.js */"}; }
+
 std::vector<std::string> titles(const TelemetryPlotter& p) {
   std::vector<std::string> out;
   for (const auto& panel : p.panels()) out.push_back(panel.title);
@@ -167,15 +170,16 @@ TEST_CASE("plot: state and fault changes are marked at their exact times with th
     CHECK(doc.markers[i].detail == expected[i].detail);
     CHECK(doc.markers[i].when == expected[i].when);
   }
-  // Drawn on every panel: x = 70 + t / 1.0 s × 880 px, so 70, 290, 334, 422, 510.
-  const std::string svg = render_svg(doc);
+  // gnuplot draws each as a dashed vertical arrow on every panel, at the marker's time on the axis.
+  const std::string gp = gnuplot_script(doc, "svg", "out.svg");
   const std::size_t panels = doc.panels.size();
   REQUIRE(panels == 5);  // no VESC frames: ERPM is left out, battery comes from 0x401
-  CHECK(count_of(svg, "class=\"marker\"") == 5 * panels);
-  for (const char* x : {"x1=\"70.0\"", "x1=\"290.0\"", "x1=\"334.0\"", "x1=\"422.0\"", "x1=\"510.0\""})
-    CHECK(count_of(svg, std::string("class=\"marker\" ") + x) == panels);
-  CHECK(svg.find("5 state/fault changes, all marked:") != std::string::npos);
-  CHECK(svg.find(">+rc_loss +orin_timeout</text>") != std::string::npos);
+  CHECK(count_of(gp, "set arrow from ") == 5 * panels);
+  for (const char* x : {"0,graph 0 to 0,graph 1", "0.25,graph 0 to 0.25,graph 1", "0.3,graph 0 to 0.3,graph 1",
+                        "0.4,graph 0 to 0.4,graph 1", "0.5,graph 0 to 0.5,graph 1"})
+    CHECK(count_of(gp, std::string("set arrow from ") + x + " nohead dt 2") == panels);
+  CHECK(gp.find("\\n5 state/fault changes, all marked") != std::string::npos);
+  CHECK(count_of(gp, "set label '+rc_loss +orin_timeout' at 0.3,graph 0.97 rotate by -90") == panels);
 }
 
 TEST_CASE("plot: the panel set follows the frames the capture has") {
@@ -219,7 +223,7 @@ TEST_CASE("plot: the panel set follows the frames the capture has") {
     REQUIRE(plotter.panels()[2].series.size() == 1);  // battery from 0x401 only
     const auto doc = plotter.document();
     CHECK(doc.notes == plotter.left_out());
-    CHECK(render_svg(doc).find("VESC ERPM (STATUS): left out") != std::string::npos);
+    CHECK(gnuplot_script(doc, "png", "").find("\\nVESC ERPM (STATUS): left out") != std::string::npos);
   }
   SECTION("nothing the dashboard draws: an error that points at --id") {
     const std::vector<CanFrame> frames{at(saulcan::encode(saulcan::ModeCmd{saulcan::Mode::off}), kT0)};
@@ -240,13 +244,15 @@ TEST_CASE("plot: markers are capped, the rest counted in the picture and the pag
   REQUIRE(doc.markers.size() == 10);
   CHECK(doc.markers[9].t == Approx(0.09));
   CHECK(doc.markers_total == 100);
-  const std::string svg = render_svg(doc);
-  CHECK(count_of(svg, "class=\"marker\"") == 10 * doc.panels.size());
-  // The 10 lines are 0.01 / 0.99 s x 880 px = 8.9 px apart, less than the 12 px labels need: the labels alternate
-  // between the top lane and the middle lane, 17.8 px apart in each.
-  CHECK(count_of(svg, "rotate(90)") == 10 * doc.panels.size());
-  CHECK(svg.find("100 state/fault changes: the first 10 are marked, 90 more are not:") != std::string::npos);
-  const std::string html = render_html(doc);
+  const std::string gp = gnuplot_script(doc, "pdf", "out.pdf");
+  CHECK(count_of(gp, "set arrow from ") == 10 * doc.panels.size());
+  // The lines are 0.01 s apart on a 0.99 s axis, 1.01 % of the width: closer than the 1.2 % a label needs, so
+  // every other one is labelled (0, 0.02, ... 0.08).
+  CHECK(count_of(gp, "set label ") == 5 * doc.panels.size());
+  CHECK(count_of(gp, "set label 'OFF' at 0.02,graph") == doc.panels.size());
+  CHECK(count_of(gp, "set label 'BALANCE' at 0.01,graph") == 0);
+  CHECK(gp.find("100 state/fault changes: the first 10 are marked, 90 more are not") != std::string::npos);
+  const std::string html = render_html(doc, fake_dygraphs());
   CHECK(count_of(html, "<tr class=\"state\">") == 10);
   CHECK(html.find("90 more changes are neither marked nor listed.") != std::string::npos);
 
@@ -261,27 +267,32 @@ TEST_CASE("plot: the HTML page is self-contained and lists the changes with thei
   PlotRequest request = dashboard_request();
   request.source_name = "run <1> & co.log";
   const TelemetryPlotter plotter(request, frames_plot_source(frames));
-  const std::string html = render_html(plotter.document());
+  const std::string html = render_html(plotter.document(), fake_dygraphs());
   CHECK(html.starts_with("<!DOCTYPE html>\n"));
   CHECK(html.ends_with("</html>\n"));
-  // Nothing fetched: no address at all (the inline SVG needs no namespace), no scripts, no links, no sources.
-  for (const char* bad : {"http", "src=", "href=", "<script", "<link", "url(", "@import"}) {
+  // Nothing fetched: the libraries are inline (here stand-ins), no sources, links or addresses.
+  for (const char* bad : {"http", "src=", "href=", "<link", "url(", "@import"}) {
     INFO(bad);
     CHECK(html.find(bad) == std::string::npos);
   }
-  CHECK(count_of(html, "<svg ") == 1);
-  CHECK(html.find("<?xml") == std::string::npos);
+  CHECK(html.find("<script>\n/* dygraph.min.js */\n</script>") != std::string::npos);
+  CHECK(html.find("<script>\n/* synchronizer.js */\n</script>") != std::string::npos);
+  CHECK(html.find("<style>\n/* dygraph.min.css */\n</style>") != std::string::npos);
+  // A capture timestamp of 10.000000 s is not a date (fewer than 9 digits): the title keeps it as it is.
   CHECK(html.find("<title>run &lt;1&gt; &amp; co.log: telemetry (4 messages from 10.000000)</title>") !=
         std::string::npos);
+  CHECK(count_of(html, "<div class=\"panel\" id=\"panel") == plotter.document().panels.size());
   CHECK(html.find("<tr class=\"state\"><td class=\"num\">2</td><td class=\"num\">0.500000</td>"
                   "<td class=\"num\">10.500000</td><td>state</td><td>OFF -&gt; BALANCE</td></tr>") !=
         std::string::npos);
   CHECK(html.find("<tr class=\"faults\"><td class=\"num\">3</td><td class=\"num\">0.700000</td>"
                   "<td class=\"num\">10.700000</td><td>faults</td><td>none -&gt; rc_loss</td></tr>") !=
         std::string::npos);
-  // The standalone SVG keeps its declaration and namespace.
-  const std::string svg = render_svg(plotter.document());
-  CHECK(svg.starts_with("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\""));
+  // The data: pitch 0 deg at 0 s and 1.2 deg at 0.5 s, then a row without values at the right edge (0.7 s, the
+  // last message), so every panel spans the whole run; no date (the title has none).
+  CHECK(html.find(R"("labels":["time","0x400"],"rows":[[0.0,0.0],[0.5,1.2],[0.7,null]])") != std::string::npos);
+  CHECK(html.find(R"("start_date":null,"start_tod_s":null)") != std::string::npos);
+  CHECK(html.find(R"({"detail":"OFF -> BALANCE","kind":"state","label":"BALANCE","t":0.5})") != std::string::npos);
 }
 
 TEST_CASE("plot: the dashboard CSV has one column per series drawn, then state and faults") {
@@ -449,26 +460,73 @@ TEST_CASE("plot: state and fault names come from the library") {
   CHECK(change_detail(c) == "rc_loss+estop -> estop+tilt_cutoff");
 }
 
-TEST_CASE("plot: marker labels in a crowd take the middle lane, then give way; long ones are shortened") {
-  // A 1 s axis: A, B, C at 0, 5 and 10 ms are x = 70, 74.4 and 78.8. A takes the top lane (y = top + 4), B is 4.4 px
-  // from A so it takes the middle lane (top + 100), C is within 12 px of both and gets its line only. D at 0.5 s
-  // (x = 510) has 40 characters: 31 and an ellipsis fit the top lane.
+TEST_CASE("plot: ticks, and binning that keeps spikes") {
+  CHECK(nice_ticks(0, 10, 5) == std::vector<double>{0, 2, 4, 6, 8, 10});
+  const auto small = nice_ticks(-0.3, 0.3, 6);
+  const std::vector<double> expected{-0.3, -0.2, -0.1, 0, 0.1, 0.2, 0.3};
+  REQUIRE(small.size() == expected.size());
+  for (std::size_t i = 0; i < small.size(); ++i) CHECK(small[i] == Approx(expected[i]).margin(1e-12));
+  CHECK(nice_ticks(1, 1) == std::vector<double>{1});
+
+  PlotBinner binner(0, 10, 5);  // 2 s per column
+  for (int i = 0; i < 1000; ++i) binner.add(i * 0.01, 1.0);
+  binner.add(4.5, 99.0);  // one spike in the third column
+  binner.add(11, 2.0);    // past the end: the last column
+  CHECK(binner.count() == 1002);
+  CHECK(binner.max() == 99.0);
+  const auto points = binner.points();
+  CHECK(points.size() <= 5 * 4);
+  bool spike = false;
+  for (const auto& p : points) spike = spike || (p.v == 99.0 && p.t == 4.5);
+  CHECK(spike);
+  for (std::size_t i = 1; i < points.size(); ++i) CHECK(points[i - 1].t <= points[i].t);
+}
+
+TEST_CASE("plot: capture timestamps in titles become dates") {
+  // 1763800000 s after 1970-01-01 is 2025-11-22 08:26:40 UTC (20414 days, then 30400 s = 8 h 26 min 40 s).
+  CHECK(start_time_in_title("run.log: telemetry (3 messages from 1763800000.500900)") ==
+        Approx(1763800000.5009).epsilon(1e-15));
+  CHECK_FALSE(start_time_in_title("run.log: telemetry (3 messages from an untimed capture)"));
+  CHECK_FALSE(start_time_in_title("run.log: 0x400 (3 messages from 10.000000)"));  // not a date
+  CHECK(human_time(1763800000.5009) == "2025-11-22 08:26:40.501 UTC");
+  CHECK(human_time(1763800000.9996) == "2025-11-22 08:26:41.000 UTC");  // rounds into the next second
+  CHECK(human_title("run.log: telemetry (3 messages from 1763800000.500900)") ==
+        "run.log: telemetry (3 messages from 2025-11-22 08:26:40.501 UTC)");
+}
+
+TEST_CASE("plot: the gnuplot script carries the data, the terminal and every label quoted") {
   PlotDocument doc;
+  doc.title = "it's \"run\".log: telemetry (2 messages from 1763800000.000000)";
   doc.t0 = 0;
-  doc.t1 = 1;
-  doc.panels.emplace_back("p", PlotBinner(0, 1, 10));
-  const std::string long_label(40, 'x');
-  for (const auto& [t, label] : std::vector<std::pair<double, std::string>>{
-           {0.0, "A"}, {0.005, "B"}, {0.01, "C"}, {0.5, long_label}})
-    doc.markers.push_back(PlotMarker{t, MarkerKind::faults, label, label, ""});
-  doc.markers_total = 4;
-  const std::string svg = render_svg(doc);
-  const int top = 40 + 16 + 8;  // the header, one info line (the marker count), the gap
-  CHECK(count_of(svg, "class=\"marker\"") == 4);
-  const std::string style = ") rotate(90)\" font-size=\"10\" fill=\"#ff7f0e\">";
-  CHECK(svg.find("translate(73.0," + std::to_string(top + 4) + style + "A<") != std::string::npos);
-  CHECK(svg.find("translate(77.4," + std::to_string(top + 104) + style + "B<") != std::string::npos);
-  CHECK(svg.find(">C<") == std::string::npos);
-  CHECK(svg.find("<title>0.01 s: faults C</title>") != std::string::npos);
-  CHECK(svg.find(">" + std::string(31, 'x') + "\u2026<") != std::string::npos);
+  doc.t1 = 2;
+  PlotBinner a(0, 2, 10), b(0, 2, 10);
+  a.add(0, 1.5);
+  a.add(2, -0.25);
+  b.add(1, 7);
+  PlotPanel panel;
+  panel.title = "speed [mm/s]";
+  panel.series.push_back(PlotSeries{"reported", a});
+  panel.series.push_back(PlotSeries{"o'clock", b});
+  doc.panels.push_back(panel);
+  doc.markers.push_back(PlotMarker{1, MarkerKind::state, "BALANCE", "OFF -> BALANCE", ""});
+  doc.markers_total = 1;
+  doc.notes = {"battery [V]: left out"};
+  const std::string svg = gnuplot_script(doc, "svg", "/tmp/a'b.svg");
+  CHECK(svg.starts_with("# saulctl plot: it's \"run\".log: telemetry (2 messages from 2025-11-22 08:26:40.000 "
+                        "UTC)\nset terminal svg size 1200,350 dynamic"));
+  CHECK(svg.find("\nset output '/tmp/a''b.svg'\n") != std::string::npos);
+  // One datablock for the panel, the two series two blank lines apart (gnuplot's "index").
+  CHECK(svg.find("$panel0 << EOD\n0.000000 1.5\n2.000000 -0.25\n\n\n1.000000 7\nEOD\n") != std::string::npos);
+  CHECK(svg.find("set multiplot layout 1,1 title \"it's \\\"run\\\".log: telemetry (2 messages from 2025-11-22 "
+                 "08:26:40.000 UTC)\\n1 state/fault change, all marked\\nbattery [V]: left out\"") != std::string::npos);
+  CHECK(svg.find("set xlabel 'time since 08:26:40.000 UTC [s]'") != std::string::npos);
+  CHECK(svg.find("set arrow from 1,graph 0 to 1,graph 1 nohead dt 2 lw 1 lc rgb '#7b3fb5'") != std::string::npos);
+  // Told apart by colour, dash pattern and width; sparse series with their points.
+  CHECK(svg.find("plot $panel0 index 0 using 1:2 with linespoints pt 7 ps 0.6 lw 2 dt 1 lc rgb '#1f77b4' title "
+                 "'reported', \\\n     $panel0 index 1 using 1:2 with linespoints pt 7 ps 0.6 lw 1.5 dt 2 lc rgb "
+                 "'#d62728' title 'o''clock'\n") != std::string::npos);
+  CHECK(svg.ends_with("unset multiplot\n"));
+  CHECK(gnuplot_script(doc, "png", "").find("set terminal pngcairo size 1600,410 ") != std::string::npos);
+  CHECK(gnuplot_script(doc, "png", "").find("set output") == std::string::npos);  // standard output
+  CHECK(gnuplot_script(doc, "pdf", "x.pdf").find("set terminal pdfcairo size 11.7in,3.30in ") != std::string::npos);
 }

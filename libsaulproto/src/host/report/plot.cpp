@@ -1,34 +1,40 @@
+// How saulctl plot draws (plot.hpp): column binning, then the interactive page (dygraphs, inlined) or a gnuplot
+// script for SVG, PNG and PDF. Nothing here draws a line itself.
 #include "saulproto/host/report/plot.hpp"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+extern char** environ;
 
 namespace saul::host {
 namespace {
 
-constexpr int kLeft = 70;
-constexpr int kRight = 20;
-constexpr int kHeader = 40;  // the title's band; info lines and the first panel title come below it
-constexpr int kInfoLine = 16;
-constexpr int kPanelHeight = 200;
-constexpr int kPanelGap = 50;
-constexpr int kBottom = 50;
-constexpr std::size_t kDotsUpTo = 20;  // points of a series drawn as dots as well as a line
-constexpr double kLabelSpacing = 12;   // px between marker labels in one lane (10 px text, rotated)
-constexpr std::size_t kLabelChars = 32;  // characters of a marker label that fit down a panel
-
-std::string plural(std::uint64_t n, const char* word) { return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s"); }
-
-constexpr const char* kSeriesColours[] = {"#1f77b4", "#2ca02c", "#d62728", "#8c564b", "#17becf", "#bcbd22"};
-constexpr const char* kStateColour = "#9467bd";
+// Series are told apart by colour, dash pattern and width together, so two that lie on each other (commanded
+// and reported speed, left and right wheel) both stay visible, in print too.
+constexpr const char* kSeriesColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#17becf"};
+constexpr const char* kStateColour = "#7b3fb5";
 constexpr const char* kFaultColour = "#ff7f0e";
+constexpr std::size_t kSparse = 20;  // a series with at most this many points is drawn with its points
 
 const char* colour_of(std::size_t series) { return kSeriesColours[series % std::size(kSeriesColours)]; }
 const char* colour_of(MarkerKind kind) { return kind == MarkerKind::state ? kStateColour : kFaultColour; }
 
-std::string escape(const std::string& s) {
+std::string escape_html(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
@@ -42,16 +48,6 @@ std::string escape(const std::string& s) {
   return out;
 }
 
-std::string axis_number(double v) {
-  if (v == 0) return "0";
-  const double a = std::fabs(v);
-  if (a >= 1e5 || a < 1e-3) return fmt::format("{:.3g}", v);
-  std::string s = fmt::format("{:.4f}", v);
-  while (s.back() == '0') s.pop_back();
-  if (s.back() == '.') s.pop_back();
-  return s;
-}
-
 std::string marker_summary(const PlotDocument& doc) {
   const auto drawn = static_cast<std::uint64_t>(doc.markers.size());
   if (drawn >= doc.markers_total)
@@ -60,121 +56,222 @@ std::string marker_summary(const PlotDocument& doc) {
                      doc.markers_total - drawn);
 }
 
-/// The picture; `standalone` adds the XML declaration and the SVG namespace a file of its own needs (inline in
-/// HTML, the parser supplies the namespace).
-std::string svg_of(const PlotDocument& doc, bool standalone) {
-  const int width = kLeft + kPlotWidth + kRight;
-  const int panels = static_cast<int>(doc.panels.size());
-  const int info_lines = static_cast<int>(doc.notes.size()) + (doc.markers_total > 0 ? 1 : 0);
-  const int first_top = kHeader + info_lines * kInfoLine + 8;
-  const int height = first_top + panels * kPanelHeight + (panels > 0 ? panels - 1 : 0) * kPanelGap + kBottom;
-  std::string s = standalone ? "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" "
-                             : "<svg style=\"max-width: 100%; height: auto\" ";
-  s += fmt::format(
-      "width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"12\">\n"
-      "<rect width=\"{0}\" height=\"{1}\" fill=\"white\"/>\n"
-      "<text x=\"{2}\" y=\"22\" font-size=\"15\">{3}</text>\n",
-      width, height, kLeft, escape(doc.title));
-  int info_y = kHeader;
-  if (doc.markers_total > 0) {
-    s += fmt::format("<text x=\"{}\" y=\"{}\">{}: <tspan fill=\"{}\">| state</tspan> <tspan fill=\"{}\">| faults"
-                     "</tspan></text>\n",
-                     kLeft, info_y, escape(marker_summary(doc)), kStateColour, kFaultColour);
-    info_y += kInfoLine;
+bool seconds_axis(const PlotDocument& doc) { return doc.time_label.find("[s]") != std::string::npos; }
+
+// The axis title: the time of day of time 0 when known ("time since 08:26:40.500 UTC [s]").
+std::string time_axis_label(const PlotDocument& doc) {
+  const auto start = start_time_in_title(doc.title);
+  if (!start || !seconds_axis(doc)) return doc.time_label;
+  const std::string when = human_time(*start);
+  return fmt::format("time since {} [s]", when.substr(when.find(' ') + 1));
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw PlotOutputError(fmt::format("{}: cannot be read: the interactive page needs Debian's libjs-dygraphs "
+                                      "(apt install libjs-dygraphs, or scripts/setup.sh), or write .svg/.png/.pdf",
+                                      path));
+  std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  // A source map comment would make a browser's developer tools look for a file the page does not carry.
+  for (auto at = text.find("//# sourceMappingURL="); at != std::string::npos; at = text.find("//# sourceMappingURL="))
+    text.erase(at, text.find('\n', at) == std::string::npos ? std::string::npos : text.find('\n', at) - at);
+  for (auto at = text.find("/*# sourceMappingURL="); at != std::string::npos; at = text.find("/*# sourceMappingURL=")) {
+    const auto end = text.find("*/", at);
+    text.erase(at, end == std::string::npos ? std::string::npos : end + 2 - at);
   }
-  for (const auto& note : doc.notes) {
-    s += fmt::format("<text x=\"{}\" y=\"{}\" fill=\"#555\">{}</text>\n", kLeft, info_y, escape(note));
-    info_y += kInfoLine;
+  return text;
+}
+
+// Inline <script>: "</script" would end the element early. In JSON "<\/" is "</" (in a string, the only place it
+// can be); in the libraries' code only the full tag is replaced (a bare "</" can be part of a regular expression).
+std::string script_safe(std::string text, bool json = false) {
+  const std::string tag = json ? "</" : "</script";
+  for (auto at = text.find(tag); at != std::string::npos; at = text.find(tag, at + tag.size() + 1))
+    text.replace(at, 2, "<\\/");
+  return text;
+}
+
+// The page's data: per panel the series labels and rows [t, v0, v1, ...] (null where a series has no point at
+// that time), in time order; the markers; time 0 in milliseconds since 1970 (null: an axis of numbers).
+nlohmann::json page_data(const PlotDocument& doc) {
+  using nlohmann::json;
+  json data;
+  const auto start = seconds_axis(doc) ? start_time_in_title(doc.title) : std::nullopt;
+  // Time 0 as a date and seconds since that day's midnight (UTC): the axis stays in seconds since time 0, which
+  // keeps microseconds (a JavaScript Date holds whole milliseconds), and is labelled with the time of day.
+  if (start) {
+    const double day = std::floor(*start / 86400.0);
+    data["start_date"] = human_time(day * 86400.0).substr(0, 10);
+    data["start_tod_s"] = *start - day * 86400.0;
+  } else {
+    data["start_date"] = nullptr;
+    data["start_tod_s"] = nullptr;
   }
-  const double t0 = doc.t0;
-  const double t1 = doc.t1 > doc.t0 ? doc.t1 : doc.t0 + 1;
-  const auto time_ticks = nice_ticks(t0, t1, 8);
-  auto x_of = [&](double t) { return kLeft + (t - t0) / (t1 - t0) * kPlotWidth; };
-  for (int p = 0; p < panels; ++p) {
-    const PlotPanel& panel = doc.panels[static_cast<std::size_t>(p)];
-    const int top = first_top + p * (kPanelHeight + kPanelGap);
-    std::optional<double> low, high;
-    for (const auto& series : panel.series) {
-      if (const auto v = series.binner.min(); v && (!low || *v < *low)) low = v;
-      if (const auto v = series.binner.max(); v && (!high || *v > *high)) high = v;
-    }
-    double lo = low.value_or(0);
-    double hi = high.value_or(1);
-    if (hi - lo < 1e-12) {
-      lo -= 1;
-      hi += 1;
-    } else {
-      const double pad = (hi - lo) * 0.05;
-      lo -= pad;
-      hi += pad;
-    }
-    auto y_of = [&](double v) { return top + (hi - v) / (hi - lo) * kPanelHeight; };
-    s += fmt::format("<g>\n<text x=\"{}\" y=\"{}\" font-size=\"13\">{} ({})</text>\n", kLeft, top - 6,
-                     escape(panel.title), plural(panel.count(), "point"));
-    // Legend, right-aligned above the panel, when there is something to tell apart: one text, so the viewer lays
-    // it out (SVG cannot measure text without a script).
-    if (panel.series.size() > 1 || (panel.series.size() == 1 && !panel.series[0].label.empty())) {
-      s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">", kLeft + kPlotWidth, top - 6);
-      for (std::size_t i = 0; i < panel.series.size(); ++i)
-        s += fmt::format("<tspan{} fill=\"{}\">\u25A0</tspan> {}", i == 0 ? "" : " dx=\"14\"", colour_of(i),
-                         escape(panel.series[i].label));
-      s += "</text>\n";
-    }
-    s += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#444\"/>\n", kLeft, top,
-                     kPlotWidth, kPanelHeight);
-    for (double v : nice_ticks(lo, hi, 5)) {
-      const double y = y_of(v);
-      s += fmt::format("<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#ddd\"/>"
-                       "<text x=\"{}\" y=\"{:.1f}\" text-anchor=\"end\">{}</text>\n",
-                       kLeft, y, kLeft + kPlotWidth, y, kLeft - 6, y + 4, axis_number(v));
-    }
-    for (double t : time_ticks) {
-      const double x = x_of(t);
-      s += fmt::format("<line x1=\"{:.1f}\" y1=\"{}\" x2=\"{:.1f}\" y2=\"{}\" stroke=\"#eee\"/>"
-                       "<text x=\"{:.1f}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n",
-                       x, top, x, top + kPanelHeight, x, top + kPanelHeight + 16, axis_number(t));
-    }
-    // Every marker gets its line (its tooltip says what it is). Labels run down from the panel's top, or from its
-    // middle when the top one would touch the label before it; a third label in a crowd is left out (the tooltip
-    // and the HTML table still have it). Long labels are shortened to their lane.
-    std::optional<double> lane_x[2];
-    for (const auto& m : doc.markers) {
-      const double x = x_of(m.t);
-      s += fmt::format("<line class=\"marker\" x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"{3}\" "
-                       "stroke-dasharray=\"4,3\"><title>{4} s: {5} {6}</title></line>",
-                       x, top, top + kPanelHeight, colour_of(m.kind), axis_number(m.t), to_string(m.kind),
-                       escape(m.detail));
-      for (std::size_t lane = 0; lane < 2; ++lane) {
-        if (lane_x[lane] && x - *lane_x[lane] < kLabelSpacing) continue;
-        const std::size_t room = lane == 0 ? kLabelChars : kLabelChars / 2;
-        const std::string label = m.label.size() <= room ? m.label : m.label.substr(0, room - 1) + "\u2026";
-        s += fmt::format("<text transform=\"translate({:.1f},{}) rotate(90)\" font-size=\"10\" fill=\"{}\">{}</text>",
-                         x + 3, top + 4 + static_cast<int>(lane) * kPanelHeight / 2, colour_of(m.kind), escape(label));
-        lane_x[lane] = x;
-        break;
-      }
-      s += "\n";
-    }
+  data["time_label"] = time_axis_label(doc);
+  data["panels"] = json::array();
+  for (const auto& panel : doc.panels) {
+    json p;
+    p["title"] = fmt::format("{} ({} point{})", panel.title, panel.count(), panel.count() == 1 ? "" : "s");
+    json labels = json::array({"time"});
+    std::vector<std::pair<double, std::pair<std::size_t, double>>> points;  // t, (series, value)
+    bool sparse = true;
     for (std::size_t i = 0; i < panel.series.size(); ++i) {
-      const auto points = panel.series[i].binner.points();
-      if (points.empty()) continue;
-      // Later series drawn thinner, so one that lies on an earlier one leaves it visible.
-      s += fmt::format("<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" points=\"", colour_of(i),
-                       i == 0 ? "2.4" : i == 1 ? "1.4" : "0.8");
-      for (const auto& pt : points) s += fmt::format("{:.1f},{:.1f} ", x_of(pt.t), y_of(pt.v));
-      s += "\"/>\n";
-      // Sparse series get a dot per point too: a lone point draws no line.
-      if (points.size() <= kDotsUpTo)
-        for (const auto& pt : points)
-          s += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{}\" fill=\"{}\"/>", x_of(pt.t), y_of(pt.v),
-                           i == 0 ? "3" : "2", colour_of(i));
-      if (points.size() <= kDotsUpTo) s += "\n";
+      const auto& series = panel.series[i];
+      std::string label = series.label.empty() ? panel.title : series.label;
+      labels.push_back(label);
+      const auto pts = series.binner.points();
+      sparse = sparse && pts.size() <= kSparse;
+      for (const auto& pt : pts) points.push_back({pt.t, {i, pt.v}});
     }
-    s += "</g>\n";
+    std::stable_sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    json rows = json::array();
+    // Rows without values at both ends: every panel spans the whole run, so they line up before any zoom.
+    auto empty_row = [&](double t) {
+      json row = json::array({t});
+      for (std::size_t i = 0; i < panel.series.size(); ++i) row.push_back(nullptr);
+      return row;
+    };
+    if (points.empty() || points.front().first > doc.t0) rows.push_back(empty_row(doc.t0));
+    for (const auto& [t, sv] : points) {
+      json row = json::array({std::round(t * 1e6) / 1e6});
+      for (std::size_t i = 0; i < panel.series.size(); ++i) row.push_back(i == sv.first ? json(sv.second) : json(nullptr));
+      rows.push_back(std::move(row));
+    }
+    if (points.empty() || points.back().first < doc.t1) rows.push_back(empty_row(doc.t1));
+    p["labels"] = std::move(labels);
+    p["rows"] = std::move(rows);
+    p["sparse"] = sparse;
+    data["panels"].push_back(std::move(p));
   }
-  s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n</svg>\n", kLeft + kPlotWidth / 2,
-                   height - 12, escape(doc.time_label));
-  return s;
+  data["markers"] = json::array();
+  for (const auto& m : doc.markers)
+    data["markers"].push_back({{"t", m.t}, {"kind", to_string(m.kind)}, {"label", m.label}, {"detail", m.detail}});
+  return data;
+}
+
+// Counts script errors from the first line of the page on, for whoever checks the page (tests/cli/plot_browser.sh).
+constexpr const char* kErrorWatch =
+    "(function () {\n  var n = 0, root = document.documentElement;\n  root.setAttribute('data-plot-errors', '0');\n"
+    "  window.addEventListener('error', function (e) {\n    root.setAttribute('data-plot-errors', String(++n));\n"
+    "    root.setAttribute('data-plot-error-text', String(e.message));\n  });\n})();";
+
+// The page's own script: builds one chart per panel, synchronises them, draws the markers under the data and the
+// sample points once zoomed in far enough to tell them apart.
+constexpr const char* kPageScript = R"JS(
+(function () {
+  var P = JSON.parse(document.getElementById('plot-data').textContent);
+  var colours = COLOURS, markerColours = {state: STATE_COLOUR, faults: FAULT_COLOUR};
+  var patterns = [null, [8, 4], [2, 3], [10, 3, 2, 3], [5, 5], [1, 4]], widths = [2.2, 1.7, 1.4, 1.2, 1.1, 1.0];
+  var dated = P.start_tod_s !== null;
+  function pad(n, w) { var s = String(n); while (s.length < w) s = '0' + s; return s; }
+  // The time of day of axis position t: "08:26:40.5" (digits as the visible window needs), a day mark past midnight.
+  function tod(t, digits) {
+    var s = P.start_tod_s + t, days = Math.floor(s / 86400), scale = Math.pow(10, digits);
+    s -= days * 86400;
+    var whole = Math.floor(s), frac = Math.round((s - whole) * scale);
+    if (frac >= scale) { whole += 1; frac -= scale; }
+    var text = pad(Math.floor(whole / 3600) % 24, 2) + ':' + pad(Math.floor(whole / 60) % 60, 2) + ':' + pad(whole % 60, 2);
+    if (digits > 0) text += '.' + pad(frac, digits);
+    return (days > 0 ? '+' + days + 'd ' : '') + text;
+  }
+  // Times of day in UTC on the axis (".5" only when there is a fraction), the full date in the legend.
+  var xaxis = !dated ? {} : {
+    axisLabelWidth: 100,
+    axisLabelFormatter: function (t, granularity, opts, g) {
+      var r = g.xAxisRange(), span = r[1] - r[0];
+      var text = tod(t, span < 0.05 ? 6 : span < 5 ? 3 : span < 600 ? 1 : 0);
+      return text.indexOf('.') < 0 ? text : text.replace(/0+$/, '').replace(/\.$/, '');
+    },
+    valueFormatter: function (t) { return P.start_date + ' ' + tod(t, 6) + ' UTC (+' + t.toFixed(6) + ' s)'; }
+  };
+  function markers(ctx, area, g) {
+    var lastLabel = -1e9;
+    ctx.save();
+    ctx.font = '11px sans-serif';
+    ctx.lineWidth = 1;
+    P.markers.forEach(function (m) {
+      var px = g.toDomXCoord(m.t);
+      if (px < area.x - 1 || px > area.x + area.w + 1) return;
+      ctx.strokeStyle = ctx.fillStyle = markerColours[m.kind];
+      ctx.setLineDash([4, 3]);
+      ctx.beginPath(); ctx.moveTo(px, area.y); ctx.lineTo(px, area.y + area.h); ctx.stroke();
+      if (px - lastLabel < 13) return;  // a label per 13 px; the table and the legend have every one
+      ctx.save(); ctx.translate(px + 3, area.y + 4); ctx.rotate(Math.PI / 2); ctx.fillText(m.label, 0, 0); ctx.restore();
+      lastLabel = px;
+    });
+    ctx.restore();
+  }
+  function lower(xs, v) { var lo = 0, hi = xs.length; while (lo < hi) { var mid = (lo + hi) >> 1; if (xs[mid] < v) lo = mid + 1; else hi = mid; } return lo; }
+  var graphs = [];
+  P.panels.forEach(function (panel, i) {
+    var xs = panel.rows.map(function (r) { return r[0]; });
+    var rows = panel.rows;
+    var series = {};
+    panel.labels.slice(1).forEach(function (name, k) {
+      series[name] = {color: colours[k % colours.length], strokePattern: patterns[k % patterns.length],
+                      strokeWidth: widths[k % widths.length]};
+    });
+    // Sample points once a pixel column holds few enough of them to be told apart.
+    function dots(g) {
+      var r = g.xAxisRange(), n = lower(xs, r[1] + 1e-9) - lower(xs, r[0]);
+      var want = panel.sparse || n * 6 <= g.getArea().w;
+      if (want !== g.getOption('drawPoints')) g.updateOptions({drawPoints: want});
+    }
+    var last = i === P.panels.length - 1;
+    graphs.push(new Dygraph(document.getElementById('panel' + i), rows, {
+      labels: panel.labels, title: panel.title, series: series, connectSeparatedPoints: true,
+      drawPoints: panel.sparse, pointSize: 2.5, highlightCircleSize: 4, animatedZooms: false,
+      labelsDiv: document.getElementById('legend' + i), labelsSeparateLines: false, legend: 'always',
+      xlabel: last ? P.time_label : undefined, showRangeSelector: last, rangeSelectorHeight: 32,
+      axes: {x: xaxis}, underlayCallback: markers, drawCallback: dots
+    }));
+  });
+  if (graphs.length > 1 && Dygraph.synchronize) Dygraph.synchronize(graphs, {zoom: true, selection: true, range: false});
+  var root = document.documentElement;
+  // page.html#t=12.5,13 opens zoomed into that window (seconds since time 0), every panel with it.
+  var zoom = /^#t=([-0-9.e]+),([-0-9.e]+)$/.exec(location.hash);
+  if (zoom && graphs.length) graphs[0].updateOptions({dateWindow: [+zoom[1], +zoom[2]]});
+  // What is shown, for a test or a script: each panel's window in seconds since time 0, panels with points.
+  root.setAttribute('data-plot-windows', JSON.stringify(graphs.map(function (g) {
+    return g.xAxisRange().map(function (v) { return Math.round(v * 1e6) / 1e6; });
+  })));
+  root.setAttribute('data-plot-points', String(graphs.filter(function (g) { return g.getOption('drawPoints'); }).length));
+  root.setAttribute('data-plot-panels', String(graphs.length));
+})();
+)JS";
+
+std::string page_script() {
+  std::string js = kPageScript;
+  auto put = [&js](const std::string& key, const std::string& value) {
+    for (auto at = js.find(key); at != std::string::npos; at = js.find(key, at + value.size())) js.replace(at, key.size(), value);
+  };
+  nlohmann::json colours = nlohmann::json::array();
+  for (const char* c : kSeriesColours) colours.push_back(c);
+  put("COLOURS", colours.dump());
+  put("STATE_COLOUR", nlohmann::json(kStateColour).dump());
+  put("FAULT_COLOUR", nlohmann::json(kFaultColour).dump());
+  return js;
+}
+
+// gnuplot strings: single-quoted ('' for a quote, nothing else special), double-quoted where a line break is
+// needed.
+std::string gp_single(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+std::string gp_double(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '\\' || c == '"') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
 }
 
 }  // namespace
@@ -236,36 +333,79 @@ std::vector<double> nice_ticks(double lo, double hi, int target) {
   return ticks;
 }
 
-std::string render_svg(const PlotDocument& doc) { return svg_of(doc, true); }
+std::optional<double> start_time_in_title(const std::string& title) {
+  static const std::regex stamp(R"((\d{9,})\.(\d{6}))");
+  std::smatch m;
+  if (!std::regex_search(title, m, stamp)) return std::nullopt;
+  return std::stod(m[1].str()) + std::stod(m[2].str()) / 1e6;
+}
 
-std::string render_html(const PlotDocument& doc) {
+std::string human_time(double epoch_s) {
+  auto whole = static_cast<std::time_t>(std::floor(epoch_s));
+  auto ms = static_cast<int>(std::lround((epoch_s - std::floor(epoch_s)) * 1000));
+  if (ms == 1000) {
+    ++whole;
+    ms = 0;
+  }
+  std::tm tm{};
+  gmtime_r(&whole, &tm);
+  return fmt::format("{:04}-{:02}-{:02} {:02}:{:02}:{:02}.{:03} UTC", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday,
+                     tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+}
+
+std::string human_title(const std::string& title) {
+  static const std::regex stamp(R"(\d{9,}\.\d{6})");
+  std::smatch m;
+  if (!std::regex_search(title, m, stamp)) return title;
+  return m.prefix().str() + human_time(*start_time_in_title(m.str())) + m.suffix().str();
+}
+
+DygraphsAssets load_dygraphs(const std::string& dir) {
+  return {read_text(dir + "/dygraph.min.js"), read_text(dir + "/dygraph.min.css"),
+          read_text(dir + "/extras/synchronizer.js")};
+}
+
+std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs) {
+  const std::string title = human_title(doc.title);
   std::string s = fmt::format(
-      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{0}</title>\n<style>\n"
-      "body {{ font-family: sans-serif; margin: 16px; color: #222; }}\n"
-      "h1 {{ font-size: 18px; }} h2 {{ font-size: 15px; margin-top: 24px; }}\n"
-      "table {{ border-collapse: collapse; }}\n"
-      "th, td {{ border: 1px solid #ccc; padding: 2px 8px; text-align: left; }}\n"
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+      "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{0}</title>\n"
+      "<!-- dygraphs{1} (MIT licence), from Debian's libjs-dygraphs, inlined: nothing is fetched -->\n"
+      "<style>\n{2}\n</style>\n<style>\n"
+      "body {{ font-family: sans-serif; margin: 8px 12px; color: #222; }}\n"
+      "h1 {{ font-size: 18px; margin: 4px 0; }} h2 {{ font-size: 15px; margin-top: 24px; }}\n"
+      ".panel {{ width: 100%; height: 250px; }} .legend {{ font-size: 12px; min-height: 16px; margin: 10px 0 2px; }}\n"
+      ".dygraph-title {{ font-size: 14px; font-weight: normal; text-align: left; padding-left: 60px; }}\n"
+      "table {{ border-collapse: collapse; }} th, td {{ border: 1px solid #ccc; padding: 2px 8px; text-align: left; }}\n"
       "td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}\n"
-      ".state {{ color: {1}; }} .faults {{ color: {2}; }} .note {{ color: #555; }}\n"
-      "</style>\n</head>\n<body>\n<h1>{0}</h1>\n",
-      escape(doc.title), kStateColour, kFaultColour);
-  s += svg_of(doc, false);
+      ".state {{ color: {3}; }} .faults {{ color: {4}; }} .note {{ color: #555; }}\n"
+      "</style>\n<script>\n{7}\n</script>\n<script>\n{5}\n</script>\n<script>\n{6}\n</script>\n</head>\n<body>\n<h1>{0}</h1>\n",
+      escape_html(title), "", dygraphs.style, kStateColour, kFaultColour, script_safe(dygraphs.script),
+      script_safe(dygraphs.synchronizer), kErrorWatch);
+  s += "<p class=\"note\">Drag across a chart to zoom in (every panel follows), shift-drag to pan, double-click to "
+       "zoom out; the strip under the last panel moves the window. Sample points appear once zoomed in.";
+  if (doc.markers_total > 0)
+    s += fmt::format(" {}: <span class=\"state\">- - state</span>, <span class=\"faults\">- - faults</span>.",
+                     escape_html(marker_summary(doc)));
+  s += "</p>\n";
+  for (std::size_t i = 0; i < doc.panels.size(); ++i)
+    s += fmt::format("<div class=\"legend\" id=\"legend{0}\"></div><div class=\"panel\" id=\"panel{0}\"></div>\n", i);
   s += "<h2>State and fault changes</h2>\n";
   if (doc.markers_total == 0) {
     s += "<p class=\"note\">No state or fault changes in the plotted messages.</p>\n";
   } else {
-    s += fmt::format("<p class=\"note\">{}</p>\n", escape(marker_summary(doc)));
-    // Times in seconds, unless the axis counts messages (a capture without timestamps).
-    const bool seconds = doc.time_label.find("[s]") != std::string::npos;
+    s += fmt::format("<p class=\"note\">{}</p>\n", escape_html(marker_summary(doc)));
+    const bool seconds = seconds_axis(doc);
     s += fmt::format("<table>\n<tr><th>#</th><th>{}</th><th>timestamp</th><th>what</th><th>change</th></tr>\n",
                      seconds ? "time [s]" : "message");
     for (std::size_t i = 0; i < doc.markers.size(); ++i) {
       const auto& m = doc.markers[i];
+      const auto start = start_time_in_title(m.when);
       s += fmt::format(
           "<tr class=\"{0}\"><td class=\"num\">{1}</td><td class=\"num\">{2}</td><td class=\"num\">{3}</td>"
           "<td>{0}</td><td>{4}</td></tr>\n",
           to_string(m.kind), i + 1, seconds ? fmt::format("{:.6f}", m.t) : fmt::format("{:.0f}", m.t),
-          escape(m.when), escape(m.detail));
+          escape_html(start ? human_time(*start) : m.when), escape_html(m.detail));
     }
     s += "</table>\n";
     if (doc.markers_total > doc.markers.size())
@@ -274,11 +414,97 @@ std::string render_html(const PlotDocument& doc) {
   }
   if (!doc.notes.empty()) {
     s += "<h2>Notes</h2>\n<ul>\n";
-    for (const auto& note : doc.notes) s += fmt::format("<li>{}</li>\n", escape(note));
+    for (const auto& note : doc.notes) s += fmt::format("<li>{}</li>\n", escape_html(note));
     s += "</ul>\n";
   }
-  s += "</body>\n</html>\n";
+  s += "<script type=\"application/json\" id=\"plot-data\">" + script_safe(page_data(doc).dump(), true) + "</script>\n";
+  s += "<script>" + page_script() + "</script>\n</body>\n</html>\n";
   return s;
+}
+
+std::string gnuplot_script(const PlotDocument& doc, const std::string& format, const std::string& output) {
+  const std::size_t n = doc.panels.size();
+  std::string s = "# saulctl plot: " + human_title(doc.title) + "\n";
+  if (format == "png")
+    s += fmt::format("set terminal pngcairo size 1600,{} font 'sans,10' background rgb 'white'\n", 110 + 300 * n);
+  else if (format == "pdf")
+    s += fmt::format("set terminal pdfcairo size 11.7in,{:.2f}in font 'sans,8'\n", 0.9 + 2.4 * static_cast<double>(n));
+  else
+    s += fmt::format("set terminal svg size 1200,{} dynamic font 'sans,11' background rgb 'white'\n", 90 + 260 * n);
+  if (!output.empty()) s += "set output " + gp_single(output) + "\n";
+  s += "set encoding utf8\nset termoption noenhanced\n";
+  // The data, one datablock per panel, one index (two blank lines apart) per series.
+  for (std::size_t p = 0; p < n; ++p) {
+    s += fmt::format("$panel{} << EOD\n", p);
+    const auto& series = doc.panels[p].series;
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      if (i > 0) s += "\n\n";
+      const auto points = series[i].binner.points();
+      if (points.empty()) s += "NaN NaN\n";  // an index gnuplot can still address
+      for (const auto& pt : points) s += fmt::format("{:.6f} {}\n", pt.t, pt.v);
+    }
+    s += "EOD\n";
+  }
+  std::string heading = human_title(doc.title);
+  if (doc.markers_total > 0) heading += "\n" + marker_summary(doc);
+  for (const auto& note : doc.notes) heading += "\n" + note;
+  const double t1 = doc.t1 > doc.t0 ? doc.t1 : doc.t0 + 1;
+  s += fmt::format("set multiplot layout {},1 title {} font ',12'\n", std::max<std::size_t>(n, 1), gp_double(heading));
+  s += fmt::format("set xrange [{}:{}]\nset offsets 0, 0, graph 0.06, graph 0.06\nset grid lc rgb '#dddddd'\nset key top right horizontal opaque box lc rgb "
+                   "'#cccccc'\nset lmargin 10\nset rmargin 3\n",
+                   doc.t0, t1);
+  for (std::size_t p = 0; p < n; ++p) {
+    const auto& panel = doc.panels[p];
+    s += fmt::format("set title {} left\nunset arrow\nunset label\n",
+                     gp_single(fmt::format("{} ({} point{})", panel.title, panel.count(), panel.count() == 1 ? "" : "s")));
+    s += p + 1 == n ? "set xlabel " + gp_single(time_axis_label(doc)) + "\n" : "unset xlabel\n";
+    double last_label = -1e300;
+    for (const auto& m : doc.markers) {
+      s += fmt::format("set arrow from {0},graph 0 to {0},graph 1 nohead dt 2 lw 1 lc rgb '{1}'\n", m.t, colour_of(m.kind));
+      if ((m.t - last_label) / (t1 - doc.t0) < 0.012) continue;  // labels closer than ~1% of the width would overlap
+      s += fmt::format("set label {} at {},graph 0.97 rotate by -90 font ',8' tc rgb '{}' offset 0.4,0\n",
+                       gp_single(m.label), m.t, colour_of(m.kind));
+      last_label = m.t;
+    }
+    s += "plot ";
+    for (std::size_t i = 0; i < panel.series.size(); ++i) {
+      const auto& series = panel.series[i];
+      const bool sparse = series.binner.points().size() <= kSparse;
+      s += fmt::format("{}$panel{} index {} using 1:2 with {} lw {} dt {} lc rgb '{}' title {}", i ? ", \\\n     " : "",
+                       p, i, sparse ? "linespoints pt 7 ps 0.6" : "lines", i == 0 ? "2" : i == 1 ? "1.5" : "1.2",
+                       i % 5 + 1, colour_of(i), series.label.empty() ? "''" : gp_single(series.label));
+    }
+    s += "\n";
+  }
+  s += "unset multiplot\n";
+  return s;
+}
+
+void render_static(const PlotDocument& doc, const std::string& format, const std::string& output) {
+  char path[] = "/tmp/saulctl-plot-XXXXXX.gp";
+  const int fd = ::mkstemps(path, 3);
+  if (fd < 0) throw PlotOutputError("cannot write gnuplot's script to /tmp: check that /tmp is writable");
+  const std::string script = gnuplot_script(doc, format, output);
+  bool written = ::write(fd, script.data(), script.size()) == static_cast<ssize_t>(script.size());
+  written = ::close(fd) == 0 && written;
+  if (!written) {
+    ::unlink(path);
+    throw PlotOutputError("cannot write gnuplot's script to /tmp: is it full?");
+  }
+  char program[] = "gnuplot";
+  char* argv[] = {program, path, nullptr};
+  pid_t pid = 0;
+  const int spawned = ::posix_spawnp(&pid, program, nullptr, nullptr, argv, environ);
+  int status = 0;
+  if (spawned == 0) ::waitpid(pid, &status, 0);
+  ::unlink(path);
+  if (spawned != 0)
+    throw PlotOutputError(fmt::format("gnuplot cannot be run ({}): SVG, PNG and PDF are drawn by gnuplot; install it "
+                                      "(apt install gnuplot-nox, or scripts/setup.sh), or write .html or .csv",
+                                      std::strerror(spawned)));
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw PlotOutputError(fmt::format("gnuplot failed ({}): see its message above; write .html or .csv meanwhile",
+                                      WIFEXITED(status) ? fmt::format("exit {}", WEXITSTATUS(status)) : "killed"));
 }
 
 }  // namespace saul::host

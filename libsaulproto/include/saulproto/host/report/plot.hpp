@@ -1,8 +1,14 @@
-// A small SVG line plot, written by hand (no plotting library): `saulctl plot`. Panels of one or more series, all
-// on the same time axis, with vertical markers (the robot's state and fault changes) across every panel. Points
-// are binned into one column per pixel keeping each column's first, lowest, highest and last value, so memory is
-// constant in the number of points and spikes survive however long the capture. The same picture also comes
-// wrapped in one self-contained HTML page with a table of the markers (render_html).
+// How `saulctl plot` draws: panels of one or more series, all on the same time axis, with vertical markers (the
+// robot's state and fault changes) across every panel. Points are binned into columns keeping each column's
+// first, lowest, highest and last value, so memory is constant in the number of points and spikes survive however
+// long the capture.
+//
+// Two outputs, neither drawn by hand:
+//  - render_html: one self-contained interactive page built on Debian's dygraphs (libjs-dygraphs, read from
+//    /usr/share/javascript/dygraphs when the page is written and inlined; nothing is fetched when it is viewed):
+//    zoom and pan, every panel following the others on a date-time axis, distinct colours and dash patterns,
+//    sample points once zoomed in, the markers drawn on every panel and listed in a table;
+//  - render_static: SVG, PNG or PDF by handing the data to gnuplot (Debian's gnuplot-nox) as a script.
 //
 // What to draw from a capture (the default dashboard, --id/--field selections, the markers) is decided in
 // telemetry_plot.hpp; this file only draws.
@@ -10,6 +16,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -89,14 +96,50 @@ struct PlotDocument {
   std::vector<std::string> notes;
 };
 
-/// Pixels of the plot area of each panel (PlotBinner columns should match it).
+/// Columns of the default binning (telemetry_plot's document()). The renderers take any number.
 inline constexpr int kPlotWidth = 880;
+/// Columns for the interactive page: 4 points a column at most, so every sample of a 5-minute run at 100 Hz is
+/// kept and a 300 ms push in a 10-minute run keeps its shape when zoomed into.
+inline constexpr std::size_t kInteractiveColumns = 8192;
+/// Columns for a static picture: about two a pixel of its width.
+inline constexpr std::size_t kStaticColumns = 3000;
 
-/// The SVG document (UTF-8 text), a file of its own: XML declaration, namespace.
-std::string render_svg(const PlotDocument& document);
+/// Seconds since 1970 of the plot's time 0, from the capture timestamp in the title ("from 1763800000.500900",
+/// as format_timestamp writes it); nullopt when the title has none (a capture without timestamps).
+std::optional<double> start_time_in_title(const std::string& title);
+/// "2025-11-22 08:26:40.500 UTC".
+std::string human_time(double epoch_s);
+/// The title with its raw capture timestamp written as human_time.
+std::string human_title(const std::string& title);
 
-/// One HTML page holding everything itself (no scripts, no links, nothing fetched): the same SVG inline, the
-/// notes, and a table of the markers with their times.
-std::string render_html(const PlotDocument& document);
+/// The dygraphs files inlined into the page.
+struct DygraphsAssets {
+  std::string script;        ///< dygraph.min.js
+  std::string style;         ///< dygraph.min.css
+  std::string synchronizer;  ///< extras/synchronizer.js (panels zoom together)
+};
+/// Reads them from Debian's libjs-dygraphs (`dir`). Throws PlotOutputError naming the package when absent.
+DygraphsAssets load_dygraphs(const std::string& dir = "/usr/share/javascript/dygraphs");
+
+/// A plot that cannot be written: a missing package, gnuplot failing. The message ends with what to do.
+class PlotOutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One HTML page holding everything itself (scripts and data inline, nothing fetched): a dygraphs chart per
+/// panel at the window's full width, zoom (drag) and pan (shift-drag) shared by all panels, double-click to zoom
+/// out; the title with a human date; markers on every panel; a table of the markers with their times; the notes.
+/// The page sets data-plot-errors (script errors, from its first script on) and, once drawn, data-plot-panels
+/// (charts drawn), data-plot-windows (each chart's time window, seconds) and data-plot-points (charts showing
+/// their sample points) on its <html> element. page.html#t=A,B opens zoomed into A..B seconds.
+std::string render_html(const PlotDocument& document, const DygraphsAssets& dygraphs);
+
+/// The gnuplot script for a static picture: terminal (svg, png, pdf) and `output` ("" = standard output), the
+/// data inline ($panelN datablocks), one plot per panel stacked (multiplot), markers as dashed vertical arrows with
+/// labels, series told apart by colour, dash pattern and width.
+std::string gnuplot_script(const PlotDocument& document, const std::string& format, const std::string& output);
+/// Runs gnuplot on gnuplot_script. Throws PlotOutputError (gnuplot missing, or failing with its message).
+void render_static(const PlotDocument& document, const std::string& format, const std::string& output);
 
 }  // namespace saul::host
