@@ -2,6 +2,7 @@
 // for each failure. Only host-library calls (list_serial_ports, open_serial, open_can_link).
 #include <fmt/core.h>
 
+#include <array>
 #include <cctype>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +18,8 @@
 #include "saulproto/host/link/device_holders.hpp"
 #include "saulproto/host/link/serial_port.hpp"
 #include "saulproto/host/link/shared_link.hpp"
+#include "saulproto/host/link/socketcan.hpp"
+#include "saulproto/core/saul_can.hpp"
 
 namespace saulctl {
 namespace {
@@ -65,22 +68,31 @@ void check_ports(Checks& c, bool needed) {
   c.ok("serial ports", fmt::format("{} found: {}", ports.size(), list));
 }
 
+// Bus traffic, and the robot in it: BALANCE's 0x400 telemetry (10 Hz) within the wait.
 void check_traffic(Checks& c, saul::host::CanLink& link, milliseconds wait) {
   const auto deadline = steady_clock::now() + wait;
   std::uint64_t frames = 0;
-  while (!g_interrupted) {
+  std::optional<saul::saulcan::TelemetryA> robot;
+  while (!g_interrupted && !robot) {
     const auto now = steady_clock::now();
     if (now >= deadline) break;
     if (auto f = link.receive(ceil<milliseconds>(deadline - now))) {
       ++frames;
-      break;
+      if (auto a = saul::saulcan::decode_telemetry_a(*f)) robot = *a;
     }
   }
-  if (frames > 0)
+  if (frames > 0) {
     c.ok("bus traffic", fmt::format("frames seen on {}", link.name()));
-  else
-    c.fail("bus traffic", fmt::format("no frame on {} within {} ms", link.name(), wait.count()),
+    if (robot)
+      c.ok("robot", fmt::format("BALANCE sends telemetry (0x400), state {}", saul::saulcan::to_string(robot->state)));
+    else
+      c.fail("robot", fmt::format("{} frames but no 0x400 telemetry within {} ms: BALANCE is not on the bus", frames,
+                                  wait.count()),
+             "power the BALANCE board and check its CAN wiring ('saulctl sniff' shows which nodes do talk)");
+  } else {
+    c.fail("bus traffic", fmt::format("no frame on {} within {} ms: no robot found", link.name(), wait.count()),
            "power the robot and check CAN_H/CAN_L wiring, the 120 ohm termination and the bitrate (500 kbit/s)");
+  }
   const auto state = link.stats().state;
   using saul::host::ControllerState;
   if (state == ControllerState::bus_off || state == ControllerState::passive)
@@ -91,6 +103,25 @@ void check_traffic(Checks& c, saul::host::CanLink& link, milliseconds wait) {
            "errors on the bus: check termination and CAN_H/CAN_L, then 'saulctl sniff' for error frames");
   else
     c.ok("error state", saul::host::to_string(state));
+}
+
+// Lawicel's V: a Lawicel-complete firmware answers "Vhhss"; the stock CANable slcan firmware answers nothing (or
+// its own text). Either is fine; the answer is shown.
+void check_slcan_version(Checks& c, saul::host::SerialPort& port) {
+  port.write(std::string("V\r"), milliseconds(200));
+  std::string got;
+  const auto deadline = steady_clock::now() + milliseconds(300);
+  std::array<std::uint8_t, 256> buf{};
+  while (got.find('\r') == std::string::npos && steady_clock::now() < deadline) {
+    const auto n = port.read(buf, ceil<milliseconds>(deadline - steady_clock::now()));
+    got.append(reinterpret_cast<const char*>(buf.data()), n);
+  }
+  const auto v = got.find_first_of("Vv");
+  const auto end = got.find('\r', v == std::string::npos ? 0 : v);
+  if (v != std::string::npos && end != std::string::npos)
+    c.ok("slcan firmware", "answers V with '" + got.substr(v, end - v) + "'");
+  else
+    c.skip("slcan firmware", "no answer to V within 300 ms (the stock CANable slcan firmware sends none; fine)");
 }
 
 // A saulctl of this user that holds the device and shares it is fine: the checks go through it (another program
@@ -130,6 +161,7 @@ void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait)
       c.ok("port exists", dev);
       c.ok("permission", "can open " + dev);
       c.ok("not busy", dev + " is free");
+      check_slcan_version(c, *port);
     }
   } catch (const SerialError& e) {
     switch (e.kind()) {
@@ -162,12 +194,69 @@ void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait)
   }
 }
 
+std::string usb_text(int vid, int pid) { return vid < 0 ? "" : fmt::format(" {:04x}:{:04x}", vid, pid); }
+
+// Without a link: the CANable2s plugged in, by USB id, on either firmware. The one adapter found is checked as the
+// link; none is a failure (today's robot needs one), several are listed for --link.
+std::optional<saul::host::LinkSpec> find_adapter(Checks& c) {
+  std::vector<std::string> found;
+  std::vector<std::string> links;
+  try {
+    for (const auto& p : saul::host::list_serial_ports())
+      if (p.role.find("slcan firmware") != std::string::npos) {
+        found.push_back(fmt::format("{} ({:04x}:{:04x}, slcan firmware)", p.path, p.usb_vid, p.usb_pid));
+        links.push_back("slcan:" + p.path);
+      }
+  } catch (const std::exception&) {  // check_ports has said so
+  }
+  for (const auto& i : saul::host::list_can_interfaces()) {
+    if (i.usb_vid < 0) continue;  // vcan and other virtual interfaces are no adapter
+    found.push_back(fmt::format("{} ({}{}, candleLight firmware{}{})", i.name, i.driver.empty() ? "?" : i.driver,
+                                usb_text(i.usb_vid, i.usb_pid), i.up ? ", up" : ", down",
+                                i.bitrate ? fmt::format(", {} bit/s", *i.bitrate) : ""));
+    links.push_back(i.name);
+  }
+  if (found.empty()) {
+    c.fail("adapter", "no CANable2 found: neither the slcan firmware (USB 16d0:117e, a serial port) nor candleLight "
+                      "(1d50:606f, a CAN interface)",
+           "plug the CANable2 in with a data cable (lsusb lists it), then: saulctl doctor --link slcan:/dev/ttyACM0 "
+           "or --link can0");
+    return std::nullopt;
+  }
+  std::string list;
+  for (const auto& f : found) list += (list.empty() ? "" : ", ") + f;
+  c.ok("adapter", list);
+  if (links.size() != 1) return std::nullopt;
+  c.ok("link", "none given: checking " + links[0]);
+  return saul::host::parse_link_spec(links[0]);
+}
+
 void check_socketcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait) {
   const std::string& ifname = spec.device;
   try {
     auto link = saul::host::open_can_link(spec);
     c.ok("interface exists", ifname);
     c.ok("interface up", ifname);
+    // What the kernel says about it (netlink): its kind, driver, bitrate and controller state.
+    if (const auto info = saul::host::can_interface_info(ifname)) {
+      const std::string what = fmt::format("{} ({}{}{})", ifname, info->kind.empty() ? "?" : info->kind,
+                                           info->driver.empty() ? "" : ", " + info->driver,
+                                           usb_text(info->usb_vid, info->usb_pid));
+      if (info->bitrate && *info->bitrate != 500'000)
+        c.fail("bitrate", fmt::format("{} runs at {} bit/s; the robot's bus is 500000", what, *info->bitrate),
+               fmt::format("sudo ip link set {} down; sudo ip link set {} up type can bitrate 500000", ifname, ifname));
+      else
+        c.ok("bitrate", info->bitrate ? fmt::format("{} at {} bit/s", what, *info->bitrate)
+                                      : what + ": no bit timing (a virtual interface)");
+      if (info->state) {
+        using saul::host::ControllerState;
+        if (*info->state == ControllerState::bus_off || *info->state == ControllerState::passive)
+          c.fail("controller", fmt::format("{} is {}", ifname, saul::host::to_string(*info->state)),
+                 fmt::format("wrong bitrate or wiring; then: sudo ip link set {} type can restart", ifname));
+        else
+          c.ok("controller", saul::host::to_string(*info->state));
+      }
+    }
     check_traffic(c, *link, wait);
   } catch (const LinkError& e) {
     switch (e.kind()) {
@@ -249,8 +338,9 @@ int run_doctor(const DoctorOptions& opt) {
   Checks c;
   check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
   check_modemmanager(c);
+  if (!spec) spec = find_adapter(c);
   if (!spec) {
-    c.skip("link", "none given (--link or SAUL_LINK); link checks skipped");
+    c.skip("link", "none given (--link or SAUL_LINK) and no single adapter to check");
   } else if (spec->kind == saul::host::LinkSpec::Kind::slcan) {
     check_slcan(c, *spec, wait);
   } else if (spec->kind == saul::host::LinkSpec::Kind::socketcan) {
@@ -277,8 +367,10 @@ void add_doctor_command(CLI::App& app, Runner& run) {
   cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str();
   cmd->footer(
       "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); ModemManager (a warning when it runs\n"
-      "without the CANable2 udev rule); for slcan: port exists, permission, busy,\n"
-      "channel opens, bus traffic, error state; for SocketCAN: interface exists, up, bus traffic, error state.\n"
+      "without the CANable2 udev rule); without --link, the CANable2s plugged in (by USB id, both firmwares; the one\n"
+      "found is checked); for slcan: port exists, permission, busy (and which program holds it), the firmware's\n"
+      "answer to V, channel opens, bus traffic, the robot's telemetry, error state; for SocketCAN: interface exists,\n"
+      "up, bitrate and controller state (netlink), bus traffic, the robot's telemetry, error state.\n"
       "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
       "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");
   cmd->callback([o, &run] {

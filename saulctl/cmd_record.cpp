@@ -169,7 +169,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   chunk.link = spec.text();
   chunk.protocol = opt.protocol.empty() ? protocol_for_baud(spec.serial.baud) : *serial_protocol_from_name(opt.protocol);
 
-  auto port = open_serial(spec.device, spec.serial, spec.backend);
+  auto port = open_serial_link(spec);  // shared with other saulctl processes (shared_link.hpp)
   RotatingSerialWriter writer(opt.output, rotation_of(opt), [&](const std::string& path) {
     if (!opt.quiet) fmt::print(stderr, "record: writing {} (serial)\n", path);
   });

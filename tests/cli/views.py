@@ -141,6 +141,12 @@ def monitor_view(width, height):
     c = wait_screen(r"STATE\s+ESTOP")
     check(f"monitor {tag}: state ESTOP in red", c is not None and coloured(screen(True), ["ESTOP "], "31"),
           repr(screen(True)[:1500]))
+    # o: mode off, once.
+    tmux("send-keys", "-t", "v", "o")
+    check(f"monitor {tag}: o writes exactly one 302#00", wait_wire(p, lambda b: b == OPEN + ESTOP + b"t302100\r"),
+          repr(p.buf))
+    p.send(ACK_MODE)
+    check(f"monitor {tag}: its acknowledgement is shown", wait_screen(r"mode off: acknowledged") is not None, screen())
     # Link lost: the adapter goes away; the view says so instead of freezing.
     p.close_master()
     check(f"monitor {tag}: 'LINK LOST' when the adapter goes", wait_screen(r"LINK LOST: .*disappeared") is not None,
@@ -150,7 +156,7 @@ def monitor_view(width, height):
     s = screen(history=True)
     check(f"monitor {tag}: q quits with a summary, exit 1 (the link was lost)",
           code == 1 and re.search(r"monitor: .* s on slcan:.*last state ESTOP\nmonitor: 0x400 2 frames", s) is not None
-          and "1 ESTOP sent from the keyboard; last: ESTOP: acknowledged" in s, f"{code}\n{s}")
+          and "1 ESTOP sent from the keyboard; last: mode off: acknowledged" in s, f"{code}\n{s}")
     check(f"monitor {tag}: exactly one 302#03 in the whole run", p.buf.count(ESTOP) == 1, repr(p.buf))
     p.close()
 

@@ -101,6 +101,30 @@ saul::CanFrame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes
 
 const std::string kOpen = "C\rS6\rO\r";
 
+/// The sharing's notices while a test runs (instead of stderr).
+struct NoticeLog {
+  std::vector<std::string> lines;
+  NoticeLog() {
+    set_share_notice([this](const std::string& s) { lines.push_back(s); });
+  }
+  ~NoticeLog() { set_share_notice(nullptr); }
+  NoticeLog(const NoticeLog&) = delete;
+  NoticeLog& operator=(const NoticeLog&) = delete;
+};
+
+/// An owner holding a fresh pty, in a private socket directory, its notices kept.
+struct Held {
+  RuntimeDir dir;
+  TestPty pty;
+  NoticeLog log;
+  std::unique_ptr<CanLink> owner;
+  explicit Held(const LinkOpenOptions& options = {}, const std::string& opened = kOpen)
+      : owner(open_can_link(slcan_spec(pty.path), options)) {
+    REQUIRE(pty.read_until_ends(opened));
+  }
+  [[nodiscard]] std::unique_ptr<CanLink> client() const { return open_can_link(slcan_spec(pty.path)); }
+};
+
 }  // namespace
 
 TEST_CASE("share: who may use a share, where its socket is", "[link][share]") {
@@ -178,11 +202,9 @@ TEST_CASE("exclusive: a port has one owner; another holder is named", "[link][ex
 }
 
 TEST_CASE("share: frames one sends are seen by the others, never by the sender", "[link][share]") {
-  RuntimeDir dir;
-  TestPty pty;
-  auto owner = open_can_link(slcan_spec(pty.path));
-  REQUIRE(pty.read_until_ends(kOpen));
-  auto client = open_can_link(slcan_spec(pty.path));
+  Held h;
+  auto& [dir, pty, log, owner] = h;
+  auto client = h.client();
   CHECK(owner->sharing() == "shared with 1 other saulctl");
   CHECK_THAT(client->sharing(), Catch::StartsWith("through ") && Catch::EndsWith("(pid " + std::to_string(::getpid()) + ")"));
   CHECK(pty.got == kOpen);  // the client opened nothing itself
@@ -211,13 +233,11 @@ TEST_CASE("share: frames one sends are seen by the others, never by the sender",
 }
 
 TEST_CASE("share: filters given at open hold before the first frame, per process", "[link][share]") {
-  RuntimeDir dir;
-  TestPty pty;
   LinkOpenOptions only_400;
   only_400.filters = {CanFilter{0x400, 0x7FF, false}};
-  auto owner = open_can_link(slcan_spec(pty.path), only_400);
-  REQUIRE(pty.read_until_ends(kOpen));
-  auto client = open_can_link(slcan_spec(pty.path));  // no filter
+  Held h(only_400);
+  auto& [dir, pty, log, owner] = h;
+  auto client = h.client();  // no filter
   pty.send("t1001AA\rt4001BB\r");
   auto a = next_frame(*owner);
   REQUIRE(a);
@@ -230,13 +250,10 @@ TEST_CASE("share: filters given at open hold before the first frame, per process
 }
 
 TEST_CASE("share: the owner leaving hands the adapter to a client, which says so", "[link][share]") {
-  RuntimeDir dir;
-  TestPty pty;
-  std::vector<std::string> notices;
-  set_share_notice([&](const std::string& s) { notices.push_back(s); });
-  auto owner = open_can_link(slcan_spec(pty.path));
-  REQUIRE(pty.read_until_ends(kOpen));
-  auto client = open_can_link(slcan_spec(pty.path));
+  Held h;
+  auto& [dir, pty, log, owner] = h;
+  const auto& notices = log.lines;
+  auto client = h.client();
   owner.reset();  // "C\r", then the client is told
   CHECK_FALSE(client->receive(milliseconds(500)));  // meets the owner's exit and takes over
   REQUIRE(pty.read_until_ends(kOpen + "C\r" + kOpen));
@@ -247,36 +264,29 @@ TEST_CASE("share: the owner leaving hands the adapter to a client, which says so
   auto f = next_frame(*client);
   REQUIRE(f);
   CHECK(f->data[0] == 0xCC);
-  set_share_notice(nullptr);
 }
 
 TEST_CASE("share: an ESTOP goes through an owner opened listen-only; nothing else does", "[link][share]") {
-  RuntimeDir dir;
-  TestPty pty;
-  std::vector<std::string> notices;
-  set_share_notice([&](const std::string& s) { notices.push_back(s); });
   LinkOpenOptions silent;
   silent.listen_only = true;
-  auto owner = open_can_link(slcan_spec(pty.path), silent);
   // The stock firmware does not answer V: after its wait the link opens silent with M1.
-  REQUIRE(pty.read_until_ends("C\rS6\rV\rM1\rO\r"));
-  auto client = open_can_link(slcan_spec(pty.path));
+  Held h(silent, "C\rS6\rV\rM1\rO\r");
+  auto& [dir, pty, log, owner] = h;
+  const auto& notices = log.lines;
+  auto client = h.client();
   CHECK_THROWS_WITH(client->send(frame(0x300, {0, 0, 0, 0}), milliseconds(500)), Catch::Contains("listen-only"));
   client->send(saul::saulcan::encode(saul::saulcan::ModeCmd{saul::saulcan::Mode::estop}), milliseconds(500));
   REQUIRE(pty.read_until_ends("C\rS6\rV\rM1\rO\rC\rO\rt302103\r"));
   REQUIRE(notices.size() == 1);
   CHECK_THAT(notices[0], Catch::Contains("left listen-only to put an ESTOP"));
-  set_share_notice(nullptr);
 }
 
 TEST_CASE("share: the adapter disappearing ends the owner and its clients with the same error", "[link][share]") {
-  RuntimeDir dir;
-  auto pty = std::make_unique<TestPty>();
-  auto owner = open_can_link(slcan_spec(pty->path));
-  REQUIRE(pty->read_until_ends(kOpen));
-  auto client = open_can_link(slcan_spec(pty->path));
-  ::close(pty->master);
-  pty->master = -1;
+  Held h;
+  auto& [dir, pty, log, owner] = h;
+  auto client = h.client();
+  ::close(pty.master);
+  pty.master = -1;
   CHECK_THROWS_WITH(next_frame(*owner), Catch::Contains("disappeared"));
   try {
     next_frame(*client);
@@ -292,12 +302,9 @@ TEST_CASE("share: another user is refused and nothing it sends reaches the adapt
     WARN("skipped: needs root to play another user");
     return;
   }
-  RuntimeDir dir;
-  TestPty pty;
-  std::vector<std::string> notices;
-  set_share_notice([&](const std::string& s) { notices.push_back(s); });
-  auto owner = open_can_link(slcan_spec(pty.path));
-  REQUIRE(pty.read_until_ends(kOpen));
+  Held h;
+  auto& [dir, pty, log, owner] = h;
+  const auto& notices = log.lines;
   const std::string sock = share_socket_path(pty.path);
   // As if the directory's and the socket's protection had failed: only the peer check is left.
   REQUIRE(::chmod(dir.path.c_str(), 0755) == 0);
@@ -347,7 +354,6 @@ TEST_CASE("share: another user is refused and nothing it sends reaches the adapt
   owner->send(frame(0x7AA, {0x55}), milliseconds(500));
   REQUIRE(pty.read_until_ends("t7AA155\r"));
   CHECK(pty.got == kOpen + "t7AA155\r");
-  set_share_notice(nullptr);
   REQUIRE(notices.size() == 1);  // the owner says it refused someone
   CHECK_THAT(notices[0], Catch::Contains("from uid 65534 (pid " + std::to_string(child) + "): another user"));
 }

@@ -352,6 +352,41 @@ test_kernel_filters_sniff() {
   expect_frames /tmp/out "301#05 12345678#06 30F#07"
 }
 
+# start_flood FRAME...: other traffic already flowing on vcan0, flat out, until the test ends.
+start_flood() {
+  saul_vm_guest can-flood vcan0 "$@" 2>/tmp/flood.err &
+  track $!
+  wait_for /tmp/flood.err ready || die "can-flood did not start: $(cat /tmp/flood.err)"
+}
+
+test_filter_before_bind() {
+  start_flood 123#01 321#0203 1ABCDEF0#04
+  timeout 60 saul_vm_guest can-check filter-before-bind vcan0 || die "filters given at open let other ids in"
+}
+
+test_sniff_filter_busy_bus() {
+  # The case: sniff --id 400 --count 3 on a busy bus printed frames of other ids in 6 of 20 runs.
+  start_flood 123#01 400#F4010A00C80001 321#0203 1ABCDEF0#04
+  i=0
+  while [ $i -lt 20 ]; do
+    i=$((i + 1))
+    timeout 20 saulctl sniff vcan0 --id 400 --count 3 >/tmp/out 2>/tmp/err
+    expect_rc $? 0 "saulctl sniff --id 400 --count 3 (run $i)"
+    expect_frames /tmp/out "400#F4010A00C80001 400#F4010A00C80001 400#F4010A00C80001"
+    grep -q "came past the kernel filter" /tmp/err && { show /tmp/err; die "run $i: frames of other ids reached the socket"; }
+  done
+  echo "20 runs: only 400 printed, none of the other ids reached the socket"
+}
+
+test_doctor_vcan() {
+  # netlink's view of the interface; a bus with no robot on it is a failure with the fix.
+  timeout 10 saulctl doctor --link vcan0 --wait 300ms >/tmp/out 2>/tmp/err
+  expect_rc $? 1 "saulctl doctor --link vcan0 on a silent bus"
+  expect_in /tmp/out "ok   bitrate: vcan0 (vcan): no bit timing"
+  expect_in /tmp/out "FAIL bus traffic: no frame on vcan0 within 300 ms: no robot found"
+  show /tmp/out
+}
+
 test_error_frames_sniff() {
   # vcan makes no bus errors, but the kernel delivers error frames a raw socket writes (here: cansend) to every
   # socket that subscribed to them, as a real controller's driver would.
@@ -622,6 +657,10 @@ t "saulctl: monitor --json shows telemetry from the bus" test_monitor_json
 t "saulctl: record writes what cansend puts on vcan0" test_record
 t "saulctl: replay puts a capture's frames on vcan0 exactly (candump)" test_replay
 t "saulctl: sniff --id filters in the kernel" test_kernel_filters_sniff
+t "socketcan: filters set before bind: no other id gets in with traffic already flowing" test_filter_before_bind
+t "saulctl: sniff --id 400 --count 3 on a busy bus prints only 0x400 (20 runs)" test_sniff_filter_busy_bus
+t "socketcan: netlink describes vcan0 (kind, up, no bit timing)" check netlink
+t "saulctl: doctor --link vcan0 reads the interface from netlink, fails with no robot" test_doctor_vcan
 t "saulctl: sniff decodes error frames and shows state changes" test_error_frames_sniff
 t "saulctl: a missing interface gives a clear error" test_missing_interface
 t "saulctl: an interface that is down gives a clear error" test_interface_down_at_open

@@ -4,6 +4,7 @@
 //
 //   saul_vm_guest can-recv IFACE COUNT TIMEOUT_MS [ID[:MASK]]...   open_socketcan, print each frame as ID#DATA
 //   saul_vm_guest can-send IFACE FRAME...                         send candump-syntax frames through the transport
+//   saul_vm_guest can-flood IFACE FRAME...                        send the frames in a loop, flat out, until killed
 //   saul_vm_guest can-check NAME IFACE                            one in-process check of the transport
 //   saul_vm_guest serial-check DEV BAUD FORMAT [BAUD_BASE]        libserialport on a real tty, bytes via echo-peer
 //   saul_vm_guest fake-slcan DEV LOG [LINE:REPLY]...              a CANable on the USB gadget end (/dev/ttyGS0)
@@ -37,6 +38,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/link/serial_port.hpp"
 #include "saulproto/host/link/socketcan.hpp"
+#include "saulproto/host/report/frame_text.hpp"
 
 namespace {
 
@@ -156,6 +158,36 @@ int can_send(const std::vector<std::string>& a) {
   return 0;
 }
 
+// Traffic already flowing: the frames in turn, as fast as the kernel takes them; "ready" on stderr after the first
+// round. Raw socket writes, not the transport: ENOBUFS (queue full) just means try again.
+int can_flood(const std::vector<std::string>& a) {
+  if (a.size() < 2) return 2;
+  const int fd = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
+  expect(fd >= 0, "cannot open a raw CAN socket");
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = static_cast<int>(::if_nametoindex(a[0].c_str()));
+  expect(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0, "cannot bind the raw socket");
+  std::vector<can_frame> frames;
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    const CanFrame f = parse_frame(a[i]);
+    can_frame cf{};
+    cf.can_id = f.id | (f.extended ? CAN_EFF_FLAG : 0U);
+    cf.len = f.dlc;
+    std::memcpy(cf.data, f.data.data(), 8);
+    frames.push_back(cf);
+  }
+  for (std::uint64_t n = 0;; ++n) {
+    for (const auto& cf : frames)
+      while (::write(fd, &cf, sizeof cf) != static_cast<ssize_t>(sizeof cf) && (errno == ENOBUFS || errno == EAGAIN))
+        std::this_thread::yield();
+    if (n == 0) {
+      std::fprintf(stderr, "ready\n");
+      std::fflush(stderr);
+    }
+  }
+}
+
 // ---- can-check: in-process checks against the real kernel ------------------------------------------------------
 
 std::optional<CanFrame> next(CanLink& link, milliseconds timeout = milliseconds(1000)) {
@@ -234,6 +266,53 @@ void check_filters(const std::string& iface) {
   const auto f = next(*rx);
   if (!f || frame_text(*f) != "123#08") fail("after clearing the filters 123#08 did not arrive");
   std::printf("  filters cleared: 123#08 arrived\n");
+}
+
+// Filters before bind, with traffic already flowing (a can-flood of other ids runs): a socket receives from the
+// moment it is bound, so a filter set after bind lets the frames queued in between through (saulctl sniff --id 400
+// printed other ids on a busy bus). Many opens, each drained at once: with the filters given at open not one frame
+// of another id may reach the socket (LinkStats::filtered_late counts those the software re-check caught). The same
+// done the old way (open, then set_filters) is measured beside it, to show the race is there to be caught.
+void check_filter_before_bind(const std::string& iface) {
+  const std::vector<CanFilter> only_400 = {{0x400, 0x7FF, false}};
+  constexpr int kOpens = 2000;
+  std::uint64_t late_before = 0, late_after = 0, passed = 0;
+  for (int i = 0; i < kOpens; ++i) {
+    saul::host::SocketCanOptions o;
+    o.filters = only_400;
+    auto link = saul::host::open_socketcan(iface, o);
+    while (auto f = link->receive(milliseconds(0)))
+      if (!f->error) ++passed;  // nothing of the flood is 0x400: nothing may pass at all
+    late_before += link->stats().filtered_late;
+
+    auto old = saul::host::open_socketcan(iface);
+    old->set_filters(only_400);
+    while (old->receive(milliseconds(0))) {
+    }
+    late_after += old->stats().filtered_late;
+  }
+  std::printf("  %d opens under a flood of other ids: filters before bind let %llu frames in (%llu returned); set "
+              "after bind (the old way) %llu\n",
+              kOpens, static_cast<unsigned long long>(late_before), static_cast<unsigned long long>(passed),
+              static_cast<unsigned long long>(late_after));
+  if (late_before != 0 || passed != 0)
+    fail("filters given at open let %llu frames of other ids reach the socket (%llu returned)",
+         static_cast<unsigned long long>(late_before), static_cast<unsigned long long>(passed));
+}
+
+// What netlink says about a CAN interface: vcan0 is a "vcan", up, with no bit timing; a missing one is nullopt.
+void check_netlink(const std::string& iface) {
+  const auto info = saul::host::can_interface_info(iface);
+  if (!info) fail("no interface info for %s", iface.c_str());
+  if (info->kind != "vcan") fail("%s: kind '%s', want 'vcan'", iface.c_str(), info->kind.c_str());
+  expect(info->up, iface + " is up but netlink says down");
+  expect(!info->bitrate && !info->state, iface + ": a vcan has no bit timing or controller state");
+  expect(info->usb_vid < 0, iface + ": a vcan has no USB identity");
+  bool listed = false;
+  for (const auto& i : saul::host::list_can_interfaces()) listed = listed || i.name == iface;
+  expect(listed, iface + " is not in list_can_interfaces()");
+  expect(!saul::host::can_interface_info("nosuch0"), "an interface that does not exist has info");
+  std::printf("  %s: kind %s, up, no bit timing; listed\n", iface.c_str(), info->kind.c_str());
 }
 
 // Error frames: the kernel delivers frames with CAN_ERR_FLAG to sockets that asked for them (the transport asks
@@ -331,7 +410,8 @@ int can_check(const std::vector<std::string>& a) {
   if (a.size() != 2) return 2;
   static const std::map<std::string, std::function<void(const std::string&)>> checks = {
       {"loopback", check_loopback}, {"refuse", check_refuse},   {"filters", check_filters},
-      {"error-frames", check_error_frames}, {"decode", check_decode}};
+      {"error-frames", check_error_frames}, {"decode", check_decode},
+      {"filter-before-bind", check_filter_before_bind}, {"netlink", check_netlink}};
   const auto it = checks.find(a[0]);
   if (it == checks.end()) return 2;
   it->second(a[1]);
@@ -527,7 +607,7 @@ int main(int argc, char** argv) {
   const std::string mode = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   static const std::map<std::string, std::function<int(const std::vector<std::string>&)>> modes = {
-      {"can-recv", can_recv},   {"can-send", can_send},     {"can-check", can_check},
+      {"can-recv", can_recv},   {"can-send", can_send},     {"can-check", can_check}, {"can-flood", can_flood},
       {"serial-check", serial_check}, {"fake-slcan", fake_slcan}, {"echo-peer", echo_peer}};
   const auto it = modes.find(mode);
   if (it == modes.end()) {

@@ -27,6 +27,16 @@ std::uint32_t parse_rate(const std::string& text, const std::string& whole) {
 
 }  // namespace
 
+LinkError to_link_error(const SerialError& e) {
+  switch (e.kind()) {
+    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
+    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
+    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
+    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
+    default: return {LinkError::Kind::io, e.what()};
+  }
+}
+
 std::string LinkSpec::text() const {
   switch (kind) {
     case Kind::socketcan: return device;

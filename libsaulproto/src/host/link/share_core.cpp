@@ -93,26 +93,6 @@ void In::take(void* p, std::size_t n) {
   std::memcpy(p, m_.data() + pos_, n);
   pos_ += n;
 }
-std::uint8_t In::u8() {
-  std::uint8_t v = 0;
-  take(&v, 1);
-  return v;
-}
-std::uint16_t In::u16() {
-  std::uint16_t v = 0;
-  take(&v, sizeof v);
-  return v;
-}
-std::uint32_t In::u32() {
-  std::uint32_t v = 0;
-  take(&v, sizeof v);
-  return v;
-}
-std::uint64_t In::u64() {
-  std::uint64_t v = 0;
-  take(&v, sizeof v);
-  return v;
-}
 std::string In::str() {
   const std::uint32_t n = u32();
   if (m_.size() - pos_ < n) throw std::out_of_range("short sharing message");
@@ -270,6 +250,27 @@ void OwnerCore::start_serving(int device_fd) {
     notice(fmt::format("not sharing {} with other saulctl commands: {}", device_, e.what()));
   }
   thread_ = std::thread([this] { run(); });
+}
+
+void OwnerCore::shutdown() {
+  stop_serving();
+  const auto g = gone();
+  close_device();
+  release_clients(g ? ByeReason::gone : ByeReason::exit,
+                  g ? std::string(g->what()) : fmt::format("{} (pid {}) stopped", self_command(), ::getpid()));
+}
+
+void OwnerCore::set_gone(LinkError::Kind kind, const std::string& text) {
+  {
+    std::lock_guard lock(gone_mu_);
+    gone_.emplace(kind, text);
+  }
+  device_gone(text);
+}
+
+std::optional<LinkError> OwnerCore::gone() const {
+  std::lock_guard lock(gone_mu_);
+  return gone_;
 }
 
 void OwnerCore::wake() {

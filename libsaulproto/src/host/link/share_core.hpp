@@ -23,6 +23,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -67,16 +68,22 @@ class In {
  public:
   explicit In(std::span<const std::uint8_t> m) : m_(m) {}
   Msg type() { return static_cast<Msg>(u8()); }
-  std::uint8_t u8();
-  std::uint16_t u16();
-  std::uint32_t u32();
-  std::uint64_t u64();
+  std::uint8_t u8() { return get<std::uint8_t>(); }
+  std::uint16_t u16() { return get<std::uint16_t>(); }
+  std::uint32_t u32() { return get<std::uint32_t>(); }
+  std::uint64_t u64() { return get<std::uint64_t>(); }
   std::string str();
   std::vector<std::uint8_t> bytes();
   CanFrame frame();
   LinkStats stats();
 
  private:
+  template <class T>
+  T get() {
+    T v{};
+    take(&v, sizeof v);
+    return v;
+  }
   void take(void* p, std::size_t n);
   std::span<const std::uint8_t> m_;
   std::size_t pos_ = 0;
@@ -141,6 +148,15 @@ class OwnerCore {
   /// Creates the socket (a notice instead when the directory is not private: then nothing is shared) and starts
   /// the serving thread, which polls `device_fd`.
   void start_serving(int device_fd);
+  /// What a derived destructor calls first: stops serving, closes the device (close_device()), then tells the
+  /// clients why (the owner stopped, or the device's error), so that one of them can take the device over.
+  void shutdown();
+  virtual void close_device() = 0;
+  /// The device went away (the serving thread's pump saw it): remembered for the owner's own calls, told to the
+  /// clients, and the socket goes.
+  void set_gone(LinkError::Kind kind, const std::string& text);
+  /// The device's error once it has gone.
+  [[nodiscard]] std::optional<LinkError> gone() const;
   /// Stops the thread and removes the socket; clients stay connected until release_clients().
   void stop_serving();
   /// Tells every client why the owner leaves (after the device is closed, so one can take it over) and closes them.
@@ -188,6 +204,8 @@ class OwnerCore {
   int device_fd_ = -1;
   std::vector<std::unique_ptr<Client>> clients_;
   std::atomic<int> clients_count_{0};
+  mutable std::mutex gone_mu_;
+  std::optional<LinkError> gone_;
   std::mutex posted_mu_;
   std::deque<std::vector<std::uint8_t>> posted_;
   std::atomic<bool> stopping_{false};

@@ -12,6 +12,7 @@
 #include <cstring>
 
 #include "saulproto/host/link/device_holders.hpp"
+#include "saulproto/host/link/link_spec.hpp"
 #include "saulproto/host/link/slcan_link.hpp"
 #include "share_core.hpp"
 
@@ -52,16 +53,6 @@ class LocalInbox {
  private:
   int event_;
 };
-
-LinkError link_error_of(const SerialError& e) {
-  switch (e.kind()) {
-    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
-    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
-    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
-    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
-    default: return {LinkError::Kind::io, e.what()};
-  }
-}
 
 SerialError serial_error_of(const LinkError& e) {
   switch (e.kind()) {
@@ -132,16 +123,7 @@ class CanOwner final : public CanLink, private OwnerCore {
         filters_(std::move(filters)) {
     start_serving(real_->poll_handle());
   }
-  ~CanOwner() override {
-    stop_serving();
-    std::string gone;
-    {
-      std::lock_guard lock(inbox_.mu);
-      gone = gone_text_;
-    }
-    real_.reset();  // closes the channel and the device: a client can take it over now
-    release_clients(gone.empty() ? ByeReason::exit : ByeReason::gone, gone.empty() ? self_text() + " stopped" : gone);
-  }
+  ~CanOwner() override { shutdown(); }
 
   void send(const CanFrame& frame, milliseconds timeout) override {
     const auto t0 = steady_clock::now();
@@ -166,8 +148,8 @@ class CanOwner final : public CanLink, private OwnerCore {
           queue_.pop_front();
           return f;
         }
-        if (!gone_text_.empty()) throw LinkError(gone_kind_, gone_text_);
       }
+      if (auto g = gone()) throw *g;
       if (!inbox_.wait(deadline)) return std::nullopt;
     }
   }
@@ -197,6 +179,8 @@ class CanOwner final : public CanLink, private OwnerCore {
   [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
 
  private:
+  void close_device() override { real_.reset(); }  // closes the channel and the device
+
   void deliver(const CanFrame& f) {
     {
       std::lock_guard lock(inbox_.mu);
@@ -237,13 +221,8 @@ class CanOwner final : public CanLink, private OwnerCore {
       broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), nullptr);
     }
     if (error) {
-      {
-        std::lock_guard lock(inbox_.mu);
-        gone_text_ = error->what();
-        gone_kind_ = error->kind();
-      }
+      set_gone(error->kind(), error->what());
       inbox_.signal();
-      device_gone(error->what());
     }
     return got.size() >= 512;
   }
@@ -303,8 +282,6 @@ class CanOwner final : public CanLink, private OwnerCore {
   std::vector<CanFilter> filters_;
   std::deque<CanFrame> queue_;
   std::uint64_t dropped_ = 0;
-  std::string gone_text_;
-  LinkError::Kind gone_kind_ = LinkError::Kind::gone;
   std::atomic<std::uint64_t> last_send_ns_{0};
 };
 
@@ -329,18 +306,16 @@ class CanClient final : public CanLink {
   std::optional<CanFrame> receive(milliseconds timeout) override {
     const auto deadline = steady_clock::now() + timeout;
     std::vector<std::uint8_t> m;
-    for (;;) {
-      if (!queue_.empty()) {
-        CanFrame f = queue_.front();
-        queue_.pop_front();
-        return f;
-      }
+    while (queue_.empty()) {  // messages until a frame that passes the filters (or the time is up)
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return std::nullopt;
       In in(m);
       const Msg type = in.type();
       take(type, in);
     }
+    const CanFrame f = queue_.front();
+    queue_.pop_front();
+    return f;
   }
 
   void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }
@@ -497,16 +472,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
       : OwnerCore(real->path(), Kind::serial, serial_text(real->path(), real->settings()), false), real_(std::move(real)) {
     start_serving(real_->poll_handle());
   }
-  ~SerialOwner() override {
-    stop_serving();
-    std::string gone;
-    {
-      std::lock_guard lock(inbox_.mu);
-      gone = gone_text_;
-    }
-    real_.reset();
-    release_clients(gone.empty() ? ByeReason::exit : ByeReason::gone, gone.empty() ? self_text() + " stopped" : gone);
-  }
+  ~SerialOwner() override { shutdown(); }
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
     const auto deadline = steady_clock::now() + timeout;
@@ -519,8 +485,8 @@ class SerialOwner final : public SerialPort, private OwnerCore {
           bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
           return n;
         }
-        if (!gone_text_.empty()) throw SerialError(SerialError::Kind::gone, gone_text_);
       }
+      if (auto g = gone()) throw SerialError(SerialError::Kind::gone, g->what());
       if (!inbox_.wait(deadline)) return 0;
     }
   }
@@ -543,6 +509,8 @@ class SerialOwner final : public SerialPort, private OwnerCore {
   [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
 
  private:
+  void close_device() override { real_.reset(); }
+
   bool pump_device() override {
     std::array<std::uint8_t, 4096> buf{};
     std::size_t n = 0;
@@ -566,12 +534,8 @@ class SerialOwner final : public SerialPort, private OwnerCore {
       broadcast(Out(Msg::bytes).u32(0).bytes(std::span<const std::uint8_t>(buf.data(), n)).take(), nullptr);
     }
     if (!error.empty()) {
-      {
-        std::lock_guard lock(inbox_.mu);
-        gone_text_ = error;
-      }
+      set_gone(LinkError::Kind::gone, error);
       inbox_.signal();
-      device_gone(error);
     }
     return n == buf.size();
   }
@@ -589,7 +553,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
         real_->write(data, milliseconds(1000));
       } catch (const SerialError& e) {
         error = e.what();
-        kind = link_error_of(e).kind();
+        kind = to_link_error(e).kind();
       }
     }
     send_control(from, sent_message(token, client_ns, error, static_cast<std::uint8_t>(kind)));
@@ -613,7 +577,6 @@ class SerialOwner final : public SerialPort, private OwnerCore {
   std::unique_ptr<SerialPort> real_;
   mutable LocalInbox inbox_;
   std::deque<std::uint8_t> bytes_;
-  std::string gone_text_;
 };
 
 class SerialClient final : public SerialPort {

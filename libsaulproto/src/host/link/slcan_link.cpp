@@ -7,21 +7,12 @@
 #include <deque>
 
 #include "saulproto/core/slcan.hpp"
+#include "saulproto/host/link/link_spec.hpp"
 
 namespace saul::host {
 namespace {
 
 using namespace std::chrono;
-
-LinkError from_serial(const SerialError& e) {
-  switch (e.kind()) {
-    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
-    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
-    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
-    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
-    default: return {LinkError::Kind::io, e.what()};
-  }
-}
 
 class SlcanLink final : public CanLink {
  public:
@@ -45,7 +36,7 @@ class SlcanLink final : public CanLink {
       }
       port_->write(open, milliseconds(200));
     } catch (const SerialError& e) {
-      throw from_serial(e);
+      throw to_link_error(e);
     }
   }
 
@@ -65,7 +56,7 @@ class SlcanLink final : public CanLink {
     try {
       port_->write(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(line.data()), *n), timeout);
     } catch (const SerialError& e) {
-      throw from_serial(e);
+      throw to_link_error(e);
     }
     ++stats_.tx_frames;
   }
@@ -90,7 +81,7 @@ class SlcanLink final : public CanLink {
     try {
       port_->write(std::string("C\rO\r"), milliseconds(200));
     } catch (const SerialError& e) {
-      throw from_serial(e);
+      throw to_link_error(e);
     }
     ++stats_.recoveries;
     stats_.state = ControllerState::unknown;
@@ -115,7 +106,7 @@ class SlcanLink final : public CanLink {
     try {
       n = port_->read(buf, timeout);
     } catch (const SerialError& e) {
-      throw from_serial(e);
+      throw to_link_error(e);
     }
     if (n == 0) return false;
     const std::uint64_t stamp = realtime_ns();  // one stamp per read: the stock firmwares send none
@@ -196,7 +187,7 @@ std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions&
   try {
     return open_slcan(open_serial(path, s, options.backend), options);
   } catch (const SerialError& e) {
-    throw from_serial(e);
+    throw to_link_error(e);
   }
 }
 

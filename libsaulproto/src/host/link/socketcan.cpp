@@ -1,8 +1,12 @@
 #include "saulproto/host/link/socketcan.hpp"
 
+#include <dirent.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
+#include <linux/can/netlink.h>
 #include <linux/can/raw.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
 #include <net/if.h>
 #include <poll.h>
 #include <sys/ioctl.h>
@@ -16,6 +20,7 @@
 #include <climits>
 #include <cstring>
 #include <ctime>
+#include <fstream>
 #include <thread>
 
 namespace saul::host {
@@ -264,6 +269,122 @@ class SocketCanLink final : public CanLink {
 
 std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const SocketCanOptions& options) {
   return std::make_unique<SocketCanLink>(interface, options);
+}
+
+namespace netlink_info {  // named: the library is compiled in unity batches
+
+std::string sysfs_line(const std::string& path) {
+  std::ifstream f(path);
+  std::string line;
+  std::getline(f, line);
+  return line;
+}
+
+// Walks up from the interface's device in sysfs to the USB device that holds idVendor/idProduct.
+void usb_identity(CanInterfaceInfo& info) {
+  char resolved[PATH_MAX];
+  const std::string dev = "/sys/class/net/" + info.name + "/device";
+  if (!::realpath(dev.c_str(), resolved)) return;
+  const std::string driver = resolved + std::string("/driver");
+  char drv[PATH_MAX];
+  if (::realpath(driver.c_str(), drv)) {
+    const std::string d = drv;
+    info.driver = d.substr(d.find_last_of('/') + 1);
+  }
+  std::string dir = resolved;
+  for (int up = 0; up < 4 && dir.size() > 5; ++up) {
+    const std::string vid = sysfs_line(dir + "/idVendor");
+    const std::string pid = sysfs_line(dir + "/idProduct");
+    if (!vid.empty() && !pid.empty()) {
+      info.usb_vid = static_cast<int>(std::strtol(vid.c_str(), nullptr, 16));
+      info.usb_pid = static_cast<int>(std::strtol(pid.c_str(), nullptr, 16));
+      return;
+    }
+    dir = dir.substr(0, dir.find_last_of('/'));
+  }
+}
+
+// The IFLA_LINKINFO nest: kind, and for CAN devices their bit timing and state.
+void parse_linkinfo(const rtattr* nest, CanInterfaceInfo& info) {
+  int left = static_cast<int>(RTA_PAYLOAD(nest));
+  for (const rtattr* a = static_cast<const rtattr*>(RTA_DATA(nest)); RTA_OK(a, left); a = RTA_NEXT(a, left)) {
+    if (a->rta_type == IFLA_INFO_KIND) {
+      info.kind = std::string(static_cast<const char*>(RTA_DATA(a)), strnlen(static_cast<const char*>(RTA_DATA(a)), RTA_PAYLOAD(a)));
+    } else if (a->rta_type == IFLA_INFO_DATA) {
+      int dleft = static_cast<int>(RTA_PAYLOAD(a));
+      for (const rtattr* d = static_cast<const rtattr*>(RTA_DATA(a)); RTA_OK(d, dleft); d = RTA_NEXT(d, dleft)) {
+        if (d->rta_type == IFLA_CAN_BITTIMING && RTA_PAYLOAD(d) >= sizeof(can_bittiming)) {
+          can_bittiming bt{};
+          std::memcpy(&bt, RTA_DATA(d), sizeof bt);
+          if (bt.bitrate != 0) info.bitrate = bt.bitrate;
+        } else if (d->rta_type == IFLA_CAN_STATE && RTA_PAYLOAD(d) >= sizeof(std::uint32_t)) {
+          std::uint32_t st = 0;
+          std::memcpy(&st, RTA_DATA(d), sizeof st);
+          switch (st) {
+            case CAN_STATE_ERROR_ACTIVE: info.state = ControllerState::active; break;
+            case CAN_STATE_ERROR_WARNING: info.state = ControllerState::warning; break;
+            case CAN_STATE_ERROR_PASSIVE: info.state = ControllerState::passive; break;
+            case CAN_STATE_BUS_OFF: info.state = ControllerState::bus_off; break;
+            default: break;  // stopped (interface down), sleeping
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace netlink_info
+
+std::optional<CanInterfaceInfo> can_interface_info(const std::string& interface) {
+  const unsigned index = ::if_nametoindex(interface.c_str());
+  if (index == 0) return std::nullopt;
+  CanInterfaceInfo info;
+  info.name = interface;
+  netlink_info::usb_identity(info);
+  const int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
+  if (fd < 0) return info;
+  struct {
+    nlmsghdr h;
+    ifinfomsg i;
+  } req{};
+  req.h.nlmsg_len = NLMSG_LENGTH(sizeof(ifinfomsg));
+  req.h.nlmsg_type = RTM_GETLINK;
+  req.h.nlmsg_flags = NLM_F_REQUEST;
+  req.h.nlmsg_seq = 1;
+  req.i.ifi_family = AF_UNSPEC;
+  req.i.ifi_index = static_cast<int>(index);
+  alignas(nlmsghdr) char buf[16384];
+  if (::send(fd, &req, req.h.nlmsg_len, 0) >= 0) {
+    pollfd p{fd, POLLIN, 0};
+    const ssize_t n = ::poll(&p, 1, 1000) > 0 ? ::recv(fd, buf, sizeof buf, 0) : -1;
+    int len = static_cast<int>(n);
+    for (const nlmsghdr* h = reinterpret_cast<const nlmsghdr*>(buf); n > 0 && NLMSG_OK(h, static_cast<unsigned>(len));
+         h = NLMSG_NEXT(h, len)) {
+      if (h->nlmsg_type != RTM_NEWLINK) continue;
+      const auto* ifi = static_cast<const ifinfomsg*>(NLMSG_DATA(h));
+      info.up = (ifi->ifi_flags & IFF_UP) != 0;
+      int alen = static_cast<int>(IFLA_PAYLOAD(h));
+      for (const rtattr* a = IFLA_RTA(ifi); RTA_OK(a, alen); a = RTA_NEXT(a, alen))
+        if (a->rta_type == IFLA_LINKINFO) netlink_info::parse_linkinfo(a, info);
+    }
+  }
+  ::close(fd);
+  return info;
+}
+
+std::vector<CanInterfaceInfo> list_can_interfaces() {
+  std::vector<CanInterfaceInfo> out;
+  DIR* d = ::opendir("/sys/class/net");
+  if (!d) return out;
+  while (const dirent* e = ::readdir(d)) {
+    const std::string name = e->d_name;
+    if (name == "." || name == "..") continue;
+    if (netlink_info::sysfs_line("/sys/class/net/" + name + "/type") != "280") continue;  // ARPHRD_CAN
+    if (auto info = can_interface_info(name)) out.push_back(*info);
+  }
+  ::closedir(d);
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  return out;
 }
 
 }  // namespace saul::host

@@ -26,6 +26,9 @@ struct LinkSpec {
   [[nodiscard]] std::string text() const;
 };
 
+/// The LinkError for a serial port's error (same kind, same message).
+LinkError to_link_error(const SerialError& e);
+
 /// Parses a link name; throws std::invalid_argument with a message that shows the accepted forms.
 LinkSpec parse_link_spec(const std::string& text);
 

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,5 +27,22 @@ std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const Sock
 
 /// Updates a controller state from one SocketCAN error frame (class bits in id, details in data). Pure.
 ControllerState state_after_error_frame(ControllerState current, const CanFrame& error_frame);
+
+/// A CAN network interface as the kernel describes it (netlink RTM_GETLINK, and sysfs for the USB identity).
+struct CanInterfaceInfo {
+  std::string name;
+  std::string kind;                       ///< "can" (a real controller: gs_usb, ...), "vcan", "slcan", ...
+  bool up = false;
+  std::optional<std::uint32_t> bitrate;   ///< IFLA_CAN_BITTIMING, when the driver has one
+  std::optional<ControllerState> state;   ///< IFLA_CAN_STATE; nullopt for stopped, sleeping or unknown
+  std::string driver;                     ///< the device's kernel driver (gs_usb for the candleLight CANable2)
+  int usb_vid = -1;
+  int usb_pid = -1;
+};
+
+/// Every CAN interface of this machine (sysfs type 280), described; empty when the kernel has none.
+std::vector<CanInterfaceInfo> list_can_interfaces();
+/// One interface; nullopt when there is no interface of that name.
+std::optional<CanInterfaceInfo> can_interface_info(const std::string& interface);
 
 }  // namespace saul::host
