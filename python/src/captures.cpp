@@ -37,8 +37,8 @@ std::size_t serial_key(const SerialMessage& m) {
         if constexpr (std::is_same_v<T, saul::host::CrsfUndecoded>) {
           return Tables::kSlots;  // not a table: counted as rejected
         } else {
-          static_assert(std::variant_size_v<T> <= 16);
-          return kSerialKeyBase + 16 * m.index() + outer.index();
+          static_assert(std::variant_size_v<std::decay_t<decltype(inner_message(outer))>> <= 16);
+          return kSerialKeyBase + 16 * m.index() + inner_message(outer).index();
         }
       },
       m);
@@ -54,7 +54,7 @@ template <class F>
 void visit_leaf(const SerialMessage& message, F&& f) {
   std::visit(
       [&](const auto& outer) {
-        if constexpr (!std::is_same_v<std::decay_t<decltype(outer)>, saul::host::CrsfUndecoded>) std::visit(f, outer);
+        if constexpr (!std::is_same_v<std::decay_t<decltype(outer)>, saul::host::CrsfUndecoded>) std::visit(f, inner_message(outer));
       },
       message);
 }

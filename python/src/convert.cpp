@@ -65,7 +65,9 @@ py::dict serial_message_dict(const saul::host::SerialMessage& message) {
           d["payload"] = py::bytes(reinterpret_cast<const char*>(payload.data()), payload.size());
           return d;
         } else {
-          return std::visit([](const auto& m) { return message_dict(m); }, outer);
+          py::dict d = std::visit([](const auto& m) { return message_dict(m); }, inner_message(outer));
+          if constexpr (std::is_same_v<T, saul::host::CrsfMessage>) d["address"] = outer.address;
+          return d;
         }
       },
       message);

@@ -76,6 +76,10 @@ template <class M>
 py::dict message_dict(const M& m) {
   py::dict d;
   d["type"] = M::kName;
+  if constexpr (requires { M::kVariableLayout; }) {  // fields vary frame to frame (CRSF 0x17): no fixed views
+    m.fields([&](const char* key, const auto& value) { d[key] = to_py(value); });
+    return d;
+  }
   const auto& v = views<M>();
   std::size_t i = 0;
   m.fields([&](const char*, const auto& value) {
@@ -94,6 +98,14 @@ py::dict message_dict(const M& m) {
 
 py::dict bus_message_dict(const saul::BusMessage& message);
 py::dict serial_message_dict(const saul::host::SerialMessage& message);
+
+/// The message variant inside one alternative of a SerialMessage: a CrsfMessage's message (it also carries the
+/// frame's address), any other alternative itself.
+inline const saul::crsf::Message& inner_message(const saul::host::CrsfMessage& m) { return m.message; }
+template <class V>
+const V& inner_message(const V& v) {
+  return v;
+}
 /// {"type": None, "reason": "wrong_dlc"}
 py::dict rejected_dict(saul::Reason reason);
 

@@ -45,6 +45,7 @@ def test_crsf_worked_examples():
     d = saulproto.StreamDecoder("crsf")
     got = d.push(bytes.fromhex(CRSF_T4 + CRSF_T5 + CRSF_T6 + CRSF_T1))
     assert [m["type"] for m in got] == ["battery_sensor", "attitude", "flight_mode", "rc_channels"]
+    assert [m["address"] for m in got] == [0xC8] * 4
     battery, attitude, mode, rc = got
     assert battery["voltage"] == pytest.approx(16.8) and battery["current"] == pytest.approx(12.3)
     assert battery["capacity_mah"] == 1500 and battery["remaining_pct"] == 75
@@ -87,3 +88,14 @@ def test_unknown_protocol():
     for name in ("raw", "uart", ""):
         with pytest.raises(ValueError):
             saulproto.StreamDecoder(name)
+
+
+def test_crsf_address_and_subset_frame():
+    # T7's heartbeat broadcast (address 0x00; the CRC covers TYPE and payload only), then the 0x17 subset frame
+    # of tests/unit/test_crsf.cpp: CH5..CH7 at 11 bits = 1000, 1024, 2047 -> value / 2 + 988 us.
+    d = saulproto.StreamDecoder("crsf")
+    got = d.push(bytes.fromhex("00 04 0B 00 C8 ED" + "C8 08 17 24 E8 03 E0 FF 01 03"))
+    assert [(m["type"], m["address"]) for m in got] == [("heartbeat", 0), ("rc_channels_subset", 0xC8)]
+    subset = got[1]
+    assert subset["first_channel"] == 5 and subset["resolution_bits"] == 11
+    assert (subset["ch5"], subset["ch6"], subset["ch7"]) == (1488.0, 1500.0, 2011.5)

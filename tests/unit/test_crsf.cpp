@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -123,6 +124,53 @@ TEST_CASE("CRSF T1: RC_CHANNELS_PACKED with all channels 992") {
 
 TEST_CASE("CRSF T2: RC channel extremes unpack from the little-endian bit stream") {
   CHECK(decoded_as<RcChannels>(kT2) == channels({172, 1811, 992, 191, 1792, 0, 2047, 1500}, 992));
+}
+
+// 0x17 SUBSET_RC_CHANNELS_PACKED (tbs-crsf-spec crsf.md, "0x17 Subset RC Channels Packed"): packed by hand,
+// LSB first, CRCs from a separate bitwise CRC-8/DVB-S2 in Python.
+TEST_CASE("CRSF 0x17: subset RC channels at 11 bits from CH5") {
+  // Header 0x24: starting channel 4 (CH5), resolution 01 = 11 bits, no digital switch. Channels 1000, 1024,
+  // 2047: 1000 | 1024 << 11 | 2047 << 22 = 0x1FFE003E8 -> E8 03 E0 FF 01 (40 bits hold three 11-bit channels).
+  const Bytes frame = {0xC8, 0x08, 0x17, 0x24, 0xE8, 0x03, 0xE0, 0xFF, 0x01, 0x03};
+  const auto m = decoded_as<SubsetRcChannels>(frame);
+  CHECK(m.first_channel == 4);
+  CHECK(m.resolution_bits == 11);
+  CHECK_FALSE(m.digital_switch);
+  REQUIRE(m.count == 3);
+  CHECK(m.value[0] == 1000);
+  CHECK(m.value[1] == 1024);
+  CHECK(m.value[2] == 2047);
+  CHECK(m.us(0) == 1488.0);  // value * 0.5 + 988
+  CHECK(m.us(1) == 1500.0);
+  CHECK(m.us(2) == 2011.5);
+  std::vector<std::string> names;
+  m.fields([&](const char* name, const auto&) { names.emplace_back(name); });
+  CHECK(names == std::vector<std::string>{"first_channel", "resolution_bits", "digital_switch", "ch5", "ch6", "ch7"});
+}
+
+TEST_CASE("CRSF 0x17: 10-bit channels with the digital-switch flag; 13-bit ones stop at CH32") {
+  // Header 0x80: CH1, 10 bits, digital switch. 0 | 512 << 10 | 1023 << 20 = 0x3FF80000 -> 00 00 F8 3F.
+  const auto ten = decoded_as<SubsetRcChannels>({0xC8, 0x07, 0x17, 0x80, 0x00, 0x00, 0xF8, 0x3F, 0x90});
+  CHECK(ten.first_channel == 0);
+  CHECK(ten.resolution_bits == 10);
+  CHECK(ten.digital_switch);
+  REQUIRE(ten.count == 3);
+  CHECK(ten.us(0) == 988.0);
+  CHECK(ten.us(1) == 1500.0);
+  CHECK(ten.us(2) == 2011.0);
+  // Header 0x7E: CH31, 13 bits. 40 bits hold three channels, but only CH31 and CH32 exist:
+  // 8191 | 4096 << 13 = 0x2001FFF -> FF 1F 00 02, then a zero byte.
+  const auto thirteen = decoded_as<SubsetRcChannels>({0xC8, 0x08, 0x17, 0x7E, 0xFF, 0x1F, 0x00, 0x02, 0x00, 0xD7});
+  CHECK(thirteen.first_channel == 30);
+  CHECK(thirteen.resolution_bits == 13);
+  REQUIRE(thirteen.count == 2);
+  CHECK(thirteen.us(0) == 2011.875);  // 8191 / 8 = 1023.875, + 988
+  CHECK(thirteen.us(1) == 1500.0);
+  // A header with no channel bytes is a frame with no channels; no header at all is bad_length.
+  const std::array<std::uint8_t, 1> header{0x24};
+  REQUIRE(decode_payload(0x17, header).ok());
+  CHECK(std::get<SubsetRcChannels>(*decode_payload(0x17, header)).count == 0);
+  CHECK(decode_payload(0x17, {}).reason() == Reason::bad_length);
 }
 
 TEST_CASE("CRSF T3: LINK_STATISTICS, RSSI as negative dBm") {

@@ -47,6 +47,30 @@ Message decode_rc_channels(const std::uint8_t* p) noexcept {
   return m;
 }
 
+// 0x17: a header byte, then channels of 10..13 bits packed LSB first; at most 59 bytes, so the accumulator
+// holds at most 13 + 7 bits.
+Result<Message> decode_subset_rc_channels(const std::uint8_t* p, std::size_t n) noexcept {
+  if (n < 1) return Reason::bad_length;
+  SubsetRcChannels m;
+  m.first_channel = static_cast<std::uint8_t>(p[0] & 0x1FU);
+  m.resolution_bits = static_cast<std::uint8_t>(10U + ((p[0] >> 5) & 0x03U));
+  m.digital_switch = (p[0] & 0x80U) != 0;
+  const std::uint32_t mask = (1U << m.resolution_bits) - 1U;
+  const std::size_t room = SubsetRcChannels::kMaxChannels - m.first_channel;
+  std::uint32_t acc = 0;
+  unsigned bits = 0;
+  for (std::size_t i = 1; i < n && m.count < room; ++i) {
+    acc |= static_cast<std::uint32_t>(p[i]) << bits;
+    bits += 8;
+    while (bits >= m.resolution_bits && m.count < room) {
+      m.value[m.count++] = static_cast<std::uint16_t>(acc & mask);
+      acc >>= m.resolution_bits;
+      bits -= m.resolution_bits;
+    }
+  }
+  return Message{m};
+}
+
 }  // namespace
 
 const char* to_string(Type type) noexcept {
@@ -56,6 +80,7 @@ const char* to_string(Type type) noexcept {
     case Type::heartbeat: return "heartbeat";
     case Type::link_statistics: return "link_statistics";
     case Type::rc_channels_packed: return "rc_channels_packed";
+    case Type::subset_rc_channels_packed: return "subset_rc_channels_packed";
     case Type::attitude: return "attitude";
     case Type::flight_mode: return "flight_mode";
     case Type::device_ping: return "device_ping";
@@ -96,6 +121,7 @@ Result<Message> decode_payload(std::uint8_t type, std::span<const std::uint8_t> 
     case Type::rc_channels_packed:
       if (n < RcChannels::kPayloadSize) return Reason::bad_length;
       return decode_rc_channels(p);
+    case Type::subset_rc_channels_packed: return decode_subset_rc_channels(p, n);
     case Type::link_statistics: {
       if (n < LinkStatistics::kPayloadSize) return Reason::bad_length;
       LinkStatistics m;

@@ -167,6 +167,11 @@ Bytes crsf_rc(std::uint16_t ch2_us, std::uint16_t ch6_us) {
 
 }  // namespace
 
+namespace {
+// A decoded CRSF message as a receiver addresses it (0xC8).
+SerialMessage crsf_message(const crsf::Message& m) { return SerialMessage(CrsfMessage{crsf::kSyncByte, m}); }
+}  // namespace
+
 TEST_CASE("serial motion rule: which messages can move motors") {
   CHECK(can_move_motors(SerialMessage(interboard::Message(interboard::RcCmd{500, -250, 0x01}))));
   CHECK(can_move_motors(SerialMessage(interboard::Message(interboard::RcCmd{0, 0, 0x00}))));  // arming, sticks still
@@ -180,13 +185,13 @@ TEST_CASE("serial motion rule: which messages can move motors") {
 
   crsf::RcChannels rc;
   for (auto& t : rc.ticks) t = crsf::kTicksMid;
-  CHECK(can_move_motors(SerialMessage(crsf::Message(rc))));
+  CHECK(can_move_motors(crsf_message(crsf::Message(rc))));
   rc.ticks[rc::kEstopChannel] = crsf::us_to_ticks(1501);  // CH6 past centre: estop
-  CHECK_FALSE(can_move_motors(SerialMessage(crsf::Message(rc))));
+  CHECK_FALSE(can_move_motors(crsf_message(crsf::Message(rc))));
   rc.ticks[rc::kEstopChannel] = crsf::us_to_ticks(1500);  // exactly 1500 is not estop
-  CHECK(can_move_motors(SerialMessage(crsf::Message(rc))));
-  CHECK_FALSE(can_move_motors(SerialMessage(crsf::Message(crsf::LinkStatistics{}))));
-  CHECK_FALSE(can_move_motors(SerialMessage(crsf::Message(crsf::BatterySensor{}))));
+  CHECK(can_move_motors(crsf_message(crsf::Message(rc))));
+  CHECK_FALSE(can_move_motors(crsf_message(crsf::Message(crsf::LinkStatistics{}))));
+  CHECK_FALSE(can_move_motors(crsf_message(crsf::Message(crsf::BatterySensor{}))));
   CrsfUndecoded short_rc;
   short_rc.frame.type = static_cast<std::uint8_t>(crsf::Type::rc_channels_packed);
   short_rc.reason = Reason::bad_length;

@@ -63,6 +63,7 @@ enum class Type : std::uint8_t {
   heartbeat = 0x0B,
   link_statistics = 0x14,
   rc_channels_packed = 0x16,
+  subset_rc_channels_packed = 0x17,
   attitude = 0x1E,
   flight_mode = 0x21,
   device_ping = 0x28,  ///< extended header
@@ -78,6 +79,7 @@ constexpr bool is_known_type(std::uint8_t type) noexcept {
     case Type::heartbeat:
     case Type::link_statistics:
     case Type::rc_channels_packed:
+    case Type::subset_rc_channels_packed:
     case Type::attitude:
     case Type::flight_mode:
     case Type::device_ping:
@@ -124,6 +126,45 @@ struct RcChannels {
     for (std::size_t i = 0; i < kCount; ++i) v(kChannelNames[i], ticks[i]);
   }
   constexpr bool operator==(const RcChannels&) const = default;
+};
+
+/// Channel names for the subset frame, which can address CH1..CH32.
+inline constexpr const char* kChannelNames32[32] = {
+    "ch1",  "ch2",  "ch3",  "ch4",  "ch5",  "ch6",  "ch7",  "ch8",  "ch9",  "ch10", "ch11",
+    "ch12", "ch13", "ch14", "ch15", "ch16", "ch17", "ch18", "ch19", "ch20", "ch21", "ch22",
+    "ch23", "ch24", "ch25", "ch26", "ch27", "ch28", "ch29", "ch30", "ch31", "ch32"};
+
+/// 0x17 SUBSET_RC_CHANNELS_PACKED (tbs-crsf-spec; the spec marks it "discouraged", but some TX modules and
+/// receivers send it). Byte 0: starting channel in bits 0-4 (0-based: 0 = CH1), the resolution in bits 5-6
+/// (0..3 = 10, 11, 12, 13 bits per channel) and a digital-switch flag in bit 7. Then as many channels as the
+/// rest of the payload holds, packed LSB first as in 0x16. The spec's receiver conversion is
+/// us = value * S + 988 with S = 1, 1/2, 1/4, 1/8 for 10..13 bits, so values are exact in eighths of a us.
+/// Channels past CH32 are ignored. With the digital-switch flag set the spec appends 10-bit switch channels
+/// of unstated count after the analogue ones; we cannot tell them apart, so they read as channels (the flag
+/// is reported, so a reader knows).
+struct SubsetRcChannels {
+  static constexpr Type kType = Type::subset_rc_channels_packed;
+  static constexpr const char* kName = "rc_channels_subset";
+  static constexpr std::size_t kMaxChannels = 32;
+  /// Its layout depends on byte 0, so core/signals has no fixed description of it: it is the last alternative
+  /// of Message and is formatted through fields().
+  static constexpr bool kVariableLayout = true;
+  std::uint8_t first_channel = 0;  ///< 0-based: 0 = CH1
+  std::uint8_t resolution_bits = 11;  ///< 10..13
+  bool digital_switch = false;
+  std::uint8_t count = 0;  ///< channels present, first_channel + count <= 32
+  std::array<std::uint16_t, kMaxChannels> value{};  ///< raw values; value[i] is CH(first_channel + i + 1)
+  /// Channel i of this frame in microseconds: value * 2^(10 - resolution_bits) + 988. O(1).
+  [[nodiscard]] constexpr double us(std::size_t i) const noexcept {
+    return static_cast<double>(value[i]) / static_cast<double>(1U << (resolution_bits - 10U)) + 988.0;
+  }
+  template <class V> constexpr void fields(V&& v) const {
+    v("first_channel", static_cast<std::uint8_t>(first_channel + 1));
+    v("resolution_bits", resolution_bits);
+    v("digital_switch", digital_switch);
+    for (std::size_t i = 0; i < count; ++i) v(kChannelNames32[first_channel + i], us(i));
+  }
+  constexpr bool operator==(const SubsetRcChannels&) const = default;
 };
 
 /// 0x14 LINK_STATISTICS, 10 bytes. The wire carries RSSI as a positive byte meaning -dBm; here it is dBm
@@ -277,7 +318,7 @@ struct DeviceInfo {
 };
 
 using Message = std::variant<RcChannels, LinkStatistics, BatterySensor, Gps, Attitude, FlightMode, Heartbeat,
-                             DevicePing, DeviceInfo>;
+                             DevicePing, DeviceInfo, SubsetRcChannels>;
 
 Type type_of(const Message& message) noexcept;
 const char* name_of(const Message& message) noexcept;

@@ -104,7 +104,7 @@ constexpr MessageDesc message(const char* from, const char* to, std::span<const 
 }
 }  // namespace detail
 
-/// In the order of crsf::Message. "RX" is the RC receiver (or TX module), "IO" the IO board.
+/// In the order of crsf::Message (SubsetRcChannels, last there, has a variable layout and no description). "RX" is the RC receiver (or TX module), "IO" the IO board.
 inline constexpr MessageDesc kMessages[] = {
     detail::message<saul::crsf::RcChannels>("RX", "IO", kRcChannels),
     detail::message<saul::crsf::LinkStatistics>("RX", "IO", kLinkStatistics),

@@ -138,8 +138,8 @@ bool can_move_motors(const SerialMessage& message) {
                  const auto* rc = std::get_if<interboard::RcCmd>(&m);
                  return rc != nullptr && !rc->kill();
                },
-               [](const crsf::Message& m) {
-                 const auto* rc = std::get_if<crsf::RcChannels>(&m);
+               [](const CrsfMessage& m) {
+                 const auto* rc = std::get_if<crsf::RcChannels>(&m.message);
                  return rc != nullptr && !crsf_estop(*rc);
                },
                [](const pride::Message& m) { return std::holds_alternative<pride::VcuCommand>(m); },

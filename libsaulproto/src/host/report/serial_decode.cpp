@@ -70,7 +70,7 @@ std::vector<std::string> names_of(const Variant& message) {
 
 std::string name_of(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) -> std::string { return interboard::name_of(m); },
-                             [](const crsf::Message& m) -> std::string { return crsf::name_of(m); },
+                             [](const CrsfMessage& m) -> std::string { return crsf::name_of(m.message); },
                              [](const pride::Message& m) -> std::string { return pride::name_of(m); },
                              [](const CrsfUndecoded& u) { return fmt::format("crsf_0x{:02X}", u.frame.type); }},
                     message);
@@ -78,7 +78,13 @@ std::string name_of(const SerialMessage& message) {
 
 std::string describe(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return describe(m); },
-                             [](const crsf::Message& m) { return describe(m); },
+                             [](const CrsfMessage& m) {
+                               // The address after the name, as in the undecoded form below.
+                               std::string text = describe(m.message);
+                               const auto name_end = std::min(text.find(' '), text.size());
+                               text.insert(name_end, fmt::format(" address=0x{:02X}", m.address));
+                               return text;
+                             },
                              [](const pride::Message& m) { return describe(m); },
                              [](const CrsfUndecoded& u) {
                                return fmt::format("!{} crsf address=0x{:02X} type=0x{:02X} payload={}",
@@ -90,7 +96,11 @@ std::string describe(const SerialMessage& message) {
 
 nlohmann::json to_json(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return to_json(m); },
-                             [](const crsf::Message& m) { return to_json(m); },
+                             [](const CrsfMessage& m) {
+                               nlohmann::json j = to_json(m.message);
+                               j["address"] = m.address;
+                               return j;
+                             },
                              [](const pride::Message& m) { return to_json(m); },
                              [&message](const CrsfUndecoded& u) {
                                nlohmann::json j;
@@ -127,7 +137,7 @@ void SerialStreamDecoder::deliver_crsf(const crsf::StreamDecoder& d, const crsf:
   frame_bytes_ += size;
   const auto r = crsf::decode(f);
   if (r) {
-    on_message(SerialMessage(r.value()));
+    on_message(SerialMessage(CrsfMessage{f.address, r.value()}));
   } else {
     ++extra_.undecoded;
     on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
@@ -421,7 +431,7 @@ std::optional<double> numeric_field(const BusMessage& message, std::string_view 
 
 std::optional<double> numeric_field(const SerialMessage& message, std::string_view field) {
   return std::visit(detail::Overload{[&](const interboard::Message& m) { return field_of(m, field); },
-                             [&](const crsf::Message& m) { return field_of(m, field); },
+                             [&](const CrsfMessage& m) { return field_of(m.message, field); },
                              [&](const pride::Message& m) { return field_of(m, field); },
                              [](const CrsfUndecoded&) -> std::optional<double> { return std::nullopt; }},
                     message);
@@ -431,7 +441,7 @@ std::vector<std::string> numeric_field_names(const BusMessage& message) { return
 
 std::vector<std::string> numeric_field_names(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return names_of(m); },
-                             [](const crsf::Message& m) { return names_of(m); },
+                             [](const CrsfMessage& m) { return names_of(m.message); },
                              [](const pride::Message& m) { return names_of(m); },
                              [](const CrsfUndecoded&) { return std::vector<std::string>{}; }},
                     message);

@@ -31,14 +31,24 @@ struct CrsfUndecoded {
   Reason reason = Reason::unknown_type;
 };
 
-using SerialMessage = std::variant<interboard::Message, crsf::Message, pride::Message, CrsfUndecoded>;
+/// A decoded CRSF frame and the address byte it started with: 0xC8 (the flight controller, what a receiver
+/// sends), 0x00 (broadcast; Betaflight's captures), 0xEA/0xEC/0xEE on a handset <-> TX-module wire. Flight
+/// controllers act only on RC frames addressed 0xC8, so the address is part of what a frame means.
+struct CrsfMessage {
+  std::uint8_t address = crsf::kSyncByte;
+  crsf::Message message;
+};
+
+using SerialMessage = std::variant<interboard::Message, CrsfMessage, pride::Message, CrsfUndecoded>;
 
 /// "state", "rc_channels", "vcu_command", "crsf_0x3A".
 std::string name_of(const SerialMessage& message);
-/// "state pitch_x100=-1234 pid_out=300 error_state=1"; an undecoded CRSF frame as "!unknown_type crsf type=0x3A
+/// "state pitch_x100=-1234 pid_out=300 error_state=1"; a CRSF message with its address first
+/// ("rc_channels address=0xC8 ch1=…"); an undecoded CRSF frame as "!unknown_type crsf address=0xC8 type=0x3A
 /// payload=0102".
 std::string describe(const SerialMessage& message);
-/// {"type":"state","pitch_x100":-1234,...}, or {"type":"crsf_0x3A","error":"unknown_type","payload":"0102"}.
+/// {"type":"state","pitch_x100":-1234,...}; CRSF messages add "address" (a number, 200 = 0xC8);
+/// {"type":"crsf_0x3A","error":"unknown_type","address":200,"payload":"0102"}.
 nlohmann::json to_json(const SerialMessage& message);
 /// Whether the message is a decode failure (an undecoded CRSF frame).
 bool is_decode_error(const SerialMessage& message);
