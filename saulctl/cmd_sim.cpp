@@ -22,12 +22,14 @@ struct SimOptions {
   std::string paths_file = "sim.paths";
   std::uint32_t seed = 1;
   bool quiet = false;
+  bool no_imu = false;
 };
 
 int run_sim(const SimOptions& opt) {
   saul::sim::WorldConfig config;
   config.plant.seed = opt.seed;
   saul::sim::World world(config);
+  if (opt.no_imu) (void)world.command("imu off");  // pulled before power-on: BALANCE latches FAULT and says why
   saul::sim::PtyServer server(world);
   const auto& p = server.paths();
   {
@@ -86,11 +88,18 @@ void add_sim_command(CLI::App& app, Runner& run) {
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "noise seed (runs with the same inputs and seed are identical)")->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no status line every 5 s");
+  cmd->add_flag("--no-imu", o->no_imu,
+                "start with the IMU pulled (BALANCE latches FAULT after 0.5 s and says why; 'imu on' plugs it back)");
   cmd->footer(
       "\nThe robot starts OFF on its bench stand, radio on (ARM switch up, speed cap 10 %). To balance it:\n"
       "  echo 'button down' > $CONTROL; sleep 3.2; echo 'button up' > $CONTROL   (3 s hold while upright)\n"
       "  saulctl mode balance --yes --link slcan:$CAN\n"
       "or on the BALANCE console: arm, then mode balance. Watch it: saulctl monitor --link slcan:$CAN\n"
+      "\nA missing sensor: 'imu off' on the control console pulls the IMU (or start with --no-imu): BALANCE latches\n"
+      "FAULT with the motors off, prints why on its console, sets watchdog_reset in 0x401 and keeps answering;\n"
+      "'imu on' plugs it back (the FAULT stays until a disarm and a fresh arming).\n"
+      "The plant has a QMI8658's noise and offsets, a stand that lets go slightly off balance and small floor\n"
+      "disturbances (firmware/sim/README.md): it needs balancing, and different --seed values differ.\n"
       "\nExamples:\n  saulctl sim &\n  CAN=$(sed -n 's/^can=//p' sim.paths); CONTROL=$(sed -n 's/^control=//p' sim.paths)\n"
       "  python3 -c \"import can; b=can.Bus(interface='slcan', channel='$CAN', bitrate=500000); print(b.recv(1))\"\n");
   cmd->callback([o, &run] {

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <variant>
 
+#include "saulfw/mutant.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/vesc.hpp"
 
@@ -33,6 +34,13 @@ constexpr std::uint8_t kAckMode = static_cast<std::uint8_t>(saulcan::kModeCmdId 
 constexpr std::uint8_t kAckConfig = static_cast<std::uint8_t>(saulcan::kConfigCmdId & 0xFFU);
 static_assert(kAckPid == 0x01 && kAckMode == 0x02 && kAckConfig == 0x03);
 
+/// The speed loop's gains for a BalancePid whose output is in permille of max_lean_deg (0 when it is not above 0).
+saulcan::PidGains speed_gains(const BalanceConfig& c) noexcept {
+  if (!(c.max_lean_deg > 0.0F)) return {0.0F, 0.0F, 0.0F};
+  const float permille_per_deg = BalancePid::kOutputLimit / c.max_lean_deg;
+  return {c.speed_kp_deg_per_mps * permille_per_deg, c.speed_ki_deg_per_m * permille_per_deg, 0.0F};
+}
+
 constexpr std::uint16_t clamp_tilt(std::uint16_t x100) noexcept {
   return x100 < saulcan::ConfigCmd::kMinTiltX100
              ? saulcan::ConfigCmd::kMinTiltX100
@@ -47,6 +55,7 @@ BalanceBoard::BalanceBoard(const Hardware& hw, const BalanceConfig& config, Rese
       reset_(reset),
       filter_(config.filter_tau_s),
       pid_(config.gains, config.integral_limit),
+      speed_pid_(speed_gains(config), BalancePid::kOutputLimit),
       tilt_limit_x100_(clamp_tilt(config.tilt_limit_x100)),
       motor_tx_(config.motor_period_us),
       telemetry_tx_(config.telemetry_period_us),
@@ -65,6 +74,7 @@ void BalanceBoard::boot(TimeUs now) noexcept {
   if (reset_ == ResetReason::watchdog) {
     state_ = RobotState::fault;
     latched_faults_ = fault::kWatchdogReset;
+    fault_reason_ = FaultReason::watchdog_reset;
     disarmed_since_latch_ = false;
   }
   published_state_ = state_;
@@ -74,7 +84,7 @@ void BalanceBoard::step(TimeUs now) noexcept {
   if (!started_) {
     boot(now);
   } else if (age(now, last_step_us_) > config_.hang_us && armed()) {
-    latch(RobotState::fault, fault::kWatchdogReset);  // the loop stood still: never carry on as if nothing happened
+    fault(fault::kWatchdogReset, FaultReason::loop_hang);  // the loop stood still: never carry on as if nothing happened
   }
   last_step_us_ = now;
   estop_this_iteration_ = false;
@@ -86,12 +96,12 @@ void BalanceBoard::step(TimeUs now) noexcept {
   supervise(now);
   if (io_arm_request_) {
     io_arm_request_ = false;
-    (void)try_arm();
+    (void)try_arm(true);
   }
   read_console(now);
   control(now);
   publish(now);
-  if (!imu_stalled_) hw_.watchdog.feed();
+  hw_.watchdog.feed();  // the loop ran to its end; a missing sensor is a FAULT above, not a reboot loop
 }
 
 void BalanceBoard::read_imu(TimeUs now) noexcept {
@@ -99,7 +109,18 @@ void BalanceBoard::read_imu(TimeUs now) noexcept {
   bool accepted = false;
   for (int i = 0; i < 16 && hw_.imu.read(sample); ++i) {
     sample.ax -= base_accel_g_;  // the base's own acceleration is not tilt (small-angle: x axis only)
-    if (filter_.update(sample)) accepted = true;
+    const float raw_gy = sample.gy;
+    sample.gy -= gyro_bias_dps_;
+    if (!filter_.update(sample)) continue;
+    accepted = true;
+    // Learn the gyro's offset while the motors are off and the body looks still.
+    const TimeUs gap = sample.t_us > bias_us_ ? sample.t_us - bias_us_ : 0;
+    bias_us_ = sample.t_us;
+    if (armed() || !(config_.gyro_bias_tau_s > 0.0F) || std::fabs(sample.gy) >= config_.gyro_still_dps ||
+        gap > ComplementaryFilter::kMaxGapUs)
+      continue;
+    const float dt = static_cast<float>(gap) * 1e-6F;
+    gyro_bias_dps_ += (raw_gy - gyro_bias_dps_) * dt / (config_.gyro_bias_tau_s + dt);
   }
   if (accepted) {  // freshness by the sample's own timestamp: a backlog read late is not fresh data
     imu_ok_us_ = filter_.last_us() > now ? now : filter_.last_us();
@@ -132,9 +153,15 @@ void BalanceBoard::on_link_message(const interboard::Message& message, TimeUs no
       if (io_armed_ == Tri::yes || latched()) disarm();
       io_armed_ = Tri::no;
     }
+    if (!rc->button()) button_released_ = true;
+    if (rc->disarm_switch() && !SAUL_MUTANT(arm_switch)) disarm();  // a live radio with CH5 at disarm: now
   } else if (const auto* f = std::get_if<interboard::Fault>(&message)) {
     io_faults_ = f->flags;
     if ((f->flags & interboard::Fault::kEstop) != 0) estop();
+    // RC loss while armed latches FAULT on the message itself: the RC_CMD that drops the armed flag may follow in
+    // this same read, and must not turn the loss into a plain disarm.
+    if ((f->flags & interboard::Fault::kRcLoss) != 0 && armed() && !SAUL_MUTANT(rc_loss_stop))
+      fault(fault::kRcLoss, FaultReason::rc_lost);
   } else if (const auto* s = std::get_if<interboard::Sensor>(&message)) {
     sensor_ = *s;
   }
@@ -187,8 +214,7 @@ void BalanceBoard::on_can_frame(const CanFrame& frame, TimeUs now) noexcept {
 void BalanceBoard::on_mode(saulcan::Mode mode) noexcept {
   switch (mode) {
     case saulcan::Mode::off:
-      disarm();
-      send_ack(kAckMode, 0, AckResult::applied);
+      send_ack(kAckMode, 0, disarm_command() == nullptr ? AckResult::applied : AckResult::not_allowed);
       return;
     case saulcan::Mode::estop:
       estop();
@@ -252,15 +278,30 @@ void BalanceBoard::update_live(TimeUs now) noexcept {
   live_faults_ = live;
 }
 
-void BalanceBoard::supervise(TimeUs /*now*/) noexcept {
+void BalanceBoard::supervise(TimeUs now) noexcept {
   if (estop_input() && state_ != RobotState::estop) estop();
+  if (SAUL_MUTANT(estop_latch) && state_ == RobotState::estop && !estop_input()) state_ = RobotState::off;
+  // A missing or silent sensor is a FAULT whether armed or not (once per stall), never a reboot loop.
+  if (imu_stalled_ && !imu_fault_seen_) {
+    fault(fault::kWatchdogReset, imu_ever_ ? FaultReason::imu_silent : FaultReason::imu_missing);
+  }
+  imu_fault_seen_ = imu_stalled_;
+  if (!rc_seen_ && !io_silent_seen_ && age(now, boot_us_) > config_.io_startup_us) {
+    io_silent_seen_ = true;
+    fault(fault::kIoLinkLoss, FaultReason::io_link_silent);
+  }
   if (!armed()) return;
   std::uint8_t causes = live_faults_ & (fault::kIoLinkLoss | fault::kRcLoss | fault::kMotorFault);
-  if (imu_stalled_) causes |= fault::kWatchdogReset;
+  if (SAUL_MUTANT(rc_loss_stop)) causes &= static_cast<std::uint8_t>(~fault::kRcLoss);
+  if (SAUL_MUTANT(link_loss_stop)) causes &= static_cast<std::uint8_t>(~fault::kIoLinkLoss);
   const bool tilted = !imu_stalled_ && filter_.valid() &&
                       std::fabs(filter_.pitch_deg()) * 100.0F > static_cast<float>(tilt_limit_x100_);
-  if (tilted) latch(RobotState::tilt_cutoff, fault::kTiltCutoff);
-  if (causes != 0) latch(RobotState::fault, causes);
+  if (tilted && !SAUL_MUTANT(tilt_cutoff)) latch(RobotState::tilt_cutoff, fault::kTiltCutoff);
+  if (causes != 0) {
+    fault(causes, (causes & fault::kIoLinkLoss) != 0 ? FaultReason::io_link_lost
+                  : (causes & fault::kRcLoss) != 0  ? FaultReason::rc_lost
+                                                    : FaultReason::motor);
+  }
 }
 
 bool BalanceBoard::armed() const noexcept { return state_ == RobotState::balance || state_ == RobotState::manual; }
@@ -279,34 +320,61 @@ void BalanceBoard::estop() noexcept {
 void BalanceBoard::latch(RobotState to, std::uint8_t cause) noexcept {
   latched_faults_ |= cause;
   if (latched() && to != RobotState::estop) return;  // the first latched state stays; only ESTOP overrides
+  if (state_ != to) button_released_ = false;  // leaving the latch takes a new press
   state_ = to;
   disarmed_since_latch_ = false;
   io_arm_request_ = false;
+}
+
+void BalanceBoard::fault(std::uint8_t cause, FaultReason reason) noexcept {
+  latch(RobotState::fault, cause);
+  if (fault_reason_ == FaultReason::none) fault_reason_ = reason;
+  write_text(hw_.console, "FAULT: ");
+  write_text(hw_.console, fault_reason_text(reason));
+  write_text(hw_.console, state_ == RobotState::fault ? " (motors off)\n" : " (motors off, state stays latched)\n");
 }
 
 void BalanceBoard::disarm() noexcept {
   io_arm_request_ = false;
   if (armed()) {
     state_ = RobotState::off;
+    button_released_ = false;
   } else if (latched()) {
     disarmed_since_latch_ = true;
   }
 }
 
-const char* BalanceBoard::try_arm() noexcept {
+const char* BalanceBoard::disarm_command() noexcept {
+  disarm();
+  if (!latched()) return nullptr;
+  // ESTOP wins over every other input of the iteration it arrives in, and stays while its input does.
+  if (estop_input() || estop_this_iteration_)
+    return "ESTOP stays while an estop input is active (kill switch, CH6, IO console estop)";
+  state_ = RobotState::off;  // motors stay off; the cause stays in 0x401 until the next arming
+  button_released_ = false;
+  return nullptr;
+}
+
+const char* BalanceBoard::try_arm(bool by_button) noexcept {
   if (armed()) return "already armed";
   if (estop_this_iteration_ || estop_input()) return "emergency stop active";
   if (latched() && !disarmed_since_latch_) return "latched: disarm first, then arm";
+  if (by_button && !button_released_ && !SAUL_MUTANT(new_press))
+    return "the arming button was not released since the last stop: a new press is needed";
   if (reboot_requested_) return "reboot pending";
   if (imu_stalled_ || !filter_.valid()) return "no pitch from the IMU";
   if (std::fabs(filter_.pitch_deg()) * 100.0F > static_cast<float>(config_.upright_x100))
     return "not upright (|pitch| must be 5 degrees or less)";
   if ((live_faults_ & fault::kIoLinkLoss) != 0) return "no link to the IO board";
   if ((live_faults_ & fault::kRcLoss) != 0) return "RC link lost";
+  if (rc_.disarm_switch() && !SAUL_MUTANT(arm_switch)) return "the ARM switch (CH5) is at disarm";
+  if (rc_.throttle != 0 && !SAUL_MUTANT(throttle_centred)) return "the throttle stick is not centred";
   if ((live_faults_ & fault::kMotorFault) != 0) return "motor fault";
   state_ = RobotState::balance;
   latched_faults_ = 0;
+  fault_reason_ = FaultReason::none;
   pid_.reset();
+  balancing_ = false;
   return nullptr;
 }
 
@@ -358,15 +426,18 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       return;
     }
     case Verb::arm:
-      if (const char* why = try_arm()) {
+      if (const char* why = try_arm(false)) {
         write_refusal(out, why);
       } else {
         ok();
       }
       return;
     case Verb::disarm:
-      disarm();
-      ok();
+      if (const char* why = disarm_command()) {
+        write_refusal(out, why);
+      } else {
+        ok();
+      }
       return;
     case Verb::estop:
       estop();
@@ -379,10 +450,15 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
     case Verb::speed_limit: {
       const auto* limit = std::get_if<console::SpeedLimitCmd>(&parsed.command);
       const std::uint8_t pct = limit != nullptr ? limit->percent : speed_limit_pct_;
+      if (pct > speed_limit_pct_ && armed() && !SAUL_MUTANT(raise_while_armed)) {
+        write_refusal(out, "raise the speed limit only while disarmed");
+        return;
+      }
       if (pct > speed_limit_pct_ + console::SpeedLimitCmd::kStep) {
         write_refusal(out, "raise the speed limit one 10 % step at a time");
         return;
       }
+      if (pct != speed_limit_pct_) state_tx_.trigger();  // the IO board's drivers follow at once (SPEED_CAP)
       speed_limit_pct_ = pct;
       ok();
       return;
@@ -415,6 +491,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
 // ---- control ------------------------------------------------------------------------------------------------------
 
 std::uint16_t BalanceBoard::speed_cap_mmps() const noexcept {
+  if (SAUL_MUTANT(speed_cap)) return config_.hard_max_speed_mmps;
   const std::uint32_t pct_cap = static_cast<std::uint32_t>(config_.hard_max_speed_mmps) * speed_limit_pct_ / 100U;
   const std::uint32_t cap = pct_cap < orin_max_speed_mmps_ ? pct_cap : orin_max_speed_mmps_;
   return static_cast<std::uint16_t>(cap);
@@ -450,13 +527,14 @@ void BalanceBoard::control(TimeUs now) noexcept {
     if (steer > max_steer) steer = max_steer;
     if (steer < -max_steer) steer = -max_steer;
     float base = v;
-    if (state_ == RobotState::balance) {
-      const float out =
-          pid_.update(config_.pitch_setpoint_deg - filter_.pitch_deg(), filter_.rate_dps(), dt);
+    if (state_ == RobotState::balance) {  // the request goes through the speed loop, never to the wheels directly
+      const float out = balance_output(v, cap, now, dt);
       pid_out_ = static_cast<std::int16_t>(std::lround(out));
-      base += out * hard_max / 1000.0F;
+      base = out * hard_max / 1000.0F;
     } else {
       pid_.reset();
+      balancing_ = false;
+      lean_deg_ = 0.0F;
       pid_out_ = 0;
     }
     // Steering angle -> wheel speed difference (bicycle model: yaw rate = v tan(steer) / wheelbase).
@@ -474,6 +552,8 @@ void BalanceBoard::control(TimeUs now) noexcept {
     }
   } else {
     pid_.reset();
+    balancing_ = false;
+    lean_deg_ = 0.0F;
     pid_out_ = 0;
   }
   wheel_left_mmps_ = whole_mmps(left, cap);
@@ -494,6 +574,55 @@ void BalanceBoard::control(TimeUs now) noexcept {
     const std::int32_t r = erpm_of(wheel_right_mmps_);
     send_wheels(config_.invert_left ? -l : l, config_.invert_right ? -r : r);
   }
+}
+
+float BalanceBoard::balance_output(float request_mmps, std::int32_t cap, TimeUs now, float dt) noexcept {
+  // Outer loop: the request, within its share of the cap, against the measured speed (the drive model's when the
+  // VESCs do not report) -> a lean within +-max_lean_deg (forward = nose down = a negative pitch setpoint).
+  if (!balancing_) {
+    balancing_ = true;
+    balance_since_us_ = now;
+    speed_pid_.reset();
+    speed_filtered_mps_ = base_speed_model_mps_;
+    speed_target_mps_ = 0.0F;
+  }
+  const float most = age(now, balance_since_us_) < config_.speed_settle_us
+                         ? 0.0F
+                         : config_.speed_request_share * static_cast<float>(cap);
+  const float request = (request_mmps > most ? most : (request_mmps < -most ? -most : request_mmps)) * 1e-3F;
+  std::int64_t measured = 0;
+  const float speed_mps =
+      measured_speed(now, measured) ? static_cast<float>(measured) * 1e-3F : base_speed_model_mps_;
+  speed_filtered_mps_ += (speed_mps - speed_filtered_mps_) * dt / (config_.speed_filter_tau_s + dt);
+  if (!std::isfinite(speed_filtered_mps_)) speed_filtered_mps_ = 0.0F;
+  // The target follows the request at speed_ramp_mps2, and waits while the wheels lag it by more than
+  // speed_guard_share of the cap: a robot still catching its balance is not asked for more.
+  const float step = config_.speed_ramp_mps2 * dt;
+  const float delta = request - speed_target_mps_;
+  const float lag = speed_target_mps_ - speed_filtered_mps_;
+  const bool away = delta * speed_target_mps_ > 0.0F || speed_target_mps_ == 0.0F;  // the target grows
+  const bool wait = away && std::fabs(lag) > config_.speed_guard_share * static_cast<float>(cap) * 1e-3F;
+  if (!wait) speed_target_mps_ += step > 0.0F ? (delta > step ? step : (delta < -step ? -step : delta)) : delta;
+  lean_deg_ = speed_pid_.update(speed_target_mps_ - speed_filtered_mps_, 0.0F, dt) * config_.max_lean_deg /
+              BalancePid::kOutputLimit;
+  // Inner loop: the balance PID holds that lean.
+  return pid_.update(config_.pitch_setpoint_deg - lean_deg_ - filter_.pitch_deg(), filter_.rate_dps(), dt);
+}
+
+bool BalanceBoard::measured_speed(TimeUs now, std::int64_t& mmps) const noexcept {
+  const bool fresh = left_.status_seen && right_.status_seen &&
+                     age(now, left_.status_us) <= config_.vesc_status_timeout_us &&
+                     age(now, right_.status_us) <= config_.vesc_status_timeout_us;
+  if (!fresh) return false;
+  mmps = (mech_rpm(left_, config_.invert_left) + mech_rpm(right_, config_.invert_right)) *
+         config_.wheel_circumference_mm / 120;  // mean mechanical RPM x circumference / 60 s
+  return true;
+}
+
+std::int64_t BalanceBoard::mech_rpm(const Vesc& v, bool invert) const noexcept {
+  if (!v.status_seen || config_.pole_pairs == 0) return 0;
+  const std::int64_t e = invert ? -static_cast<std::int64_t>(v.erpm) : v.erpm;
+  return e / config_.pole_pairs;
 }
 
 void BalanceBoard::send_wheels(std::int32_t left_erpm, std::int32_t right_erpm) noexcept {
@@ -525,6 +654,7 @@ LcdView BalanceBoard::view() const noexcept {
   v.speed_limit_pct = speed_limit_pct_;
   v.tilt_limit_x100 = tilt_limit_x100_;
   v.orin_active = orin_active();
+  v.fault_reason = fault_reason_;
   return v;
 }
 
@@ -561,21 +691,17 @@ void BalanceBoard::publish(TimeUs now) noexcept {
     state_tx_.trigger();
     led_tx_.trigger();
   }
-  if (state_tx_.due(now)) send_state();
+  if (state_tx_.due(now)) {
+    send_state();
+    send_link(interboard::SpeedCap{speed_limit_pct_});
+  }
   if (led_tx_.due(now)) send_led();
   if (telemetry_tx_.due(now)) {
     // Speed: the wheels' measured average when both VESCs report, else what is commanded.
     std::int64_t speed = (static_cast<std::int64_t>(wheel_left_mmps_) + wheel_right_mmps_) / 2;
-    const auto measured_rpm = [&](const Vesc& v, bool invert) -> std::int64_t {
-      const std::int64_t e = invert ? -static_cast<std::int64_t>(v.erpm) : v.erpm;
-      return config_.pole_pairs == 0 ? 0 : e / config_.pole_pairs;
-    };
-    const bool fresh = left_.status_seen && right_.status_seen &&
-                       age(now, left_.status_us) <= config_.vesc_status_timeout_us &&
-                       age(now, right_.status_us) <= config_.vesc_status_timeout_us;
-    const std::int64_t l_rpm = left_.status_seen ? measured_rpm(left_, config_.invert_left) : 0;
-    const std::int64_t r_rpm = right_.status_seen ? measured_rpm(right_, config_.invert_right) : 0;
-    if (fresh) speed = (l_rpm + r_rpm) * config_.wheel_circumference_mm / 120;  // mean RPM x circumference / 60 s
+    (void)measured_speed(now, speed);
+    const std::int64_t l_rpm = mech_rpm(left_, config_.invert_left);
+    const std::int64_t r_rpm = mech_rpm(right_, config_.invert_right);
     (void)hw_.can.send(saulcan::encode(saulcan::TelemetryA{pitch_x100(), pid_out_, saturate16(speed), state_}));
     (void)hw_.can.send(
         saulcan::encode(saulcan::TelemetryB{saturate16(l_rpm), saturate16(r_rpm), battery_mv_, faults()}));

@@ -39,7 +39,8 @@ bool ComplementaryFilter::update(const ImuSample& s) noexcept {
   if (s.t_us == last_us_) return false;  // the same sample twice
   const float dt = static_cast<float>(s.t_us - last_us_) * 1e-6F;
   float pitch = pitch_deg_ + rate * dt;
-  if (accel_ok) {
+  // While the body turns quickly its own motion reaches the accelerometer (the board sits above the axle): gyro only.
+  if (accel_ok && std::fabs(rate) <= kMaxAccelRateDps) {
     const float alpha = tau_s_ / (tau_s_ + dt);
     pitch = alpha * pitch + (1.0F - alpha) * accel_pitch;
   }
@@ -123,6 +124,21 @@ void render(LedPattern pattern, Rgb color, TimeUs now, std::span<Rgb> out) noexc
       break;
   }
   for (auto& p : out) p = color;
+}
+
+const char* fault_reason_text(FaultReason reason) noexcept {
+  switch (reason) {
+    case FaultReason::none: return "";
+    case FaultReason::imu_missing: return "no IMU: not one sample since power-on (missing or not started)";
+    case FaultReason::imu_silent: return "IMU silent: its samples stopped";
+    case FaultReason::io_link_silent: return "no IO board: not one RC_CMD since power-on";
+    case FaultReason::io_link_lost: return "IO link lost: RC_CMD stopped while armed";
+    case FaultReason::rc_lost: return "RC link lost while armed";
+    case FaultReason::motor: return "motor fault (a VESC faulted or went silent)";
+    case FaultReason::loop_hang: return "the control loop stood still (a hang)";
+    case FaultReason::watchdog_reset: return "started after a watchdog reset";
+  }
+  return "unknown";
 }
 
 std::uint16_t tone_hz(std::uint8_t tone_id) noexcept {

@@ -2,6 +2,8 @@
 
 #include <variant>
 
+#include "saulfw/mutant.hpp"
+
 namespace saul::fw {
 
 using saulcan::RobotState;
@@ -19,9 +21,16 @@ bool is_armed_state(std::uint8_t state) noexcept {
          state == static_cast<std::uint8_t>(RobotState::manual);
 }
 
-std::int16_t clamp_permille(std::int32_t v) noexcept {
-  return static_cast<std::int16_t>(v > 1000 ? 1000 : (v < -1000 ? -1000 : v));
+std::int16_t clamp_permille(std::int32_t v, std::int32_t limit = 1000) noexcept {
+  return static_cast<std::int16_t>(v > limit ? limit : (v < -limit ? -limit : v));
 }
+
+/// A stick's permille scaled by a cap in percent, truncated toward zero (never above the cap).
+std::int16_t scaled(std::int16_t permille, std::uint8_t cap_pct) noexcept {
+  return static_cast<std::int16_t>(static_cast<std::int32_t>(permille) * cap_pct / 100);
+}
+
+bool valid_cap(std::uint8_t pct) noexcept { return pct >= 10 && pct <= 100 && pct % 10 == 0; }
 
 const char* flight_mode_name(std::uint8_t state) noexcept {
   switch (static_cast<RobotState>(state)) {
@@ -82,7 +91,7 @@ void IoBoard::check_estop(TimeUs now) noexcept {
   bool rc_estop = false;
   for (const Receiver* r : {&crsf_, &elrs_})
     if (r->seen && age(now, r->last_us) <= rc::ReceiverSelector::kSilenceUs && r->command.estop) rc_estop = true;
-  estop_level_ = hw_.gpio.read(InputPin::kill_switch) || rc_estop;
+  estop_level_ = (!SAUL_MUTANT(kill_switch) && hw_.gpio.read(InputPin::kill_switch)) || rc_estop;
   if (console_estop_ && age(now, console_estop_us_) > config_.console_estop_us) console_estop_ = false;
   if (estop_level_ || console_estop_) {
     motors_off();
@@ -118,18 +127,43 @@ void IoBoard::read_receiver(Receiver& receiver, SerialPort& port, rc::Source sou
   }
 }
 
-const rc::Command* IoBoard::active_command() const noexcept {
+const IoBoard::Receiver* IoBoard::active_receiver() const noexcept {
   switch (selector_.active()) {
-    case rc::Source::crsf: return &crsf_.command;
-    case rc::Source::elrs: return &elrs_.command;
+    case rc::Source::crsf: return &crsf_;
+    case rc::Source::elrs: return &elrs_;
     case rc::Source::none: break;
   }
   return nullptr;
 }
 
+const rc::Command* IoBoard::active_command() const noexcept {
+  const Receiver* r = active_receiver();
+  return r != nullptr ? &r->command : nullptr;
+}
+
+std::uint8_t IoBoard::speed_cap_pct() const noexcept {
+  const rc::Command* cmd = active_command();
+  const std::uint8_t ch7 = cmd != nullptr ? cmd->speed_cap_pct : 10;
+  if (SAUL_MUTANT(io_cap)) return ch7;
+  return ch7 < balance_cap_pct_ ? ch7 : balance_cap_pct_;  // CH7 can only lower the cap
+}
+
+rc::Command IoBoard::capped_command() const noexcept {
+  const Receiver* r = active_receiver();
+  rc::Command c{};
+  if (r == nullptr || r->command.estop || estop_level_ || console_estop_) return c;
+  c = r->command;
+  c.speed_cap_pct = speed_cap_pct();
+  c.throttle = scaled(rc::stick_permille(r->us[rc::kThrottleChannel]), c.speed_cap_pct);
+  // Stick right (CH1 > 1500) is a right turn: negative steer (REP-103), as rc::map_channels.
+  c.steer = scaled(static_cast<std::int16_t>(-rc::stick_permille(r->us[rc::kSteerChannel])), c.speed_cap_pct);
+  return c;
+}
+
 std::uint8_t IoBoard::fault_flags() const noexcept {
   std::uint8_t f = 0;
-  if (selector_.rc_loss()) f |= interboard::Fault::kRcLoss;
+  // A receiver never heard since power-on is no radio (a bench without a transmitter), not a lost one.
+  if (selector_.rc_loss() && (crsf_.seen || elrs_.seen)) f |= interboard::Fault::kRcLoss;
   if (estop_level_ || console_estop_) f |= interboard::Fault::kEstop;
   return f;
 }
@@ -145,12 +179,14 @@ void IoBoard::read_link(TimeUs now) noexcept {
       const auto m = link_rx_.push(buffer[i]);
       if (!m) continue;
       if (const auto* s = std::get_if<interboard::State>(&*m)) {
-        const bool was_latched = state_seen_ && is_latched(state_.error_state);
+        const bool new_latch = is_latched(s->error_state) && (!state_seen_ || s->error_state != state_.error_state);
         state_ = *s;
         state_us_ = now;
         state_seen_ = true;
-        // BALANCE just latched ESTOP, TILT_CUTOFF or FAULT: re-arming takes a fresh 3 s hold.
-        if (is_latched(s->error_state) && !was_latched) disarm();
+        // BALANCE just latched ESTOP, TILT_CUTOFF or FAULT: re-arming takes a new press and a fresh 3 s hold.
+        if (new_latch) disarm();
+      } else if (const auto* c = std::get_if<interboard::SpeedCap>(&*m)) {
+        if (valid_cap(c->percent)) balance_cap_pct_ = c->percent;  // anything else: keep the cap it had
       } else if (const auto* l = std::get_if<interboard::LedCmd>(&*m)) {
         led_cmd_ = *l;
         led_cmd_us_ = now;
@@ -174,6 +210,7 @@ bool IoBoard::balance_armed(TimeUs now) const noexcept { return state_fresh(now)
 void IoBoard::disarm() noexcept {
   armed_ = false;
   hold_active_ = false;
+  if (!SAUL_MUTANT(new_press)) need_release_ = true;  // the next arming starts with a new press
 }
 
 void IoBoard::arming(TimeUs now) noexcept {
@@ -184,6 +221,9 @@ void IoBoard::arming(TimeUs now) noexcept {
   const bool fresh = state_fresh(now);
   const std::int32_t pitch = state_.pitch_x100;
   const bool upright = fresh && (pitch < 0 ? -pitch : pitch) <= config_.upright_x100;
+  const Receiver* receiver = active_receiver();
+  const bool centred = SAUL_MUTANT(throttle_centred) ||
+                       (receiver != nullptr && rc::stick_permille(receiver->us[rc::kThrottleChannel]) == 0);
 
   if (armed_) {
     if (!arm_switch || estop || !rc_ok) {
@@ -194,13 +234,14 @@ void IoBoard::arming(TimeUs now) noexcept {
   }
 
   const bool pressed = hw_.gpio.read(InputPin::arm_button);
+  button_ = pressed;
   if (!pressed) {
     need_release_ = false;
     hold_active_ = false;
     return;
   }
   if (armed_ || need_release_) return;
-  const bool can_hold = arm_switch && upright && !estop && rc_ok;
+  const bool can_hold = arm_switch && upright && !estop && rc_ok && centred;
   if (!can_hold) {  // pressed while not allowed, or a condition failed during the hold: release and start over
     hold_active_ = false;
     need_release_ = true;
@@ -263,15 +304,16 @@ void IoBoard::motors_off() noexcept {
 }
 
 void IoBoard::drive_motors(TimeUs now) noexcept {
-  const rc::Command* cmd = active_command();
-  const bool enable = armed_ && balance_armed(now) && !estop_level_ && !console_estop_ && cmd != nullptr;
+  const bool enable = armed_ && balance_armed(now) && !estop_level_ && !console_estop_ && active_command() != nullptr;
   if (!enable) {
     motors_off();
     return;
   }
   motors_enabled_ = true;
-  left_permille_ = clamp_permille(static_cast<std::int32_t>(cmd->throttle) - cmd->steer);
-  right_permille_ = clamp_permille(static_cast<std::int32_t>(cmd->throttle) + cmd->steer);
+  const rc::Command cmd = capped_command();
+  const std::int32_t limit = 10 * static_cast<std::int32_t>(cmd.speed_cap_pct);  // steering never exceeds it
+  left_permille_ = clamp_permille(static_cast<std::int32_t>(cmd.throttle) - cmd.steer, limit);
+  right_permille_ = clamp_permille(static_cast<std::int32_t>(cmd.throttle) + cmd.steer, limit);
   set_side(PwmChannel::left_rpwm, PwmChannel::left_lpwm, OutputPin::left_r_en, OutputPin::left_l_en, left_permille_,
            true);
   set_side(PwmChannel::right_rpwm, PwmChannel::right_lpwm, OutputPin::right_r_en, OutputPin::right_l_en,
@@ -291,16 +333,20 @@ void IoBoard::send_fault() noexcept {
   send_link(interboard::Fault{sent_faults_});
 }
 
-void IoBoard::send_rc_cmd() noexcept {
-  interboard::RcCmd m{};
+std::uint8_t IoBoard::rc_flags() const noexcept {
   const rc::Command* cmd = active_command();
-  const bool estop = estop_level_ || console_estop_;
-  if (cmd != nullptr && !estop) {
-    m.throttle = cmd->throttle;
-    m.steer = cmd->steer;
-  }
-  m.flags = static_cast<std::uint8_t>((armed_ ? interboard::RcCmd::kArmed : 0) |
-                                      (estop ? interboard::RcCmd::kKill : 0));
+  std::uint8_t f = 0;
+  if (armed_) f |= interboard::RcCmd::kArmed;
+  if (estop_level_ || console_estop_) f |= interboard::RcCmd::kKill;
+  if (cmd != nullptr && !cmd->armed) f |= interboard::RcCmd::kDisarmSwitch;  // a live radio with CH5 at disarm
+  if (button_) f |= interboard::RcCmd::kButton;
+  return f;
+}
+
+void IoBoard::send_rc_cmd() noexcept {
+  const rc::Command cmd = capped_command();
+  interboard::RcCmd m{cmd.throttle, cmd.steer, rc_flags()};
+  sent_rc_flags_ = m.flags;
   send_link(m);
 }
 
@@ -313,7 +359,8 @@ void IoBoard::to_balance(TimeUs now) noexcept {
   } else if (fault_tx_.due(now)) {
     send_fault();
   }
-  if (rc_cmd_tx_.due(now)) send_rc_cmd();
+  const bool due = rc_cmd_tx_.due(now);
+  if (due || rc_flags() != sent_rc_flags_) send_rc_cmd();  // a flag change (CH5, button, ...) goes at once
   if (sensor_tx_.due(now)) {
     readings_ = hw_.sensors.read();
     interboard::Sensor s{};
@@ -437,8 +484,7 @@ void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now
       r.state = fresh ? static_cast<RobotState>(state_.error_state) : RobotState::off;
       r.pitch_x100 = fresh ? state_.pitch_x100 : 32767;
       r.pid_out = fresh ? state_.pid_out : 0;
-      const rc::Command* cmd = active_command();
-      r.speed_limit_pct = cmd != nullptr ? cmd->speed_cap_pct : 10;
+      r.speed_limit_pct = speed_cap_pct();
       r.faults = fault_flags();  // bits 0..2 are the 0x401 bits
       r.battery_mv = readings_.battery_mv;
       r.uptime_ms = static_cast<std::uint32_t>(age(now, boot_us_) / 1000U);

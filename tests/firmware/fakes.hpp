@@ -423,12 +423,12 @@ struct BalanceRig {
   /// SET_RPM values (left, right) sent since frame index `from`.
   std::vector<std::pair<std::int32_t, std::int32_t>> wheels_since(std::size_t from) const {
     std::vector<std::pair<std::int32_t, std::int32_t>> out;
-    std::optional<std::int32_t> left;
+    std::int32_t left = 0x7FFFFFFF;  // none yet (a plain value: GCC 12 -O1 misreads an optional here)
     for (std::size_t i = from; i < can.tx.size(); ++i) {
-      if (auto l = set_rpm_of(can.tx[i], 68)) left = l;
+      if (auto l = set_rpm_of(can.tx[i], 68)) left = *l;
       if (auto r = set_rpm_of(can.tx[i], 56)) {
-        out.emplace_back(left.value_or(0x7FFFFFFF), *r);
-        left.reset();
+        out.emplace_back(left, *r);
+        left = 0x7FFFFFFF;
       }
     }
     return out;
@@ -470,6 +470,7 @@ struct IoRig {
   bool elrs_on = false;                    // the ELRS receiver likewise
   bool balance_on = true;                  // BALANCE sends STATE every 20 ms
   interboard::State state{0, 0, 0};
+  std::optional<std::uint8_t> speed_cap;   // and after it SPEED_CAP with this percentage (none: not sent)
   TimeUs next_crsf = 0;
   TimeUs next_elrs = 0;
   TimeUs next_state = 0;
@@ -533,6 +534,11 @@ struct IoRig {
     }
     if (balance_on && now >= next_state) {
       send_state(state);
+      if (speed_cap) {
+        std::uint8_t buf[interboard::kMaxFrameSize];
+        const auto n = interboard::encode(interboard::SpeedCap{*speed_cap}, buf);
+        link.feed(Bytes(buf, buf + *n));
+      }
       state_last = {now, state};
       next_state = now + 20'000;
     }
@@ -548,12 +554,16 @@ struct IoRig {
 
   /// Holds the arming button for 3 s in 50 ms steps (the logic only compares timestamps, so the hold is the same),
   /// then releases it and reports BALANCE armed, as the real BALANCE would after the rising flag.
+  /// The throttle stick is centred for the hold (arming needs it) and put back afterwards.
   bool arm_quickly() {
     const TimeUs step = step_us;
+    const std::uint16_t throttle = sticks[1];
+    sticks[1] = 1500;
     step_us = 50'000;
     gpio.button = true;
     for (int i = 0; i < 61 && !board->armed(); ++i) tick();
     gpio.button = false;
+    sticks[1] = throttle;
     step_us = step;
     state.error_state = 1;
     run_ms(25);

@@ -112,7 +112,10 @@ TEST_CASE("invariant: motors never spin after power-on without the 3 s button ho
         io.sticks[5] = us_of(io.sticks[5] < 1500);
         trace.add(t, std::string("CH6 ESTOP ") + (io.sticks[5] > 1500 ? "on" : "off"));
       }
-      if (rng.below(100) < 1) io.sticks[1] = static_cast<std::uint16_t>(rng.range(988, 2012));
+      if (rng.below(1000) < 2) {  // the throttle stick: off centre now and then (arming needs it centred)
+        io.sticks[1] = rng.chance(70) ? 1500 : static_cast<std::uint16_t>(rng.range(988, 2012));
+        trace.add(t, "throttle " + std::to_string(io.sticks[1]) + " us");
+      }
       if (rng.below(10000) < 3) {
         io.gpio.kill = !io.gpio.kill;
         trace.add(t, std::string("kill switch ") + (io.gpio.kill ? "on" : "off"));
@@ -156,10 +159,12 @@ TEST_CASE("invariant: motors never spin after power-on without the 3 s button ho
       bal.link.tx.clear();
 
       // ---- oracle ----
-      // A qualifying hold: pressed continuously for 3 s, the ARM switch on, and BALANCE's own pitch estimate
-      // within 5 degrees (+1 for the STATE message's age) the whole time.
+      // A qualifying hold: pressed continuously for 3 s, the ARM switch on, the throttle stick centred (within the
+      // sticks' 5 us deadband) and BALANCE's own pitch estimate within 5 degrees (+1 for the STATE message's age)
+      // the whole time.
       const bool upright = bal.board->pitch_valid() && std::fabs(bal.board->pitch_deg()) <= 6.0F;
-      if (pressed && (!upright || io.sticks[4] < 1500)) press_ok = false;
+      const bool centred = std::abs(static_cast<int>(io.sticks[1]) - 1500) <= 5;
+      if (pressed && (!upright || io.sticks[4] < 1500 || !centred)) press_ok = false;
       if (pressed && press_ok && t - press_start >= 3'000'000 && t - press_start < 3'000'000 + io.step_us) {
         qualified_io = qualified_bal = true;
         trace.add(t, "qualifying hold complete");
@@ -306,6 +311,7 @@ TEST_CASE("invariant: a tilt beyond the limit zeroes the motors in the same iter
       rig.rate = move * 1000.0F + (rng.chance(5) ? rng.uniform(-100.0F, 100.0F) : 0.0F);
       const std::uint64_t unarmed_before = rig.rc_sent_unarmed;
       bool disarm_input = false;
+      bool explicit_disarm = false;  // 0x302 mode 0 or a console disarm (not the IO armed flag)
       if (rng.below(1000) < 3) {
         rig.rc.flags = static_cast<std::uint8_t>(rig.rc.flags ^ interboard::RcCmd::kArmed);
         trace.add(t, std::string("IO armed flag ") + (rig.rc.armed() ? "1" : "0"));
@@ -314,12 +320,14 @@ TEST_CASE("invariant: a tilt beyond the limit zeroes the motors in the same iter
         const bool arm = rng.chance(50);
         rig.type(arm ? "arm" : "disarm");
         disarm_input = !arm;
+        explicit_disarm = !arm;
         trace.add(t, arm ? "console arm" : "console disarm");
       }
       if (rng.below(1000) < 2) {
         const auto mode = static_cast<std::uint8_t>(rng.range(0, 2));
         rig.can.rx.push_back(std_frame(0x302, {mode}));
         disarm_input = disarm_input || mode == 0;
+        explicit_disarm = explicit_disarm || mode == 0;
         trace.add(t, "0x302 mode " + std::to_string(mode));
       }
       const RobotState before = rig.board->state();
@@ -340,9 +348,12 @@ TEST_CASE("invariant: a tilt beyond the limit zeroes the motors in the same iter
         latched = true;
         disarmed_since = false;
         ++cutoffs;
-      } else if (latched && st == RobotState::tilt_cutoff && disarm_input) {
+      } else if (latched && disarm_input && (st == RobotState::tilt_cutoff || st == RobotState::off)) {
         disarmed_since = true;
       }
+      // An explicit disarm takes TILT_CUTOFF to OFF (the safety decisions of docs/protocol.md); nothing else does.
+      if (before == RobotState::tilt_cutoff && st == RobotState::off && !explicit_disarm)
+        return "left TILT_CUTOFF for OFF without an explicit disarm";
       if (latched && is_armed(st)) {
         if (!disarmed_since) return "left TILT_CUTOFF without a disarm first";
         if (std::fabs(est) > 5.0F) return "re-armed while not upright";
@@ -356,8 +367,8 @@ TEST_CASE("invariant: a tilt beyond the limit zeroes the motors in the same iter
   CHECK(cutoffs > scenario_count() / 4);
 }
 
-TEST_CASE("invariant: a hang longer than 50 ms cuts the motors (watchdog), and the logic only feeds it when its "
-          "loop really ran") {
+TEST_CASE("invariant: a hang longer than 50 ms cuts the motors (watchdog); every loop that ran feeds it, and a "
+          "silent IMU is a latched FAULT, not a reboot loop") {
   int resets = 0;
   int hang_latches = 0;
   scenarios(4, [&](Rng& rng, Trace& trace) -> std::string {
@@ -433,7 +444,13 @@ TEST_CASE("invariant: a hang longer than 50 ms cuts the motors (watchdog), and t
       const bool fed = rig.watchdog.feeds != feeds;
       if (starting && rig.imu_on) starting = false;
       const bool grace = starting && rig.now - boot_at <= 500'000;
-      if (fed && !grace && rig.now - rig.last_imu_us > 10'000) return "fed the watchdog with the IMU silent for over 10 ms";
+      if (!fed) return "a loop that ran did not feed the watchdog";
+      if (!grace && rig.now - rig.last_imu_us > 10'000) {  // silent for over imu_stall_us: FAULT, latched, says why
+        const RobotState st = rig.board->state();
+        if (st != RobotState::fault && st != RobotState::estop && st != RobotState::tilt_cutoff)
+          return "the IMU silent for over 10 ms, yet state " + name(st);
+        if ((rig.board->faults() & fault::kWatchdogReset) == 0) return "the IMU silent, yet no watchdog_reset bit";
+      }
       if (imu_silent && !grace && rig.now - rig.last_imu_us > 10'000 && any_nonzero(w))
         return "non-zero SET_RPM while the IMU is silent";
       if ((rebooted || latched_fault) && any_nonzero(w)) return "non-zero SET_RPM after a hang, before a fresh arming";
@@ -468,6 +485,7 @@ TEST_CASE("invariant: ESTOP (RC kill flag, FAULT estop, CAN mode 3, console) win
       bool console_estop = false;
       bool mode3 = false;
       bool disarm_input = false;
+      bool explicit_disarm = false;  // 0x302 mode 0 or a console disarm (not the IO armed flag)
       const std::uint64_t kills = rig.rc_sent_kill;  // counted from before this iteration's inputs
       const std::uint64_t fault_estops = rig.fault_sent_estop;
       const std::uint64_t unarmed = rig.rc_sent_unarmed;
@@ -493,6 +511,7 @@ TEST_CASE("invariant: ESTOP (RC kill flag, FAULT estop, CAN mode 3, console) win
         rig.can.rx.push_back(std_frame(0x302, {mode}));
         mode3 = mode3 || mode == 3;
         disarm_input = disarm_input || mode == 0;
+        explicit_disarm = explicit_disarm || mode == 0;
         trace.add(t, "0x302 mode " + std::to_string(mode));
       }
       if (rng.below(1000) < 10) {
@@ -501,6 +520,7 @@ TEST_CASE("invariant: ESTOP (RC kill flag, FAULT estop, CAN mode 3, console) win
         rig.type(line);
         console_estop = console_estop || line == "estop";
         disarm_input = disarm_input || line == "disarm";
+        explicit_disarm = explicit_disarm || line == "disarm";
         trace.add(t, "console " + line);
       }
       if (rng.below(100) < 3) rig.pitch = rng.uniform(-4.0F, 4.0F);
@@ -528,8 +548,11 @@ TEST_CASE("invariant: ESTOP (RC kill flag, FAULT estop, CAN mode 3, console) win
         if (!disarmed_since) return "left ESTOP without a disarm";
         in_estop = false;
       }
-      // armed and disarmed again within this one iteration (an IO arming edge, then a console disarm or mode 0)
-      if (in_estop && st == RobotState::off && disarm_input && disarmed_before && !estop_input) in_estop = false;
+      // An explicit disarm (0x302 mode 0, console disarm) takes ESTOP to OFF when no estop input is active any more
+      // (the safety decisions of docs/protocol.md); or an arming and a disarm within this one iteration.
+      if (in_estop && st == RobotState::off && !estop_input && !estop_level &&
+          (explicit_disarm || (disarm_input && disarmed_before)))
+        in_estop = false;
       if (in_estop && st != RobotState::estop) return "ESTOP left for " + name(st) + " without an arming";
       if (!is_armed(st) && any_nonzero(w)) return "non-zero SET_RPM while not armed";
     }
@@ -806,6 +829,11 @@ TEST_CASE("invariant: the wheel speed never exceeds the cap (10 % at power-on, r
     for (int i = 0; i < ticks; ++i) {
       const TimeUs t = rig.now + 1000;
       std::string line;
+      if (rng.below(1000) < 10) {  // disarm, or a fresh arming by the IO board
+        rig.rc.flags = static_cast<std::uint8_t>(rig.rc.flags ^ interboard::RcCmd::kArmed);
+        rig.send_rc(rig.rc);
+        trace.add(t, std::string("IO armed flag ") + (rig.rc.armed() ? "1" : "0"));
+      }
       if (rng.below(1000) < 20) {
         line = "speed_limit " + std::to_string(10 * rng.range(1, 10));
         rig.type(line);
@@ -832,9 +860,11 @@ TEST_CASE("invariant: the wheel speed never exceeds the cap (10 % at power-on, r
       if (!line.empty()) {
         const int asked = std::stoi(line.substr(12));
         const bool ok = rig.console.text() == "ok\n";
-        trace.add(t, line + (ok ? " -> ok" : " -> refused"));
+        const bool armed = is_armed(rig.board->state());  // nothing changes the state after the console
+        trace.add(t, line + (ok ? " -> ok" : " -> refused") + (armed ? " (armed)" : " (disarmed)"));
         if (ok && asked > pct + 10) return "the speed limit rose by more than one 10 % step";
-        if (!ok && asked <= pct + 10) return "a legal speed limit was refused";
+        if (ok && asked > pct && armed) return "the speed limit rose while armed";
+        if (!ok && (asked <= pct || (asked <= pct + 10 && !armed))) return "a legal speed limit was refused";
         if (ok) pct = asked;
       }
       if (requested_max >= 0 && !rig.frames_with_id(0x402, mark).empty()) orin_max = requested_max;

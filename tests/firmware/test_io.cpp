@@ -62,6 +62,7 @@ TEST_CASE("IO power-on: drivers disabled and PWM 0 before anything else, RC_CMD 
 
 TEST_CASE("RC_CMD carries the sticks after the CH7 cap, byte for byte, the armed flag only after the 3 s hold") {
   IoRig rig;
+  rig.speed_cap = 100;   // BALANCE's speed cap raised to 100 % (it is 10 % until BALANCE says otherwise)
   rig.sticks[1] = 1759;  // CH2 throttle: (259 - 5) * 1000 / 507 = 500 permille
   rig.sticks[0] = 1632;  // CH1 right: steer -250 permille (REP-103: left is +)
   rig.sticks[6] = 2012;  // CH7: cap 100 %
@@ -70,7 +71,11 @@ TEST_CASE("RC_CMD carries the sticks after the CH7 cap, byte for byte, the armed
   rig.run_ms(10);
   const Bytes unarmed = ib_frame(0x01, cat({le16(500), le16(-250), {0x00}}));
   CHECK(hex(rig.link.tx).find(hex(unarmed)) != std::string::npos);
+  rig.sticks[1] = 1500;  // arming needs the throttle stick centred
+  rig.run_ms(10);
   arm(rig);
+  rig.sticks[1] = 1759;
+  rig.run_ms(10);
   rig.link.tx.clear();
   rig.run_ms(10);
   // the golden frame of docs/protocol.md: RC_CMD throttle 500, steer -250, armed
@@ -177,12 +182,17 @@ TEST_CASE("the armed flag drops with the ARM switch, RC loss, a latched BALANCE,
 
 TEST_CASE("BTS7960: forward on RPWM, reverse on LPWM, enables high, only while armed and BALANCE armed") {
   IoRig rig;
+  rig.speed_cap = 100;
   rig.sticks[6] = 2012;
   ready(rig);
   rig.sticks[1] = 1759;  // throttle 500
   rig.run_ms(10);
   CHECK(rig.motors_off());  // not armed
+  rig.sticks[1] = 1500;  // arming needs the throttle stick centred
+  rig.run_ms(10);
   arm(rig);
+  rig.sticks[1] = 1759;
+  rig.run_ms(10);
   CHECK(rig.pwm[PwmChannel::left_rpwm] == 500);
   CHECK(rig.pwm[PwmChannel::left_lpwm] == 0);
   CHECK(rig.pwm[PwmChannel::right_rpwm] == 500);
@@ -206,10 +216,12 @@ TEST_CASE("BTS7960: forward on RPWM, reverse on LPWM, enables high, only while a
 
 TEST_CASE("kill switch: in that very step the drivers go off and FAULT(estop) is the first thing sent") {
   IoRig rig;
+  rig.speed_cap = 100;
   rig.sticks[6] = 2012;
-  rig.sticks[1] = 1759;
   ready(rig);
-  arm(rig);
+  arm(rig);  // with the throttle stick centred, as arming needs
+  rig.sticks[1] = 1759;
+  rig.run_ms(10);
   REQUIRE(rig.board->motors_enabled());
   rig.link.tx.clear();
   rig.gpio.kill = true;
@@ -232,10 +244,12 @@ TEST_CASE("kill switch: in that very step the drivers go off and FAULT(estop) is
 
 TEST_CASE("RC ESTOP (CH6) is acted on inside the receive loop, before the rest of the iteration") {
   IoRig rig;
+  rig.speed_cap = 100;
   rig.sticks[6] = 2012;
-  rig.sticks[1] = 1759;
   ready(rig);
-  arm(rig);
+  arm(rig);  // with the throttle stick centred, as arming needs
+  rig.sticks[1] = 1759;
+  rig.run_ms(10);
   rig.link.tx.clear();
   rig.sticks[5] = 2000;
   rig.next_crsf = rig.now;  // the next tick delivers a frame
@@ -253,10 +267,12 @@ TEST_CASE("RC ESTOP (CH6) is acted on inside the receive loop, before the rest o
 TEST_CASE("receivers: CRSF primary, ELRS after more than 100 ms of CRSF silence, neither = rc_loss") {
   IoRig rig;
   rig.elrs_on = true;
+  rig.speed_cap = 100;
   rig.sticks[6] = 2012;
-  rig.sticks[1] = 1759;
   ready(rig);
-  arm(rig);
+  arm(rig);  // with the throttle stick centred, as arming needs
+  rig.sticks[1] = 1759;
+  rig.run_ms(10);
   CHECK(rig.board->active_source() == rc::Source::crsf);
   rig.crsf.feed(crsf_rc_frame(rig.sticks));  // CRSF's last frame, taken at the next tick
   rig.crsf_on = false;

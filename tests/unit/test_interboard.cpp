@@ -47,6 +47,8 @@ const std::vector<Golden>& goldens() {
       {LedCmd{2, 255, 128, 0}, {0xAA, 0x04, 0x11, 0x02, 0xFF, 0x80, 0x00, 0x4B}},
       // tone 3, 500 ms = F4 01
       {Buzzer{3, 500}, {0xAA, 0x03, 0x12, 0x03, 0xF4, 0x01, 0x27}},
+      // speed cap 10 % (an addition to the reference, docs/protocol.md section 2); CRC worked out by hand
+      {SpeedCap{10}, {0xAA, 0x01, 0x13, 0x0A, 0xC7}},
   };
   return g;
 }
@@ -82,6 +84,10 @@ TEST_CASE("RC_CMD flag accessors") {
   CHECK(RcCmd{0, 0, 0x01}.armed());
   CHECK_FALSE(RcCmd{0, 0, 0x01}.kill());
   CHECK(RcCmd{0, 0, 0x02}.kill());
+  CHECK(RcCmd{0, 0, 0x04}.disarm_switch());
+  CHECK_FALSE(RcCmd{0, 0, 0x0B}.disarm_switch());
+  CHECK(RcCmd{0, 0, 0x08}.button());
+  CHECK_FALSE(RcCmd{0, 0, 0x07}.button());
 }
 
 TEST_CASE("extreme values round-trip") {

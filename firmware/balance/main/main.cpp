@@ -337,6 +337,11 @@ class Lcd final : public Display {
       // battery: a bar from the left, green above 30 %, red below
       fill(20, 160, 200, 16, bg);
       if (v.battery_known) fill(20, 160, v.battery_pct * 2, 16, v.battery_pct > 30 ? 0x07E0 : 0xF800);
+      // the 0x401 fault bits, bit 0 on the left: lit squares; below them the FAULT reason as that many marks
+      // (1 no IMU, 2 IMU silent, 3 no IO board, 4 IO link lost, 5 RC lost, 6 motor, 7 hang, 8 watchdog reset)
+      for (int bit = 0; bit < 8; ++bit) fill(40 + bit * 20, 184, 14, 14, (v.faults >> bit) & 1U ? 0xF800 : 0x4208);
+      fill(40, 204, 160, 8, bg);
+      for (int mark = 0; mark < static_cast<int>(v.fault_reason); ++mark) fill(40 + mark * 20, 204, 14, 8, 0xFFFF);
       drawn = v;
       first = false;
     }
@@ -409,7 +414,7 @@ ResetReason reset_reason() {
     const auto now = static_cast<TimeUs>(esp_timer_get_time());
     g_imu.poll(now);
     g_can.service();
-    board.step(now);  // feeds the watchdog only when the IMU has delivered (BalanceBoard::step, step 9)
+    board.step(now);  // feeds the watchdog at the end of every loop; a silent IMU is a FAULT in the logic (step 9)
     if (board.reboot_requested()) {
       vTaskDelay(pdMS_TO_TICKS(50));  // let the console's "ok" leave
       esp_restart();
@@ -430,8 +435,9 @@ extern "C" void app_main() {
   bus.quadhd_io_num = -1;
   bus.max_transfer_sz = Lcd::kSize * Lcd::kChunkRows * 2 + 16;
   ESP_ERROR_CHECK(spi_bus_initialize(kSpiHost, &bus, SPI_DMA_CH_AUTO));
-  // A missing part is not fatal here: the logic sees no IMU samples (never arms, never feeds the watchdog) or no
-  // CAN (telemetry missing, VESCs idle) and the console still answers.
+  // A missing part is not fatal here, and not a reboot loop: the logic sees no IMU samples and latches FAULT
+  // (watchdog_reset in 0x401, why on the console and the LCD) while the loop keeps running on the 2 ms timeout and
+  // feeding the watchdog, or no CAN (telemetry missing, VESCs idle); the console still answers.
   g_imu.init();
   g_can.init();
   g_link.init(kLinkUart, pins::kLinkTx, pins::kLinkRx, pins::kLinkBaud);

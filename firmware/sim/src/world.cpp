@@ -10,15 +10,10 @@ namespace saul::sim {
 
 WorldConfig::WorldConfig() {
   // Gains that balance this plant (a velocity-controlled wheel base needs the integral term as its restoring
-  // force; found by simulating the plant). The firmware's power-on gains are for the real robot's tuning session.
-  // Known limit (see firmware/sim/README.md): the complementary filter reads the base's own acceleration as tilt,
-  // and with the 10 % speed cap the slow drift mode of a velocity-driven base saturates after ~10-20 s of
-  // noise; the sim's IMU is therefore quieter than a real QMI8658.
-  balance.gains = saulcan::PidGains{60.0F, 400.0F, 1.5F};
+  // force; found by simulating the plant, 20 seeds, tests/firmware/test_plant.cpp). The firmware's power-on gains
+  // are for the real robot's tuning session. The plant keeps its QMI8658 noise, offsets and disturbances.
+  balance.gains = saulcan::PidGains{100.0F, 500.0F, 3.0F};
   balance.filter_tau_s = 1.0F;
-  plant.accel_noise_g = 0.001;
-  plant.gyro_noise_dps = 0.02;
-  plant.gyro_bias_dps = 0.0;
 }
 
 namespace {
@@ -223,7 +218,7 @@ void World::step() {
   hw_->now = now_;
   const double t = static_cast<double>(now_) / 1e6;
   plant_.step(static_cast<double>(kStepUs) / 1e6, t);
-  hw_->imu.push_back(plant_.imu_sample(now_));
+  if (imu_on_) hw_->imu.push_back(plant_.imu_sample(now_));
   if (hw_->imu.size() > 16) hw_->imu.pop_front();  // a stalled reader loses old samples, like a FIFO overrun
   for (const auto& f : plant_.status_frames(t)) {
     CanFrame out = f;
@@ -255,6 +250,19 @@ std::string World::take_console_output(const std::string& board) {
   std::string s(out.begin(), out.end());
   out.clear();
   return s;
+}
+
+std::uint16_t World::io_pwm(fw::PwmChannel channel) const { return hw_->pwm[static_cast<std::size_t>(channel)]; }
+bool World::io_pin(fw::OutputPin pin) const { return hw_->outputs[static_cast<std::size_t>(pin)]; }
+
+std::uint16_t World::io_drive_duty() const {
+  using fw::OutputPin;
+  using fw::PwmChannel;
+  const bool left = io_pin(OutputPin::left_r_en) || io_pin(OutputPin::left_l_en);
+  const bool right = io_pin(OutputPin::right_r_en) || io_pin(OutputPin::right_l_en);
+  const std::uint16_t l = left ? std::max(io_pwm(PwmChannel::left_rpwm), io_pwm(PwmChannel::left_lpwm)) : 0;
+  const std::uint16_t r = right ? std::max(io_pwm(PwmChannel::right_rpwm), io_pwm(PwmChannel::right_lpwm)) : 0;
+  return std::max(l, r);
 }
 
 std::string World::status_line() const {
@@ -290,9 +298,10 @@ std::string World::command(const std::string& line) {
   if (c == "help") {
     return ok(
         "status                       one line: time, state, pitch, speed, battery, faults, stand, radio\n"
-        "push DPS                     a shove: adds DPS deg/s to the pitch rate (+ = nose up)\n"
-        "tilt DEG                     sets the pitch (lets go of the stand)\n"
-        "upright                      back on the bench stand, pitch 0\n"
+        "push DPS                     a 20 ms shove that adds DPS deg/s to the pitch rate (+ = nose up)\n"
+        "tilt DEG                     a hand moves the body to DEG degrees in 250 ms and lets go (off the stand)\n"
+        "upright                      hands put it back on the bench stand in 250 ms (slightly off balance)\n"
+        "imu off|on                   pull the IMU (no samples at all) / plug it back\n"
         "radio CH US                  RC channel 1..16 in microseconds (CH5 arm, CH6 estop, CH7 speed cap)\n"
         "rc loss|ok                   both receivers silent / back\n"
         "crsf loss|ok, elrs loss|ok   one receiver\n"
@@ -308,7 +317,11 @@ std::string World::command(const std::string& line) {
     return ok();
   }
   if (c == "tilt" && number(1, v)) {
-    plant_.set_pitch(v);
+    plant_.tilt(v);
+    return ok();
+  }
+  if (c == "imu" && (arg(1) == "off" || arg(1) == "on")) {
+    imu_on_ = arg(1) == "on";
     return ok();
   }
   if (c == "upright") {

@@ -43,6 +43,10 @@ struct PayloadWriter {
     bytes::put_u16le(p + 1, m.duration_ms);
     return 3;
   }
+  std::size_t operator()(const SpeedCap& m) const noexcept {
+    p[0] = m.percent;
+    return 1;
+  }
 };
 
 }  // namespace
@@ -79,6 +83,7 @@ Result<Message> decode_payload(std::uint8_t type, std::span<const std::uint8_t> 
     case Type::state: return Message{State{bytes::get_i16le(p), bytes::get_i16le(p + 2), p[4]}};
     case Type::led_cmd: return Message{LedCmd{p[0], p[1], p[2], p[3]}};
     case Type::buzzer: return Message{Buzzer{p[0], bytes::get_u16le(p + 1)}};
+    case Type::speed_cap: return Message{SpeedCap{p[0]}};
   }
   return Reason::unknown_type;
 }

@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <deque>
+#include <functional>
 #include <sstream>
 
 #include "saulproto/core/saul_can.hpp"
@@ -18,6 +19,18 @@ Suite parse(const std::string& text) {
   return parse_suite(in, "t.saul");
 }
 
+/// The suite text must be refused with an error naming `part`.
+void fails(const std::string& text, const std::string& part) {
+  try {
+    parse(text);
+  } catch (const ParseError& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find(part) != std::string::npos);
+    return;
+  }
+  FAIL("no error for: " << text);
+}
+
 // A robot in simulated time: answers mode commands with an ack, sends telemetry A every 100 ms with a state that
 // follows the accepted mode, and records what it was sent.
 class FakeRobot final : public Target {
@@ -29,6 +42,10 @@ class FakeRobot final : public Target {
   std::deque<std::pair<std::uint64_t, CanFrame>> pending;  // (due time, frame)
   std::uint64_t next_telemetry = 0;
   std::string console_log;
+  /// Telemetry A every 100 ms (default: pitch 1.20 deg, speed 0, the state; nullopt: silent that time), and B
+  /// alongside it when set.
+  std::function<std::optional<sc::TelemetryA>(std::uint64_t)> telemetry_a;
+  std::function<std::optional<sc::TelemetryB>(std::uint64_t)> telemetry_b;
 
   std::uint64_t now_us() override { return now; }
   void send(const CanFrame& f) override {
@@ -54,7 +71,10 @@ class FakeRobot final : public Target {
         return f;
       }
       next_telemetry += 100'000;
-      return sc::encode(sc::TelemetryA{120, 0, 0, state});
+      if (telemetry_b)
+        if (const auto b = telemetry_b(now)) pending.emplace_front(now, sc::encode(*b));
+      const auto a = telemetry_a ? telemetry_a(now) : std::optional<sc::TelemetryA>(sc::TelemetryA{120, 0, 0, state});
+      if (a) return sc::encode(*a);
     }
   }
   std::optional<std::string> console(const std::string& board, const std::string& line, const std::string&,
@@ -119,16 +139,6 @@ TEST_CASE("bench suites parse every step kind") {
 }
 
 TEST_CASE("bench suite parse errors name the file and line") {
-  auto fails = [](const std::string& text, const std::string& part) {
-    try {
-      parse(text);
-    } catch (const ParseError& e) {
-      INFO(e.what());
-      CHECK(std::string(e.what()).find(part) != std::string::npos);
-      return;
-    }
-    FAIL("no error for: " << text);
-  };
   fails("\n\nfly away\n", "t.saul:3: unknown step 'fly'");
   fails("expect telemetry_a state=BALANCE\n", "within");
   fails("expect telemetry_a pitch_x100<abc within 1s\n", "not a number");
@@ -224,4 +234,114 @@ TEST_CASE("JUnit XML lists every step with failures escaped") {
   const auto xml = junit_xml({r});
   CHECK(xml.find("<testsuite name=\"a&lt;b\" tests=\"1\" failures=\"1\" skipped=\"0\"") != std::string::npos);
   CHECK(xml.find("<failure message=\"no matching telemetry_a within 0.150 s\"/>") != std::string::npos);
+}
+
+// ---- the tether rule: stable ... for ... within ..., and mean ... for ... ----
+
+TEST_CASE("bench suites parse stable (clauses joined by 'and') and mean") {
+  const auto s = parse(
+      "stable telemetry_a state=BALANCE |pitch_x100|<500 and telemetry_b faults=0 for 5m within 20m\n"
+      "mean telemetry_a speed_mmps>=240 speed_mmps<=360 for 2s\n");
+  REQUIRE(s.steps.size() == 2);
+  CHECK(s.steps[0].kind == Step::Kind::stable);
+  CHECK(s.steps[0].message == "telemetry_a");
+  CHECK(s.steps[0].conditions.size() == 2);
+  REQUIRE(s.steps[0].more.size() == 1);
+  CHECK(s.steps[0].more[0].message == "telemetry_b");
+  CHECK(s.steps[0].more[0].conditions[0].field == "faults");
+  CHECK(s.steps[0].duration_us == 300'000'000);
+  CHECK(s.steps[0].limit_us == 1'200'000'000);
+  CHECK(s.steps[1].kind == Step::Kind::mean);
+  CHECK(s.steps[1].conditions.size() == 2);
+  CHECK(s.steps[1].duration_us == 2'000'000);
+  fails("stable telemetry_a state=BALANCE for 5m\n", "for DURATION within DURATION");
+  fails("stable telemetry_a for 5m within 1m\n", "0 < for <= within");
+  fails("stable telemetry_a and for 5m within 10m\n", "needs a message name");
+  fails("stable any for 5m within 10m\n", "not 'any'");
+  fails("mean telemetry_a for 1s\n", "at least one condition");
+  fails("mean telemetry_a speed_mmps>1 within 1s\n", "'within' is not a condition");
+  fails("mean telemetry_a speed_mmps>1 for\n", "for DURATION");
+}
+
+TEST_CASE("the engine: stable restarts its clock on every excursion and passes once it held long enough") {
+  FakeRobot robot;
+  // pitch 1.20 deg, except 2.0-2.2 s (three frames) at 9 deg
+  robot.telemetry_a = [](std::uint64_t t) {
+    const bool out = t >= 2'000'000 && t <= 2'200'000;
+    return std::optional<sc::TelemetryA>(sc::TelemetryA{static_cast<std::int16_t>(out ? 900 : 120), 0, 0, sc::RobotState::balance});
+  };
+  const auto r = run_suite(parse("stable telemetry_a state=BALANCE |pitch_x100|<500 for 5s within 20s\n"), robot);
+  INFO(r.steps[0].message);
+  CHECK(r.passed());
+  CHECK(r.steps[0].message ==
+        "stable for 5.000 s from 2.200 s on; longest stable stretch 5.000 s (needed 5.000 s), 3 restart(s), the last "
+        "at 2.200 s: broken by 400#84030000000001");
+  CHECK(robot.now == 7'200'000);  // done as soon as it held: not the whole 20 s
+  const auto xml = junit_xml({r});
+  CHECK(xml.find("<system-out>stable for 5.000 s from 2.200 s on; longest stable stretch 5.000 s") != std::string::npos);
+}
+
+TEST_CASE("the engine: stable fails at its limit and reports the longest stretch, in the JUnit report too") {
+  FakeRobot robot;
+  robot.telemetry_a = [](std::uint64_t t) {  // an excursion every 3 s
+    const bool out = t % 3'000'000 == 0 && t > 0;
+    return std::optional<sc::TelemetryA>(sc::TelemetryA{static_cast<std::int16_t>(out ? -900 : 120), 0, 0, sc::RobotState::balance});
+  };
+  const auto r = run_suite(parse("stable telemetry_a |pitch_x100|<500 for 5s within 10s\n"), robot);
+  CHECK_FALSE(r.passed());
+  CHECK(r.steps[0].message ==
+        "never stable for 5.000 s within 10.000 s: longest stable stretch 3.000 s (needed 5.000 s), 3 restart(s), the "
+        "last at 9.000 s: broken by 400#7CFC0000000001");
+  const auto xml = junit_xml({r});
+  CHECK(xml.find("<failure message=\"never stable for 5.000 s within 10.000 s: longest stable stretch 3.000 s") !=
+        std::string::npos);
+  CHECK(xml.find("</failure>") == std::string::npos);
+  CHECK(xml.find("<system-out>never stable") != std::string::npos);
+}
+
+TEST_CASE("the engine: stable counts silence as an excursion, and checks every clause joined by 'and'") {
+  SECTION("telemetry A silent for 1.5 s") {
+    FakeRobot robot;
+    robot.telemetry_a = [](std::uint64_t t) {
+      return t > 1'000'000 && t < 2'500'000 ? std::nullopt
+                                            : std::optional<sc::TelemetryA>(sc::TelemetryA{120, 0, 0, sc::RobotState::balance});
+    };
+    const auto r = run_suite(parse("stable telemetry_a state=BALANCE for 3s within 10s\n"), robot);
+    CHECK(r.passed());
+    CHECK(r.steps[0].message.find("from 2.500 s on") != std::string::npos);
+    CHECK(r.steps[0].message.find("telemetry_a silent for over 1.000 s") != std::string::npos);
+  }
+  SECTION("telemetry B with a fault bit for a while") {
+    FakeRobot robot;
+    robot.state = sc::RobotState::balance;
+    robot.telemetry_b = [](std::uint64_t t) {
+      const std::uint8_t faults = t >= 1'000'000 && t < 1'500'000 ? 0x80 : 0;
+      return std::optional<sc::TelemetryB>(sc::TelemetryB{0, 0, 39000, faults});
+    };
+    const auto r = run_suite(parse("stable telemetry_a state=BALANCE and telemetry_b faults=0 for 3s within 10s\n"), robot);
+    CHECK(r.passed());
+    CHECK(r.steps[0].message.find("from 1.400 s on") != std::string::npos);
+    const auto never = run_suite(parse("stable telemetry_a state=BALANCE and vesc_status_1 erpm=0 for 3s within 5s\n"), robot);
+    CHECK_FALSE(never.passed());  // a message that never comes is never stable
+  }
+}
+
+TEST_CASE("the engine: mean checks the fields' means over the window") {
+  FakeRobot robot;
+  robot.telemetry_a = [](std::uint64_t t) {  // 100 and 300 mm/s in turn: a mean of 200
+    const auto speed = static_cast<std::int16_t>((t / 100'000) % 2 == 0 ? 100 : 300);
+    return std::optional<sc::TelemetryA>(sc::TelemetryA{120, 0, speed, sc::RobotState::balance});
+  };
+  const auto ok = run_suite(parse("mean telemetry_a speed_mmps>=190 speed_mmps<=210 |pitch_x100|<200 for 2s\n"), robot);
+  INFO(ok.steps[0].message);
+  CHECK(ok.passed());
+  // 0.0 to 2.0 s, both ends: 11 frames at 100 mm/s and 10 at 300
+  CHECK(ok.steps[0].message == "means over 21 frames: speed_mmps 195.24, |pitch_x100| 120.00");
+  const auto low = run_suite(parse("mean telemetry_a speed_mmps>=250 for 2s\n"), robot);
+  CHECK_FALSE(low.passed());
+  // the same robot, 2.1 to 4.0 s: 10 frames of each
+  CHECK(low.steps[0].message == "speed_mmps mean 200.00 breaks the condition (means over 20 frames: speed_mmps 200.00)");
+  const auto none = run_suite(parse("mean command_ack result=1 for 1s\n"), robot);
+  CHECK_FALSE(none.passed());
+  CHECK(none.steps[0].message == "no command_ack at all in 1.000 s");
 }

@@ -16,20 +16,34 @@
 //      seen anywhere in the iteration zeroes the wheels in this iteration; SET_RPM to both VESCs every 10 ms and
 //      at once when the wheels must stop
 //   8. telemetry 0x400/0x401 (10 Hz), STATE (50 Hz and on every state change), LED_CMD, BUZZER, LCD view
-//   9. watchdog feed, only if the newest IMU sample (by its own timestamp) is at most imu_stall_us old: the loop
-//      really ran on fresh data. A silent IMU while armed also latches FAULT (watchdog_reset) and stops the wheels.
+//   9. watchdog feed: the loop ran to its end. A missing or silent IMU (nothing for imu_startup_us after power-on,
+//      or imu_stall_us after the last sample) latches FAULT (watchdog_reset, armed or not) with the wheels stopped,
+//      and so does an IO board not heard from io_startup_us after power-on (io_link_loss); the board says why on
+//      the console (once), in the LCD view and in 0x401, and stays alive and answering: a reset would only bring
+//      it back to the same FAULT.
+//
+// Speed in BALANCE (docs/protocol.md section 5): the 0x300 (or RC throttle) speed request is clamped to
+// speed_request_share of the speed cap; an outer PI loop turns the speed error (request - measured wheel speed)
+// into a lean, limited to +-max_lean_deg, which becomes the balance PID's pitch setpoint. The request never
+// reaches the wheels directly: the balance loop keeps the rest of the cap for balancing.
 //
 // State machine (docs/protocol.md section 4):
 //   OFF -(arming)-> BALANCE <-(0x302 mode 1/2)-> MANUAL
 //   BALANCE/MANUAL -(disarm: IO armed flag 1 -> 0, console disarm, 0x302 mode 0)-> OFF
 //   any -(estop: RC_CMD kill, FAULT estop, 0x302 mode 3, console estop)-> ESTOP
 //   BALANCE/MANUAL -(|pitch| > tilt limit)-> TILT_CUTOFF
-//   BALANCE/MANUAL -(IO link loss, RC loss, motor fault, IMU stall, loop hang)-> FAULT; power-on after a watchdog
-//   reset -> FAULT
+//   BALANCE/MANUAL -(IO link loss, RC loss, motor fault, loop hang)-> FAULT; power-on after a watchdog
+//   reset -> FAULT; any -(IMU missing or silent, IO board silent since power-on)-> FAULT
 //   ESTOP/TILT_CUTOFF/FAULT stay until a disarm (any of the above, or the IO armed flag seen at 0) followed by a
-//   fresh arming.
+//   fresh arming. An explicit disarm (0x302 mode 0, console disarm) takes a latched state to OFF (the cause bits
+//   stay in 0x401 until the next arming), unless an estop input is still active: then it is refused.
+//   A live radio with CH5 at disarm (RC_CMD disarm_switch) disarms at once and forbids every arming.
 // Arming (IO flag edge, console arm): only from OFF or a disarmed latched state, with a valid pitch |pitch| <= 5
-// degrees, the IO link alive, no RC loss, no motor fault and no estop input; it clears the latched fault bits.
+// degrees, the IO link alive, no RC loss, no motor fault, no estop input, CH5 not at disarm and the throttle stick
+// centred (RC_CMD throttle 0); it clears the latched fault bits. The IO flag edge also needs the arming button seen
+// released (RC_CMD button bit) since the last disarm, latch or power-on: a new press (docs/protocol.md, safety
+// decisions). The speed cap (console speed_limit) rises one 10 % step per command and only while disarmed; BALANCE
+// sends it to the IO board (SPEED_CAP) with every STATE and at once when it changes.
 #pragma once
 
 #include <cstdint>
@@ -49,12 +63,25 @@ struct BalanceConfig {
   saulcan::PidGains gains{25.0F, 0.0F, 0.5F};  ///< power-on gains (permille/deg, permille/(deg s), permille/(deg/s))
   float integral_limit = 300.0F;               ///< permille
   float filter_tau_s = 0.5F;                   ///< complementary filter time constant
+  /// The gyro's zero-rate offset about the pitch axis is learnt while disarmed (motors off) from the samples that
+  /// look still (|rate| below gyro_still_dps), with this time constant, and taken out of every sample. 0: off.
+  float gyro_bias_tau_s = 2.0F;
+  float gyro_still_dps = 10.0F;
   float pitch_setpoint_deg = 0.0F;             ///< the balance point
   /// The VESCs' speed loop as a first-order lag (s) and their acceleration limit: the base's acceleration is
   /// estimated from the commanded wheel speed through them and taken out of the accelerometer before the filter,
   /// which would otherwise read a steadily accelerating base as tilt (the drift into the speed cap). 0: off.
   float drive_tau_s = 0.05F;
   float drive_max_accel_mps2 = 6.0F;
+  // the speed loop in BALANCE (speed request -> lean; see the file comment)
+  float speed_kp_deg_per_mps = 12.0F;  ///< lean per m/s of speed error
+  float speed_ki_deg_per_m = 8.0F;     ///< lean per metre of accumulated speed error (finds the balance point)
+  float speed_filter_tau_s = 0.3F;     ///< low-pass on the measured speed: the balance loop's own quick moves stay out
+  float max_lean_deg = 4.0F;           ///< the most lean the speed loop may ask for
+  float speed_request_share = 0.4F;    ///< a speed request is clamped to this share of the speed cap
+  TimeUs speed_settle_us = 1'500'000;  ///< after entering BALANCE, stand still this long (find the balance point)
+  float speed_ramp_mps2 = 0.3F;        ///< and followed at most this quickly (the lean a step would need is kept small)
+  float speed_guard_share = 0.2F;      ///< the target waits while the wheels lag it by more than this share of the cap
   // limits
   std::uint16_t tilt_limit_x100 = 2500;        ///< power-on tilt cutoff, 5.00..25.00 degrees
   std::uint16_t upright_x100 = 500;            ///< |pitch| for arming
@@ -79,8 +106,9 @@ struct BalanceConfig {
   TimeUs display_period_us = 100'000;     ///< LCD view, 10 Hz
   TimeUs io_link_timeout_us = 100'000;    ///< no valid RC_CMD for longer: io_link_loss
   TimeUs orin_timeout_us = 500'000;       ///< no 0x300 for longer: orin_timeout, RC only
-  TimeUs imu_stall_us = 10'000;           ///< no IMU sample for longer: stop feeding the watchdog, motors zero
+  TimeUs imu_stall_us = 10'000;           ///< no IMU sample for longer: FAULT (watchdog_reset), motors zero
   TimeUs imu_startup_us = 500'000;        ///< the same before the first sample after power-on
+  TimeUs io_startup_us = 1'000'000;       ///< no RC_CMD this long after power-on: FAULT (io_link_loss)
   TimeUs hang_us = 50'000;                ///< a gap between two step() calls longer than this: the loop hung
   TimeUs vesc_status_timeout_us = 500'000;  ///< a VESC that sent STATUS and then stopped: motor_fault
 };
@@ -119,6 +147,13 @@ class BalanceBoard {
   [[nodiscard]] bool orin_active() const noexcept { return (live_faults_ & saulcan::fault::kOrinTimeout) == 0; }
   [[nodiscard]] bool reboot_requested() const noexcept { return reboot_requested_; }
   [[nodiscard]] LcdView view() const noexcept;
+  [[nodiscard]] FaultReason fault_reason() const noexcept { return fault_reason_; }
+  /// The lean the speed loop asks for now (degrees, + = forward, nose down).
+  [[nodiscard]] float lean_deg() const noexcept { return lean_deg_; }
+  /// The speed the speed loop aims for now (m/s): the request within its share of the cap, ramped.
+  [[nodiscard]] float speed_target_mps() const noexcept { return speed_target_mps_; }
+  /// The gyro offset learnt so far (gy, deg/s).
+  [[nodiscard]] float gyro_bias_dps() const noexcept { return gyro_bias_dps_; }
   [[nodiscard]] const interboard::Counters& uart_counters() const noexcept { return link_rx_.counters(); }
 
  private:
@@ -142,9 +177,17 @@ class BalanceBoard {
 
   void estop() noexcept;
   void latch(saulcan::RobotState to, std::uint8_t cause) noexcept;
+  /// Latches FAULT for a reason: the cause bits, the first reason kept, one console line.
+  void fault(std::uint8_t cause, FaultReason reason) noexcept;
+  /// The wheels' speed measured by both VESCs (mm/s, + forward); false when either is not fresh.
+  bool measured_speed(TimeUs now, std::int64_t& mmps) const noexcept;
+  /// The balance output (permille) in BALANCE: the speed loop's lean, then the balance PID.
+  float balance_output(float request_mmps, std::int32_t cap, TimeUs now, float dt) noexcept;
   void disarm() noexcept;
-  /// nullptr when armed, else why not (a short text for the console).
-  const char* try_arm() noexcept;
+  /// nullptr when armed, else why not (a short text for the console). by_button: the IO flag's edge.
+  const char* try_arm(bool by_button) noexcept;
+  /// An explicit disarm (0x302 mode 0, console disarm); nullptr when done, else why the state stays.
+  const char* disarm_command() noexcept;
   [[nodiscard]] bool armed() const noexcept;
   [[nodiscard]] bool latched() const noexcept;
   [[nodiscard]] bool estop_input() const noexcept;
@@ -161,6 +204,7 @@ class BalanceBoard {
 
   ComplementaryFilter filter_;
   BalancePid pid_;
+  BalancePid speed_pid_;  // the speed loop: output in permille of max_lean_deg
   saulcan::PidStager stager_;
   interboard::StreamDecoder link_rx_;
   LineAssembler console_in_;
@@ -170,6 +214,10 @@ class BalanceBoard {
   std::uint8_t latched_faults_ = 0;
   std::uint8_t live_faults_ = saulcan::fault::kIoLinkLoss | saulcan::fault::kOrinTimeout;
   bool disarmed_since_latch_ = true;
+  bool button_released_ = false;  // the arming button seen released (RC_CMD) since the last stop or power-on
+  FaultReason fault_reason_ = FaultReason::none;
+  bool imu_fault_seen_ = false;  // the present IMU stall has latched its FAULT (once per stall)
+  bool io_silent_seen_ = false;  // the silent IO board at power-on has latched its FAULT
   bool estop_this_iteration_ = false;
   bool reboot_requested_ = false;
 
@@ -198,16 +246,25 @@ class BalanceBoard {
   };
   Vesc left_{};
   Vesc right_{};
+  /// A VESC's mechanical RPM from its last STATUS (0 before any), + forward.
+  [[nodiscard]] std::int64_t mech_rpm(const Vesc& v, bool invert) const noexcept;
   std::uint16_t battery_mv_ = 0;
 
   // IMU and control
   TimeUs imu_ok_us_ = 0;
   bool imu_ever_ = false;
   bool imu_stalled_ = false;
+  float gyro_bias_dps_ = 0.0F;  // the learnt zero-rate offset of gy
+  TimeUs bias_us_ = 0;          // the last sample it learnt from
   std::int16_t pid_out_ = 0;
   TimeUs control_us_ = 0;
   float base_speed_model_mps_ = 0.0F;  // the wheels' speed as the drive_tau_s model expects it
   float base_accel_g_ = 0.0F;          // and their acceleration, in g, subtracted from the accelerometer's x
+  float lean_deg_ = 0.0F;
+  float speed_filtered_mps_ = 0.0F;    // the measured speed through speed_filter_tau_s
+  float speed_target_mps_ = 0.0F;      // the request through speed_ramp_mps2
+  TimeUs balance_since_us_ = 0;        // when BALANCE was entered (the speed loop's settling time counts from it)
+  bool balancing_ = false;
   std::int32_t wheel_left_mmps_ = 0;
   std::int32_t wheel_right_mmps_ = 0;
   bool wheels_driving_ = false;

@@ -48,12 +48,15 @@ class Every {
 /// with time constant tau. pitch (nose up, degrees) = atan2(ax, sqrt(ay^2 + az^2)) from the accelerometer,
 /// rate = -gy (body frame, see ImuSample).
 /// - A sample with a NaN or infinite value is rejected (update() returns false) and changes nothing.
-/// - While |a| is outside 0.5..1.5 g (a bump, free fall) the accelerometer is not trusted: gyro only.
+/// - While |a| is outside 0.5..1.5 g (a bump, free fall), or the pitch rate is above kMaxAccelRateDps (the body's
+///   own rotation reaches an accelerometer above the axle), the accelerometer is not trusted: gyro only.
 /// - The first accepted sample, and the first after a gap of more than kMaxGapUs, sets the pitch from the
 ///   accelerometer alone (it needs |a| within 0.5..1.5 g); dt comes from the samples' own timestamps.
 class ComplementaryFilter {
  public:
   static constexpr TimeUs kMaxGapUs = 20'000;
+  /// Above this pitch rate (deg/s) the accelerometer is not used: the body's own rotation reaches it.
+  static constexpr float kMaxAccelRateDps = 30.0F;
 
   explicit ComplementaryFilter(float tau_s = 0.5F) noexcept : tau_s_(tau_s) {}
   bool update(const ImuSample& sample) noexcept;
@@ -125,6 +128,9 @@ LedCommand led_for_state(saulcan::RobotState state) noexcept;
 
 /// One frame of a pattern at time now (an unknown pattern value draws solid).
 void render(LedPattern pattern, Rgb color, TimeUs now, std::span<Rgb> out) noexcept;
+
+/// One line of text for a FaultReason ("" for none), as the console prints it and `status` shows it.
+const char* fault_reason_text(FaultReason reason) noexcept;
 
 /// BUZZER tone ids (inter-board BUZZER.tone_id) and the frequency the IO board plays for each.
 enum class Tone : std::uint8_t { none = 0, armed = 1, disarmed = 2, alarm = 3 };

@@ -96,6 +96,21 @@ class CanPort {
   ~CanPort() = default;
 };
 
+/// Why BALANCE latched FAULT (the first cause since the last arming), for the console line it prints, the LCD
+/// view and `status`; the 0x401 bits say the same in less detail (fault_reason_bit). none: no FAULT latched.
+/// The numbers are what the LCD shows as marks (firmware/README.md).
+enum class FaultReason : std::uint8_t {
+  none = 0,
+  imu_missing = 1,     ///< no IMU sample since power-on (imu_startup_us): the chip is missing or never started
+  imu_silent = 2,      ///< the IMU stopped delivering (imu_stall_us)
+  io_link_silent = 3,  ///< no RC_CMD from the IO board since power-on (io_startup_us)
+  io_link_lost = 4,    ///< RC_CMD stopped while armed (io_link_timeout_us)
+  rc_lost = 5,         ///< the IO board reported RC loss while armed
+  motor = 6,           ///< a VESC fault or a VESC that went silent while armed
+  loop_hang = 7,       ///< the control loop stood still for longer than hang_us while armed
+  watchdog_reset = 8,  ///< powered on after a watchdog reset or a panic
+};
+
 /// What the round GC9A01 shows: plain data, drawn by the glue (which owns fonts, colours and the SPI bus).
 struct LcdView {
   std::int16_t pitch_x100 = 0;      ///< degrees x 100, + nose up
@@ -108,6 +123,7 @@ struct LcdView {
   std::uint8_t speed_limit_pct = 10;
   std::uint16_t tilt_limit_x100 = 2500;
   bool orin_active = false;         ///< driven by the Orin (else RC only)
+  FaultReason fault_reason = FaultReason::none;  ///< why FAULT was latched
   constexpr bool operator==(const LcdView&) const = default;
 };
 

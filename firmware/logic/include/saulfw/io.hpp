@@ -10,14 +10,19 @@
 //      step 1 runs again at once, inside the receive loop; then the receiver selection (CRSF / ELRS / none)
 //   3. inter-board bytes from BALANCE (STATE, LED_CMD, BUZZER)
 //   4. console lines
-//   5. arming: the button held for 3 s, continuously, with the ARM switch (CH5) on, BALANCE's |pitch| <= 5 degrees
-//      (from a STATE at most 100 ms old), RC alive and no ESTOP -> the RC_CMD armed flag. The hold must begin with a
-//      fresh press (a button held since power-on, or through a failed condition, never arms).
+//   5. arming: the button held for 3 s, continuously, with the ARM switch (CH5) on, the throttle stick centred
+//      (CH2 within the sticks' 5 us deadband), BALANCE's |pitch| <= 5 degrees (from a STATE at most 100 ms old), RC
+//      alive and no ESTOP -> the RC_CMD armed flag. The hold must begin with a new press: a button held since
+//      power-on, through a failed condition, or through any disarm or latch (this board's, or BALANCE entering
+//      ESTOP, TILT_CUTOFF or FAULT) must be released first.
 //      The flag drops with the ARM switch, ESTOP, RC loss, a console disarm, BALANCE entering a latched state, or
 //      BALANCE not reporting BALANCE/MANUAL within 250 ms of the arming (refused).
 //   6. BTS7960 drivers: enabled only while armed, BALANCE reports BALANCE or MANUAL, RC alive and no ESTOP; left =
-//      throttle - steer, right = throttle + steer (permille after the CH7 cap); else enables low and PWM 0
-//   7. to BALANCE: FAULT (at once on any change, then 10 Hz), RC_CMD (100 Hz), SENSOR (10 Hz)
+//      throttle - steer, right = throttle + steer, each within the speed cap: the sticks are scaled by the lower of
+//      CH7's cap and the speed cap BALANCE owns (SPEED_CAP, 10 % until BALANCE says otherwise); else enables low
+//      and PWM 0
+//   7. to BALANCE: FAULT (at once on any change, then 10 Hz), RC_CMD (100 Hz, and at once when its flags change:
+//      armed, kill, CH5 at disarm, button), SENSOR (10 Hz)
 //   8. CRSF telemetry (attitude, flight mode, battery; one frame per 100 ms), LEDs (50 Hz), horn, headlight, fan
 //   9. watchdog feed
 #pragma once
@@ -82,6 +87,8 @@ class IoBoard {
   /// The FAULT flags now (interboard::Fault bits).
   [[nodiscard]] std::uint8_t fault_flags() const noexcept;
   [[nodiscard]] bool motors_enabled() const noexcept { return motors_enabled_; }
+  /// The speed cap the motor outputs obey now: the lower of BALANCE's cap and CH7's (10 % without a radio).
+  [[nodiscard]] std::uint8_t speed_cap_pct() const noexcept;
   [[nodiscard]] bool holding() const noexcept { return hold_active_; }
   [[nodiscard]] bool reboot_requested() const noexcept { return reboot_requested_; }
   [[nodiscard]] const interboard::Counters& uart_counters() const noexcept { return link_rx_.counters(); }
@@ -116,7 +123,11 @@ class IoBoard {
   void send_fault() noexcept;
   void send_rc_cmd() noexcept;
   void send_link(const interboard::Message& message) noexcept;
+  [[nodiscard]] const Receiver* active_receiver() const noexcept;
   [[nodiscard]] const rc::Command* active_command() const noexcept;
+  /// The sticks of the active receiver scaled by speed_cap_pct() (zero without a receiver or during ESTOP).
+  [[nodiscard]] rc::Command capped_command() const noexcept;
+  [[nodiscard]] std::uint8_t rc_flags() const noexcept;
   [[nodiscard]] bool state_fresh(TimeUs now) const noexcept;
   [[nodiscard]] bool balance_armed(TimeUs now) const noexcept;
 
@@ -141,6 +152,8 @@ class IoBoard {
   bool hold_active_ = false;
   TimeUs hold_start_us_ = 0;
   bool need_release_ = true;  // a button already down at power-on must be released first
+  bool button_ = false;       // the arming button as read this iteration
+  std::uint8_t sent_rc_flags_ = 0xFF;  // flags of the last RC_CMD sent (0xFF: none yet)
 
   // motors
   bool motors_enabled_ = false;
@@ -148,6 +161,7 @@ class IoBoard {
   std::int16_t right_permille_ = 0;
 
   // from BALANCE
+  std::uint8_t balance_cap_pct_ = 10;  // BALANCE's speed cap (SPEED_CAP); 10 % until it says otherwise
   interboard::State state_{};
   TimeUs state_us_ = 0;
   bool state_seen_ = false;

@@ -3,17 +3,24 @@
 //
 // Model (small, honest, good enough to close the loop):
 //  - body: an inverted pendulum of effective length l on the wheel axle. pitch > 0 = nose up (the top leans back).
-//    pitch'' = (g sin(pitch) + a cos(pitch)) / l, with a the forward acceleration of the wheels. Pushing it
-//    (fault injection) adds to the pitch rate. Beyond +-kRestDeg the body rests on its frame (no further fall).
+//    pitch'' = (g sin(pitch) + a cos(pitch)) / l + d, with a the forward acceleration of the wheels and d the
+//    disturbances below. Beyond +-rest_deg the body rests on its frame (no further fall).
+//  - disturbances, as a bench has them (all seeded): the floor's small bumps as a band-limited random angular
+//    acceleration; a push (fault injection) as a short shove, an angular impulse spread over push_s; a tilt as a
+//    hand moving the body to an angle along a smooth path, then letting go. The gyro sees every one as a rate.
 //  - each VESC holds its commanded ERPM with a first-order speed loop (time constant tau, acceleration limited by
 //    the motor), releases (freewheels, slowly coasting down) when no SET_RPM came for its timeout (1 s default),
 //    and reports STATUS at 50 Hz and STATUS_5 at 10 Hz when alive.
 //  - battery: open-circuit voltage falling slowly with charge used, minus internal resistance x current.
-//  - IMU: accelerometer (g) and gyro (deg/s) in the body frame (x forward, y left, z up) from the state, with
-//    white noise and a constant gyro bias, from a seeded generator (deterministic runs).
-// A bench stand holds the body upright (pitch 0) until released, like a tethered robot at the bench.
+//  - IMU: accelerometer (g) and gyro (deg/s) in the body frame (x forward, y left, z up) at the board's height
+//    above the axle (so the body's own angular acceleration reaches the accelerometer), with the QMI8658's white
+//    noise, a constant per-seed offset on every axis and the register's resolution (plant.cpp cites the
+//    datasheet). The World can pull the IMU (no samples at all).
+// A bench stand holds the body still, slightly off balance (a per-seed angle within +-stand_max_deg), until
+// released; it lets go with a small random rate, like a technician's hands.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <random>
@@ -36,9 +43,23 @@ struct PlantConfig {
   double battery_full_v = 41.5;
   double battery_capacity_ah = 10.0;
   double battery_resistance_ohm = 0.12;
-  double accel_noise_g = 0.005;
-  double gyro_noise_dps = 0.05;
-  double gyro_bias_dps = 0.1;
+  // IMU (figures and their source: plant.cpp)
+  double gyro_noise_density_dps = 0.015;   ///< deg/s per sqrt(Hz)
+  double accel_noise_density_g = 200e-6;   ///< g per sqrt(Hz)
+  double imu_noise_bandwidth_hz = 500.0;   ///< 1 kHz output rate, no low-pass filter: the Nyquist band
+  double gyro_offset_max_dps = 1.0;        ///< each axis' zero-rate offset: uniform in +- this, per seed
+  double accel_offset_max_g = 0.02;        ///< each axis' zero-g offset: uniform in +- this, per seed
+  double accel_lsb_g = 1.0 / 4096;         ///< +-8 g range (the glue's CTRL2)
+  double gyro_lsb_dps = 1.0 / 64;          ///< +-512 dps range (the glue's CTRL3)
+  double imu_height_m = 0.0;               ///< the board above the wheel axle (unknown: see firmware/sim/README.md)
+  // the bench
+  double stand_min_deg = 0.2;              ///< the stand holds the body at +-(min..max) degrees, per seed
+  double stand_max_deg = 1.0;
+  double release_rate_max_dps = 2.0;       ///< the rate it lets go with: uniform in +- this
+  double floor_accel_sd_radps2 = 0.15;     ///< the floor's random angular acceleration (sd) ...
+  double floor_tau_s = 0.05;               ///< ... and its correlation time
+  double push_s = 0.02;                    ///< a push's duration
+  double tilt_s = 0.25;                    ///< how long the hand takes to tilt the body
   std::uint32_t seed = 1;
 };
 
@@ -79,6 +100,9 @@ class Plant {
   void step(double dt, double now_s);
   /// One IMU sample of the current state, stamped t_us.
   fw::ImuSample imu_sample(fw::TimeUs t_us);
+  /// The IMU's offsets drawn for this seed (gyro y in deg/s, accelerometer x in g): for tests and reports.
+  [[nodiscard]] double gyro_offset_y_dps() const { return gyro_offset_[1]; }
+  [[nodiscard]] double accel_offset_x_g() const { return accel_offset_[0]; }
 
   /// A CAN frame from BALANCE: SET_RPM to a VESC is taken; everything else ignored.
   void on_can(const CanFrame& frame, double now_s);
@@ -96,23 +120,18 @@ class Plant {
   Vesc& right() { return right_; }
 
   // the bench
-  void release_stand() { on_stand_ = false; }
-  /// Puts the robot back upright on its stand (someone lifts it).
-  void upright() {
-    on_stand_ = true;
-    pitch_ = 0;
-    rate_ = 0;
-  }
-  /// A push: adds to the pitch rate (deg/s), also when on the stand (which then lets go).
-  void push(double dps) {
-    on_stand_ = false;
-    rate_ += dps * kDegToRad;
-  }
-  void set_pitch(double deg) {
-    on_stand_ = false;
-    pitch_ = deg * kDegToRad;
-    rate_ = 0;
-  }
+  /// The stand lets go: the body starts from the stand's angle with a small random rate.
+  void release_stand();
+  /// Puts the robot back on its stand: the hands move it to the stand's angle over tilt_s (the gyro sees it), then
+  /// the stand holds it. No-op when already on the stand.
+  void upright();
+  /// A shove: over push_s, an angular impulse that changes the pitch rate by dps deg/s (+ = nose up); also when
+  /// on the stand (which then lets go).
+  void push(double dps);
+  /// A hand moves the body from where it is to deg degrees along a smooth path over tilt_s, then lets go (at
+  /// rest). Lifts it off the stand.
+  void tilt(double deg);
+  [[nodiscard]] double stand_deg() const { return stand_pitch_ / kDegToRad; }
 
   static constexpr double kDegToRad = 0.017453292519943295;
 
@@ -127,6 +146,17 @@ class Plant {
   double used_ah_ = 0;
   double battery_v_ = 41.5;
   bool on_stand_ = true;
+  double stand_pitch_ = 0;    // rad
+  double floor_ = 0;          // the floor's angular acceleration now, rad/s^2
+  double push_left_s_ = 0;    // a shove in progress: its angular acceleration and time left
+  double push_alpha_ = 0;
+  double tilt_left_s_ = 0;    // the hand in progress: from, to, time left
+  double tilt_from_ = 0;
+  double tilt_to_ = 0;
+  bool to_stand_ = false;     // the hand is bringing it back to the stand
+  double alpha_ = 0;          // the body's angular acceleration in the last step, rad/s^2
+  std::array<double, 3> gyro_offset_{};
+  std::array<double, 3> accel_offset_{};
   double next_status1_ = 0;
   double next_status5_ = 0;
   std::mt19937 rng_;

@@ -1,5 +1,13 @@
 // The simulated robot as a bench-test target, in-process and on simulated time: a suite runs as fast as the
 // machine can step the simulation, and gives the same result every time.
+//
+// Besides the world's own control commands, `sim` steps here can check what only the simulator can see (the IO
+// board's motor pins have no CAN frame): `sim check FIELD OP VALUE` (OP one of = != < <= > >=) fails the step when
+// the condition does not hold now, and `sim peak reset` restarts the peaks; `sim type BOARD LINE` types a console
+// line without waiting for its reply (the explorer's suites: their timing is the input's). Fields:
+//   io_duty       the largest BTS7960 duty on the IO board's pins now (permille, 0 while the enables are low)
+//   io_duty_peak  the largest io_duty since the suite started or `sim peak reset`
+//   io_armed      the IO board's armed flag (0 / 1)
 #pragma once
 
 #include <deque>
@@ -24,8 +32,10 @@ class SimTarget final : public host::benchtest::Target {
 
  private:
   void step();
+  bool check(const std::string& condition, std::string& error) const;
   World& world_;
   std::deque<CanFrame> pending_;
+  std::uint16_t io_duty_peak_ = 0;
 };
 
 }  // namespace saul::sim

@@ -68,6 +68,11 @@ class World {
   [[nodiscard]] const fw::IoBoard& io() const { return *io_; }
   [[nodiscard]] std::uint32_t balance_resets() const { return balance_resets_; }
   [[nodiscard]] std::string status_line() const;
+  /// The IO board's outputs as its pins carry them now: a PWM duty (permille) and a digital output.
+  [[nodiscard]] std::uint16_t io_pwm(fw::PwmChannel channel) const;
+  [[nodiscard]] bool io_pin(fw::OutputPin pin) const;
+  /// The largest BTS7960 duty on the pins now (permille): 0 unless that side's enables are high.
+  [[nodiscard]] std::uint16_t io_drive_duty() const;
 
  private:
   struct Hardware;
@@ -88,6 +93,7 @@ class World {
   bool balance_hung_ = false;
   fw::TimeUs balance_last_feed_ = 0;
   bool link_cut_ = false;
+  bool imu_on_ = true;
   bool crsf_on_ = true;
   bool elrs_on_ = true;
   std::array<std::uint16_t, 16> channels_us_{};

@@ -29,6 +29,7 @@ enum class Type : std::uint8_t {
   state = 0x10,    ///< BALANCE -> IO
   led_cmd = 0x11,  ///< BALANCE -> IO
   buzzer = 0x12,   ///< BALANCE -> IO
+  speed_cap = 0x13,  ///< BALANCE -> IO (an addition to the system reference, docs/protocol.md section 2)
 };
 
 /// RC command forwarded by IO. throttle and steer in permille (-1000..+1000) after the speed cap.
@@ -37,11 +38,16 @@ struct RcCmd {
   static constexpr const char* kName = "rc_cmd";
   static constexpr std::uint8_t kArmed = 0x01;  ///< flags bit0
   static constexpr std::uint8_t kKill = 0x02;   ///< flags bit1
+  /// flags bit2 (an addition to the reference): a receiver is live and its CH5 is at disarm (<= 1500 us)
+  static constexpr std::uint8_t kDisarmSwitch = 0x04;
+  static constexpr std::uint8_t kButton = 0x08;  ///< flags bit3 (an addition): the arming button is pressed now
   std::int16_t throttle = 0;
   std::int16_t steer = 0;
   std::uint8_t flags = 0;
   [[nodiscard]] constexpr bool armed() const noexcept { return (flags & kArmed) != 0; }
   [[nodiscard]] constexpr bool kill() const noexcept { return (flags & kKill) != 0; }
+  [[nodiscard]] constexpr bool disarm_switch() const noexcept { return (flags & kDisarmSwitch) != 0; }
+  [[nodiscard]] constexpr bool button() const noexcept { return (flags & kButton) != 0; }
   template <class V> constexpr void fields(V&& v) const {
     v("throttle", throttle); v("steer", steer); v("flags", flags);
   }
@@ -108,7 +114,17 @@ struct Buzzer {
   constexpr bool operator==(const Buzzer&) const = default;
 };
 
-using Message = std::variant<RcCmd, Sensor, Fault, State, LedCmd, Buzzer>;
+/// The one speed cap of both boards' motor outputs (docs/protocol.md, safety decisions): BALANCE owns it and sends
+/// it with every STATE and at once when it changes; the IO board's BTS7960 duty never exceeds it.
+struct SpeedCap {
+  static constexpr Type kType = Type::speed_cap;
+  static constexpr const char* kName = "speed_cap";
+  std::uint8_t percent = 10;  ///< 10..100 in steps of 10
+  template <class V> constexpr void fields(V&& v) const { v("percent", percent); }
+  constexpr bool operator==(const SpeedCap&) const = default;
+};
+
+using Message = std::variant<RcCmd, Sensor, Fault, State, LedCmd, Buzzer, SpeedCap>;
 
 /// Payload length of a known type, or nullopt for a type byte no one defined.
 constexpr std::optional<std::uint8_t> payload_length(std::uint8_t type) noexcept {
@@ -119,6 +135,7 @@ constexpr std::optional<std::uint8_t> payload_length(std::uint8_t type) noexcept
     case Type::state: return 5;
     case Type::led_cmd: return 4;
     case Type::buzzer: return 3;
+    case Type::speed_cap: return 1;
   }
   return std::nullopt;
 }

@@ -32,6 +32,7 @@ inline constexpr SignalDesc kState[] = {
 };
 inline constexpr SignalDesc kLedCmd[] = {le_u("pattern", 0, 8), le_u("r", 1, 8), le_u("g", 2, 8), le_u("b", 3, 8)};
 inline constexpr SignalDesc kBuzzer[] = {le_u("tone_id", 0, 8), le_u("duration_ms", 1, 16).in("ms")};
+inline constexpr SignalDesc kSpeedCap[] = {le_u("percent", 0, 8).in("%").valid(10, 100)};
 
 namespace detail {
 template <class M>
@@ -49,6 +50,7 @@ inline constexpr MessageDesc kMessages[] = {
     detail::message<saul::interboard::State>("BALANCE", "IO", kState),
     detail::message<saul::interboard::LedCmd>("BALANCE", "IO", kLedCmd),
     detail::message<saul::interboard::Buzzer>("BALANCE", "IO", kBuzzer),
+    detail::message<saul::interboard::SpeedCap>("BALANCE", "IO", kSpeedCap),
 };
 
 }  // namespace saul::signals::of_interboard

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <initializer_list>
 #include <map>
 #include <sstream>
 #include <type_traits>
@@ -162,6 +163,19 @@ std::vector<CanFrame> build_frames(const std::vector<std::string>& w, std::size_
   }
   if (!a.empty()) throw ParseError(path, line, "unknown field '" + a.begin()->first + "' for " + name);
   return out;
+}
+
+/// MESSAGE COND... from w[i] up to (not including) one of the stop words; i is left on the stop word (or the end).
+Step::Clause parse_clause(const std::vector<std::string>& w, std::size_t& i, std::initializer_list<const char*> stops,
+                          const std::string& verb, const std::string& path, int line) {
+  const auto stop = [&](const std::string& word) {
+    return std::any_of(stops.begin(), stops.end(), [&](const char* s) { return word == s; });
+  };
+  if (i >= w.size() || stop(w[i])) throw ParseError(path, line, verb + " needs a message name");
+  Step::Clause c;
+  c.message = w[i] == "any" ? "" : w[i];
+  for (++i; i < w.size() && !stop(w[i]); ++i) c.conditions.push_back(parse_condition(w[i], path, line));
+  return c;
 }
 
 std::uint64_t need_duration(const std::string& w, const std::string& path, int line) {
@@ -324,13 +338,43 @@ Suite parse_suite(std::istream& in, const std::string& path) {
         ++i;
       }
       const std::string until = s.kind == Step::Kind::expect_none ? "for" : until_word;
-      if (i >= w.size()) throw ParseError(path, line, verb + " needs a message name");
-      s.message = w[i] == "any" ? "" : w[i];
-      ++i;
-      for (; i < w.size() && w[i] != until; ++i) s.conditions.push_back(parse_condition(w[i], path, line));
+      auto c = parse_clause(w, i, {until.c_str()}, verb, path, line);
+      s.message = std::move(c.message);
+      s.conditions = std::move(c.conditions);
       if (i + 1 >= w.size()) throw ParseError(path, line, verb + " needs '" + until + " DURATION' at the end");
       s.duration_us = need_duration(w[i + 1], path, line);
       if (i + 2 != w.size()) throw ParseError(path, line, "unexpected words after the duration");
+    } else if (verb == "mean") {
+      s.kind = Step::Kind::mean;
+      std::size_t i = 1;
+      auto c = parse_clause(w, i, {"for"}, verb, path, line);
+      if (c.message.empty() || c.conditions.empty())
+        throw ParseError(path, line, "mean needs a message name and at least one condition");
+      s.message = std::move(c.message);
+      s.conditions = std::move(c.conditions);
+      if (i + 2 != w.size()) throw ParseError(path, line, "mean needs 'for DURATION' at the end");
+      s.duration_us = need_duration(w[i + 1], path, line);
+    } else if (verb == "stable") {
+      s.kind = Step::Kind::stable;
+      std::size_t i = 1;
+      for (;;) {
+        auto c = parse_clause(w, i, {"and", "for"}, verb, path, line);
+        if (c.message.empty()) throw ParseError(path, line, "stable needs message names, not 'any'");
+        if (s.message.empty()) {
+          s.message = std::move(c.message);
+          s.conditions = std::move(c.conditions);
+        } else {
+          s.more.push_back(std::move(c));
+        }
+        if (i >= w.size() || w[i] != "and") break;
+        ++i;
+      }
+      if (i + 4 != w.size() || w[i] != "for" || w[i + 2] != "within")
+        throw ParseError(path, line, "stable needs 'for DURATION within DURATION' at the end");
+      s.duration_us = need_duration(w[i + 1], path, line);
+      s.limit_us = need_duration(w[i + 3], path, line);
+      if (s.duration_us == 0 || s.limit_us < s.duration_us)
+        throw ParseError(path, line, "stable needs 0 < for <= within");
     } else if (verb == "console") {
       s.kind = Step::Kind::console;
       if (w.size() < 3) throw ParseError(path, line, "console needs a board (balance|io) and a command");
@@ -351,8 +395,8 @@ Suite parse_suite(std::istream& in, const std::string& path) {
       if (w.size() != 2) throw ParseError(path, line, "wait takes one duration");
       s.duration_us = need_duration(w[1], path, line);
     } else {
-      throw ParseError(path, line,
-                       "unknown step '" + verb + "' (send, stream, stop, expect, hold, console, sim, wait)");
+      throw ParseError(path, line, "unknown step '" + verb +
+                                       "' (send, stream, stop, expect, hold, mean, stable, console, sim, wait)");
     }
     suite.steps.push_back(std::move(s));
   }
@@ -486,6 +530,100 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           }
           break;
         }
+        case Step::Kind::mean: {
+          std::map<std::string, double> sums;              // per field ("|field|" for the absolute values)
+          std::map<std::string, std::uint64_t> sums_frames;  // the frame count a field was last added at
+          std::uint64_t count = 0;
+          pump(t0 + step.duration_us, [&](const CanFrame& f) {
+            if (!matches(f, step.message, {})) return true;
+            const auto m = decode_bus_frame(f);
+            ++count;
+            for (const auto& c : step.conditions) {  // once per field (and per |field|)
+              const std::string key = c.absolute ? "|" + c.field + "|" : c.field;
+              if (sums.count(key) != 0 && sums_frames[key] == count) continue;
+              const auto v = field_of(m.value(), c.field);
+              if (!v || !v->number) throw std::runtime_error(step.message + " has no number field '" + c.field + "'");
+              sums[key] += c.absolute ? std::fabs(*v->number) : *v->number;
+              sums_frames[key] = count;
+            }
+            return true;
+          });
+          if (count == 0) {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
+            break;
+          }
+          std::string means;
+          for (const auto& [field, sum] : sums) means += fmt::format("{}{} {:.2f}", means.empty() ? "" : ", ", field, sum / static_cast<double>(count));
+          r.output = fmt::format("means over {} frames: {}", count, means);
+          for (const auto& c : step.conditions) {
+            Condition plain = c;
+            plain.absolute = false;  // the mean is already of the absolute values
+            const double mean = sums[c.absolute ? "|" + c.field + "|" : c.field] / static_cast<double>(count);
+            if (!holds(plain, FieldValue{mean, fmt::format("{}", mean)})) {
+              r.status = StepResult::Status::failed;
+              r.message = fmt::format("{} mean {:.2f} breaks the condition ({})", c.field, mean, r.output);
+              break;
+            }
+          }
+          if (r.status == StepResult::Status::passed) r.message = r.output;
+          break;
+        }
+        case Step::Kind::stable: {
+          std::vector<Step::Clause> clauses{{step.message, step.conditions}};
+          clauses.insert(clauses.end(), step.more.begin(), step.more.end());
+          std::vector<std::uint64_t> seen(clauses.size(), t0);
+          std::uint64_t since = t0;
+          std::uint64_t longest = 0;
+          std::uint64_t restarts = 0;
+          std::string last_break;
+          bool done = false;
+          const auto restart = [&](std::uint64_t now, std::string why) {
+            longest = std::max(longest, now - since);
+            since = now;
+            ++restarts;
+            last_break = fmt::format("at {}: {}", us_text(now - t0), why);
+          };
+          // A silent message restarts the clock once per kStableMaxGapUs of silence.
+          const auto check_gaps = [&](std::uint64_t now) {
+            for (std::size_t c = 0; c < clauses.size(); ++c) {
+              if (now - seen[c] <= kStableMaxGapUs) continue;
+              restart(now, clauses[c].message + " silent for over " + us_text(kStableMaxGapUs));
+              seen[c] = now;
+            }
+          };
+          pump(t0 + step.limit_us, [&](const CanFrame& f) {
+            const std::uint64_t now = target.now_us();
+            check_gaps(now);
+            for (std::size_t c = 0; c < clauses.size(); ++c) {
+              if (!matches(f, clauses[c].message, {})) continue;
+              seen[c] = now;
+              if (!matches(f, clauses[c].message, clauses[c].conditions))
+                restart(now, "broken by " + format_candump_frame(f));
+            }
+            if (now - since >= step.duration_us) {
+              done = true;
+              return false;
+            }
+            return true;
+          });
+          const std::uint64_t end = target.now_us();
+          if (!done) check_gaps(end);
+          const std::uint64_t stretch = end - since;
+          longest = std::max(longest, stretch);
+          const std::string summary =
+              fmt::format("longest stable stretch {} (needed {}), {} restart(s){}{}", us_text(longest),
+                          us_text(step.duration_us), restarts, restarts > 0 ? ", the last " : "", last_break);
+          if (done) {
+            r.message = fmt::format("stable for {} from {} on; {}", us_text(stretch), us_text(since - t0), summary);
+          } else {
+            r.status = StepResult::Status::failed;
+            r.message = fmt::format("never stable for {} within {}: {}", us_text(step.duration_us),
+                                    us_text(step.limit_us), summary);
+          }
+          r.output = r.message;
+          break;
+        }
         case Step::Kind::console: {
           const auto reply = target.console(step.board, step.text, step.expect_text, step.duration_us);
           if (!reply) {
@@ -539,10 +677,12 @@ std::string junit_xml(const std::vector<SuiteResult>& results) {
     for (const auto& st : s.steps) {
       x += fmt::format("    <testcase classname=\"{}\" name=\"line {}: {}\" time=\"{:.3f}\"", xml_escape(s.name), st.line,
                        xml_escape(st.source), static_cast<double>(st.elapsed_us) / 1e6);
+      const std::string out =
+          st.output.empty() ? "" : fmt::format("<system-out>{}</system-out>", xml_escape(st.output));
       if (st.status == StepResult::Status::passed) {
-        x += "/>\n";
+        x += out.empty() ? "/>\n" : ">" + out + "</testcase>\n";
       } else if (st.status == StepResult::Status::failed) {
-        x += fmt::format("><failure message=\"{}\"/></testcase>\n", xml_escape(st.message));
+        x += fmt::format("><failure message=\"{}\"/>{}</testcase>\n", xml_escape(st.message), out);
       } else {
         x += fmt::format("><skipped message=\"{}\"/></testcase>\n", xml_escape(st.message));
       }

@@ -13,6 +13,12 @@
 //   expect telemetry_a state=BALANCE |pitch_x100|<300 within 2s
 //   expect no velocity_cmd for 1s                   nothing matching may arrive (conditions optional)
 //   hold telemetry_a state=BALANCE for 3s           every matching frame in the window satisfies it; >= 1 seen
+//   mean telemetry_a speed_mmps>=240 speed_mmps<=360 for 2s   the fields' means over the window satisfy it
+//   stable telemetry_a state=BALANCE |pitch_x100|<500 and telemetry_b faults=0 for 5m within 20m
+//                                                   every frame of each message holds its conditions for 5 minutes
+//                                                   on end; a frame that breaks them, or a message silent for more
+//                                                   than 1 s, restarts the clock; fails at 'within' (the report
+//                                                   gives the longest stable stretch)
 //   console balance arm expect ok within 500ms      a USB console command and a text its reply must contain
 //   sim push 8                                      a simulator control command (fault injection, radio, ...)
 //   wait 1s
@@ -45,14 +51,21 @@ struct Condition {
 };
 
 struct Step {
-  enum class Kind { send, stream, stop, expect, expect_none, hold, console, sim, wait };
+  enum class Kind { send, stream, stop, expect, expect_none, hold, mean, stable, console, sim, wait };
+  /// stable: a further message and its conditions ('... and telemetry_b faults=0 ...').
+  struct Clause {
+    std::string message;
+    std::vector<Condition> conditions;
+  };
   Kind kind = Kind::wait;
   int line = 0;
   std::string source;                 ///< the line as written, for reports
   std::vector<CanFrame> frames;       ///< send / stream
   std::string message;                ///< expect / hold: message name ("" = any)
   std::vector<Condition> conditions;  ///< expect / hold
+  std::vector<Clause> more;           ///< stable: the clauses after the first
   std::uint64_t duration_us = 0;      ///< within / for / wait
+  std::uint64_t limit_us = 0;         ///< stable: within
   std::uint64_t period_us = 0;        ///< stream
   std::string board;                  ///< console
   std::string text;                   ///< console command, sim command
@@ -107,6 +120,7 @@ struct StepResult {
   int line = 0;
   std::string source;
   std::string message;       ///< why it failed, or what it saw
+  std::string output;        ///< what the step measured, kept in the JUnit report (<system-out>): stable, mean
   std::uint64_t elapsed_us = 0;
 };
 
@@ -120,10 +134,14 @@ struct SuiteResult {
   [[nodiscard]] bool passed() const;
 };
 
+/// A stable step's clock restarts when one of its messages has been silent for longer than this.
+inline constexpr std::uint64_t kStableMaxGapUs = 1'000'000;
+
 /// Runs every step in order; stops at the first failed step (the rest are reported as skipped).
 SuiteResult run_suite(const Suite& suite, Target& target);
 
-/// JUnit XML for CI systems: one <testsuite> per suite, one <testcase> per step.
+/// JUnit XML for CI systems: one <testsuite> per suite, one <testcase> per step (with <system-out> when the step
+/// measured something: a stable step's longest stretch, a mean step's means).
 std::string junit_xml(const std::vector<SuiteResult>& results);
 
 /// Evaluates conditions against a frame: true when the frame decodes to `message` (or any message when empty)
