@@ -5,10 +5,10 @@
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <set>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "grammar.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
@@ -28,13 +28,6 @@ struct DecodeOptions {
   bool strict = false;
   SerialCliOptions serial;
 };
-
-std::uint32_t parse_id(const std::string& s) {
-  std::size_t used = 0;
-  const unsigned long v = std::stoul(s, &used, 0);
-  if (used != s.size() || v > saul::CanFrame::kMaxExtendedId) throw CLI::ValidationError("--id", "bad id '" + s + "'");
-  return static_cast<std::uint32_t>(v);
-}
 
 std::string time_text(const std::string& mode, std::uint64_t ns, std::optional<std::uint64_t>& first,
                       std::optional<std::uint64_t>& previous) {
@@ -119,8 +112,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
 
 int run_decode(const DecodeOptions& opt) {
   const std::string format = opt.json ? "jsonl" : opt.format;
-  std::set<std::uint32_t> ids;
-  for (const auto& s : opt.ids) ids.insert(parse_id(s));
+  const auto ids = id_filters(opt.ids);
   const saul::host::SerialReadOptions serial_options = serial_read_options(opt.serial);
 
   std::uint64_t frames = 0, decoded = 0, unknown = 0, rejected = 0, errors = 0, corrupt = 0;
@@ -167,7 +159,7 @@ int run_decode(const DecodeOptions& opt) {
       }
       ++records;
       const saul::CanFrame& f = reader.frame();
-      if (!ids.empty() && !ids.count(f.id)) continue;
+      if (!ids.empty() && !saul::host::passes(ids, f)) continue;
       ++frames;
       const auto result = saul::decode_bus_frame(f);
       std::string what;
@@ -245,7 +237,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "Exit 0 even with corrupt lines, unless --strict is given or nothing at all could be read (then 1).\n"
       "\nExamples:\n"
       "  saulctl decode captures/robot_bus.log\n"
-      "  saulctl decode --time delta --id 0x300 run.log     gaps between velocity commands\n"
+      "  saulctl decode --time delta --id 300 run.log       gaps between velocity commands (ids are hex)\n"
       "  saulctl decode --format csv run.log > run.csv\n"
       "  saulctl decode bench.pcapng                        pcap, pcapng and Vector ASC work the same\n"
       "  candump -L can0 | saulctl decode -                 decode live from can-utils\n"
@@ -261,13 +253,13 @@ void add_decode_command(CLI::App& app, Runner& run) {
   cmd->add_option("--format", opt->format, "text, jsonl or csv")
       ->check(CLI::IsMember({"text", "jsonl", "csv"}))
       ->capture_default_str();
-  cmd->add_flag("--json", opt->json, "same as --format jsonl");
+  add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
                 "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
   cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous)")
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();
-  cmd->add_option("--id", opt->ids, "only these CAN ids (hex 0x300 or decimal), comma separated")->delimiter(',');
+  add_id_option(cmd, opt->ids, "only these CAN ids");
   add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] {
     run = [opt] {

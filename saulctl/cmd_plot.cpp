@@ -13,6 +13,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "grammar.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/plot.hpp"
 #include "saulproto/host/report/telemetry_plot.hpp"
@@ -59,6 +60,11 @@ int run_plot(const PlotOptions& opt) {
 
   PlotRequest request;
   request.id = opt.id;
+  if (!opt.id.empty() && opt.id[0] >= '0' && opt.id[0] <= '9') {
+    // Ids are hex here as in every verb (docs/cli.md): 400 = 0x400.
+    if (opt.id.find(':') != std::string::npos) throw CLI::ValidationError("--id", "plot takes one id, not ID:MASK");
+    request.id = fmt::format("0x{:X}", id_filters({opt.id}).front().id);
+  }
   request.fields = opt.fields;
   request.max_markers = opt.max_markers;
   request.source_name = base_name(opt.file);
@@ -131,7 +137,7 @@ void add_plot_command(CLI::App& app, Runner& run) {
   cmd->add_option("--format", opt->format, "html, svg, png, pdf or csv, whatever the extension of -o")
       ->check(CLI::IsMember({"html", "svg", "png", "pdf", "csv"}));
   cmd->add_option("--id", opt->id,
-                  "plot one message instead of the dashboard: a CAN id (0x400) or a message name (telemetry_a, state)");
+                  "plot one message instead of the dashboard: a CAN id in hex (400 = 0x400) or a message name (telemetry_a, state)");
   cmd->add_option("--field", opt->fields,
                   "with --id: numeric field(s), one panel each (pitch_x100,pid_out); default every field")
       ->delimiter(',');
