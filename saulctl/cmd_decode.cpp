@@ -29,6 +29,32 @@ struct DecodeOptions {
   SerialCliOptions serial;
 };
 
+// Standard input as the candump reader sees it, line by line, keeping the first line that is no candump -L line
+// (the reader skips those): when no frame came, what that line looks like is the error ('candump can0' without
+// -L, above all). Whole lines are handed on as they come, so a live pipe is decoded at once.
+class WatchedLines : public std::streambuf {
+ public:
+  explicit WatchedLines(std::istream& in) : in_(in) {}
+  [[nodiscard]] const std::string& first_other() const { return first_other_; }
+
+ protected:
+  int_type underflow() override {
+    if (!std::getline(in_, line_)) return traits_type::eof();
+    if (first_other_.empty() && !line_.empty() && line_[0] != '(' &&
+        line_.find_first_not_of(" \t\r") != std::string::npos)
+      first_other_ = line_;
+    if (!in_.eof()) line_ += '\n';
+    if (line_.empty()) return underflow();
+    setg(line_.data(), line_.data(), line_.data() + line_.size());
+    return traits_type::to_int_type(line_[0]);
+  }
+
+ private:
+  std::istream& in_;
+  std::string line_;
+  std::string first_other_;
+};
+
 std::string time_text(const std::string& mode, std::uint64_t ns, std::optional<std::uint64_t>& first,
                       std::optional<std::uint64_t>& previous) {
   if (!first) first = ns;
@@ -127,8 +153,13 @@ int run_decode(const DecodeOptions& opt) {
   for (const auto& path : opt.files) {
     // '-' is candump text from standard input; files are any capture format, told by their content.
     std::unique_ptr<saul::host::CaptureReader> opened;
+    std::unique_ptr<WatchedLines> watched;
+    std::unique_ptr<std::istream> watched_in;
+    const std::uint64_t records_before = records, corrupt_before = corrupt;
     if (path == "-") {
-      opened = std::make_unique<saul::host::CandumpReader>(std::cin);
+      watched = std::make_unique<WatchedLines>(std::cin);
+      watched_in = std::make_unique<std::istream>(watched.get());
+      opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
     } else {
       try {
         auto any = saul::host::open_capture(path, serial_options);
@@ -200,6 +231,12 @@ int run_decode(const DecodeOptions& opt) {
         fmt::print("{} {} {:<24} {}\n", stamp, saul::host::candump_interface(reader.interface()),
                    saul::host::format_candump_frame(f), what);
       }
+    }
+    if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty()) {
+      progress.finish();
+      fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",
+                 saul::host::describe_non_capture(watched->first_other()));
+      status = kFailure;
     }
   }
   progress.finish();
