@@ -16,7 +16,7 @@ using namespace saul;
 
 namespace {
 
-std::string text_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+BusMessage decoded(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
   CanFrame f;
   f.id = id;
   f.dlc = static_cast<std::uint8_t>(bytes.size());
@@ -24,18 +24,15 @@ std::string text_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> 
   for (auto b : bytes) f.data[i++] = b;
   const auto r = decode_bus_frame(f);
   REQUIRE(r);
-  return host::describe(r.value());
+  return r.value();
+}
+
+std::string text_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  return host::describe(decoded(id, bytes));
 }
 
 nlohmann::json json_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
-  CanFrame f;
-  f.id = id;
-  f.dlc = static_cast<std::uint8_t>(bytes.size());
-  std::size_t i = 0;
-  for (auto b : bytes) f.data[i++] = b;
-  const auto r = decode_bus_frame(f);
-  REQUIRE(r);
-  return host::to_json(r.value());
+  return host::to_json(decoded(id, bytes));
 }
 
 }  // namespace
