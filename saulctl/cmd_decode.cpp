@@ -13,6 +13,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/format.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
@@ -103,6 +104,14 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
         j["message"] = to_json(m);
       }
       fmt::print("{}\n", j.dump());
+    } else if (format == "long") {
+      const SignalValues values = std::visit(
+          [](const auto& message) -> SignalValues {
+            if constexpr (requires { signal_values(message); }) return signal_values(message);
+            return {};
+          },
+          m);
+      fmt::print("{}", long_csv_rows(bare, chunk.link, "", values));
     } else if (format == "csv") {
       const std::string name = name_of(m);
       std::string fields = describe(m);
@@ -148,6 +157,7 @@ int run_decode(const DecodeOptions& opt) {
   bool any_serial = false;
   int status = kOk;
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
+  if (format == "long") fmt::print("{}\n", saul::host::kLongCsvHeader);
   Progress progress("decode", true);
 
   for (const auto& path : opt.files) {
@@ -215,6 +225,11 @@ int run_decode(const DecodeOptions& opt) {
           j["error"] = saul::to_string(result.reason());
         }
         fmt::print("{}\n", j.dump());
+      } else if (format == "long") {
+        fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
+                                                   f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
+                                                   result ? saul::host::signal_values(result.value())
+                                                          : saul::host::SignalValues{}));
       } else if (format == "csv") {
         std::string name = result ? saul::name_of(result.value()) : std::string("!") + saul::to_string(result.reason());
         std::string fields;
@@ -276,6 +291,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "  saulctl decode captures/robot_bus.log\n"
       "  saulctl decode --time delta --id 300 run.log       gaps between velocity commands (ids are hex)\n"
       "  saulctl decode --format csv run.log > run.csv\n"
+      "  saulctl decode --format long run.log > signals.csv   one row per signal, for DuckDB or pandas\n"
       "  saulctl decode bench.pcapng                        pcap, pcapng and Vector ASC work the same\n"
       "  candump -L can0 | saulctl decode -                 decode live from can-utils\n"
       "  saulctl decode captures/pride_uart.serial          serial byte captures: each link's own decoder\n"
@@ -287,8 +303,10 @@ void add_decode_command(CLI::App& app, Runner& run) {
                   "capture files: candump, pcap, pcapng, ASC, serial log, sigrok/PulseView UART export "
                   "('-' = candump text on standard input)")
       ->required();
-  cmd->add_option("--format", opt->format, "text, jsonl or csv")
-      ->check(CLI::IsMember({"text", "jsonl", "csv"}))
+  cmd->add_option("--format", opt->format,
+                  "text, jsonl, csv (a row per frame) or long (a row per signal: time,interface,id,message,signal,"
+                  "value,unit, values in physical units)")
+      ->check(CLI::IsMember({"text", "jsonl", "csv", "long"}))
       ->capture_default_str();
   add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
