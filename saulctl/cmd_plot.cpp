@@ -62,7 +62,8 @@ int run_plot(const PlotOptions& opt) {
   request.id = opt.id;
   if (!opt.id.empty() && opt.id[0] >= '0' && opt.id[0] <= '9') {
     // Ids are hex here as in every verb (docs/cli.md): 400 = 0x400.
-    if (opt.id.find(':') != std::string::npos) throw CLI::ValidationError("--id", "plot takes one id, not ID:MASK");
+    if (opt.id.find_first_of(":-") != std::string::npos)
+      throw CLI::ValidationError("--id", "plot takes one id, not ID:MASK or a range");
     request.id = fmt::format("0x{:X}", id_filters({opt.id}).front().id);
   }
   request.fields = opt.fields;

@@ -32,17 +32,41 @@ void add_link_option_and_positional(CLI::App* cmd, std::string& link) {
   });
 }
 
+namespace {
+// "400-40F": the ids from A to B as the fewest ID:MASK blocks (each a power-of-two run aligned to its size, as a
+// CAN controller's filters match), in the width the ends are written in; "400" and "400:7F0" as parse_id_filter.
+std::vector<saul::host::CanFilter> parse_id_selection(const std::string& text) {
+  const auto dash = text.find('-');
+  if (dash == std::string::npos) return {saul::host::parse_id_filter(text)};
+  if (text.find(':') != std::string::npos)
+    throw std::invalid_argument("bad id range '" + text + "': a range has no mask (400-40F, or 400:7F0)");
+  const auto lo = saul::host::parse_id_filter(text.substr(0, dash));
+  const auto hi = saul::host::parse_id_filter(text.substr(dash + 1));
+  if (lo.id > hi.id) throw std::invalid_argument("bad id range '" + text + "': the first id is above the last");
+  const bool extended = lo.extended || hi.extended;
+  const std::uint32_t all = extended ? saul::CanFrame::kMaxExtendedId : saul::CanFrame::kMaxStandardId;
+  std::vector<saul::host::CanFilter> out;
+  for (std::uint64_t id = lo.id; id <= hi.id;) {
+    std::uint64_t size = 1;  // the largest aligned block from id that stays within the range
+    while ((id & (size * 2 - 1)) == 0 && id + size * 2 - 1 <= hi.id && size * 2 <= std::uint64_t{all} + 1) size *= 2;
+    out.push_back({static_cast<std::uint32_t>(id), static_cast<std::uint32_t>(all & ~(size - 1)), extended});
+    id += size;
+  }
+  return out;
+}
+}  // namespace
+
 CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what) {
   return cmd
       ->add_option("--id", ids,
-                   what + ": ID or ID:MASK in hex as candump writes ids (400 = 0x400, 0x accepted; more than 3 "
-                          "digits = 29-bit), comma separated or repeated")
+                   what + ": ID, ID:MASK or FIRST-LAST in hex as candump writes ids (400 = 0x400, 0x accepted; more "
+                          "than 3 digits = 29-bit), comma separated or repeated")
       ->delimiter(',')
       ->allow_extra_args(false)
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             try {
-              (void)saul::host::parse_id_filter(text);
+              (void)parse_id_selection(text);
             } catch (const std::invalid_argument& e) {
               return e.what();
             }
@@ -55,7 +79,8 @@ std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& id
   std::vector<saul::host::CanFilter> out;
   for (const auto& text : ids) {
     try {
-      out.push_back(saul::host::parse_id_filter(text));
+      const auto some = parse_id_selection(text);
+      out.insert(out.end(), some.begin(), some.end());
     } catch (const std::invalid_argument& e) {
       throw CLI::ValidationError("--id", e.what());
     }

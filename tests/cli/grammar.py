@@ -130,7 +130,8 @@ for verb, words in TABLE.items():
     # The help of each shared option says its grammar.
     for names, desc in opts.items():
         if names == {"--id"} and verb != "plot":
-            c.check(f"{verb}: --id says ids are hex, 400 = 0x400", "hex" in desc and "400 = 0x400" in desc, desc)
+            c.check(f"{verb}: --id says ids are hex, 400 = 0x400, and takes ID:MASK and FIRST-LAST",
+                    "hex" in desc and "400 = 0x400" in desc and "ID:MASK" in desc and "FIRST-LAST" in desc, desc)
         if names == {"--duration", "--for"}:
             c.check(f"{verb}: --duration names its units", "ms" in desc and "10s" in desc, desc)
     # Examples use the one grammar too: no "--for" or "--to" in the worked examples.
@@ -192,6 +193,19 @@ c.check("decode --id 400 = 0x400 = 0X400 = 400:7FF: the 30 frames of 0x400", set
 code, out, err = saulctl.run(["decode", "--id", "400,300", log])
 code2, out2, _ = saulctl.run(["decode", "--id", "400", "--id", "300", log])
 c.check("--id 400,300 = --id 400 --id 300", code == 0 and out == out2 and len(out.splitlines()) > 30)
+# Ranges: FIRST-LAST is every id from FIRST to LAST (made of aligned ID:MASK blocks: 301-305 is 301, 302:7FE,
+# 304:7FE and nothing more), the same frames as the ids listed one by one.
+for rng, listed in (("400-401", "400,401"), ("300-303", "300,301,302,303"), ("301-305", "301,302,303,304,305"),
+                    ("0x2FF-0x402", "300,301,302,303,400,401,402")):
+    code, out, err = saulctl.run(["decode", "--id", rng, log])
+    code2, out2, _ = saulctl.run(["decode", "--id", listed, log])
+    c.check(f"decode --id {rng} = --id {listed}", code == 0 and code2 == 0 and out == out2 and out, err)
+code, out, err = saulctl.run(["decode", "--id", "00000900-000009FF", log])
+c.check("a 29-bit range (00000900-000009FF): the VESC status frames 0x938 and 0x944 only",
+        code == 0 and out and all(l.split()[2].split("#")[0] in ("00000938", "00000944") for l in out.splitlines()), out[:300])
+for bad in ("401-400", "400-40F:7F0", "400-"):
+    code, out, err = saulctl.run(["decode", "--id", bad, log])
+    c.check(f"decode --id {bad}: usage error", code == 2 and "--help" in err, err)
 code, out, err = saulctl.run(["decode", "--id", "1024", log])
 c.check("decode --id 1024 is 0x1024 (29-bit): none of the sample's frames, not 0x400", code == 0 and out == "", out)
 for bad in ("xyz", "400:zz", "123456789"):
