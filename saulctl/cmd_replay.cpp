@@ -222,8 +222,8 @@ int run_replay(const ReplayCliOptions& opt) {
   options.loops = opt.loops;
   if (options.loops == 0) throw CLI::ValidationError("--loop", "give at least 1 pass");
   try {
-    for (const auto& t : opt.ids) options.include.push_back(parse_id_filter(t));
-    for (const auto& t : opt.exclude) options.exclude.push_back(parse_id_filter(t));
+    options.include = id_filters(opt.ids);
+    options.exclude = id_filters(opt.exclude);
     for (const auto& t : opt.maps) options.mappings.push_back(parse_id_mapping(t));
   } catch (const std::invalid_argument& e) {
     throw CLI::ValidationError("--id/--map", e.what());
@@ -350,7 +350,7 @@ void add_replay_command(CLI::App& app, Runner& run) {
       ->capture_default_str();
   cmd->add_option("--loop", o->loops, "passes over the file")->capture_default_str();
   add_id_option(cmd, o->ids, "only these logged ids");
-  cmd->add_option("--exclude-id", o->exclude, "never these logged ids, ID[:MASK] in hex")->delimiter(',');
+  add_id_option(cmd, o->exclude, "never these logged ids", "--exclude-id");
   cmd->add_option("--map", o->maps, "send id FROM as id TO, hex (--map 300=310); repeatable")->delimiter(',');
   cmd->add_option("--max-gap", o->max_gap, "shorten longer silences of the file to this (1s)")->check(duration_check());
   cmd->add_flag("--step", o->step, "one frame (serial: one chunk) per Enter (q quits); no timing");

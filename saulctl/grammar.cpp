@@ -56,9 +56,9 @@ std::vector<saul::host::CanFilter> parse_id_selection(const std::string& text) {
 }
 }  // namespace
 
-CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what) {
+CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what, const char* name) {
   return cmd
-      ->add_option("--id", ids,
+      ->add_option(name, ids,
                    what + ": ID, ID:MASK or FIRST-LAST in hex as candump writes ids (400 = 0x400, 0x accepted; more "
                           "than 3 digits = 29-bit), comma separated or repeated")
       ->delimiter(',')

@@ -23,7 +23,9 @@ void add_link_option_and_positional(CLI::App* cmd, std::string& link);
 /// Adds --id: CAN ids in hex as candump writes them (400 = 0x400, 0x accepted), ID:MASK, FIRST-LAST (400-40F),
 /// comma separated or repeated; more than 3 digits or a value above 7FF means a 29-bit id. One value per --id, so "--id 400 can0"
 /// leaves can0 to the verb. Checked while parsing (a bad id is a usage error).
-CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what);
+/// `name` is "--id" but for an option that excludes ids (replay --exclude-id).
+CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what,
+                           const char* name = "--id");
 /// The filters the --id values name (already checked: never throws for values add_id_option accepted).
 std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& ids);
 

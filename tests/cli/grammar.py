@@ -206,6 +206,11 @@ c.check("a 29-bit range (00000900-000009FF): the VESC status frames 0x938 and 0x
 for bad in ("401-400", "400-40F:7F0", "400-"):
     code, out, err = saulctl.run(["decode", "--id", bad, log])
     c.check(f"decode --id {bad}: usage error", code == 2 and "--help" in err, err)
+for opt in ("--id", "--exclude-id"):
+    code, out, err = saulctl.run(["replay", log, "--link", "slcan:/dev/saul-given", opt, "400-401,300"])
+    c.check(f"replay {opt} 400-401,300: accepted (the link is tried)", code == 1 and "saul-given" in err, err)
+    code, out, err = saulctl.run(["replay", log, "--link", "slcan:/dev/saul-given", opt, "401-400"])
+    c.check(f"replay {opt} 401-400: usage error before the link", code == 2 and "saul-given" not in err, err)
 code, out, err = saulctl.run(["decode", "--id", "1024", log])
 c.check("decode --id 1024 is 0x1024 (29-bit): none of the sample's frames, not 0x400", code == 0 and out == "", out)
 for bad in ("xyz", "400:zz", "123456789"):
