@@ -173,9 +173,9 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "  saulctl plot captures/robot_bus.log --format html -o - > bus.html\n"
       "  saulctl plot run.pcapng -o run.csv               # the dashboard's numbers for a spreadsheet\n"
       "  saulctl plot run.log --max-markers 200 -o run.png   # a run with many state/fault changes\n"
-      "  saulctl plot captures/robot_bus.log --id 0x400 --field pitch_x100 -o pitch.svg\n"
+      "  saulctl plot captures/robot_bus.log --id 400 --field pitch_x100 -o pitch.svg\n"
       "  saulctl plot run.log --id telemetry_a --field pitch_x100,pid_out,speed_mmps -o tuning.svg\n"
-      "  saulctl plot run.log --id 0x944 -o status.svg   # every field of VESC STATUS from controller 68\n"
+      "  saulctl plot run.log --id 944 -o status.svg     # every field of VESC STATUS from controller 68\n"
       "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n"
       "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
   cmd->callback([opt, &run] {
