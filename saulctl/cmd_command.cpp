@@ -165,7 +165,7 @@ int run_config(const CommandOptions& opt) {
 
 void common(CLI::App* cmd, CommandOptions& o) {
   add_link_option(cmd, o.link);
-  cmd->add_option("--timeout", o.timeout, "how long to wait for the 0x402 acknowledgement")->capture_default_str();
+  cmd->add_option("--timeout", o.timeout, "how long to wait for the 0x402 acknowledgement")->capture_default_str()->check(duration_check());
   cmd->add_flag("--json", o.json, "one JSON object with the outcome");
 }
 

@@ -179,7 +179,7 @@ void add_console_command(CLI::App& app, Runner& run) {
   auto* cmd = app.add_subcommand("console", "The boards' USB debug console: one command, or a line loop");
   cmd->add_option("port", o->port, "the board's USB serial device, e.g. /dev/ttyACM1")->required();
   cmd->add_option("command", o->command, "command line to send (help, status, pid 1.5 0.2 0.05, ...)");
-  cmd->add_option("--timeout", o->timeout, "how long to wait for the 'ok' / 'error:' line")->capture_default_str();
+  cmd->add_option("--timeout", o->timeout, "how long to wait for the 'ok' / 'error:' line")->capture_default_str()->check(duration_check());
   cmd->add_option("--baud", o->baud, "baud rate")->capture_default_str();
   cmd->add_flag("--json", o->json, "one JSON object per command; status, can_stats, uart_stats reports parsed");
   cmd->footer(

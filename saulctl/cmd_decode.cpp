@@ -5,14 +5,15 @@
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <set>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "grammar.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/format.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
@@ -29,12 +30,31 @@ struct DecodeOptions {
   SerialCliOptions serial;
 };
 
-std::uint32_t parse_id(const std::string& s) {
-  std::size_t used = 0;
-  const unsigned long v = std::stoul(s, &used, 0);
-  if (used != s.size() || v > saul::CanFrame::kMaxExtendedId) throw CLI::ValidationError("--id", "bad id '" + s + "'");
-  return static_cast<std::uint32_t>(v);
-}
+// Standard input as the candump reader sees it, line by line, keeping the first line that is no candump -L line
+// (the reader skips those): when no frame came, what that line looks like is the error ('candump can0' without
+// -L, above all). Whole lines are handed on as they come, so a live pipe is decoded at once.
+class WatchedLines : public std::streambuf {
+ public:
+  explicit WatchedLines(std::istream& in) : in_(in) {}
+  [[nodiscard]] const std::string& first_other() const { return first_other_; }
+
+ protected:
+  int_type underflow() override {
+    if (!std::getline(in_, line_)) return traits_type::eof();
+    if (first_other_.empty() && !line_.empty() && line_[0] != '(' &&
+        line_.find_first_not_of(" \t\r") != std::string::npos)
+      first_other_ = line_;
+    if (!in_.eof()) line_ += '\n';
+    if (line_.empty()) return underflow();
+    setg(line_.data(), line_.data(), line_.data() + line_.size());
+    return traits_type::to_int_type(line_[0]);
+  }
+
+ private:
+  std::istream& in_;
+  std::string line_;
+  std::string first_other_;
+};
 
 std::string time_text(const std::string& mode, std::uint64_t ns, std::optional<std::uint64_t>& first,
                       std::optional<std::uint64_t>& previous) {
@@ -84,6 +104,14 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
         j["message"] = to_json(m);
       }
       fmt::print("{}\n", j.dump());
+    } else if (format == "long") {
+      const SignalValues values = std::visit(
+          [](const auto& message) -> SignalValues {
+            if constexpr (requires { signal_values(message); }) return signal_values(message);
+            return {};
+          },
+          m);
+      fmt::print("{}", long_csv_rows(bare, chunk.link, "", values));
     } else if (format == "csv") {
       const std::string name = name_of(m);
       std::string fields = describe(m);
@@ -119,8 +147,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
 
 int run_decode(const DecodeOptions& opt) {
   const std::string format = opt.json ? "jsonl" : opt.format;
-  std::set<std::uint32_t> ids;
-  for (const auto& s : opt.ids) ids.insert(parse_id(s));
+  const auto ids = id_filters(opt.ids);
   const saul::host::SerialReadOptions serial_options = serial_read_options(opt.serial);
 
   std::uint64_t frames = 0, decoded = 0, unknown = 0, rejected = 0, errors = 0, corrupt = 0;
@@ -130,13 +157,19 @@ int run_decode(const DecodeOptions& opt) {
   bool any_serial = false;
   int status = kOk;
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
+  if (format == "long") fmt::print("{}\n", saul::host::kLongCsvHeader);
   Progress progress("decode", true);
 
   for (const auto& path : opt.files) {
     // '-' is candump text from standard input; files are any capture format, told by their content.
     std::unique_ptr<saul::host::CaptureReader> opened;
+    std::unique_ptr<WatchedLines> watched;
+    std::unique_ptr<std::istream> watched_in;
+    const std::uint64_t records_before = records, corrupt_before = corrupt;
     if (path == "-") {
-      opened = std::make_unique<saul::host::CandumpReader>(std::cin);
+      watched = std::make_unique<WatchedLines>(std::cin);
+      watched_in = std::make_unique<std::istream>(watched.get());
+      opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
     } else {
       try {
         auto any = saul::host::open_capture(path, serial_options);
@@ -167,7 +200,7 @@ int run_decode(const DecodeOptions& opt) {
       }
       ++records;
       const saul::CanFrame& f = reader.frame();
-      if (!ids.empty() && !ids.count(f.id)) continue;
+      if (!ids.empty() && !saul::host::passes(ids, f)) continue;
       ++frames;
       const auto result = saul::decode_bus_frame(f);
       std::string what;
@@ -192,6 +225,11 @@ int run_decode(const DecodeOptions& opt) {
           j["error"] = saul::to_string(result.reason());
         }
         fmt::print("{}\n", j.dump());
+      } else if (format == "long") {
+        fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
+                                                   f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
+                                                   result ? saul::host::signal_values(result.value())
+                                                          : saul::host::SignalValues{}));
       } else if (format == "csv") {
         std::string name = result ? saul::name_of(result.value()) : std::string("!") + saul::to_string(result.reason());
         std::string fields;
@@ -208,6 +246,12 @@ int run_decode(const DecodeOptions& opt) {
         fmt::print("{} {} {:<24} {}\n", stamp, saul::host::candump_interface(reader.interface()),
                    saul::host::format_candump_frame(f), what);
       }
+    }
+    if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty()) {
+      progress.finish();
+      fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",
+                 saul::host::describe_non_capture(watched->first_other()));
+      status = kFailure;
     }
   }
   progress.finish();
@@ -245,8 +289,9 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "Exit 0 even with corrupt lines, unless --strict is given or nothing at all could be read (then 1).\n"
       "\nExamples:\n"
       "  saulctl decode captures/robot_bus.log\n"
-      "  saulctl decode --time delta --id 0x300 run.log     gaps between velocity commands\n"
+      "  saulctl decode --time delta --id 300 run.log       gaps between velocity commands (ids are hex)\n"
       "  saulctl decode --format csv run.log > run.csv\n"
+      "  saulctl decode --format long run.log > signals.csv   one row per signal, for DuckDB or pandas\n"
       "  saulctl decode bench.pcapng                        pcap, pcapng and Vector ASC work the same\n"
       "  candump -L can0 | saulctl decode -                 decode live from can-utils\n"
       "  saulctl decode captures/pride_uart.serial          serial byte captures: each link's own decoder\n"
@@ -258,16 +303,18 @@ void add_decode_command(CLI::App& app, Runner& run) {
                   "capture files: candump, pcap, pcapng, ASC, serial log, sigrok/PulseView UART export "
                   "('-' = candump text on standard input)")
       ->required();
-  cmd->add_option("--format", opt->format, "text, jsonl or csv")
-      ->check(CLI::IsMember({"text", "jsonl", "csv"}))
+  cmd->add_option("--format", opt->format,
+                  "text, jsonl, csv (a row per frame) or long (a row per signal: time,interface,id,message,signal,"
+                  "value,unit, values in physical units)")
+      ->check(CLI::IsMember({"text", "jsonl", "csv", "long"}))
       ->capture_default_str();
-  cmd->add_flag("--json", opt->json, "same as --format jsonl");
+  add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
                 "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
   cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous)")
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();
-  cmd->add_option("--id", opt->ids, "only these CAN ids (hex 0x300 or decimal), comma separated")->delimiter(',');
+  add_id_option(cmd, opt->ids, "only these CAN ids");
   add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] {
     run = [opt] {

@@ -1,6 +1,7 @@
 // saulctl doctor: checks what usually goes wrong at a bench, one line per check, and the single most likely fix
 // for each failure. Only host-library calls (list_serial_ports, open_serial, open_can_link).
 #include <fmt/core.h>
+#include <nlohmann/json.hpp>
 
 #include <array>
 #include <cctype>
@@ -8,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -31,18 +33,36 @@ using saul::host::SerialError;
 struct DoctorOptions {
   std::string link;
   std::string wait = "1s";
+  bool json = false;
 };
 
+// Each check's outcome: a line (and its fix) for people, or, with --json, one element of the "checks" array.
 struct Checks {
+  bool json = false;
   int failures = 0;
-  void ok(const std::string& what, const std::string& detail) { fmt::print("ok   {}: {}\n", what, detail); }
+  nlohmann::json list = nlohmann::json::array();
+  void ok(const std::string& what, const std::string& detail) { add("ok", what, detail, ""); }
   void fail(const std::string& what, const std::string& detail, const std::string& fix) {
     ++failures;
-    fmt::print("FAIL {}: {}\n     fix: {}\n", what, detail, fix);
+    add("fail", what, detail, fix);
   }
-  void skip(const std::string& what, const std::string& why) { fmt::print("-    {}: {}\n", what, why); }
+  void skip(const std::string& what, const std::string& why) { add("skip", what, why, ""); }
   void warn(const std::string& what, const std::string& detail, const std::string& fix) {
-    fmt::print("WARN {}: {}\n     fix: {}\n", what, detail, fix);
+    add("warn", what, detail, fix);
+  }
+
+ private:
+  void add(const char* result, const std::string& what, const std::string& detail, const std::string& fix) {
+    if (json) {
+      nlohmann::json j{{"check", what}, {"result", result}, {"detail", detail}};
+      if (!fix.empty()) j["fix"] = fix;
+      list.push_back(std::move(j));
+      return;
+    }
+    static const std::map<std::string, const char*> tags{{"ok", "ok  "}, {"fail", "FAIL"}, {"skip", "-   "},
+                                                          {"warn", "WARN"}};
+    fmt::print("{} {}: {}\n", tags.at(result), what, detail);
+    if (!fix.empty()) fmt::print("     fix: {}\n", fix);
   }
 };
 
@@ -336,6 +356,7 @@ int run_doctor(const DoctorOptions& opt) {
     if (!opt.link.empty()) throw;
   }
   Checks c;
+  c.json = opt.json;
   check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
   check_modemmanager(c);
   if (!spec) spec = find_adapter(c);
@@ -354,7 +375,10 @@ int run_doctor(const DoctorOptions& opt) {
       c.fail("serial link", e.what(), "see 'saulctl ports' for the path; dialout group for permission");
     }
   }
-  fmt::print("{}\n", c.failures == 0 ? "all checks passed" : fmt::format("{} check(s) failed", c.failures));
+  if (opt.json)
+    fmt::print("{}\n", nlohmann::json{{"checks", c.list}, {"failed", c.failures}}.dump());
+  else
+    fmt::print("{}\n", c.failures == 0 ? "all checks passed" : fmt::format("{} check(s) failed", c.failures));
   return c.failures == 0 ? kOk : kFailure;
 }
 
@@ -363,8 +387,9 @@ int run_doctor(const DoctorOptions& opt) {
 void add_doctor_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<DoctorOptions>();
   auto* cmd = app.add_subcommand("doctor", "Check the bench setup and print the most likely fix for each problem");
-  add_link_option(cmd, o->link);
-  cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str();
+  add_link_option(cmd, o->link, true);
+  cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str()->check(duration_check());
+  add_json_flag(cmd, o->json, "one JSON object: {\"checks\": [{check, result, detail, fix}], \"failed\": N}");
   cmd->footer(
       "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); ModemManager (a warning when it runs\n"
       "without the CANable2 udev rule); without --link, the CANable2s plugged in (by USB id, both firmwares; the one\n"

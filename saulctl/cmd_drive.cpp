@@ -102,15 +102,15 @@ void add_drive_command(CLI::App& app, Runner& run) {
   add_link_option(cmd, o->link);
   cmd->add_option("--speed", o->speed, "mm/s, + forward")->required();
   cmd->add_option("--steer", o->steer, "mrad, + left")->capture_default_str();
-  cmd->add_option("--for", o->duration, "how long (500ms, 2s, 1m); default: until Ctrl-C");
+  add_duration_option(cmd, o->duration, "how long; default: until Ctrl-C");
   cmd->add_option("--speed-cap", o->speed_cap, "refuse |speed| above this many mm/s")->capture_default_str();
   cmd->add_flag("-y,--yes", o->yes, "confirm without asking (scripts)");
   cmd->add_flag("--json", o->json, "one JSON summary at the end");
   cmd->footer(
       "\nThe motors can move: saulctl asks on a terminal and needs --yes in scripts. On Ctrl-C, at the end, or on a\n"
       "link error it sends speed 0 before leaving.\n"
-      "\nExamples:\n  saulctl drive --speed 200 --for 3s --link can0\n"
-      "  saulctl drive --speed 0 --steer 300 --for 1s --yes --link slcan:/dev/ttyACM0\n");
+      "\nExamples:\n  saulctl drive --link can0 --speed 200 --duration 3s\n"
+      "  saulctl drive --link slcan:/dev/ttyACM0 --speed 0 --steer 300 --duration 1s --yes\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

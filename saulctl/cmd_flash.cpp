@@ -490,7 +490,8 @@ void add_flash_command(CLI::App& app, Runner& run) {
   add_link_option(cmd, o->link);
   cmd->add_flag("--skip-robot-check", o->skip_robot_check, "do not put the robot in mode off first (warns loudly)");
   cmd->add_option("--robot-timeout", o->robot_timeout, "wait for the mode-off acknowledgement and telemetry")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(duration_check());
   cmd->footer(
       "\nBefore flashing, with a CAN link (--link or $SAUL_LINK), the robot is put in mode off and its 0x400\n"
       "telemetry must show OFF. Every region is verified by the chip's flash MD5; regions that already match are\n"

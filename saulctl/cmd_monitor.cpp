@@ -378,7 +378,7 @@ void add_monitor_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<MonitorOptions>();
   auto* cmd = app.add_subcommand("monitor", "Live telemetry view: state, pitch, speeds, battery, faults, VESCs, rates");
   add_link_option(cmd, o->link);
-  cmd->add_option("--duration", o->duration, "stop after this long (default: until Ctrl-C or q)");
+  add_duration_option(cmd, o->duration, "stop after this long; default: until Ctrl-C or q");
   cmd->add_flag("--json", o->json, "one JSON line per telemetry update (with a Unix time) instead of the view");
   cmd->add_flag("--listen-only", o->listen_only, "slcan: open the adapter silent");
   cmd->footer(

@@ -13,6 +13,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "grammar.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/plot.hpp"
 #include "saulproto/host/report/telemetry_plot.hpp"
@@ -59,6 +60,12 @@ int run_plot(const PlotOptions& opt) {
 
   PlotRequest request;
   request.id = opt.id;
+  if (!opt.id.empty() && opt.id[0] >= '0' && opt.id[0] <= '9') {
+    // Ids are hex here as in every verb (docs/cli.md): 400 = 0x400.
+    if (opt.id.find_first_of(":-") != std::string::npos)
+      throw CLI::ValidationError("--id", "plot takes one id, not ID:MASK or a range");
+    request.id = fmt::format("0x{:X}", id_filters({opt.id}).front().id);
+  }
   request.fields = opt.fields;
   request.max_markers = opt.max_markers;
   request.source_name = base_name(opt.file);
@@ -131,7 +138,7 @@ void add_plot_command(CLI::App& app, Runner& run) {
   cmd->add_option("--format", opt->format, "html, svg, png, pdf or csv, whatever the extension of -o")
       ->check(CLI::IsMember({"html", "svg", "png", "pdf", "csv"}));
   cmd->add_option("--id", opt->id,
-                  "plot one message instead of the dashboard: a CAN id (0x400) or a message name (telemetry_a, state)");
+                  "plot one message instead of the dashboard: a CAN id in hex (400 = 0x400) or a message name (telemetry_a, state)");
   cmd->add_option("--field", opt->fields,
                   "with --id: numeric field(s), one panel each (pitch_x100,pid_out); default every field")
       ->delimiter(',');
@@ -166,9 +173,9 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "  saulctl plot captures/robot_bus.log --format html -o - > bus.html\n"
       "  saulctl plot run.pcapng -o run.csv               # the dashboard's numbers for a spreadsheet\n"
       "  saulctl plot run.log --max-markers 200 -o run.png   # a run with many state/fault changes\n"
-      "  saulctl plot captures/robot_bus.log --id 0x400 --field pitch_x100 -o pitch.svg\n"
+      "  saulctl plot captures/robot_bus.log --id 400 --field pitch_x100 -o pitch.svg\n"
       "  saulctl plot run.log --id telemetry_a --field pitch_x100,pid_out,speed_mmps -o tuning.svg\n"
-      "  saulctl plot run.log --id 0x944 -o status.svg   # every field of VESC STATUS from controller 68\n"
+      "  saulctl plot run.log --id 944 -o status.svg     # every field of VESC STATUS from controller 68\n"
       "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n"
       "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
   cmd->callback([opt, &run] {

@@ -118,15 +118,15 @@ void add_pride_command(CLI::App& app, Runner& run) {
   cmd->add_option("--fb", o->fb, "forward/back, -100..100 (+ forward)")->capture_default_str();
   cmd->add_option("--lr", o->lr, "left/right, -100..100 (+ right)")->capture_default_str();
   cmd->add_option("--speed-level", o->speed_level, "speed setting 0..14")->capture_default_str();
-  cmd->add_option("--for", o->duration, "stop after this long (500ms, 3s); default until Ctrl-C");
+  add_duration_option(cmd, o->duration, "stop after this long; default: until Ctrl-C");
   cmd->add_flag("-y,--yes", o->yes, "confirm motion (FB or LR not 0) without asking");
   cmd->add_flag("--json", o->json, "one JSON object per report (~5 Hz) and at the end");
   cmd->footer(
       "\nSends FE 54 SP FB LR CS every 5 ms on absolute deadlines, drops its own echo, decodes the controller's\n"
-      "4A 01 EB BC UN CS frames and prints them about 5 times a second. On Ctrl-C, --for or an error it sends\n"
+      "4A 01 EB BC UN CS frames and prints them about 5 times a second. On Ctrl-C, --duration or an error it sends\n"
       "neutral frames (FB 0, LR 0) for 100 ms before leaving. Motion needs --yes in scripts.\n"
       "\nExamples:\n  saulctl pride vcu /dev/ttyUSB0 --speed-level 2               neutral, watch the controller\n"
-      "  saulctl pride vcu /dev/ttyUSB0 --fb 20 --speed-level 2 --for 2s --yes\n"
+      "  saulctl pride vcu /dev/ttyUSB0 --fb 20 --speed-level 2 --duration 2s --yes\n"
       "\nExit codes: 0 ok, 1 port error, 2 usage or not confirmed.\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {

@@ -234,18 +234,18 @@ int run_record(const RecordOptions& opt) {
 void add_record_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<RecordOptions>();
   auto* cmd = app.add_subcommand("record", "Record a CAN bus or a serial link into capture files");
-  cmd->add_option("LINK", o->link, "can0 | slcan:/dev/ttyACM0 | serial:/dev/ttyUSB0@460800 (default: $SAUL_LINK)");
+  add_link_option_and_positional(cmd, o->link);
   cmd->add_option("-o,--output", o->output, "file to write (replaced); with rotation NAME-000.EXT, NAME-001.EXT, ...")
       ->required();
   cmd->add_option("--format", o->format,
                   "candump, pcap, pcapng, asc, blf, trc, csv, gvret-csv (CAN) or serial (default: from the extension)")
       ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "serial"}));
   cmd->add_option("--rotate-size", o->rotate_size, "start a new file when this one holds this much (100M, 1G, 64k)");
-  cmd->add_option("--rotate-time", o->rotate_time, "start a new file after this long (10m, 30s)");
+  cmd->add_option("--rotate-time", o->rotate_time, "start a new file after this long (10m, 30s)")->check(duration_check());
   cmd->add_option("--compress", o->compress, "gz or zst: compress each file once it is finished (in the background; "
                                              "the plain file is removed), the last one when recording stops")
       ->check(CLI::IsMember({"gz", "zst"}));
-  cmd->add_option("--duration", o->duration, "stop after this long (500ms, 10s, 1m)");
+  add_duration_option(cmd, o->duration, "stop after this long");
   cmd->add_option("-n,--count", o->count, "stop after this many frames (serial: bytes)");
   cmd->add_option("--interface", o->interface, "CAN: interface name written in the file (default: can0, or the "
                                                "SocketCAN interface's own name)");
@@ -259,10 +259,10 @@ void add_record_command(CLI::App& app, Runner& run) {
       "arrive, at once when the bus is idle) and after Ctrl-C: the frames already received are written and the\n"
       "file is closed properly. Progress (frames, rate, file) is shown on stderr when it is a terminal.\n"
       "\nExamples:\n"
-      "  saulctl record can0 -o run.pcapng                        open it in Wireshark\n"
-      "  saulctl record slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
-      "  saulctl record can0 -o run.blf --rotate-size 1G --compress zst   run-000.blf.zst, run-001.blf.zst, ...\n"
-      "  saulctl record serial:/dev/ttyUSB0@460800 -o uart.serial  inter-board bytes; saulctl decode uart.serial\n");
+      "  saulctl record --link can0 -o run.pcapng                 open it in Wireshark (or: record can0 -o ...)\n"
+      "  saulctl record --link slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
+      "  saulctl record --link can0 -o run.blf --rotate-size 1G --compress zst   run-000.blf.zst, ...\n"
+      "  saulctl record --link serial:/dev/ttyUSB0@460800 -o uart.serial --duration 2m   inter-board bytes\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

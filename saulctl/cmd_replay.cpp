@@ -64,7 +64,7 @@ void print_lateness(const saul::host::LatenessStats& l, const char* unit) {
                unit);
 }
 
-/// A serial capture onto a serial port. `link_text` is --to as given (serial:...), or the resolved link's name.
+/// A serial capture onto a serial port. `link_text` is --link as given (serial:...), or the resolved link's name.
 int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptions& can_options,
                       std::unique_ptr<saul::host::SerialCaptureReader> first_pass, const std::string& link_text) {
   using namespace saul::host;
@@ -114,7 +114,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   try {
     spec = parse_serial_replay_link(link_text, replay_serial_settings(link->name, link->protocol));
   } catch (const std::invalid_argument& e) {
-    throw CLI::ValidationError("--to", e.what());
+    throw CLI::ValidationError("--link", e.what());
   }
   if (link->motion > 0 && !options.allow_motion && !opt.json)
     fmt::print(stderr, "replay: dropping {} message(s) that can move motors ({} per pass: {}); --allow-motion sends "
@@ -222,8 +222,8 @@ int run_replay(const ReplayCliOptions& opt) {
   options.loops = opt.loops;
   if (options.loops == 0) throw CLI::ValidationError("--loop", "give at least 1 pass");
   try {
-    for (const auto& t : opt.ids) options.include.push_back(parse_id_filter(t));
-    for (const auto& t : opt.exclude) options.exclude.push_back(parse_id_filter(t));
+    options.include = id_filters(opt.ids);
+    options.exclude = id_filters(opt.exclude);
     for (const auto& t : opt.maps) options.mappings.push_back(parse_id_mapping(t));
   } catch (const std::invalid_argument& e) {
     throw CLI::ValidationError("--id/--map", e.what());
@@ -239,7 +239,7 @@ int run_replay(const ReplayCliOptions& opt) {
     fmt::print(stderr, "saulctl replay: {}\n", e.what());
     return kFailure;
   }
-  // The kind of link --to names: a serial link may leave its rate out (it follows the capture), so it is parsed
+  // The kind of link --link names: a serial link may leave its rate out (it follows the capture), so it is parsed
   // later; anything else is resolved now (--to, $SAUL_LINK, the config file).
   std::optional<LinkSpec> resolved;
   if (!opt.link.starts_with("serial:")) resolved = resolve_link(opt.link);
@@ -247,15 +247,15 @@ int run_replay(const ReplayCliOptions& opt) {
   const std::string link_text = resolved ? resolved->text() : opt.link;
   if (opened.chunks) {
     if (!to_serial)
-      throw CLI::ValidationError("--to", fmt::format("{} holds serial bytes and {} is a CAN link: replay it onto a "
-                                                     "serial port, --to serial:/dev/ttyUSB0 (the baud rate follows "
+      throw CLI::ValidationError("--link", fmt::format("{} holds serial bytes and {} is a CAN link: replay it onto a "
+                                                     "serial port, --link serial:/dev/ttyUSB0 (the baud rate follows "
                                                      "the capture)",
                                                      opt.file, link_text));
     return run_serial_replay(opt, options, std::move(opened.chunks), link_text);
   }
   if (to_serial)
-    throw CLI::ValidationError("--to", fmt::format("{} holds CAN frames and {} is a serial link: replay it onto a CAN "
-                                                   "link, --to can0 or --to slcan:/dev/ttyACM0",
+    throw CLI::ValidationError("--link", fmt::format("{} holds CAN frames and {} is a serial link: replay it onto a CAN "
+                                                   "link, --link can0 or --link slcan:/dev/ttyACM0",
                                                    opt.file, link_text));
   if (!opt.from.empty())
     throw CLI::ValidationError("--from", opt.file + " holds CAN frames: --from picks a link of a serial capture "
@@ -343,17 +343,16 @@ void add_replay_command(CLI::App& app, Runner& run) {
                   "capture file: CAN (candump, pcap, pcapng, ASC) or serial bytes (serial log, sigrok/PulseView "
                   "export)")
       ->required();
-  cmd->add_option("--to,-l,--link", o->link,
-                  "can0 | slcan:/dev/ttyACM0[@500000] for CAN captures; serial:/dev/ttyUSB0[@BAUD[:8E1]] for serial "
-                  "captures (default: $SAUL_LINK)");
+  cmd->add_option("-l,--link,--to", o->link,
+                  "the link: can0 | slcan:/dev/ttyACM0[@500000] for CAN captures; serial:/dev/ttyUSB0[@BAUD[:8E1]] "
+                  "for serial captures (default: $SAUL_LINK, else ~/.config/saulctl/link; --to is the same)");
   cmd->add_option("--speed", o->speed, "time factor: 2 = twice as fast, 0.5 = half speed, max = no waiting")
       ->capture_default_str();
   cmd->add_option("--loop", o->loops, "passes over the file")->capture_default_str();
-  cmd->add_option("--id", o->ids, "only these logged ids, ID[:MASK] in hex (300, 400:7F0), comma separated")
-      ->delimiter(',');
-  cmd->add_option("--exclude-id", o->exclude, "never these logged ids, ID[:MASK] in hex")->delimiter(',');
+  add_id_option(cmd, o->ids, "only these logged ids");
+  add_id_option(cmd, o->exclude, "never these logged ids", "--exclude-id");
   cmd->add_option("--map", o->maps, "send id FROM as id TO, hex (--map 300=310); repeatable")->delimiter(',');
-  cmd->add_option("--max-gap", o->max_gap, "shorten longer silences of the file to this (1s)");
+  cmd->add_option("--max-gap", o->max_gap, "shorten longer silences of the file to this (1s)")->check(duration_check());
   cmd->add_flag("--step", o->step, "one frame (serial: one chunk) per Enter (q quits); no timing");
   cmd->add_flag("-y,--yes,--allow-motion", o->yes, "send the frames and messages that can move motors too");
   cmd->add_flag("--no-motion", o->no_motion, "leave out what can move motors and say how many (the default)");
@@ -381,13 +380,13 @@ void add_replay_command(CLI::App& app, Runner& run) {
       "neither named nor guessable needs --protocol, or --allow-motion to send it unexamined. A CAN capture\n"
       "needs a CAN link and a serial capture a serial link (exit 2 otherwise).\n"
       "\nExamples:\n"
-      "  saulctl replay run.log --to can0 --no-motion           telemetry and acks only\n"
-      "  saulctl replay run.pcapng --to slcan:/dev/ttyACM0 --speed 2 --loop 3 --yes\n"
-      "  saulctl replay run.log --to can0 --id 400,401 --map 400=410\n"
-      "  saulctl replay run.log --to vcan0 --step --no-motion\n"
-      "  saulctl replay uart.serial --to serial:/dev/ttyUSB0    inter-board bytes at 460800, rc_cmd left out\n"
-      "  saulctl replay pride.serial --to serial:/dev/ttyUSB1 --allow-motion --loop 10\n"
-      "  saulctl replay --protocol pride --samplerate 1M la.txt --to serial:/dev/ttyUSB1@38400:8E1\n");
+      "  saulctl replay run.log --link can0 --no-motion           telemetry and acks only\n"
+      "  saulctl replay run.pcapng --link slcan:/dev/ttyACM0 --speed 2 --loop 3 --yes\n"
+      "  saulctl replay run.log --link can0 --id 400,401 --map 400=410\n"
+      "  saulctl replay run.log --link vcan0 --step --no-motion\n"
+      "  saulctl replay uart.serial --link serial:/dev/ttyUSB0    inter-board bytes at 460800, rc_cmd left out\n"
+      "  saulctl replay pride.serial --link serial:/dev/ttyUSB1 --allow-motion --loop 10\n"
+      "  saulctl replay --protocol pride --samplerate 1M la.txt --link serial:/dev/ttyUSB1@38400:8E1\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

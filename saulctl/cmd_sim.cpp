@@ -83,7 +83,7 @@ void add_sim_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<SimOptions>();
   auto* cmd = app.add_subcommand("sim", "Run the simulated robot (both boards' firmware on a physics model)");
   cmd->add_option("--speed", o->speed, "multiple of real time; 0 = as fast as possible")->capture_default_str();
-  cmd->add_option("--for", o->duration, "stop after this much simulated time (default: until Ctrl-C)");
+  add_duration_option(cmd, o->duration, "stop after this much simulated time; default: until Ctrl-C");
   cmd->add_option("--paths-file", o->paths_file, "where to write the pty paths (can=, balance=, io=, control=)")
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "noise seed (runs with the same inputs and seed are identical)")->capture_default_str();

@@ -35,29 +35,6 @@ struct SniffOptions {
   bool top = false;
 };
 
-saul::host::CanFilter parse_filter(const std::string& text) {
-  // ID or ID:MASK, hex with 0x or plain hex; more than 3 digits or an id above 0x7FF means 29-bit.
-  const auto colon = text.find(':');
-  auto num = [&](const std::string& s) {
-    std::size_t used = 0;
-    unsigned long v = 0;
-    try {
-      v = std::stoul(s, &used, 16);
-    } catch (...) {
-      used = 0;
-    }
-    if (used == 0 || used != s.size()) throw CLI::ValidationError("--id", "bad id filter '" + text + "' (use 300 or 300:7F0)");
-    return static_cast<std::uint32_t>(v);
-  };
-  std::string id_text = text.substr(0, colon);
-  if (id_text.rfind("0x", 0) == 0 || id_text.rfind("0X", 0) == 0) id_text = id_text.substr(2);
-  saul::host::CanFilter f;
-  f.id = num(id_text);
-  f.extended = id_text.size() > 3 || f.id > 0x7FF;
-  f.mask = colon == std::string::npos ? (f.extended ? 0x1FFFFFFFU : 0x7FFU) : num(text.substr(colon + 1));
-  return f;
-}
-
 saul::host::TimeMode time_mode(const std::string& t) {
   return t == "rel" ? saul::host::TimeMode::relative
                     : t == "delta" ? saul::host::TimeMode::delta : saul::host::TimeMode::absolute;
@@ -68,7 +45,7 @@ saul::host::TimeMode time_mode(const std::string& t) {
 std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   saul::host::LinkOpenOptions o;
   o.listen_only = opt.listen_only;
-  for (const auto& t : opt.filters) o.filters.push_back(parse_filter(t));
+  o.filters = id_filters(opt.filters);
   return saul::host::open_can_link(spec, o);
 }
 
@@ -365,16 +342,15 @@ int run_sniff(const SniffOptions& opt) {
 void add_sniff_command(CLI::App& app, Runner& run) {
   auto o = std::make_shared<SniffOptions>();
   auto* cmd = app.add_subcommand("sniff", "Live decode of a CAN bus or a serial link");
-  cmd->add_option("link", o->link, "can0 | slcan:/dev/ttyACM0 | serial:/dev/ttyUSB0@460800 (default: $SAUL_LINK)");
-  cmd->add_option("--id", o->filters, "only ids matching ID[:MASK] (hex), repeatable; 29-bit when > 3 digits")
-      ->delimiter(',');
+  add_link_option_and_positional(cmd, o->link);
+  add_id_option(cmd, o->filters, "only these ids");
   cmd->add_option("-n,--count", o->count, "stop after this many frames");
-  cmd->add_option("--duration", o->duration, "stop after this long (500ms, 10s, 1m)");
+  add_duration_option(cmd, o->duration, "stop after this long");
   cmd->add_option("-t,--time", o->time, "abs | rel | delta")->check(CLI::IsMember({"abs", "rel", "delta"}))->capture_default_str();
   cmd->add_option("--protocol", o->protocol, "what a serial link carries")
       ->check(CLI::IsMember({"interboard"}))
       ->capture_default_str();
-  cmd->add_flag("--json", o->json, "JSON Lines, one object per frame");
+  add_json_flag(cmd, o->json, "JSON Lines, one object per frame");
   cmd->add_flag("--top", o->top,
                 "per-id table: count, rate, period, jitter, last data (changed bytes marked), bus load and state; a "
                 "full-screen view on a terminal (keys: e or space = ESTOP, o = mode off, q = quit), printed once at "
@@ -383,10 +359,11 @@ void add_sniff_command(CLI::App& app, Runner& run) {
   cmd->footer(
       "\nOne line per frame, the same format as 'saulctl decode'. Controller state changes (error-warning, "
       "error-passive, bus-off) and drop counts are printed on stderr.\n"
-      "\nExamples:\n  saulctl sniff can0\n  saulctl sniff slcan:/dev/ttyACM0 --id 400,401 --count 20\n"
-      "  saulctl sniff can0 --id 00000900:0000FF00     all VESC STATUS frames\n"
-      "  saulctl sniff serial:/dev/ttyUSB0@460800 --protocol interboard\n"
-      "  saulctl sniff can0 --top                      per-id table with rates, jitter and bus load\n");
+      "\nExamples:\n  saulctl sniff --link can0                     (or: saulctl sniff can0)\n"
+      "  saulctl sniff --link slcan:/dev/ttyACM0 --id 400,401 --count 20\n"
+      "  saulctl sniff --link can0 --id 00000900:0000FF00   all VESC STATUS frames\n"
+      "  saulctl sniff --link serial:/dev/ttyUSB0@460800 --protocol interboard\n"
+      "  saulctl sniff --link can0 --top --duration 10s   per-id table with rates, jitter and bus load\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

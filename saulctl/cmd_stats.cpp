@@ -108,7 +108,7 @@ void add_stats_command(CLI::App& app, Runner& run) {
   cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
   cmd->add_flag("--json", opt->json, "one JSON object instead of the text report");
   cmd->add_option("--bitrate", opt->bitrate, "CAN bit rate for the load (500k, 1M, 250000)")->capture_default_str();
-  cmd->add_option("--window", opt->window, "window of the peak load (100ms, 1s)")->capture_default_str();
+  cmd->add_option("--window", opt->window, "window of the peak load (100ms, 1s)")->capture_default_str()->check(duration_check());
   add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] {
     run = [opt]() -> int {

@@ -33,12 +33,6 @@ void install_signal_handlers() {
   std::signal(SIGPIPE, SIG_IGN);
 }
 
-void add_link_option(CLI::App* cmd, std::string& link) {
-  cmd->add_option("-l,--link", link,
-                  "CAN link: can0 | socketcan:can0 | slcan:/dev/ttyACM0[@500000] (default: $SAUL_LINK, "
-                  "else ~/.config/saulctl/link)");
-}
-
 saul::host::LinkSpec resolve_link(const std::string& link) {
   std::string text = link;
   if (text.empty()) {
@@ -74,25 +68,6 @@ bool confirm_motion(bool yes, const std::string& what) {
   if (answer == "yes") return true;
   fmt::print(stderr, "saulctl: not confirmed, nothing sent\n");
   return false;
-}
-
-std::chrono::milliseconds parse_duration(const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (...) {
-    used = 0;
-  }
-  const std::string unit = text.substr(used);
-  double ms = -1;
-  if (used > 0) {
-    if (unit.empty() || unit == "s") ms = v * 1000;
-    else if (unit == "ms") ms = v;
-    else if (unit == "m" || unit == "min") ms = v * 60'000;
-  }
-  if (ms < 0) throw CLI::ValidationError("duration", "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5, 1m)");
-  return std::chrono::milliseconds(static_cast<long long>(ms));
 }
 
 int report_link_error(const std::exception& e) {

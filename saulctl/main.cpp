@@ -15,8 +15,12 @@ int main(int argc, char** argv) {
       "Examples:\n"
       "  saulctl decode captures/robot_bus.log          decode every frame of a candump log\n"
       "  saulctl decode --json run.log | jq .           one JSON object per frame, for scripts\n"
-      "  saulctl decode --id 0x400,0x401 run.log        only telemetry\n"
+      "  saulctl decode --id 400,401 run.log            only telemetry (ids are hex, as candump writes them)\n"
+      "  saulctl sniff --link can0 --duration 10s       live, for ten seconds\n"
       "\n"
+      "Every verb speaks one grammar (docs/cli.md): the link is --link L (default $SAUL_LINK), CAN ids are hex\n"
+      "(--id 400 = 0x400, ID:MASK, FIRST-LAST), durations take units (--duration 500ms, 10s, 2m), verbs whose\n"
+      "output is data take --json.\n"
       "Exit codes: 0 ok, 1 failure, 2 usage error, 3 timeout or no answer.",
       "saulctl"};
   app.require_subcommand(1);

@@ -52,7 +52,7 @@ s=$out/saulctl
 check "verbs: 'saulctl dec' -> decode" expect "$s dec" "decode"
 check "modes: 'saulctl mode b' -> balance" expect "$s mode b" "balance"
 check "modes: 'saulctl mode ' -> all four" expect "$s mode " "balance estop manual off"
-check "formats: 'decode --format ' -> text, jsonl, csv" expect "$s decode --format " "csv jsonl text"
+check "formats: 'decode --format ' -> text, jsonl, csv, long" expect "$s decode --format " "csv jsonl long text"
 check "formats: 'decode --format=j' -> jsonl (after the '=' bash splits at)" expect "$s decode --format=j" "jsonl"
 check "input formats: 'convert --input-format pc' -> pcap, pcapng" expect "$s convert --input-format pc" "pcap pcapng"
 check "boards: 'flash --board ' -> balance, io" expect "$s flash --board " "balance io"
@@ -105,7 +105,7 @@ if command -v zsh >/dev/null; then
     [[ $got == "$2" ]] || { echo "  zsh '$1' gave: '$got'"; return 1; }
   }
   check "zsh: 'mode ' -> all four modes" zexpect "$s mode " "balance estop manual off"
-  check "zsh: 'decode --format ' -> the formats" zexpect "$s decode --format " "csv jsonl text"
+  check "zsh: 'decode --format ' -> the formats" zexpect "$s decode --format " "csv jsonl long text"
   check "zsh: 'monitor --link ' -> CAN interfaces and slcan: ports" \
     zexpect "$s monitor --link " "can0 slcan:/dev/ttyACM0 slcan:/dev/ttyUSB0 vcan1"
   check "zsh: 'decode ' -> capture files by extension" zexpect "$s decode " \

@@ -14,7 +14,7 @@ check "mode balance while OFF is acknowledged not_allowed" \
   grep -q '^(1763800000.100400) can0 402#020002 *command_ack command=2 sequence=0 result=rejected_not_allowed$' "$out/text"
 check "PID gains decode to 1.5 0.25 0.05" \
   bash -c "grep -c 'pid_gain gain=kp sequence=1 value=1.5\$\|pid_gain gain=ki sequence=1 value=0.25\$\|pid_gain gain=kd sequence=1 value=0.05\$' '$out/text' | grep -qx 3"
-check "config 20.00 deg / 1200 mm/s" grep -q 'config_cmd tilt_limit_x100=2000 max_speed_mmps=1200$' "$out/text"
+check "config 20.00 deg / 1200 mm/s" grep -q 'config_cmd tilt_limit=20.00° max_speed_mmps=1200$' "$out/text"
 check "velocity reaches 400 mm/s" grep -q '300#90010000 *velocity_cmd speed_mmps=400 steer_mrad=0$' "$out/text"
 check "telemetry shows BALANCE after arming" grep -q 'telemetry_a .* state=BALANCE$' "$out/text"
 check "summary on stderr counts 452 frames" grep -q '^saulctl decode: 452 frames' "$out/err"

@@ -134,7 +134,7 @@ p.send(b"t40070AFF2C012C0101\rT000009388FFFFFB50002300FA\rt3014000700000000C03F\
 code, out, err = finish(proc)
 lines = out.strip().split("\n")
 check("sniff prints 3 decoded lines and exits 0",
-      code == 0 and len(lines) == 3 and "telemetry_a pitch_x100=-246 pid_out=300 speed_mmps=300 state=BALANCE" in lines[0]
+      code == 0 and len(lines) == 3 and "telemetry_a pitch=-2.46° pid_out=300 speed_mmps=300 state=BALANCE" in lines[0]
       and "vesc_status_1 controller_id=56 erpm=-1200 current_a=3.5 duty=0.25" in lines[1]
       and "!wrong_dlc" in lines[2], f"{code} {out} {err}")
 p.close()

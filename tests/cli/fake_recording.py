@@ -90,7 +90,7 @@ check("record of a serial link: Ctrl-C exits 0 with 18 bytes", code == 0 and "re
 dcode, dout, derr = decode(serial_file)
 check("the serial log decodes with the inter-board decoder (named by the 460800 baud rate)",
       dcode == 0 and "rc_cmd throttle=500 steer=-250 flags=1" in dout
-      and "state pitch_x100=-1234 pid_out=300 error_state=1" in dout
+      and "state pitch=-12.34° pid_out=300 error_state=1" in dout
       and "(interboard): 2 frames, 0 crc errors" in derr, dout + derr)
 p.close()
 

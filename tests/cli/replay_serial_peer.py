@@ -287,12 +287,12 @@ def usage_lines(err):
 code, out, err = run(["replay", os.path.join(CAPTURES, "robot_bus.log"), "--to", "serial:/dev/ttyUSB0"])
 lines = usage_lines(err)
 check("a CAN capture onto a serial link: exit 2, one line naming the fix",
-      code == 2 and len(lines) == 1 and "CAN frames" in lines[0] and "--to can0" in lines[0], f"{code} {err}")
+      code == 2 and len(lines) == 1 and "CAN frames" in lines[0] and "--link can0" in lines[0], f"{code} {err}")
 for link in ("can0", "slcan:/dev/ttyACM0"):
     code, out, err = run(["replay", ib, "--to", link])
     lines = usage_lines(err)
     check(f"a serial capture onto {link}: exit 2, one line naming the fix",
-          code == 2 and len(lines) == 1 and "serial bytes" in lines[0] and "--to serial:" in lines[0], f"{code} {err}")
+          code == 2 and len(lines) == 1 and "serial bytes" in lines[0] and "--link serial:" in lines[0], f"{code} {err}")
 code, out, err = run(["replay", os.path.join(CAPTURES, "interboard_uart.sigrok.txt"), "--protocol", "raw",
                       "--to", "serial:/dev/ttyUSB0@460800"])
 check("a raw link replayed without motion: exit 2, asks for --protocol or --allow-motion",

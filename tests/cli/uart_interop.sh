@@ -18,7 +18,7 @@ messages() { cut -d' ' -f3- "$1"; }  # drop the time and link columns
 check "the inter-board serial log decodes (exit 0)" test $? -eq 0
 cat >"$out/ib.expect" <<'TXT'
 rc_cmd throttle=500 steer=-250 flags=1
-state pitch_x100=-1234 pid_out=300 error_state=1
+state pitch=-12.34° pid_out=300 error_state=1
 sensor tof_mm=1234 baro_delta_pa=-56 nfc_present=1
 fault flags=5
 led_cmd pattern=2 r=255 g=128 b=0

@@ -199,7 +199,7 @@ TEST_CASE("the bundled inter-board capture decodes as make_uart_vcd.py wrote it"
   // rc_cmd(500, -250, armed), state(-1234, 300, 1), noise, sensor(1234, -56, 1), fault 5, the fault with a bad
   // CRC (rejected), led_cmd(2, 255, 128, 0), buzzer(3, 500); frames 1 ms apart from 0.1 ms (units of 0.1 ms below)
   CHECK(lines == std::vector<std::string>{"1 rc_cmd throttle=500 steer=-250 flags=1",
-                                          "11 state pitch_x100=-1234 pid_out=300 error_state=1",
+                                          "11 state pitch=-12.34\u00B0 pid_out=300 error_state=1",
                                           "31 sensor tof_mm=1234 baro_delta_pa=-56 nfc_present=1",
                                           "41 fault flags=5",
                                           "61 led_cmd pattern=2 r=255 g=128 b=0",

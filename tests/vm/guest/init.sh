@@ -193,7 +193,7 @@ test_sniff_from_cansend() {
   expect_rc $? 0 "saulctl sniff"
   expect_frames /tmp/out "300#64000000 400#F4010A00C80001 00000344#000005DC 301#R 7FF#"
   expect_in /tmp/out "velocity_cmd speed_mmps=100 steer_mrad=0"
-  expect_in /tmp/out "telemetry_a pitch_x100=500"
+  expect_in /tmp/out "telemetry_a pitch=5.00°"
   expect_in /tmp/out "301#R .*!remote_frame"
   expect_in /tmp/err "timestamps: kernel"
   show /tmp/out
@@ -527,7 +527,7 @@ test_slcan_sniff() {
   wait_size /tmp/gs.log 9
   stop_fake
   expect_frames /tmp/out "400#F4010A00C80001"
-  expect_in /tmp/out "telemetry_a pitch_x100=500"
+  expect_in /tmp/out "telemetry_a pitch=5.00°"
   expect_bytes /tmp/gs.log 'C\rS6\rO\rC\r'
   show /tmp/out
 }

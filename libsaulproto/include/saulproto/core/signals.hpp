@@ -45,7 +45,8 @@ enum class Kind : std::uint8_t {
 enum class ByteOrder : std::uint8_t { little_endian, big_endian };
 enum class Place : std::uint8_t { payload, can_id, after_string };
 
-/// How saulctl's text and JSON show the value today (the key is SignalDesc::key).
+/// How saulctl's JSON shows the value (under SignalDesc::key), and its text too except for the scaled wire
+/// integers that text_in_unit() picks out: text shows those as physical values with units (docs/cli.md).
 enum class Text : std::uint8_t {
   raw,           ///< the wire integer (a float32 as its float)
   name,          ///< the value's name from SignalDesc::values
@@ -218,6 +219,26 @@ constexpr std::int64_t physical_to_raw(const SignalDesc& s, double physical) noe
   if (s.kind == Kind::float32) return std::bit_cast<std::uint32_t>(static_cast<float>(physical));
   const double x = (physical - s.offset) * static_cast<double>(s.scale_den) / static_cast<double>(s.scale_num);
   return x >= 0 ? static_cast<std::int64_t>(x + 0.5) : -static_cast<std::int64_t>(-x + 0.5);
+}
+
+/// Whether saulctl's text shows the signal as its physical value with its unit under its name (pitch=12.34°,
+/// battery=39.876V, ch1=1500µs) instead of the wire integer under its key (pitch_x100=1234): a scaled integer
+/// with a unit whose JSON is the wire integer (Text::raw). JSON keeps the key and the integer: scripts, the Python
+/// module and the Wireshark dissector read them.
+constexpr bool text_in_unit(const SignalDesc& s) noexcept {
+  return s.text == Text::raw && (s.kind == Kind::signed_int || s.kind == Kind::unsigned_int) && s.unit[0] != '\0' &&
+         (s.scale_num != 1 || s.scale_den != 1 || s.offset != 0);
+}
+
+/// The digits after the point that show a signal's physical value exactly: k when its resolution
+/// scale_num / scale_den is a whole multiple of 10^-k (pitch, 1/100 deg: 2; battery, 1/1000 V: 3), up to 9; -1
+/// when it is no decimal fraction (the CRSF RC channels' 1024/1639 us), which text shows in whole units rounded
+/// down, as the receivers map ticks to microseconds (crsf::ticks_to_us).
+constexpr int text_decimals(const SignalDesc& s) noexcept {
+  std::int64_t ten_k = 1;
+  for (int k = 0; k <= 9; ++k, ten_k *= 10)
+    if ((std::int64_t{s.scale_num} * ten_k) % s.scale_den == 0) return k;
+  return -1;
 }
 
 constexpr bool in_valid_range(const SignalDesc& s, std::int64_t raw) noexcept {

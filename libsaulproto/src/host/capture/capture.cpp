@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cctype>
@@ -9,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 #include <streambuf>
+#include <string_view>
+#include <vector>
 
 #include "saulproto/host/capture/asc.hpp"
 #include "saulproto/host/capture/blf.hpp"
@@ -195,8 +198,46 @@ std::span<const std::uint8_t> head_bytes(const std::string& s) {
   return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()};
 }
 
-/// What a text file that is not a candump log looks like, for the message that refuses it.
+/// A line of candump's default output (no -L): "  can0  400   [7]  96 00 ..." (with -t, a "(time)" first).
+bool looks_like_candump_default(std::string_view line) {
+  std::vector<std::string_view> words;
+  std::size_t pos = 0;
+  while (words.size() < 4) {
+    while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
+    if (pos >= line.size()) break;
+    const std::size_t end = std::min(line.find_first_of(" \t", pos), line.size());
+    words.push_back(line.substr(pos, end - pos));
+    pos = end;
+  }
+  if (!words.empty() && words[0].starts_with('(')) words.erase(words.begin());
+  if (words.size() < 3) return false;
+  const auto hex = [](std::string_view w) {
+    return !w.empty() && w.find_first_not_of("0123456789abcdefABCDEF") == std::string_view::npos;
+  };
+  const std::string_view id = words[1], dlc = words[2];
+  return (id.size() == 3 || id.size() == 8) && hex(id) && dlc.size() >= 3 && dlc.front() == '[' &&
+         dlc.back() == ']' && is_digit(dlc[1]);
+}
+
+/// Bytes that no text file has: NUL, or control characters (other than tab, CR, LF, FF) in more than 1 of 20.
+bool looks_binary(std::string_view head) {
+  std::size_t control = 0;
+  for (const char c : head) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u == 0) return true;
+    if ((u < 0x20 && u != '\t' && u != '\n' && u != '\r' && u != '\f') || u == 0x7F) ++control;
+  }
+  return control * 20 > head.size();
+}
+
+/// What a file that is no capture looks like, for the message that refuses it.
 std::string describe_other_text(std::string_view head) {
+  if (looks_binary(head)) {
+    std::string first;
+    for (std::size_t i = 0; i < std::min<std::size_t>(head.size(), 8); ++i)
+      first += fmt::format("{}{:02X}", i ? " " : "", static_cast<unsigned char>(head[i]));
+    return fmt::format("binary data of no format saulctl knows, starting {}", first);
+  }
   if (head.find("***BUSMASTER") != std::string_view::npos) return "a BusMaster log";
   std::size_t pos = 0;
   while (pos < head.size()) {
@@ -206,11 +247,14 @@ std::string describe_other_text(std::string_view head) {
     pos = end + 1;
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
     if (line.empty()) continue;
+    if (looks_like_candump_default(line))
+      return "candump's default output, which has no timestamps and is no log; record with 'candump -L can0 > "
+             "run.log' instead";
     std::string shown;
     for (char c : line.substr(0, 60)) shown += (c >= 0x20 && c < 0x7F) ? c : '?';
-    return fmt::format("a text log whose first line is '{}{}'", shown, line.size() > 60 ? "..." : "");
+    return fmt::format("a text file whose first line is '{}{}'", shown, line.size() > 60 ? "..." : "");
   }
-  return "a text log";
+  return "a text file of blank lines";
 }
 
 /// True when some line of `head` starts with '(' and a digit, as candump lines do.
@@ -231,6 +275,10 @@ bool has_candump_line(std::string_view head) {
 /// file is opened through a decompressor and its content decides.
 std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<CaptureFormat>& format) {
   auto source = std::make_unique<FileSource>();
+  std::error_code dir_ec;
+  if (std::filesystem::is_directory(path, dir_ec))
+    throw CaptureOpenError(fmt::format("{}: is a directory, not a capture file (name the files in it, e.g. {}/*.log)",
+                                       path, path));
   if (!source->file.open(path, std::ios::in | std::ios::binary))
     throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
   std::string head = read_head(source->file);
@@ -251,15 +299,16 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   if (!format) format = capture_format_from_extension(inner_name);
   if (!format)
     throw CaptureOpenError(fmt::format(
-        "cannot tell the format of '{}'{}: its content is not pcap, pcapng, candump, ASC, BLF, TRC, python-can or "
-        "SavvyCAN CSV, a serial log or a sigrok/PulseView UART export, and its extension is none of .pcap .pcapng "
-        ".log .asc .blf .trc .csv .serial (--input-format names one)",
-        path, compression != Compression::none ? fmt::format(" ({}-compressed)", to_string(compression)) : ""));
+        "{}: not a capture ({}{}): cannot tell the format of its content, which is not pcap, pcapng, candump -L, "
+        "ASC, BLF, TRC, python-can or SavvyCAN CSV, a serial log or a sigrok/PulseView UART export, nor of its "
+        "extension, none of .pcap .pcapng .log .asc .blf .trc .csv .serial (--input-format names one)",
+        path, compression != Compression::none ? fmt::format("{}-compressed ", to_string(compression)) : "",
+        describe_other_text(head)));
   if (!forced && by_extension && *format == CaptureFormat::candump && !head.empty() && !has_candump_line(head))
     throw CaptureOpenError(fmt::format(
-        "'{}' is not a candump log: it is {}, and none of its first lines is a candump line \"(time) can0 "
-        "123#...\"; saulctl reads candump, pcap, pcapng, ASC, BLF, TRC and CSV logs (--input-format candump reads "
-        "it anyway)",
+        "{}: not a capture (it is not a candump log: it is {}); none of its first lines is a candump -L line "
+        "\"(time) can0 123#...\"; saulctl reads candump -L, pcap, pcapng, ASC, BLF, TRC and CSV logs "
+        "(--input-format candump reads it anyway)",
         path, describe_other_text(head)));
   source->replay = std::make_unique<ReplayBuf>(*content, std::move(head));
   source->stream.rdbuf(source->replay.get());
@@ -329,6 +378,8 @@ class FileWriter final : public CaptureWriter {
 };
 
 }  // namespace
+
+std::string describe_non_capture(std::string_view head) { return describe_other_text(head); }
 
 std::string_view to_string(CaptureFormat format) noexcept {
   switch (format) {

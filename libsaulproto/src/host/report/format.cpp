@@ -5,6 +5,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <string_view>
 #include <type_traits>
 
 #include "saulproto/host/capture/candump.hpp"
@@ -66,10 +67,41 @@ nlohmann::json json_one(const M& m) {
 
 // ---- described messages: key, value and its form from core/signals ---------------------------------------------
 
-// The value as text: the wire integer, its name, or its physical value (SignalDesc::text).
+// The unit as text shows it: the descriptions' ASCII units as their symbols.
+std::string_view unit_symbol(std::string_view unit) {
+  if (unit == "deg") return "\u00B0";       // °
+  if (unit == "degC") return "\u00B0C";     // °C
+  if (unit == "us") return "\u00B5s";       // µs
+  return unit;
+}
+
+// A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
+// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise.
+std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
+  const int k = signals::text_decimals(s);
+  std::string number;
+  if (k < 0) {
+    number = fmt::format("{}", static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
+  } else {
+    std::int64_t ten_k = 1;
+    for (int i = 0; i < k; ++i) ten_k *= 10;
+    const std::int64_t scaled =
+        raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
+    const std::uint64_t magnitude = scaled < 0 ? 0 - static_cast<std::uint64_t>(scaled) : static_cast<std::uint64_t>(scaled);
+    const auto whole = magnitude / static_cast<std::uint64_t>(ten_k);
+    const auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
+    number = k == 0 ? fmt::format("{}{}", scaled < 0 ? "-" : "", whole)
+                    : fmt::format("{}{}.{:0{}}", scaled < 0 ? "-" : "", whole, frac, k);
+  }
+  return number + std::string(unit_symbol(s.unit));
+}
+
+// The value as text: the wire integer, its name, or its physical value (SignalDesc::text); a scaled wire
+// integer as its physical value with its unit (signals::text_in_unit).
 std::string text_of(const SignalValue& v) {
   const auto& s = *v.signal;
   if (s.kind == Kind::string) return v.text;
+  if (signals::text_in_unit(s)) return physical_text(s, v.raw);
   switch (s.text) {
     case Text::raw:
       if (s.kind == Kind::float32) return fmt::format("{:g}", std::bit_cast<float>(static_cast<std::uint32_t>(v.raw)));
@@ -103,7 +135,7 @@ std::string describe_values(const SignalValues& values) {
   std::string s = values.message->name;
   for (const auto& v : values.values) {
     s += ' ';
-    s += v.signal->key;
+    s += signals::text_in_unit(*v.signal) ? v.signal->name : v.signal->key;
     s += '=';
     s += text_of(v);
   }

@@ -152,6 +152,10 @@ class CaptureWriter {
 /// (Recovery::stop).
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
+/// What the first bytes of a file that is no capture look like, for the message that refuses it: "binary data of
+/// no format saulctl knows, starting 28 B1 ...", "candump's default output, ... record with 'candump -L ...'",
+/// "a BusMaster log", "a text file whose first line is '...'". open_capture_reader's refusals name it too.
+std::string describe_non_capture(std::string_view head);
 /// A reader of `format` over a stream the caller keeps alive. Throws CaptureOpenError for a bad binary header.
 std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format);
 

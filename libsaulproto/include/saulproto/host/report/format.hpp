@@ -1,7 +1,9 @@
 // Text and JSON renderings of decoded messages, for saulctl and for logs.
 //
-// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp): each signal's key,
-// and its value as the wire integer, its value name or its physical value, as the description says. Any other
+// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp): JSON has each
+// signal's key and its value as the wire integer, its value name or its physical value, as the description says;
+// text the same, except that a scaled wire integer (signals::text_in_unit) shows as its physical value with its
+// unit under the signal's name (pitch_x100 1234 -> "pitch=12.34°", docs/cli.md). Any other
 // message type with kName and fields(visitor) (Pride) prints its fields(), so it needs no change here either.
 #pragma once
 
@@ -37,7 +39,7 @@ SignalValues signal_values(const BusMessage& message);
 SignalValues signal_values(const interboard::Message& message);
 SignalValues signal_values(const crsf::Message& message);
 
-/// "velocity_cmd speed_mmps=1000 steer_mrad=-500"
+/// "velocity_cmd speed_mmps=1000 steer_mrad=-500", "telemetry_a pitch=12.34° pid_out=120 speed_mmps=400 state=BALANCE"
 std::string describe(const BusMessage& message);
 std::string describe(const interboard::Message& message);
 std::string describe(const crsf::Message& message);

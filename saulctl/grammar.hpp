@@ -1,0 +1,42 @@
+// The words every saulctl verb spells the same way (docs/cli.md): the link, CAN ids, durations and --json.
+// Each verb adds its options through these functions, so a spelling cannot drift; tests/cli/grammar.py checks
+// every verb's --help against a table.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "saulproto/host/link/can_link.hpp"
+
+namespace saulctl {
+
+/// Adds -l/--link to a verb. The default comes from $SAUL_LINK, else ~/.config/saulctl/link (one line); an
+/// explicit link always wins over both. serial_too: the verb also takes serial byte links (serial:DEV@BAUD).
+void add_link_option(CLI::App* cmd, std::string& link, bool serial_too = false);
+/// --link, and the link as a positional LINK too (sniff, record: "sniff can0" = "sniff --link can0"). Both given
+/// and different is a usage error; either ends in `link`. These verbs take serial byte links too.
+void add_link_option_and_positional(CLI::App* cmd, std::string& link);
+
+/// Adds --id: CAN ids in hex as candump writes them (400 = 0x400, 0x accepted), ID:MASK, FIRST-LAST (400-40F),
+/// comma separated or repeated; more than 3 digits or a value above 7FF means a 29-bit id. One value per --id, so "--id 400 can0"
+/// leaves can0 to the verb. Checked while parsing (a bad id is a usage error).
+/// `name` is "--id" but for an option that excludes ids (replay --exclude-id).
+CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what,
+                           const char* name = "--id");
+/// The filters the --id values name (already checked: never throws for values add_id_option accepted).
+std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& ids);
+
+/// Adds --duration (alias --for): 500ms, 10s, 1.5 (seconds), 2m. Checked while parsing.
+CLI::Option* add_duration_option(CLI::App* cmd, std::string& duration, const std::string& what);
+/// A check for any other option that takes a duration (--timeout, --wait, --window, ...).
+CLI::Validator duration_check();
+/// Parses "2s", "500ms", "1.5" (seconds), "2m", "1min", "100us" (rounded down to ms). Throws CLI::ValidationError.
+std::chrono::milliseconds parse_duration(const std::string& text);
+
+/// Adds --json with the verb's own description of what it prints.
+CLI::Option* add_json_flag(CLI::App* cmd, bool& json, const std::string& what);
+
+}  // namespace saulctl

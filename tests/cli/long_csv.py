@@ -1,0 +1,94 @@
+"""saulctl decode --format long: one row per signal (time,interface,id,message,signal,value,unit), loaded into an
+SQL engine and aggregated per signal without parsing strings. DuckDB is not packaged in Debian, so the engine is
+Python's sqlite3; the same query runs in DuckDB over read_csv_auto('signals.csv') (docs/captures.md).
+
+The per-signal counts and means are compared with the same figures worked out from `saulctl decode --json` (the
+wire integers) through a table of scales written here by hand from docs/protocol.md, and a few rows are checked
+against the bytes of captures/robot_bus.log by hand.
+
+usage: long_csv.py SAULCTL ROOT
+"""
+import csv
+import io
+import json
+import os
+import sqlite3
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from clitest import Checks, Saulctl  # noqa: E402
+
+exe, root = sys.argv[1], sys.argv[2]
+saulctl = Saulctl(exe)
+c = Checks()
+log = os.path.join(root, "captures", "robot_bus.log")
+
+code, long_csv, err = saulctl.run(["decode", "--format", "long", log])
+c.check("decode --format long exits 0", code == 0, err)
+lines = long_csv.splitlines()
+c.check("header: time,interface,id,message,signal,value,unit", lines[0] == "time,interface,id,message,signal,value,unit",
+        lines[0])
+
+# By hand from the bytes: 400#63004F00900101 at 2.900900 s: pitch 0x0063 = 99 -> 0.99 deg, pid_out 0x4F = 79,
+# speed 0x0190 = 400 mm/s, state 1 (BALANCE, as its number); 401#...B09A.. -> 0x9AB0 = 39600 mV = 39.6 V;
+# 303#D007B004 -> tilt 2000 -> 20 deg; VESC 00000944#00000093000C000B -> current 12 / 10 = 1.2 A.
+for row in ["1763800002.900900,can0,400,telemetry_a,pitch,0.99,deg",
+            "1763800002.900900,can0,400,telemetry_a,pid_out,79,permille",
+            "1763800002.900900,can0,400,telemetry_a,speed_mmps,400,mm/s",
+            "1763800002.900900,can0,400,telemetry_a,state,1,",
+            "1763800000.001000,can0,401,telemetry_b,battery,39.6,V",
+            "1763800000.700000,can0,303,config_cmd,tilt_limit,20,deg",
+            "1763800001.550500,can0,00000944,vesc_status_1,current,1.2,A",
+            "1763800001.550500,can0,00000944,vesc_status_1,controller_id,68,"]:
+    c.check(f"row by hand: {row}", row in lines)
+
+db = sqlite3.connect(":memory:")
+db.execute("create table s (time real, interface text, id text, message text, signal text, value real, unit text)")
+db.executemany("insert into s values (?,?,?,?,?,?,?)", list(csv.reader(io.StringIO(long_csv)))[1:])
+typed = db.execute("select count(*) from s where typeof(value) != 'real'").fetchone()[0]
+c.check("every value is a number the engine stores as one (no string parsing)", typed == 0, typed)
+got = {(m, s): (n, avg, unit) for m, s, n, avg, unit in
+       db.execute("select message, signal, count(*), avg(value), min(unit) from s group by message, signal")}
+
+# The same from JSON: key -> (signal, factor to the physical unit, unit), by hand from docs/protocol.md.
+SCALES = {
+    ("telemetry_a", "pitch_x100"): ("pitch", 0.01, "deg"),
+    ("telemetry_a", "pid_out"): ("pid_out", 1, "permille"),
+    ("telemetry_a", "speed_mmps"): ("speed_mmps", 1, "mm/s"),
+    ("telemetry_b", "battery_mv"): ("battery", 0.001, "V"),
+    ("telemetry_b", "vesc_l_rpm"): ("vesc_l_rpm", 1, "rpm"),
+    ("velocity_cmd", "speed_mmps"): ("speed_mmps", 1, "mm/s"),
+    ("velocity_cmd", "steer_mrad"): ("steer_mrad", 1, "mrad"),
+    ("vesc_status_1", "erpm"): ("erpm", 1, "rpm"),
+    ("vesc_status_1", "current_a"): ("current", 1, "A"),
+    ("vesc_status_5", "voltage_in_v"): ("voltage_in", 1, "V"),
+    ("vesc_set_rpm", "erpm"): ("erpm", 1, "rpm"),
+}
+code, jsonl, err = saulctl.run(["decode", "--json", log])
+sums = {}
+signals_in_json = 0
+for line in jsonl.splitlines():
+    msg = json.loads(line).get("message", {})
+    # every signal but the type and strings; named values (state, mode, result, gain) are rows too, as numbers
+    signals_in_json += sum(1 for k, v in msg.items() if k != "type")
+    for key, value in msg.items():
+        if (msg["type"], key) in SCALES:
+            name, factor, unit = SCALES[(msg["type"], key)]
+            n, total = sums.get((msg["type"], name), (0, 0.0))
+            sums[(msg["type"], name)] = (n + 1, total + value * factor)
+for (message, signal), (n, total) in sorted(sums.items()):
+    want = (n, total / n)
+    have = got.get((message, signal))
+    c.check(f"{message}.{signal}: count {n}, mean {total / n:.6g} as from JSON by hand",
+            have is not None and have[0] == n and abs(have[1] - want[1]) <= 1e-9 * max(1, abs(want[1])),
+            f"long CSV {have}, JSON {want}")
+    unit = [u for (m, k), (s, f, u) in SCALES.items() if m == message and s == signal][0]
+    c.check(f"{message}.{signal}: unit {unit}", have is not None and have[2] == unit, have)
+c.check("one row per number signal of every decoded frame", len(lines) - 1 == signals_in_json,
+        f"{len(lines) - 1} rows, {signals_in_json} number signals in JSON")
+
+# Serial captures too (inter-board STATE pitch -1234 -> -12.34 deg).
+code, out, err = saulctl.run(["decode", "--format", "long", os.path.join(root, "captures", "interboard_uart.serial")])
+c.check("inter-board serial capture: STATE pitch -12.34 deg, no id", code == 0 and
+        "0000000000.001100,serial:/dev/ttyUSB0@460800:8N1,,state,pitch,-12.34,deg" in out.splitlines(), out[:400])
+c.exit()

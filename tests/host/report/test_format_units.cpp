@@ -1,0 +1,126 @@
+// saulctl's text shows scaled wire integers as physical values with units (docs/cli.md "Units"), JSON keeps the
+// wire integers under their keys. Bytes and values worked out by hand from docs/protocol.md (SAUL: little-endian,
+// pitch in 1/100 deg, battery in mV; CRSF: big-endian, 0.1 V, 1e-7 deg, RC ticks mapped 172 -> 988 us,
+// 992 -> 1500 us, 1811 -> 2012 us as the receivers do).
+#include <catch2/catch.hpp>
+
+#include <fmt/format.h>
+
+#include <initializer_list>
+#include <string>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/report/format.hpp"
+
+using namespace saul;
+
+namespace {
+
+BusMessage decoded(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  CanFrame f;
+  f.id = id;
+  f.dlc = static_cast<std::uint8_t>(bytes.size());
+  std::size_t i = 0;
+  for (auto b : bytes) f.data[i++] = b;
+  const auto r = decode_bus_frame(f);
+  REQUIRE(r);
+  return r.value();
+}
+
+std::string text_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  return host::describe(decoded(id, bytes));
+}
+
+nlohmann::json json_of_frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  return host::to_json(decoded(id, bytes));
+}
+
+}  // namespace
+
+TEST_CASE("text: SAUL pitch, battery and tilt limit in degrees and volts, under their physical names") {
+  // 0x400: pitch D2 04 = 1234 -> 12.34 deg, pid_out 78 00 = 120, speed 90 01 = 400 mm/s, state 1 = BALANCE.
+  CHECK(text_of_frame(0x400, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01}) ==
+        "telemetry_a pitch=12.34\u00B0 pid_out=120 speed_mmps=400 state=BALANCE");
+  // Negative and below one degree: 2E FB = -1234, FB FF = -5 -> -0.05 (the sign of a value under 1 kept).
+  CHECK(text_of_frame(0x400, {0x2E, 0xFB, 0, 0, 0, 0, 0}).find("pitch=-12.34\u00B0 ") != std::string::npos);
+  CHECK(text_of_frame(0x400, {0xFB, 0xFF, 0, 0, 0, 0, 0}).find("pitch=-0.05\u00B0 ") != std::string::npos);
+  CHECK(text_of_frame(0x400, {0x64, 0x00, 0, 0, 0, 0, 0}).find("pitch=1.00\u00B0 ") != std::string::npos);
+  // 0x401: battery C4 9B = 39876 mV -> 39.876 V; faults 0x05 = rc_loss + estop (shown as the byte).
+  CHECK(text_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05}) ==
+        "telemetry_b vesc_l_rpm=0 vesc_r_rpm=0 battery=39.876V faults=5");
+  // 0x303: tilt D0 07 = 2000 -> 20.00 deg, max speed B0 04 = 1200 mm/s.
+  CHECK(text_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04}) == "config_cmd tilt_limit=20.00\u00B0 max_speed_mmps=1200");
+}
+
+TEST_CASE("JSON keeps the wire integers under their keys") {
+  const auto j = json_of_frame(0x400, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01});
+  CHECK(j.dump() == R"({"pid_out":120,"pitch_x100":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})");
+  CHECK(json_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05})["battery_mv"] == 39876);
+  CHECK(json_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04})["tilt_limit_x100"] == 2000);
+}
+
+TEST_CASE("text: already physical values are unchanged (VESC, speeds)") {
+  // VESC STATUS_1 of controller 68 (0x944): ERPM 147, current 12 -> 1.2 A, duty 11 -> 0.011.
+  CanFrame f;
+  f.id = 0x944;
+  f.extended = true;
+  f.dlc = 8;
+  const std::uint8_t d[8] = {0x00, 0x00, 0x00, 0x93, 0x00, 0x0C, 0x00, 0x0B};
+  for (int i = 0; i < 8; ++i) f.data[static_cast<std::size_t>(i)] = d[i];
+  const auto r = decode_bus_frame(f);
+  REQUIRE(r);
+  CHECK(host::describe(r.value()) == "vesc_status_1 controller_id=68 erpm=147 current_a=1.2 duty=0.011");
+  CHECK(text_of_frame(0x300, {0x90, 0x01, 0x0C, 0xFE}) == "velocity_cmd speed_mmps=400 steer_mrad=-500");
+}
+
+TEST_CASE("text: inter-board STATE pitch in degrees") {
+  interboard::State s;
+  s.pitch_x100 = -1234;
+  s.pid_out = 300;
+  s.error_state = 1;
+  CHECK(host::describe(interboard::Message{s}) == "state pitch=-12.34\u00B0 pid_out=300 error_state=1");
+  CHECK(host::to_json(interboard::Message{s})["pitch_x100"] == -1234);
+}
+
+TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, km/h, rad and microseconds") {
+  crsf::BatterySensor b;
+  b.voltage_x10 = 168;  // 16.8 V
+  b.current_x10 = 5;    // 0.5 A
+  b.capacity_mah = 1200;
+  b.remaining_pct = 80;
+  CHECK(host::describe(crsf::Message{b}) ==
+        "battery_sensor voltage=16.8V current=0.5A capacity_mah=1200 remaining_pct=80");
+  CHECK(host::to_json(crsf::Message{b})["voltage_x10"] == 168);
+
+  crsf::Gps g;
+  g.latitude_e7 = 473977420;     // 47.3977420 deg N: all seven decimals kept
+  g.longitude_e7 = -1223456789;  // 122.3456789 deg W
+  g.groundspeed_x10 = 123;       // 12.3 km/h
+  g.heading_x100 = 9000;         // 90.00 deg
+  g.altitude_m = 500;
+  g.satellites = 9;
+  CHECK(host::describe(crsf::Message{g}) ==
+        "gps latitude=47.3977420\u00B0 longitude=-122.3456789\u00B0 groundspeed=12.3km/h heading=90.00\u00B0 "
+        "altitude_m=500 satellites=9");
+  CHECK(host::to_json(crsf::Message{g})["latitude_e7"] == 473977420);
+
+  crsf::Attitude a;
+  a.pitch_rad_x10000 = 15708;  // 1.5708 rad
+  a.roll_rad_x10000 = -1;
+  CHECK(host::describe(crsf::Message{a}) == "attitude pitch=1.5708rad roll=-0.0001rad yaw=0.0000rad");
+
+  crsf::RcChannels rc;
+  rc.ticks.fill(992);  // centre: 1500 us
+  rc.ticks[0] = 172;   // 988 us
+  rc.ticks[1] = 1811;  // 2012 us
+  const std::string text = host::describe(crsf::Message{rc});
+  CHECK(text.rfind("rc_channels ch1=988\u00B5s ch2=2012\u00B5s ch3=1500\u00B5s ", 0) == 0);
+  CHECK(text.find("ch16=1500\u00B5s") != std::string::npos);
+  for (std::uint16_t t : {std::uint16_t{172}, std::uint16_t{500}, std::uint16_t{992}, std::uint16_t{1500},
+                          std::uint16_t{1811}, std::uint16_t{2047}}) {
+    rc.ticks[0] = t;
+    CHECK(host::describe(crsf::Message{rc}).find(fmt::format("ch1={}\u00B5s ", crsf::ticks_to_us(t))) !=
+          std::string::npos);
+  }
+  CHECK(host::to_json(crsf::Message{rc})["ch1"] == 2047);  // JSON: ticks
+}
