@@ -49,6 +49,50 @@ void put_padded(fmt::memory_buffer& out, std::uint64_t v, std::size_t width, cha
 
 // ---- values, as format.cpp's text_of() and json_of() write them -----------------------------------------------
 
+/// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
+/// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
+/// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. False
+/// (nothing written) otherwise.
+bool decimal_g(std::string& out, std::int64_t raw, std::int32_t den) {
+  int places = 0;
+  for (std::int32_t d = den; d > 1; d /= 10) {
+    if (d % 10 != 0) return false;
+    ++places;
+  }
+  if (places > 4 || raw <= -1'000'000'000'000LL || raw >= 1'000'000'000'000LL) return false;
+  std::uint64_t v = raw < 0 ? static_cast<std::uint64_t>(-raw) : static_cast<std::uint64_t>(raw);
+  if (v == 0) {
+    out += '0';
+    return true;
+  }
+  if (v / static_cast<std::uint64_t>(den) >= 1'000'000) return false;
+  // drop the fraction's trailing zeros
+  while (places > 0 && v % 10 == 0) {
+    v /= 10;
+    --places;
+  }
+  char digits[24];
+  const auto r = std::to_chars(digits, digits + sizeof digits, v);
+  auto n = static_cast<int>(r.ptr - digits);
+  int significant = n;
+  for (int i = n - 1; i > 0 && digits[i] == '0'; --i) --significant;  // an integer's trailing zeros
+  if (n <= places) significant = n;                                    // 0.00ddd: the leading zeros do not count
+  if (significant > 6) return false;
+  if (raw < 0) out += '-';
+  if (n <= places) {
+    out += "0.";
+    out.append(static_cast<std::size_t>(places - n), '0');
+    out.append(digits, static_cast<std::size_t>(n));
+  } else {
+    out.append(digits, static_cast<std::size_t>(n - places));
+    if (places > 0) {
+      out += '.';
+      out.append(digits + n - places, static_cast<std::size_t>(places));
+    }
+  }
+  return true;
+}
+
 void text_value(std::string& out, const SignalDesc& s, std::int64_t raw, std::string_view chars) {
   auto it = std::back_inserter(out);
   if (s.kind == Kind::string) return put(out, chars);
@@ -62,7 +106,10 @@ void text_value(std::string& out, const SignalDesc& s, std::int64_t raw, std::st
     case Text::name:
       if (const char* name = signals::value_name(s, raw)) return put(out, name);
       return put_int(out, raw);
-    case Text::physical: fmt::format_to(it, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw)); return;
+    case Text::physical:
+      if (s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0 && decimal_g(out, raw, s.scale_den)) return;
+      fmt::format_to(it, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw));
+      return;
     case Text::physical_int: return put_int(out, std::llround(signals::raw_to_physical(s, raw)));
   }
   put_int(out, raw);
@@ -145,19 +192,22 @@ Read read_signal(const MessageDesc& d, const SignalDesc& s, const signals::Wire&
 
 /// The candump frame text ("300#E8030CFE"), as format_candump_frame writes it.
 void frame_text(std::string& out, const CanFrame& f) {
+  char t[32];
+  std::size_t n = 0;
   const bool wide = f.error || f.extended;
   const std::uint32_t id = f.error ? (f.id | 0x2000'0000U) : f.id;
-  for (int shift = wide ? 28 : 8; shift >= 0; shift -= 4) out += kHex[(id >> shift) & 0xF];
-  out += '#';
+  for (int shift = wide ? 28 : 8; shift >= 0; shift -= 4) t[n++] = kHex[(id >> shift) & 0xF];
+  t[n++] = '#';
   if (f.remote) {
-    out += 'R';
-    if (f.dlc) out += static_cast<char>('0' + f.dlc);
-    return;
+    t[n++] = 'R';
+    if (f.dlc) t[n++] = static_cast<char>('0' + f.dlc);
+  } else {
+    for (std::uint8_t b : f.payload()) {
+      t[n++] = kHex[b >> 4];
+      t[n++] = kHex[b & 0xF];
+    }
   }
-  for (std::uint8_t b : f.payload()) {
-    out += kHex[b >> 4];
-    out += kHex[b & 0xF];
-  }
+  out.append(t, n);
 }
 
 const char* bool_text(bool b) { return b ? "true" : "false"; }
@@ -205,7 +255,7 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
   return fmt::format("{} {} {:<24} {}", time_column, candump_interface(interface), format_candump_frame(f), what);
 }
 
-FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(16384) {}
+FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
 FrameEmitter::~FrameEmitter() = default;
 
 void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out) {
@@ -428,8 +478,13 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
       time_column(ns, out);
       out.push_back(' ');
       if (interface.empty()) interface = "can0";
-      for (char c : interface)
-        out.push_back(static_cast<unsigned char>(c) <= 0x20 || c == 0x7F ? '_' : c);
+      bool clean = true;
+      for (char c : interface) clean = clean && static_cast<unsigned char>(c) > 0x20 && c != 0x7F;
+      if (clean) {
+        put(out, interface);
+      } else {
+        for (char c : interface) out.push_back(static_cast<unsigned char>(c) <= 0x20 || c == 0x7F ? '_' : c);
+      }
       out.push_back(' ');
       put(out, e.text);
       break;
