@@ -98,26 +98,26 @@ unsigned can_stuff_bits(const CanFrame& f) noexcept {
   put(f.dlc > 8 ? 8 : f.dlc, 4);
   for (std::uint8_t byte : f.payload()) put(byte, 8);
 
-  // CRC over the n bits: the leading n % 8 one by one, then whole bytes.
+  // CRC over the n bits, a byte at a time: zeros in front leave a zero register zero, so the bits are padded at
+  // the front to whole bytes.
+  std::uint8_t bytes[16];
+  for (int k = 0; k < 16; ++k) bytes[k] = static_cast<std::uint8_t>(w >> (120 - 8 * k));  // most significant first
+  const unsigned crc_bytes = (n + 7) / 8;
   std::uint16_t crc = 0;
-  unsigned i = n;
-  for (; i % 8 != 0; --i) crc = crc_bit(crc, static_cast<unsigned>(w >> (i - 1)) & 1U);
-  for (; i > 0; i -= 8) {
-    const auto byte = static_cast<std::uint8_t>(w >> (i - 8));
-    crc = static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]);
-  }
+  for (unsigned k = 16 - crc_bytes; k < 16; ++k)
+    crc = static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ bytes[k]) & 0xFF]);
   put(crc, 15);
 
-  // Stuffing over the n bits, the same way.
-  Step st{0, 0};
+  // Stuffing over the n bits and the CRC, a byte at a time: padded at the front with alternating bits ending in 1,
+  // which never make a run of five and after which SOF (0) starts a run of one, as it does first on the bus.
+  const unsigned pad = (8 - n % 8) % 8;
+  w |= (Word{0x55} & ((Word{1} << pad) - 1)) << n;
+  for (int k = 0; k < 16; ++k) bytes[k] = static_cast<std::uint8_t>(w >> (120 - 8 * k));
   unsigned stuff = 0;
-  i = n;
-  for (; i % 8 != 0; --i) {
-    st = stuff_bit(st.state, static_cast<unsigned>(w >> (i - 1)) & 1U);
-    stuff += st.stuff;
-  }
-  for (; i > 0; i -= 8) {
-    st = kStuffTable[st.state][static_cast<std::uint8_t>(w >> (i - 8))];
+  std::uint8_t state = 0;
+  for (unsigned k = 16 - (n + pad) / 8; k < 16; ++k) {
+    const Step st = kStuffTable[state][bytes[k]];
+    state = st.state;
     stuff += st.stuff;
   }
   return stuff;
