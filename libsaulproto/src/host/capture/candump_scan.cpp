@@ -84,13 +84,13 @@ bool parse_common(std::string_view line, CanFrame& f, std::string_view& interfac
 
 CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes)
     : fd_(fd), positional_(false), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  buf_ = std::make_unique<char[]>(cap_);
+  buf_.reset(new char[cap_]);  // not zeroed: only what was read is looked at
 }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), positional_(true), offset_(begin), end_(end), cap_(block_bytes + kMaxCandumpLine + 1),
       block_(block_bytes) {
-  buf_ = std::make_unique<char[]>(cap_);
+  buf_.reset(new char[cap_]);  // not zeroed: only what was read is looked at
 }
 
 CandumpScanner::~CandumpScanner() = default;

@@ -260,7 +260,7 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
 FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
 FrameEmitter::~FrameEmitter() = default;
 
-void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out) {
+void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens) {
   // As decode always wrote it: differences in unsigned arithmetic, "({:010}.{:06})" or "({:4}.{:06})".
   if (!first_) first_ = ns;
   std::uint64_t shown = ns;
@@ -269,15 +269,15 @@ void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out) {
   previous_ = ns;
   const std::uint64_t sec = shown / 1'000'000'000ULL;
   auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
-  if (!seconds_valid_ || sec != seconds_) {  // "(" and the seconds: the same for thousands of frames
+  if (!seconds_valid_ || sec != seconds_) {  // the seconds and the dot: the same for thousands of frames
     fmt::memory_buffer s;
-    s.push_back('(');
     put_padded(s, sec, time_ == TimeMode::absolute ? 10 : 4, time_ == TimeMode::absolute ? '0' : ' ');
     s.push_back('.');
     seconds_text_.assign(s.data(), s.size());
     seconds_ = sec;
     seconds_valid_ = true;
   }
+  if (parens) out.push_back('(');
   put(out, seconds_text_);
   char u[7];
   for (int i = 5; i >= 0; --i) {
@@ -285,7 +285,26 @@ void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out) {
     usec /= 10;
   }
   u[6] = ')';
-  out.append(u, u + 7);
+  out.append(u, u + (parens ? 7 : 6));
+}
+
+void FrameEmitter::timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out) {
+  const std::uint64_t sec = ns / 1'000'000'000ULL;
+  auto rest = static_cast<std::uint32_t>(ns % 1'000'000'000ULL);
+  if (sec == 0) return put_int(out, rest);
+  if (!stamp_valid_ || sec != stamp_seconds_) {
+    stamp_text_.clear();
+    put_int(stamp_text_, sec);
+    stamp_seconds_ = sec;
+    stamp_valid_ = true;
+  }
+  put(out, stamp_text_);
+  char d[9];
+  for (int i = 8; i >= 0; --i) {
+    d[i] = static_cast<char>('0' + rest % 10);
+    rest /= 10;
+  }
+  out.append(d, d + 9);
 }
 
 const std::vector<int>& FrameEmitter::json_order(const MessageDesc& d) {
@@ -425,10 +444,13 @@ void FrameEmitter::render(const CanFrame& f, Entry& e) {
         out += ',';
       }
       out += "\"frame\":{\"data\":\"";
+      char hex[16];
+      std::size_t n = 0;
       for (std::uint8_t b : f.payload()) {
-        out += kHex[b >> 4];
-        out += kHex[b & 0xF];
+        hex[n++] = kHex[b >> 4];
+        hex[n++] = kHex[b & 0xF];
       }
+      out.append(hex, n);
       out += "\",\"dlc\":";
       put_int(out, unsigned{f.dlc});
       out += ",\"error\":";
@@ -477,7 +499,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   const std::uint64_t ns = f.timestamp_ns.value_or(0);
   switch (format_) {
     case DecodeFormat::text: {
-      time_column(ns, out);
+      time_column(ns, out, true);
       out.push_back(' ');
       if (interface.empty()) interface = "can0";
       bool clean = true;
@@ -492,11 +514,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
       break;
     }
     case DecodeFormat::csv: {
-      const std::size_t at = out.size();
-      time_column(ns, out);
-      // the bare time: drop the parentheses
-      std::copy(out.data() + at + 1, out.data() + out.size() - 1, out.data() + at);
-      out.resize(out.size() - 2);
+      time_column(ns, out, false);
       out.push_back(',');
       put(out, interface);
       out.push_back(',');
@@ -509,7 +527,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
         if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') plain = false;
       if (!plain) {  // escapes (or invalid UTF-8, which nlohmann refuses): the reference does it
         fmt::memory_buffer column;
-        time_column(ns, column);
+        time_column(ns, column, true);
         put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f));
         break;
       }
@@ -518,17 +536,14 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
       put(out, text.substr(0, split));
       if (f.timestamp_ns) {
         put(out, ",\"timestamp_ns\":");
-        put_int(out, *f.timestamp_ns);
+        timestamp_digits(*f.timestamp_ns, out);
       }
       put(out, "},\"interface\":\"");
       put(out, interface);
       out.push_back('"');
       put(out, text.substr(split + 1));
       put(out, ",\"time\":\"");
-      const std::size_t at = out.size();
-      time_column(ns, out);
-      std::copy(out.data() + at + 1, out.data() + out.size() - 1, out.data() + at);
-      out.resize(out.size() - 2);
+      time_column(ns, out, false);
       put(out, "\"}");
       break;
     }

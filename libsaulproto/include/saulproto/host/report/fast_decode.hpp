@@ -23,7 +23,7 @@ struct CandumpDecodeOptions {
   const std::set<std::uint32_t>* ids = nullptr;  ///< only these ids (nullptr or empty: all)
   unsigned threads = 2;
   std::uint64_t parallel_from = std::uint64_t{64} << 20;  ///< files this big or bigger use `threads`
-  std::uint64_t block = std::uint64_t{512} << 10;         ///< bytes of candump per block (multi-threaded)
+  std::uint64_t block = std::uint64_t{256} << 10;         ///< bytes of candump per block (multi-threaded)
   std::size_t flush_at = std::size_t{1} << 20;           ///< output bytes buffered before a write
 };
 

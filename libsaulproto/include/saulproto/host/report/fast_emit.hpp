@@ -79,7 +79,8 @@ class FrameEmitter {
     const signals::MessageDesc* desc = nullptr;
     std::vector<int> sorted;  // signal indices by JSON key (-1: "type"), ties in description order
   };
-  void time_column(std::uint64_t ns, fmt::memory_buffer& out);
+  void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
+  void timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out);
   const Entry& rendered(const CanFrame& frame);
   void render(const CanFrame& frame, Entry& e);
   bool render_message(const CanFrame& encoded, std::string& out);
@@ -91,6 +92,9 @@ class FrameEmitter {
   bool seconds_valid_ = false;
   std::uint64_t seconds_ = 0;
   std::string seconds_text_;
+  bool stamp_valid_ = false;
+  std::uint64_t stamp_seconds_ = 0;
+  std::string stamp_text_;
   std::vector<Entry> cache_;
   std::vector<Order> orders_;
   std::string scratch_;
