@@ -59,7 +59,7 @@ CandumpDecodeResult single(int fd, std::optional<std::uint64_t> size, const Cand
     for (std::size_t i = corrupt_from; i < p.corrupt.size(); ++i) sinks.corrupt(p.corrupt[i]);
     result.corrupt += p.corrupt.size() - corrupt_from;
     p.corrupt.clear();
-    if (p.out.size() >= o.flush_at) {
+    if (p.out.size() >= o.flush_at || (!size && p.out.size() > 0)) {  // a pipe may be live: no waiting
       sinks.write(std::string_view(p.out.data(), p.out.size()));
       p.out.clear();
     }

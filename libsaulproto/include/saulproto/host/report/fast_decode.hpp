@@ -40,7 +40,8 @@ struct CandumpDecodeSinks {
 };
 
 /// Decodes candump text from `fd` (not closed). `size` is the file's size when fd is a regular file (then it is
-/// read with pread, on several threads when big enough); nullopt for a pipe (read sequentially).
+/// read with pread, on several threads when big enough); nullopt for a pipe (read sequentially, and what each read
+/// brought is written at once: `candump -L can0 | saulctl decode -` stays live).
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks);
 
