@@ -307,17 +307,29 @@ void FrameEmitter::timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out) {
   out.append(d, d + 9);
 }
 
-const std::vector<int>& FrameEmitter::json_order(const MessageDesc& d) {
-  for (const auto& o : orders_)
-    if (o.desc == &d) return o.sorted;
-  Order o;
-  o.desc = &d;
-  o.sorted.push_back(-1);
-  for (std::size_t i = 0; i < d.signals.size(); ++i) o.sorted.push_back(static_cast<int>(i));
+const FrameEmitter::Layout& FrameEmitter::layout(const MessageDesc& d) {
+  for (const auto& l : layouts_)
+    if (l.desc == &d) return l;
+  Layout l;
+  l.desc = &d;
+  l.name = d.name;
+  json_string(l.type_value, d.name);
+  for (const auto& s : d.signals) l.text_keys.push_back(std::string(" ") + s.key + "=");
+  // JSON: nlohmann's objects are sorted by key; equal keys (and "type") form one group, in description order.
+  std::vector<int> sorted{-1};
+  for (std::size_t i = 0; i < d.signals.size(); ++i) sorted.push_back(static_cast<int>(i));
   auto key = [&d](int i) { return std::string_view(i < 0 ? "type" : d.signals[static_cast<std::size_t>(i)].key); };
-  std::stable_sort(o.sorted.begin(), o.sorted.end(), [&](int a, int b) { return key(a) < key(b); });
-  orders_.push_back(std::move(o));
-  return orders_.back().sorted;
+  std::stable_sort(sorted.begin(), sorted.end(), [&](int a, int b) { return key(a) < key(b); });
+  for (std::size_t k = 0; k < sorted.size(); ++k) {
+    if (k == 0 || key(sorted[k]) != key(sorted[k - 1])) {
+      l.groups.emplace_back();
+      json_string(l.groups.back().prefix, key(sorted[k]));
+      l.groups.back().prefix += ':';
+    }
+    l.groups.back().members.push_back(sorted[k]);
+  }
+  layouts_.push_back(std::move(l));
+  return layouts_.back();
 }
 
 // The message part of the line from the description of the re-encoded frame (exactly what signal_values() reads):
@@ -329,53 +341,46 @@ bool FrameEmitter::render_message(const CanFrame& g, std::string& out) {
   const signals::Wire wire{g.id, g.payload()};
   const auto mux = signals::mux_of(*d, wire);
   if (format_ == DecodeFormat::jsonl) {
-    const auto& order = json_order(*d);
-    auto key = [d](int i) { return std::string_view(i < 0 ? "type" : d->signals[static_cast<std::size_t>(i)].key); };
+    const Layout& l = layout(*d);
     out += '{';
     bool any = false;
-    for (std::size_t k = 0; k < order.size();) {
-      // A group of equal keys: the last one present wins, as with repeated j[key] = ... in description order.
-      std::size_t end = k + 1;
-      while (end < order.size() && key(order[end]) == key(order[k])) ++end;
+    for (const auto& group : l.groups) {
+      // Equal keys: the last one present wins, as with repeated j[key] = ... in description order.
       int chosen = -2;
       Read value;
-      for (std::size_t m = k; m < end; ++m) {
-        if (order[m] < 0) {
+      for (int m : group.members) {
+        if (m < 0) {
           chosen = -1;
           continue;
         }
-        const SignalDesc& s = d->signals[static_cast<std::size_t>(order[m])];
-        Read r = read_signal(*d, s, wire, mux);
+        Read r = read_signal(*d, d->signals[static_cast<std::size_t>(m)], wire, mux);
         if (r.present) {
-          chosen = order[m];
+          chosen = m;
           value = r;
         }
       }
-      if (chosen != -2) {
-        if (any) out += ',';
-        any = true;
-        json_string(out, key(chosen));
-        out += ':';
-        if (chosen < 0) {
-          json_string(out, d->name);
-        } else {
-          json_value(out, d->signals[static_cast<std::size_t>(chosen)], value.raw, value.chars);
-        }
+      if (chosen == -2) continue;
+      if (any) out += ',';
+      any = true;
+      out += group.prefix;
+      if (chosen < 0) {
+        out += l.type_value;
+      } else {
+        json_value(out, d->signals[static_cast<std::size_t>(chosen)], value.raw, value.chars);
       }
-      k = end;
     }
     out += '}';
     return true;
   }
   // text and CSV: "name key=value ..." (CSV: the name, a comma, then the rest quoted when it needs it)
-  out += d->name;
+  const Layout& l = layout(*d);
+  out += l.name;
   const std::size_t fields_at = out.size();
-  for (const auto& s : d->signals) {
+  for (std::size_t i = 0; i < d->signals.size(); ++i) {
+    const SignalDesc& s = d->signals[i];
     const Read r = read_signal(*d, s, wire, mux);
     if (!r.present) continue;
-    out += ' ';
-    out += s.key;
-    out += '=';
+    out += l.text_keys[i];
     text_value(out, s, r.raw, r.chars);
   }
   if (format_ == DecodeFormat::csv) {

@@ -75,16 +75,23 @@ class FrameEmitter {
     std::uint8_t outcome = 0;
     std::string text;
   };
-  struct Order {
+  struct Layout {  // per message description, made once: what its lines repeat
     const signals::MessageDesc* desc = nullptr;
-    std::vector<int> sorted;  // signal indices by JSON key (-1: "type"), ties in description order
+    std::string name;
+    std::string type_value;              // the name as a JSON string
+    std::vector<std::string> text_keys;  // " key=" per signal
+    struct Group {
+      std::vector<int> members;  // signal indices (-1: "type") with this JSON key, in description order
+      std::string prefix;        // "\"key\":"
+    };
+    std::vector<Group> groups;  // by key, as nlohmann sorts an object
   };
   void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
   void timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out);
   const Entry& rendered(const CanFrame& frame);
   void render(const CanFrame& frame, Entry& e);
   bool render_message(const CanFrame& encoded, std::string& out);
-  const std::vector<int>& json_order(const signals::MessageDesc& d);
+  const Layout& layout(const signals::MessageDesc& d);
 
   DecodeFormat format_;
   TimeMode time_;
@@ -96,7 +103,7 @@ class FrameEmitter {
   std::uint64_t stamp_seconds_ = 0;
   std::string stamp_text_;
   std::vector<Entry> cache_;
-  std::vector<Order> orders_;
+  std::vector<Layout> layouts_;
   std::string scratch_;
 };
 
