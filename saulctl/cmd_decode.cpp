@@ -174,13 +174,15 @@ int run_decode(const DecodeOptions& opt) {
           messages += decode_serial(opt, format, path, *any.chunks, corrupt, records, progress);
           continue;
         }
+        const auto total = any.frames->bytes_total();
+        sinks.progress = [&, total](std::uint64_t n, std::uint64_t bytes) {
+          progress.update_many(n - progress_records, bytes, total);
+          progress_records = n;
+        };
         if (any.frames->format() == saul::host::CaptureFormat::candump) {
-          const auto total = any.frames->bytes_total();
-          sinks.progress = [&, total](std::uint64_t n, std::uint64_t bytes) {
-            progress.update_many(n - progress_records, bytes, total);
-            progress_records = n;
-          };
           fast_result = saul::host::decode_candump_file(path, fast, sinks);
+        } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {
+          fast_result = saul::host::decode_pcap_file(path, fast, sinks);
         }
         if (!fast_result) opened = std::move(any.frames);
       }

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -13,6 +14,7 @@
 
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/pcap_scan.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
@@ -168,6 +170,94 @@ TEST_CASE("candump scanner: ranges from split_candump_blocks start at line start
     }
     CHECK(frames == 510);
     CHECK(errors.find("more than 8 data bytes") != std::string::npos);
+  }
+  ::close(fd);
+  std::remove(name);
+}
+
+namespace {
+
+void le32(std::string& s, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) s += static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+
+/// A pcap record by hand: header (little-endian) and a 16-byte SocketCAN packet (id big-endian).
+std::string pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t id_flags, std::uint8_t len,
+                        std::size_t incl = 16) {
+  std::string r;
+  le32(r, sec);
+  le32(r, usec);
+  le32(r, static_cast<std::uint32_t>(incl));
+  le32(r, static_cast<std::uint32_t>(incl));
+  std::string p(incl, '\0');
+  for (int i = 0; i < 4 && i < static_cast<int>(incl); ++i) p[static_cast<std::size_t>(i)] = static_cast<char>(id_flags >> (24 - 8 * i));
+  if (incl > 4) p[4] = static_cast<char>(len);
+  for (std::size_t i = 8; i < incl && i < 16; ++i) p[i] = static_cast<char>(0x10 + i);
+  return r + p;
+}
+
+}  // namespace
+
+TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at any block size") {
+  std::string pcap;
+  le32(pcap, 0xA1B2C3D4);
+  pcap += std::string("\x02\x00\x04\x00", 4);
+  le32(pcap, 0);
+  le32(pcap, 0);
+  le32(pcap, 0xFFFF);
+  le32(pcap, 227);
+  for (std::uint32_t i = 0; i < 3000; ++i) {
+    switch (i % 500) {
+      case 17: pcap += pcap_record(1700000000 + i, 1'000'000, 0x300, 4); break;             // fraction too big
+      case 18: pcap += pcap_record(1700000000 + i, 5, 0x300, 4, 80); break;                 // longer than CAN FD
+      case 19: pcap += pcap_record(1700000000 + i, 5, 0x300, 9); break;                     // length above 8
+      case 20: pcap += pcap_record(1700000000 + i, 5, 0x900, 2); break;                     // 11-bit id above 7FF
+      case 21: pcap += pcap_record(1700000000 + i, 5, 0x80000344, 6, 12); break;           // too few data bytes
+      case 22: pcap += pcap_record(1700000000 + i, 5, 0x40000123, 3); break;               // remote
+      default: pcap += pcap_record(1700000000 + i, i * 7 % 1'000'000, i % 3 ? 0x400 : 0x80000944, static_cast<std::uint8_t>(i % 9));
+    }
+  }
+  pcap += pcap_record(1700009999, 1, 0x300, 4).substr(0, 20);  // ends inside a record
+
+  std::istringstream in(pcap);
+  const auto reader = make_capture_reader(in, CaptureFormat::pcap);
+  Seen expected;
+  for (;;) {
+    const auto st = reader->next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      expected.errors.push_back(std::to_string(expected.frames.size()) + ": " + format_capture_error("f", reader->error()));
+      continue;
+    }
+    expected.frames.push_back(reader->frame());
+    expected.interfaces.emplace_back(reader->interface());
+  }
+  REQUIRE(expected.frames.size() > 2900);
+  REQUIRE(expected.errors.size() == 31);
+
+  char name[] = "/tmp/saul_pcap_XXXXXX";
+  const int fd = mkstemp(name);
+  REQUIRE(fd >= 0);
+  REQUIRE(::write(fd, pcap.data(), pcap.size()) == static_cast<ssize_t>(pcap.size()));
+  for (std::size_t block : {1, 33, 4096, 1 << 20}) {
+    INFO("block " << block);
+    PcapScanner scanner(fd, pcap.size(), block);
+    Seen got;
+    CandumpBatch batch;
+    while (scanner.next_batch(batch)) {
+      for_each_in_order(
+          batch,
+          [&](const CanFrame& f, std::string_view iface) {
+            got.frames.push_back(f);
+            got.interfaces.emplace_back(iface);
+          },
+          [&](const CaptureError& e) {
+            got.errors.push_back(std::to_string(got.frames.size()) + ": " + format_capture_error("f", e));
+          });
+    }
+    CHECK(got.frames == expected.frames);
+    CHECK(got.interfaces == expected.interfaces);
+    CHECK(got.errors == expected.errors);
   }
   ::close(fd);
   std::remove(name);

@@ -1,5 +1,9 @@
 #include "saulproto/host/report/fast_decode.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -7,6 +11,7 @@
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/pcap_scan.hpp"
 
 namespace saul::host {
 namespace {
@@ -27,8 +32,8 @@ bool wanted(const CandumpDecodeOptions& o, std::uint32_t id) {
 
 /// Reads every batch of `scanner` into `piece`; after each batch calls after_batch(piece, corrupt_from) where
 /// corrupt_from is the first corrupt entry that batch added.
-template <class AfterBatch>
-void scan_all(CandumpScanner& scanner, FrameEmitter& emitter, const CandumpDecodeOptions& o, Piece& piece,
+template <class Scanner, class AfterBatch>
+void scan_all(Scanner& scanner, FrameEmitter& emitter, const CandumpDecodeOptions& o, Piece& piece,
               AfterBatch&& after_batch) {
   CandumpBatch batch;
   while (scanner.next_batch(batch)) {
@@ -41,25 +46,25 @@ void scan_all(CandumpScanner& scanner, FrameEmitter& emitter, const CandumpDecod
       if (!wanted(o, f.id)) continue;
       emitter.add(f, batch.interfaces[i], piece.out, piece.counts);
     }
-    piece.lines = scanner.lines();
+    if constexpr (requires { scanner.lines(); }) piece.lines = scanner.lines();
     piece.bytes = scanner.bytes_read();
     after_batch(piece, corrupt_from);
   }
 }
 
-CandumpDecodeResult single(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& o,
+/// One thread: batches in file order, output written every flush_at bytes (every batch when `live`).
+template <class Scanner>
+CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptions& o,
                            const CandumpDecodeSinks& sinks) {
-  std::unique_ptr<CandumpScanner> scanner = size ? std::make_unique<CandumpScanner>(fd, 0, *size)
-                                                 : std::make_unique<CandumpScanner>(fd);
   FrameEmitter emitter(o.format, o.time);
   Piece piece;
   CandumpDecodeResult result;
-  scan_all(*scanner, emitter, o, piece, [&](Piece& p, std::size_t corrupt_from) {
+  scan_all(scanner, emitter, o, piece, [&](Piece& p, std::size_t corrupt_from) {
     if (sinks.progress) sinks.progress(p.records + result.corrupt + p.corrupt.size() - corrupt_from, p.bytes);
     for (std::size_t i = corrupt_from; i < p.corrupt.size(); ++i) sinks.corrupt(p.corrupt[i]);
     result.corrupt += p.corrupt.size() - corrupt_from;
     p.corrupt.clear();
-    if (p.out.size() >= o.flush_at || (!size && p.out.size() > 0)) {  // a pipe may be live: no waiting
+    if (p.out.size() >= o.flush_at || (live && p.out.size() > 0)) {  // a pipe may be live: no waiting
       sinks.write(std::string_view(p.out.data(), p.out.size()));
       p.out.clear();
     }
@@ -183,7 +188,12 @@ CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, co
   // delta needs the previous frame's time across block boundaries: one thread.
   if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta)
     return parallel(fd, *size, options, sinks);
-  return single(fd, size, options, sinks);
+  if (size) {
+    CandumpScanner scanner(fd, 0, *size);
+    return single(scanner, false, options, sinks);
+  }
+  CandumpScanner scanner(fd);
+  return single(scanner, true, options, sinks);
 }
 
 std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, const CandumpDecodeOptions& options,
@@ -191,6 +201,25 @@ std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, 
   const auto file = CandumpFile::open(path);
   if (!file) return std::nullopt;
   return decode_candump(file->fd(), file->size(), options, sinks);
+}
+
+std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                    const CandumpDecodeSinks& sinks) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
+  std::optional<PcapScanner> scanner;
+  try {
+    scanner.emplace(fd, static_cast<std::uint64_t>(st.st_size));
+  } catch (const CaptureOpenError&) {
+    return std::nullopt;  // compressed, or not pcap: the caller's reader
+  }
+  return single(*scanner, false, options, sinks);
 }
 
 }  // namespace saul::host

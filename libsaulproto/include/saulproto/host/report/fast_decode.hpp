@@ -45,6 +45,11 @@ struct CandumpDecodeSinks {
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks);
 
+/// The same for a pcap file (PcapScanner, one thread): nullopt when `path` is not a regular, uncompressed pcap
+/// file. Open it with open_capture_reader first: that checks its header and names what is wrong.
+std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                    const CandumpDecodeSinks& sinks);
+
 /// decode_candump() of the file at `path` when it is a regular file holding uncompressed candump text (told by its
 /// first bytes, as detect_capture_format does); nullopt, having read nothing else, when it is not (or cannot be
 /// opened): the caller reads it through open_capture_reader.
