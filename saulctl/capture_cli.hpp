@@ -53,6 +53,12 @@ class Progress {
     ++records_;
     if (enabled_ && (records_ & 0xFFF) == 0) draw(bytes_read, bytes_total);
   }
+  /// `records` read at once (batch readers).
+  void update_many(std::uint64_t records, std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
+    const std::uint64_t before = records_;
+    records_ += records;
+    if (enabled_ && (before >> 12) != (records_ >> 12)) draw(bytes_read, bytes_total);
+  }
   /// Clears the line (also done by the destructor).
   void finish();
 

@@ -2,9 +2,14 @@
 // serial log, sigrok/PulseView UART exports) through the streaming decoder of each link's protocol.
 #include <fmt/core.h>
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <system_error>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
@@ -12,6 +17,7 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -69,15 +75,7 @@ std::string time_text(const std::string& mode, std::uint64_t ns, std::optional<s
   return fmt::format("({:4}.{:06})", sec, usec);
 }
 
-std::string csv_quote(const std::string& s) {
-  if (s.find_first_of(",\"") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) {
-    if (c == '"') q += '"';
-    q += c;
-  }
-  return q + '"';
-}
+using saul::host::csv_quote;
 
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
@@ -160,93 +158,130 @@ int run_decode(const DecodeOptions& opt) {
   if (format == "long") fmt::print("{}\n", saul::host::kLongCsvHeader);
   Progress progress("decode", true);
 
+  // CAN frames go through the fast path: candump files (and '-') with the batch scanner, decoded on both cores
+  // when large; every other format frame by frame from its reader, written by the same emitter.
+  using saul::host::DecodeFormat;
+  using saul::host::TimeMode;
+  saul::host::CandumpDecodeOptions fast;
+  fast.format = format == "jsonl" ? DecodeFormat::jsonl : format == "csv" ? DecodeFormat::csv : DecodeFormat::text;
+  fast.time = opt.time == "rel" ? TimeMode::relative : opt.time == "delta" ? TimeMode::delta : TimeMode::absolute;
+  if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
+  // Tests force the two-thread path on small files (tests/cli/decode_fast.sh).
+  if (const char* from = std::getenv("SAUL_DECODE_PARALLEL_FROM")) fast.parallel_from = std::strtoull(from, nullptr, 10);
+  auto write_out = [](std::string_view text) { std::fwrite(text.data(), 1, text.size(), stdout); };
+  auto count = [&](const saul::host::DecodeCounts& c) {
+    frames += c.frames;
+    decoded += c.decoded;
+    unknown += c.unknown;
+    rejected += c.rejected;
+    errors += c.errors;
+  };
+
   for (const auto& path : opt.files) {
+    std::uint64_t progress_records = 0;
+    saul::host::CandumpDecodeSinks sinks;
+    sinks.write = write_out;
+    sinks.corrupt = [&](const saul::host::CaptureError& e) {
+      progress.finish();
+      fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, e));
+    };
+    sinks.progress = [&](std::uint64_t n, std::uint64_t bytes) {
+      progress.update_many(n - progress_records, bytes, std::nullopt);
+      progress_records = n;
+    };
+    std::optional<saul::host::CandumpDecodeResult> fast_result;
     // '-' is candump text from standard input; files are any capture format, told by their content.
     std::unique_ptr<saul::host::CaptureReader> opened;
     std::unique_ptr<WatchedLines> watched;
     std::unique_ptr<std::istream> watched_in;
     const std::uint64_t records_before = records, corrupt_before = corrupt;
-    if (path == "-") {
-      watched = std::make_unique<WatchedLines>(std::cin);
-      watched_in = std::make_unique<std::istream>(watched.get());
-      opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
-    } else {
-      try {
+    try {
+      if (path == "-") {
+        // Standard input frame by frame, watching for a first line that is not candump -L (the hint below).
+        watched = std::make_unique<WatchedLines>(std::cin);
+        watched_in = std::make_unique<std::istream>(watched.get());
+        opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
+      } else {
         auto any = saul::host::open_capture(path, serial_options);
         if (any.chunks) {
           any_serial = true;
           messages += decode_serial(opt, format, path, *any.chunks, corrupt, records, progress);
           continue;
         }
-        opened = std::move(any.frames);
-      } catch (const saul::host::CaptureOpenError& e) {
-        fmt::print(stderr, "saulctl decode: {}\n", e.what());
-        status = kFailure;
-        continue;
+        const auto total = any.frames->bytes_total();
+        sinks.progress = [&, total](std::uint64_t n, std::uint64_t bytes) {
+          progress.update_many(n - progress_records, bytes, total);
+          progress_records = n;
+        };
+        if (format == "long") {
+          // the long CSV is written frame by frame below
+        } else if (any.frames->format() == saul::host::CaptureFormat::candump) {
+          fast_result = saul::host::decode_candump_file(path, fast, sinks);
+        } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {
+          fast_result = saul::host::decode_pcap_file(path, fast, sinks);
+        }
+        if (!fast_result) opened = std::move(any.frames);
       }
+    } catch (const saul::host::CaptureOpenError& e) {
+      fmt::print(stderr, "saulctl decode: {}\n", e.what());
+      status = kFailure;
+      continue;
+    } catch (const std::system_error& e) {
+      fmt::print(stderr, "saulctl decode: {}: {}\n", path, e.what());
+      status = kFailure;
+      continue;
     }
     any_can = true;
+    if (fast_result) {
+      count(fast_result->counts);
+      records += fast_result->records;
+      corrupt += fast_result->corrupt;
+      continue;
+    }
     saul::host::CaptureReader& reader = *opened;
-    std::optional<std::uint64_t> first, previous;
+    saul::host::FrameEmitter emitter(fast.format, fast.time);
+    saul::host::DecodeCounts counts;
+    fmt::memory_buffer out;
+    std::optional<std::uint64_t> first, previous;  // the long CSV's times
     for (;;) {
       const auto st = reader.next();
       if (st == saul::host::CaptureReader::Status::end) break;
       progress.update(reader.bytes_read(), reader.bytes_total());
       if (st == saul::host::CaptureReader::Status::corrupt) {
         ++corrupt;
-        progress.finish();
-        fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, reader.error()));
+        sinks.corrupt(reader.error());
         continue;
       }
       ++records;
       const saul::CanFrame& f = reader.frame();
       if (!ids.empty() && !saul::host::passes(ids, f)) continue;
-      ++frames;
-      const auto result = saul::decode_bus_frame(f);
-      std::string what;
-      if (result) {
-        ++decoded;
-      } else if (result.reason() == saul::Reason::unknown_id) {
-        ++unknown;
-      } else if (result.reason() == saul::Reason::error_frame) {
-        ++errors;
-      } else {
-        ++rejected;
-      }
-      const std::string stamp = time_text(opt.time, f.timestamp_ns.value_or(0), first, previous);
-      if (format == "jsonl") {
-        nlohmann::json j;
-        j["time"] = stamp.substr(1, stamp.size() - 2);
-        j["interface"] = reader.interface();
-        j["frame"] = saul::host::frame_to_json(f);
+      if (format == "long") {
+        ++counts.frames;
+        const auto result = saul::decode_bus_frame(f);
         if (result) {
-          j["message"] = saul::host::to_json(result.value());
+          ++counts.decoded;
+        } else if (result.reason() == saul::Reason::unknown_id) {
+          ++counts.unknown;
+        } else if (result.reason() == saul::Reason::error_frame) {
+          ++counts.errors;
         } else {
-          j["error"] = saul::to_string(result.reason());
+          ++counts.rejected;
         }
-        fmt::print("{}\n", j.dump());
-      } else if (format == "long") {
+        const std::string stamp = time_text(opt.time, f.timestamp_ns.value_or(0), first, previous);
         fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
                                                    f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
                                                    result ? saul::host::signal_values(result.value())
                                                           : saul::host::SignalValues{}));
-      } else if (format == "csv") {
-        std::string name = result ? saul::name_of(result.value()) : std::string("!") + saul::to_string(result.reason());
-        std::string fields;
-        if (result) {
-          fields = saul::host::describe(result.value());
-          fields = fields.substr(std::min(fields.size(), name.size() + 1));
-        }
-        const std::string raw = saul::host::format_candump_frame(f);
-        fmt::print("{},{},{:X},{},{},{},{},{},{}\n", stamp.substr(1, stamp.size() - 2), reader.interface(), f.id,
-                   f.extended ? 1 : 0, f.remote ? 1 : 0, f.dlc, raw.substr(raw.find('#') + 1), name,
-                   csv_quote(fields));
-      } else {
-        what = result ? saul::host::describe(result.value()) : std::string("!") + saul::to_string(result.reason());
-        fmt::print("{} {} {:<24} {}\n", stamp, saul::host::candump_interface(reader.interface()),
-                   saul::host::format_candump_frame(f), what);
+        continue;
+      }
+      emitter.add(f, reader.interface(), out, counts);
+      if (out.size() >= fast.flush_at) {
+        write_out(std::string_view(out.data(), out.size()));
+        out.clear();
       }
     }
+    write_out(std::string_view(out.data(), out.size()));
+    count(counts);
     if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty()) {
       progress.finish();
       fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",

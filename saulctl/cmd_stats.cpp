@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
@@ -46,7 +47,22 @@ int run_stats(const StatsOptions& opt) {
   };
   if (opened.frames) {
     BusStats stats(bus);
-    for (;;) {
+    // An uncompressed candump file: big reads and batches (capture/candump_scan.hpp); any other format frame by frame.
+    const auto file = opened.frames->format() == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
+    if (file) {
+      CandumpScanner scanner(file->fd(), 0, file->size());
+      CandumpBatch batch;
+      while (scanner.next_batch(batch)) {
+        progress.update_many(batch.frames.size() + batch.corrupt.size(), scanner.bytes_read(), file->size());
+        for_each_in_order(
+            batch, [&](const saul::CanFrame& f, std::string_view interface) { stats.add(f, interface); },
+            [&](const CaptureError& e) {
+              stats.add_corrupt();
+              report_corrupt(e);
+            });
+      }
+    }
+    for (; !file;) {
       const auto st = opened.frames->next();
       if (st == CaptureReader::Status::end) break;
       progress.update(opened.frames->bytes_read(), opened.frames->bytes_total());

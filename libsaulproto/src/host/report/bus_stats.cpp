@@ -111,29 +111,7 @@ unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept {
     case StuffBits::worst_case: return fixed + (stuffed_region - 1) / 4;
     case StuffBits::exact: break;
   }
-  FrameBits b = frame_bits(frame);
-  const std::uint16_t crc = crc15(b);
-  b.put(crc, 15);
-  // After five equal bits the transmitter inserts the opposite bit, which starts the next run; this also
-  // applies after the last CRC bit.
-  unsigned stuff = 0;
-  int last = -1;
-  unsigned run = 0;
-  for (unsigned i = 0; i < b.n; ++i) {
-    const int bit = b.bits[i];
-    if (bit == last) {
-      ++run;
-    } else {
-      last = bit;
-      run = 1;
-    }
-    if (run == 5) {
-      ++stuff;
-      last = 1 - bit;
-      run = 1;
-    }
-  }
-  return fixed + stuff;
+  return fixed + can_stuff_bits(frame);  // table-driven (can_bits.cpp)
 }
 
 void Cadence::add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns) {

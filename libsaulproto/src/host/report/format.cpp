@@ -75,8 +75,10 @@ std::string_view unit_symbol(std::string_view unit) {
   return unit;
 }
 
+}  // namespace
+
 // A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
-// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise.
+// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise. Also the fast emitter's (fast_emit.cpp).
 std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
   const int k = signals::text_decimals(s);
   std::string number;
@@ -95,6 +97,8 @@ std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
   }
   return number + std::string(unit_symbol(s.unit));
 }
+
+namespace {
 
 // The value as text: the wire integer, its name, or its physical value (SignalDesc::text); a scaled wire
 // integer as its physical value with its unit (signals::text_in_unit).

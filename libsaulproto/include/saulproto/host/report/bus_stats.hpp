@@ -35,6 +35,9 @@ enum class StuffBits : std::uint8_t {
 /// 47 + 8n (11-bit id) or 67 + 8n (29-bit id) bits without stuffing, n the data bytes (0 for a remote frame),
 /// plus stuff bits over SOF..CRC (34 + 8n or 54 + 8n bits). Error frames are not on the wire as frames: 0.
 unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept;
+/// The stuff bits the transmitter inserts in a data or remote frame, from SOF to the end of the CRC (its own bits
+/// and CRC-15), counted a byte at a time from tables (can_bits.cpp).
+unsigned can_stuff_bits(const CanFrame& frame) noexcept;
 /// The CAN CRC-15 (polynomial 0x4599) of the frame's bits from SOF to the end of the data, as sent.
 std::uint16_t can_crc15(const CanFrame& frame) noexcept;
 

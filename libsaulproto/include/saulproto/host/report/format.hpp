@@ -40,6 +40,11 @@ SignalValues signal_values(const interboard::Message& message);
 SignalValues signal_values(const crsf::Message& message);
 
 /// "velocity_cmd speed_mmps=1000 steer_mrad=-500", "telemetry_a pitch=12.34° pid_out=120 speed_mmps=400 state=BALANCE"
+/// A scaled wire integer as text shows it (signals::text_in_unit): "12.34°", "39.876V"; the one formatter of
+/// such values, shared by describe() and the fast emitter (fast_emit.hpp). The key text shows then is the signal's
+/// name (SignalDesc::name, "pitch"), not its wire key ("pitch_x100").
+std::string physical_text(const signals::SignalDesc& s, std::int64_t raw);
+
 std::string describe(const BusMessage& message);
 std::string describe(const interboard::Message& message);
 std::string describe(const crsf::Message& message);

@@ -1,0 +1,212 @@
+// saulctl decode and stats stage by stage, on a generated robot-bus candump log (the mix of bench_capture_decode.cpp
+// with payloads that vary): scan (CandumpScanner: big reads, lines in place, batches), parse (parse_candump_line
+// alone), decode (decode_bus_frame), emit (FrameEmitter text / CSV / JSON into one buffer, and the reference path
+// it replaced), stuff bits (table-driven against the bit-by-bit count), and the whole decode_candump on one thread
+// and two. Run: build/bench/saul_bench --benchmark_filter='Scan|Parse|Emit|Stuff|Decode'
+#include <benchmark/benchmark.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/report/fast_decode.hpp"
+#include "saulproto/host/report/fast_emit.hpp"
+
+namespace {
+
+using namespace saul::host;
+
+constexpr std::size_t kLines = 200'000;
+
+std::string generated_log(std::size_t lines) {
+  std::string out;
+  out.reserve(lines * 48);
+  char line[96];
+  for (std::size_t i = 0; i < lines; ++i) {
+    const std::uint64_t us = 1'763'800'000'000'000ULL + i * 500;
+    const unsigned v = static_cast<unsigned>(i * 2654435761U);
+    const auto sec = static_cast<unsigned long long>(us / 1'000'000);
+    const auto usec = static_cast<unsigned long long>(us % 1'000'000);
+    switch (i % 6) {
+      case 0: std::snprintf(line, sizeof line, "(%llu.%06llu) can0 300#%04X0CFE\n", sec, usec, v & 0x3FF); break;
+      case 1: std::snprintf(line, sizeof line, "(%llu.%06llu) can0 400#%04XA4012C0101\n", sec, usec, v & 0xFF); break;
+      case 2: std::snprintf(line, sizeof line, "(%llu.%06llu) can0 401#B00464FBB09A11\n", sec, usec); break;
+      case 3: std::snprintf(line, sizeof line, "(%llu.%06llu) can0 00000344#0000%04X\n", sec, usec, v & 0xFFF); break;
+      case 4:
+        std::snprintf(line, sizeof line, "(%llu.%06llu) can0 00000944#0000%04X000C000B\n", sec, usec, v & 0x3FF);
+        break;
+      default: std::snprintf(line, sizeof line, "(%llu.%06llu) can0 00001B38#%08X018C0000\n", sec, usec, v); break;
+    }
+    out += line;
+  }
+  return out;
+}
+
+const std::string& log_text() {
+  static const std::string log = generated_log(kLines);
+  return log;
+}
+
+/// The log as a file, for the scanner and the driver.
+struct LogFile {
+  std::string path;
+  LogFile() {
+    char name[] = "/tmp/saul_bench_XXXXXX";
+    const int fd = mkstemp(name);
+    const std::string& log = log_text();
+    if (fd < 0 || ::write(fd, log.data(), log.size()) != static_cast<ssize_t>(log.size())) std::abort();
+    ::close(fd);
+    path = name;
+  }
+  ~LogFile() { std::remove(path.c_str()); }
+};
+const LogFile& log_file() {
+  static const LogFile file;
+  return file;
+}
+
+std::vector<std::pair<saul::CanFrame, std::string>> parsed_frames() {
+  std::vector<std::pair<saul::CanFrame, std::string>> out;
+  const std::string& log = log_text();
+  std::size_t pos = 0;
+  while (pos < log.size()) {
+    const std::size_t nl = log.find('\n', pos);
+    CandumpLine l;
+    CaptureError e;
+    if (parse_candump_line(std::string_view(log).substr(pos, nl - pos), l, e))
+      out.emplace_back(l.frame, std::string(l.interface));
+    pos = nl + 1;
+  }
+  return out;
+}
+
+void rate(benchmark::State& state, std::uint64_t frames) {
+  state.SetItemsProcessed(static_cast<std::int64_t>(frames));
+  state.counters["frames/s"] = benchmark::Counter(static_cast<double>(frames), benchmark::Counter::kIsRate);
+}
+
+void BM_Scan(benchmark::State& state) {
+  const auto file = CandumpFile::open(log_file().path);
+  std::uint64_t frames = 0;
+  CandumpBatch batch;
+  for (auto _ : state) {
+    CandumpScanner scanner(file->fd(), 0, file->size());
+    while (scanner.next_batch(batch)) frames += batch.frames.size();
+  }
+  rate(state, frames);
+}
+BENCHMARK(BM_Scan)->Unit(benchmark::kMillisecond);
+
+void BM_ParseLine(benchmark::State& state) {
+  const std::string& log = log_text();
+  std::uint64_t frames = 0;
+  for (auto _ : state) {
+    std::size_t pos = 0;
+    CandumpLine l;
+    CaptureError e;
+    while (pos < log.size()) {
+      const std::size_t nl = log.find('\n', pos);
+      frames += parse_candump_line(std::string_view(log).substr(pos, nl - pos), l, e);
+      pos = nl + 1;
+    }
+    benchmark::DoNotOptimize(l);
+  }
+  rate(state, frames);
+}
+BENCHMARK(BM_ParseLine)->Unit(benchmark::kMillisecond);
+
+void BM_DecodeBusFrame(benchmark::State& state) {
+  const auto frames = parsed_frames();
+  std::uint64_t n = 0;
+  for (auto _ : state) {
+    for (const auto& [f, iface] : frames) benchmark::DoNotOptimize(saul::decode_bus_frame(f));
+    n += frames.size();
+  }
+  rate(state, n);
+}
+BENCHMARK(BM_DecodeBusFrame)->Unit(benchmark::kMillisecond);
+
+void emit(benchmark::State& state, DecodeFormat format) {
+  const auto frames = parsed_frames();
+  std::uint64_t n = 0;
+  fmt::memory_buffer out;
+  for (auto _ : state) {
+    FrameEmitter emitter(format, TimeMode::absolute);
+    DecodeCounts counts;
+    for (const auto& [f, iface] : frames) {
+      emitter.add(f, iface, out, counts);
+      if (out.size() > (1 << 20)) out.clear();
+    }
+    n += frames.size();
+  }
+  rate(state, n);
+}
+void BM_EmitText(benchmark::State& state) { emit(state, DecodeFormat::text); }
+void BM_EmitCsv(benchmark::State& state) { emit(state, DecodeFormat::csv); }
+void BM_EmitJson(benchmark::State& state) { emit(state, DecodeFormat::jsonl); }
+BENCHMARK(BM_EmitText)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EmitCsv)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EmitJson)->Unit(benchmark::kMillisecond);
+
+void BM_EmitJsonReference(benchmark::State& state) {
+  const auto frames = parsed_frames();
+  std::uint64_t n = 0;
+  for (auto _ : state) {
+    for (std::size_t i = 0; i < frames.size(); i += 10)  // a tenth: it is slow
+      benchmark::DoNotOptimize(
+          reference_frame_line(DecodeFormat::jsonl, "(1763800000.000000)", frames[i].second, frames[i].first));
+    n += (frames.size() + 9) / 10;
+  }
+  rate(state, n);
+}
+BENCHMARK(BM_EmitJsonReference)->Unit(benchmark::kMillisecond);
+
+void BM_StuffBits(benchmark::State& state) {
+  const auto frames = parsed_frames();
+  std::uint64_t n = 0;
+  for (auto _ : state) {
+    unsigned total = 0;
+    for (const auto& [f, iface] : frames) total += can_stuff_bits(f);
+    benchmark::DoNotOptimize(total);
+    n += frames.size();
+  }
+  rate(state, n);
+}
+BENCHMARK(BM_StuffBits)->Unit(benchmark::kMillisecond);
+
+void BM_BusStatsAdd(benchmark::State& state) {
+  const auto frames = parsed_frames();
+  std::uint64_t n = 0;
+  for (auto _ : state) {
+    BusStats stats{BusStatsOptions{}};
+    for (const auto& [f, iface] : frames) stats.add(f, iface);
+    benchmark::DoNotOptimize(stats.frames());
+    n += frames.size();
+  }
+  rate(state, n);
+}
+BENCHMARK(BM_BusStatsAdd)->Unit(benchmark::kMillisecond);
+
+/// The whole decode of the file: arg 0 = format (0 text, 1 CSV, 2 JSON), arg 1 = threads.
+void BM_DecodeFile(benchmark::State& state) {
+  CandumpDecodeOptions o;
+  o.format = static_cast<DecodeFormat>(state.range(0));
+  o.threads = static_cast<unsigned>(state.range(1));
+  o.parallel_from = 0;
+  CandumpDecodeSinks sinks;
+  std::uint64_t bytes = 0;
+  sinks.write = [&](std::string_view s) { bytes += s.size(); };
+  sinks.corrupt = [](const CaptureError&) {};
+  std::uint64_t n = 0;
+  for (auto _ : state) n += decode_candump_file(log_file().path, o, sinks)->records;
+  benchmark::DoNotOptimize(bytes);
+  rate(state, n);
+}
+BENCHMARK(BM_DecodeFile)->ArgsProduct({{0, 1, 2}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace

@@ -1,0 +1,60 @@
+// saulctl decode of a candump file at memory speed: CandumpScanner (large reads, lines scanned in place) feeding
+// FrameEmitter (lines written straight into a big output buffer), flushed in big writes. Files of at least
+// parallel_from bytes are cut into blocks at line starts and decoded on `threads` threads; the output, the
+// corrupt-line reports and the counts come out in file order, the same bytes as on one thread. Memory stays
+// bounded by the blocks in flight (2 per thread), whatever the file size.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/fast_emit.hpp"
+
+namespace saul::host {
+
+struct CandumpDecodeOptions {
+  DecodeFormat format = DecodeFormat::text;
+  TimeMode time = TimeMode::absolute;
+  /// Only the frames this accepts (saulctl's --id filters); empty: every frame. Called from the decoding threads.
+  std::function<bool(const CanFrame&)> keep;
+  unsigned threads = 2;
+  std::uint64_t parallel_from = std::uint64_t{64} << 20;  ///< files this big or bigger use `threads`
+  std::uint64_t block = std::uint64_t{256} << 10;         ///< bytes of candump per block (multi-threaded)
+  std::size_t flush_at = std::size_t{1} << 20;           ///< output bytes buffered before a write
+};
+
+struct CandumpDecodeResult {
+  DecodeCounts counts;        ///< frames that passed the id filter
+  std::uint64_t records = 0;  ///< frames read, before the filter
+  std::uint64_t corrupt = 0;
+};
+
+struct CandumpDecodeSinks {
+  std::function<void(std::string_view)> write;               ///< output lines, in big pieces, in file order
+  std::function<void(const CaptureError&)> corrupt;          ///< each corrupt line, in file order
+  std::function<void(std::uint64_t records, std::uint64_t bytes)> progress;  ///< so far (frames + corrupt); may be empty
+};
+
+/// Decodes candump text from `fd` (not closed). `size` is the file's size when fd is a regular file (then it is
+/// read with pread, on several threads when big enough); nullopt for a pipe (read sequentially, and what each read
+/// brought is written at once: `candump -L can0 | saulctl decode -` stays live).
+CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
+                                   const CandumpDecodeSinks& sinks);
+
+/// The same for a pcap file (PcapScanner, one thread): nullopt when `path` is not a regular, uncompressed pcap
+/// file. Open it with open_capture_reader first: that checks its header and names what is wrong.
+std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                    const CandumpDecodeSinks& sinks);
+
+/// decode_candump() of the file at `path` when it is a regular file holding uncompressed candump text (told by its
+/// first bytes, as detect_capture_format does); nullopt, having read nothing else, when it is not (or cannot be
+/// opened): the caller reads it through open_capture_reader.
+std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                       const CandumpDecodeSinks& sinks);
+
+}  // namespace saul::host

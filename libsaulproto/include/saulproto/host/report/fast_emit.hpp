@@ -1,0 +1,110 @@
+// saulctl decode's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output buffer:
+// no JSON DOM, no std::string per frame. The bytes are those of reference_frame_line() (the describe()/to_json()
+// path, which decode printed before), tests/host/report/test_fast_emit.cpp checks that on random frames.
+//
+// Values come from the same descriptions (core/signals.hpp) as format.cpp's describe() and to_json(): the fast
+// path mirrors their text_of()/json_of(); when they change, that test fails until this file follows. A message
+// without a description, or text the fast path does not handle (a non-printable interface name in JSON), goes
+// through reference_frame_line() itself. Robot buses repeat payloads, so the rendered message of a frame is kept
+// in a small cache keyed by the frame's id, flags and bytes.
+#pragma once
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/signals.hpp"
+#include "saulproto/host/report/frame_text.hpp"
+
+namespace saul::host {
+
+enum class DecodeFormat : std::uint8_t { text, csv, jsonl };
+
+/// How the frames of a decode came out.
+struct DecodeCounts {
+  std::uint64_t frames = 0;
+  std::uint64_t decoded = 0;
+  std::uint64_t unknown = 0;   ///< unknown id
+  std::uint64_t rejected = 0;  ///< known id, bad content (wrong dlc, out of range)
+  std::uint64_t errors = 0;    ///< error frames
+  DecodeCounts& operator+=(const DecodeCounts& o) noexcept {
+    frames += o.frames;
+    decoded += o.decoded;
+    unknown += o.unknown;
+    rejected += o.rejected;
+    errors += o.errors;
+    return *this;
+  }
+};
+
+/// The CSV header line of DecodeFormat::csv (with newline).
+inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended,remote,dlc,data,message,fields\n";
+
+/// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma or a quote.
+std::string csv_quote(const std::string& s);
+
+/// The reference: one frame's line as saulctl decode wrote it through describe(), to_json() and nlohmann's DOM
+/// (without newline). `time_column` is "(sec.usec)" with its parentheses.
+std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
+                                 const CanFrame& frame);
+
+/// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
+class FrameEmitter {
+ public:
+  FrameEmitter(DecodeFormat format, TimeMode time);
+  FrameEmitter(const FrameEmitter&) = delete;
+  FrameEmitter& operator=(const FrameEmitter&) = delete;
+  ~FrameEmitter();
+
+  /// Appends the frame's line and its newline to `out` and counts how it decoded.
+  void add(const CanFrame& frame, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts);
+  /// The first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
+  void set_first(std::uint64_t ns) noexcept { first_ = ns; }
+
+ private:
+  struct Entry {
+    std::uint64_t k1 = 0;
+    std::uint64_t k2 = 0;
+    bool used = false;
+    std::uint8_t outcome = 0;
+    std::string text;
+  };
+  struct Layout {  // per message description, made once: what its lines repeat
+    const signals::MessageDesc* desc = nullptr;
+    std::string name;
+    std::string type_value;              // the name as a JSON string
+    std::vector<std::string> text_keys;  // " key=" per signal
+    struct Group {
+      std::vector<int> members;  // signal indices (-1: "type") with this JSON key, in description order
+      std::string prefix;        // "\"key\":"
+    };
+    std::vector<Group> groups;  // by key, as nlohmann sorts an object
+  };
+  void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
+  void timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out);
+  const Entry& rendered(const CanFrame& frame);
+  void render(const CanFrame& frame, Entry& e);
+  bool render_message(const CanFrame& encoded, std::string& out);
+  const Layout& layout(const signals::MessageDesc& d);
+
+  DecodeFormat format_;
+  TimeMode time_;
+  std::optional<std::uint64_t> first_, previous_;
+  bool seconds_valid_ = false;
+  std::uint64_t seconds_ = 0;
+  std::string seconds_text_;
+  bool stamp_valid_ = false;
+  std::uint64_t stamp_seconds_ = 0;
+  std::string stamp_text_;
+  std::vector<Entry> cache_;
+  std::vector<Layout> layouts_;
+  std::string scratch_;
+};
+
+}  // namespace saul::host

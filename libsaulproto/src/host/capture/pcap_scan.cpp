@@ -1,0 +1,130 @@
+#include "saulproto/host/capture/pcap_scan.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <span>
+#include <system_error>
+
+#include "capture_io.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+
+namespace saul::host {
+namespace pcap_scan {  // named: pcap.cpp has the same constants in its anonymous namespace (unity builds)
+
+constexpr std::uint32_t kMagicMicro = 0xA1B2'C3D4;
+constexpr std::uint32_t kMagicNano = 0xA1B2'3C4D;
+constexpr std::size_t kCanFdMtu = 72;
+constexpr std::uint32_t kMaxRecord = 256 * 1024;  // as PcapReader: a longer length field is garbage
+
+}  // namespace pcap_scan
+
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes)
+    : fd_(fd), size_(size), cap_(block_bytes + pcap_scan::kMaxRecord + 16), block_(block_bytes) {
+  buf_.reset(new std::uint8_t[cap_]);
+  std::uint8_t h[4];
+  if (size_ < 24 || ::pread(fd_, h, 4, 0) != 4) throw CaptureOpenError("not a pcap file");
+  const std::uint32_t magic = detail::load_u32(h, false);
+  if (magic == pcap_scan::kMagicMicro || magic == pcap_scan::kMagicNano) {
+    big_ = false;
+  } else if (detail::load_u32(h, true) == pcap_scan::kMagicMicro || detail::load_u32(h, true) == pcap_scan::kMagicNano) {
+    big_ = true;
+  } else {
+    throw CaptureOpenError("not a pcap file");
+  }
+  nano_ = detail::load_u32(h, big_) == pcap_scan::kMagicNano;
+}
+
+PcapScanner::~PcapScanner() = default;
+
+// At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
+std::size_t PcapScanner::ensure(std::size_t n) {
+  if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;
+  if (head_ > 0) {
+    std::memmove(buf_.get(), buf_.get() + head_, tail_ - head_);
+    tail_ -= head_;
+    head_ = 0;
+  }
+  while (tail_ < n && read_to_ < size_) {
+    std::size_t want = cap_ - tail_ < block_ ? cap_ - tail_ : block_;
+    if (want > size_ - read_to_) want = static_cast<std::size_t>(size_ - read_to_);
+    const ssize_t got = ::pread(fd_, buf_.get() + tail_, want, static_cast<off_t>(read_to_));
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      throw std::system_error(errno, std::generic_category(), "reading the capture");
+    }
+    if (got == 0) {
+      size_ = read_to_;  // the file shrank
+      break;
+    }
+    tail_ += static_cast<std::size_t>(got);
+    read_to_ += static_cast<std::uint64_t>(got);
+  }
+  return tail_ - head_;
+}
+
+void PcapScanner::corrupt(CandumpBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
+  CandumpBatch::Corrupt bad;
+  bad.before = batch.frames.size();
+  bad.error.column = 0;
+  bad.error.kind = PositionKind::byte_offset;
+  bad.error.position = at;
+  bad.error.recovery = recovery;
+  bad.error.message = std::move(message);
+  if (recovery == Recovery::stop) stopped_ = true;
+  batch.corrupt.push_back(std::move(bad));
+}
+
+// Record by record exactly as PcapReader::next() reads them.
+bool PcapScanner::next_batch(CandumpBatch& batch) {
+  batch.clear();
+  while (!stopped_ && batch.frames.size() < CandumpScanner::kMaxBatch) {
+    const std::uint64_t start = offset_;
+    const std::size_t have_header = ensure(16);
+    if (have_header == 0) break;
+    if (have_header < 16) {
+      corrupt(batch, start, Recovery::stop,
+              fmt::format("file ends inside a record header ({} of 16 bytes)", have_header));
+      break;
+    }
+    const std::uint8_t* h = buf_.get() + head_;
+    const std::uint32_t sec = detail::load_u32(h, big_);
+    const std::uint32_t frac = detail::load_u32(h + 4, big_);
+    const std::uint32_t incl = detail::load_u32(h + 8, big_);
+    if (incl > pcap_scan::kMaxRecord) {
+      corrupt(batch, start, Recovery::stop, fmt::format("record length {} is not plausible", incl));
+      break;
+    }
+    const std::size_t have = ensure(16 + std::size_t{incl}) - 16;
+    if (have < incl) {
+      corrupt(batch, start, Recovery::stop, fmt::format("file ends inside a record ({} of {} bytes)", have, incl));
+      break;
+    }
+    const std::uint8_t* packet = buf_.get() + head_ + 16;
+    head_ += 16 + std::size_t{incl};
+    offset_ += 16 + std::uint64_t{incl};
+    if (frac >= (nano_ ? 1'000'000'000U : 1'000'000U)) {
+      corrupt(batch, start, Recovery::next_record, fmt::format("timestamp fraction {} is not below one second", frac));
+      continue;
+    }
+    if (incl > pcap_scan::kCanFdMtu) {
+      corrupt(batch, start, Recovery::next_record,
+              fmt::format("record of {} bytes is longer than any SocketCAN packet", incl));
+      continue;
+    }
+    CanFrame& f = batch.frames.emplace_back();
+    f.timestamp_ns = std::uint64_t{sec} * 1'000'000'000ULL + (nano_ ? frac : std::uint64_t{frac} * 1000U);
+    const std::string_view why = decode_socketcan_packet(std::span<const std::uint8_t>(packet, incl), f);
+    if (!why.empty()) {
+      batch.frames.pop_back();
+      corrupt(batch, start, Recovery::next_record, std::string(why));
+      continue;
+    }
+    batch.interfaces.push_back("can0");
+  }
+  return !batch.frames.empty() || !batch.corrupt.empty();
+}
+
+}  // namespace saul::host

@@ -1,0 +1,562 @@
+#include "saulproto/host/report/fast_emit.hpp"
+
+#include <fmt/compile.h>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <bit>
+#include <charconv>
+#include <cmath>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/report/format.hpp"
+
+namespace saul::host {
+namespace {
+
+using signals::Kind;
+using signals::MessageDesc;
+using signals::SignalDesc;
+using signals::Text;
+
+enum Outcome : std::uint8_t { kDecoded, kUnknown, kRejected, kErrorFrame };
+
+constexpr char kHex[] = "0123456789ABCDEF";
+
+template <class Buffer>
+void put(Buffer& out, std::string_view s) {
+  out.append(s.data(), s.data() + s.size());
+}
+void put(std::string& out, std::string_view s) { out.append(s); }
+
+template <class Buffer, class Int>
+void put_int(Buffer& out, Int v) {
+  char tmp[24];
+  const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
+  put(out, std::string_view(tmp, static_cast<std::size_t>(r.ptr - tmp)));
+}
+
+/// v right-aligned in `width` characters, padded with `fill` (fmt's "{:010}" and "{:4}" for unsigned values).
+void put_padded(fmt::memory_buffer& out, std::uint64_t v, std::size_t width, char fill) {
+  char tmp[24];
+  const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
+  const auto n = static_cast<std::size_t>(r.ptr - tmp);
+  for (std::size_t i = n; i < width; ++i) out.push_back(fill);
+  out.append(tmp, r.ptr);
+}
+
+// ---- values, as format.cpp's text_of() and json_of() write them -----------------------------------------------
+
+/// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
+/// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
+/// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. False
+/// (nothing written) otherwise.
+bool decimal_g(std::string& out, std::int64_t raw, std::int32_t den) {
+  int places = 0;
+  for (std::int32_t d = den; d > 1; d /= 10) {
+    if (d % 10 != 0) return false;
+    ++places;
+  }
+  if (places > 4 || raw <= -1'000'000'000'000LL || raw >= 1'000'000'000'000LL) return false;
+  std::uint64_t v = raw < 0 ? static_cast<std::uint64_t>(-raw) : static_cast<std::uint64_t>(raw);
+  if (v == 0) {
+    out += '0';
+    return true;
+  }
+  if (v / static_cast<std::uint64_t>(den) >= 1'000'000) return false;
+  // drop the fraction's trailing zeros
+  while (places > 0 && v % 10 == 0) {
+    v /= 10;
+    --places;
+  }
+  char digits[24];
+  const auto r = std::to_chars(digits, digits + sizeof digits, v);
+  auto n = static_cast<int>(r.ptr - digits);
+  int significant = n;
+  for (int i = n - 1; i > 0 && digits[i] == '0'; --i) --significant;  // an integer's trailing zeros
+  if (n <= places) significant = n;                                    // 0.00ddd: the leading zeros do not count
+  if (significant > 6) return false;
+  if (raw < 0) out += '-';
+  if (n <= places) {
+    out += "0.";
+    out.append(static_cast<std::size_t>(places - n), '0');
+    out.append(digits, static_cast<std::size_t>(n));
+  } else {
+    out.append(digits, static_cast<std::size_t>(n - places));
+    if (places > 0) {
+      out += '.';
+      out.append(digits + n - places, static_cast<std::size_t>(places));
+    }
+  }
+  return true;
+}
+
+void text_value(std::string& out, const SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  auto it = std::back_inserter(out);
+  if (s.kind == Kind::string) return put(out, chars);
+  if (signals::text_in_unit(s)) return put(out, physical_text(s, raw));  // format.cpp's, so units stay one
+  switch (s.text) {
+    case Text::raw:
+      if (s.kind == Kind::float32) {
+        fmt::format_to(it, FMT_COMPILE("{:g}"), std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
+        return;
+      }
+      return put_int(out, raw);
+    case Text::name:
+      if (const char* name = signals::value_name(s, raw)) return put(out, name);
+      return put_int(out, raw);
+    case Text::physical:
+      if (s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0 && decimal_g(out, raw, s.scale_den)) return;
+      fmt::format_to(it, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw));
+      return;
+    case Text::physical_int: return put_int(out, std::llround(signals::raw_to_physical(s, raw)));
+  }
+  put_int(out, raw);
+}
+
+/// A JSON string as nlohmann's dump() writes it (printable ASCII copied; anything else through nlohmann).
+void json_string(std::string& out, std::string_view s) {
+  bool plain = true;
+  for (char c : s)
+    if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') plain = false;
+  if (!plain) {
+    out += nlohmann::json(std::string(s)).dump();
+    return;
+  }
+  out += '"';
+  out.append(s);
+  out += '"';
+}
+
+void json_double(std::string& out, double x) {
+  if (!std::isfinite(x)) {
+    out += "null";
+    return;
+  }
+  char tmp[64];
+  char* end = nlohmann::detail::to_chars(tmp, tmp + sizeof tmp, x);
+  out.append(tmp, static_cast<std::size_t>(end - tmp));
+}
+
+void json_value(std::string& out, const SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  if (s.kind == Kind::string) return json_string(out, chars);
+  switch (s.text) {
+    case Text::raw:
+      if (s.kind == Kind::float32)
+        return json_double(out, static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(raw))));
+      return put_int(out, raw);
+    case Text::name:
+      if (const char* name = signals::value_name(s, raw)) return json_string(out, name);
+      return put_int(out, raw);
+    case Text::physical: return json_double(out, signals::raw_to_physical(s, raw));
+    case Text::physical_int:
+      return put_int(out, static_cast<std::int64_t>(std::llround(signals::raw_to_physical(s, raw))));
+  }
+  put_int(out, raw);
+}
+
+/// signals::read(...).value_or(0), with whole bytes in the payload read a byte at a time.
+std::int64_t read_number(const MessageDesc& d, const SignalDesc& s, const signals::Wire& wire) {
+  const std::size_t n = s.length / 8u;
+  const bool le = s.order == signals::ByteOrder::little_endian;
+  if (s.place == signals::Place::payload && s.length % 8 == 0 && n >= 1 && n <= 7 && s.start_bit % 8 == (le ? 0 : 7) &&
+      s.start_bit / 8u + n <= wire.payload.size()) {
+    const std::uint8_t* b = wire.payload.data() + s.start_bit / 8u;
+    std::uint64_t u = 0;
+    for (std::size_t i = 0; i < n; ++i) u |= std::uint64_t{b[i]} << (8 * (le ? i : n - 1 - i));
+    if (s.kind == Kind::signed_int && ((u >> (s.length - 1)) & 1U) != 0) u |= ~std::uint64_t{0} << s.length;
+    return static_cast<std::int64_t>(u);
+  }
+  return signals::read(d, s, wire).value_or(0);
+}
+
+/// One signal's value as the description reads it from the (re-encoded) frame.
+struct Read {
+  bool present = false;
+  std::int64_t raw = 0;
+  std::string_view chars;
+};
+Read read_signal(const MessageDesc& d, const SignalDesc& s, const signals::Wire& wire,
+                 std::optional<std::int64_t> mux) {
+  Read r;
+  if (!signals::present(s, mux)) return r;
+  r.present = true;
+  if (s.kind == Kind::string) {
+    r.chars = signals::read_string(s, wire.payload).value_or("");
+  } else {
+    r.raw = read_number(d, s, wire);
+  }
+  return r;
+}
+
+/// The candump frame text ("300#E8030CFE"), as format_candump_frame writes it.
+void frame_text(std::string& out, const CanFrame& f) {
+  char t[32];
+  std::size_t n = 0;
+  const bool wide = f.error || f.extended;
+  const std::uint32_t id = f.error ? (f.id | 0x2000'0000U) : f.id;
+  for (int shift = wide ? 28 : 8; shift >= 0; shift -= 4) t[n++] = kHex[(id >> shift) & 0xF];
+  t[n++] = '#';
+  if (f.remote) {
+    t[n++] = 'R';
+    if (f.dlc) t[n++] = static_cast<char>('0' + f.dlc);
+  } else {
+    for (std::uint8_t b : f.payload()) {
+      t[n++] = kHex[b >> 4];
+      t[n++] = kHex[b & 0xF];
+    }
+  }
+  out.append(t, n);
+}
+
+const char* bool_text(bool b) { return b ? "true" : "false"; }
+
+}  // namespace
+
+std::string csv_quote(const std::string& s) {
+  bool plain = true;
+  for (char c : s) plain = plain && c != ',' && c != '"';  // (find_first_of calls memchr once per character)
+  if (plain) return s;
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + '"';
+}
+
+std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
+                                 const CanFrame& f) {
+  const auto result = decode_bus_frame(f);
+  const std::string_view bare = time_column.substr(1, time_column.size() - 2);
+  if (format == DecodeFormat::jsonl) {
+    nlohmann::json j;
+    j["time"] = bare;
+    j["interface"] = interface;
+    j["frame"] = frame_to_json(f);
+    if (result) {
+      j["message"] = to_json(result.value());
+    } else {
+      j["error"] = to_string(result.reason());
+    }
+    return j.dump();
+  }
+  if (format == DecodeFormat::csv) {
+    std::string name = result ? saul::name_of(result.value()) : std::string("!") + to_string(result.reason());
+    std::string fields;
+    if (result) {
+      fields = describe(result.value());
+      fields = fields.substr(std::min(fields.size(), name.size() + 1));
+    }
+    const std::string raw = format_candump_frame(f);
+    return fmt::format("{},{},{:X},{},{},{},{},{},{}", bare, interface, f.id, f.extended ? 1 : 0, f.remote ? 1 : 0,
+                       f.dlc, raw.substr(raw.find('#') + 1), name, csv_quote(fields));
+  }
+  const std::string what = result ? describe(result.value()) : std::string("!") + to_string(result.reason());
+  return fmt::format("{} {} {:<24} {}", time_column, candump_interface(interface), format_candump_frame(f), what);
+}
+
+FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
+FrameEmitter::~FrameEmitter() = default;
+
+void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens) {
+  // As decode always wrote it: differences in unsigned arithmetic, "({:010}.{:06})" or "({:4}.{:06})".
+  if (!first_) first_ = ns;
+  std::uint64_t shown = ns;
+  if (time_ == TimeMode::relative) shown = ns - *first_;
+  if (time_ == TimeMode::delta) shown = previous_ ? ns - *previous_ : 0;
+  previous_ = ns;
+  const std::uint64_t sec = shown / 1'000'000'000ULL;
+  auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
+  if (!seconds_valid_ || sec != seconds_) {  // the seconds and the dot: the same for thousands of frames
+    fmt::memory_buffer s;
+    put_padded(s, sec, time_ == TimeMode::absolute ? 10 : 4, time_ == TimeMode::absolute ? '0' : ' ');
+    s.push_back('.');
+    seconds_text_.assign(s.data(), s.size());
+    seconds_ = sec;
+    seconds_valid_ = true;
+  }
+  if (parens) out.push_back('(');
+  put(out, seconds_text_);
+  char u[7];
+  for (int i = 5; i >= 0; --i) {
+    u[i] = static_cast<char>('0' + usec % 10);
+    usec /= 10;
+  }
+  u[6] = ')';
+  out.append(u, u + (parens ? 7 : 6));
+}
+
+void FrameEmitter::timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out) {
+  const std::uint64_t sec = ns / 1'000'000'000ULL;
+  auto rest = static_cast<std::uint32_t>(ns % 1'000'000'000ULL);
+  if (sec == 0) return put_int(out, rest);
+  if (!stamp_valid_ || sec != stamp_seconds_) {
+    stamp_text_.clear();
+    put_int(stamp_text_, sec);
+    stamp_seconds_ = sec;
+    stamp_valid_ = true;
+  }
+  put(out, stamp_text_);
+  char d[9];
+  for (int i = 8; i >= 0; --i) {
+    d[i] = static_cast<char>('0' + rest % 10);
+    rest /= 10;
+  }
+  out.append(d, d + 9);
+}
+
+const FrameEmitter::Layout& FrameEmitter::layout(const MessageDesc& d) {
+  for (const auto& l : layouts_)
+    if (l.desc == &d) return l;
+  Layout l;
+  l.desc = &d;
+  l.name = d.name;
+  json_string(l.type_value, d.name);
+  // As describe_values() in format.cpp: a value shown in its unit is named by the signal's name.
+  for (const auto& s : d.signals)
+    l.text_keys.push_back(std::string(" ") + (signals::text_in_unit(s) ? s.name : s.key) + "=");
+  // JSON: nlohmann's objects are sorted by key; equal keys (and "type") form one group, in description order.
+  std::vector<int> sorted{-1};
+  for (std::size_t i = 0; i < d.signals.size(); ++i) sorted.push_back(static_cast<int>(i));
+  auto key = [&d](int i) { return std::string_view(i < 0 ? "type" : d.signals[static_cast<std::size_t>(i)].key); };
+  std::stable_sort(sorted.begin(), sorted.end(), [&](int a, int b) { return key(a) < key(b); });
+  for (std::size_t k = 0; k < sorted.size(); ++k) {
+    if (k == 0 || key(sorted[k]) != key(sorted[k - 1])) {
+      l.groups.emplace_back();
+      json_string(l.groups.back().prefix, key(sorted[k]));
+      l.groups.back().prefix += ':';
+    }
+    l.groups.back().members.push_back(sorted[k]);
+  }
+  layouts_.push_back(std::move(l));
+  return layouts_.back();
+}
+
+// The message part of the line from the description of the re-encoded frame (exactly what signal_values() reads):
+// text "name k=v ...", CSV "name,fields", JSON {"k":v,...,"type":"name"} with nlohmann's sorted keys. False when
+// the message has no description.
+bool FrameEmitter::render_message(const CanFrame& g, std::string& out) {
+  const MessageDesc* d = signals::find_can(g.id, g.extended);
+  if (d == nullptr) return false;
+  const signals::Wire wire{g.id, g.payload()};
+  const auto mux = signals::mux_of(*d, wire);
+  if (format_ == DecodeFormat::jsonl) {
+    const Layout& l = layout(*d);
+    out += '{';
+    bool any = false;
+    for (const auto& group : l.groups) {
+      // Equal keys: the last one present wins, as with repeated j[key] = ... in description order.
+      int chosen = -2;
+      Read value;
+      for (int m : group.members) {
+        if (m < 0) {
+          chosen = -1;
+          continue;
+        }
+        Read r = read_signal(*d, d->signals[static_cast<std::size_t>(m)], wire, mux);
+        if (r.present) {
+          chosen = m;
+          value = r;
+        }
+      }
+      if (chosen == -2) continue;
+      if (any) out += ',';
+      any = true;
+      out += group.prefix;
+      if (chosen < 0) {
+        out += l.type_value;
+      } else {
+        json_value(out, d->signals[static_cast<std::size_t>(chosen)], value.raw, value.chars);
+      }
+    }
+    out += '}';
+    return true;
+  }
+  // text and CSV: "name key=value ..." (CSV: the name, a comma, then the rest quoted when it needs it)
+  const Layout& l = layout(*d);
+  out += l.name;
+  const std::size_t fields_at = out.size();
+  for (std::size_t i = 0; i < d->signals.size(); ++i) {
+    const SignalDesc& s = d->signals[i];
+    const Read r = read_signal(*d, s, wire, mux);
+    if (!r.present) continue;
+    out += l.text_keys[i];
+    text_value(out, s, r.raw, r.chars);
+  }
+  if (format_ == DecodeFormat::csv) {
+    const std::string fields = out.substr(std::min(out.size(), fields_at + 1));
+    out.resize(fields_at);
+    out += ',';
+    out += csv_quote(fields);
+  }
+  return true;
+}
+
+void FrameEmitter::render(const CanFrame& f, Entry& e) {
+  std::string& out = e.text;
+  out.clear();
+  const auto result = decode_bus_frame(f);
+  if (result) {
+    e.outcome = kDecoded;
+  } else if (result.reason() == Reason::unknown_id) {
+    e.outcome = kUnknown;
+  } else if (result.reason() == Reason::error_frame) {
+    e.outcome = kErrorFrame;
+  } else {
+    e.outcome = kRejected;
+  }
+  const char* name = result ? saul::name_of(result.value()) : nullptr;
+  const std::string failure = result ? std::string() : std::string("!") + to_string(result.reason());
+  switch (format_) {
+    case DecodeFormat::text: {
+      // "{:<24} {what}"
+      frame_text(out, f);
+      if (out.size() < 24) out.append(24 - out.size(), ' ');
+      out += ' ';
+      if (!result) {
+        out += failure;
+      } else if (!render_message(encode_bus_message(result.value()), out)) {
+        out += describe(result.value());
+      }
+      break;
+    }
+    case DecodeFormat::csv: {
+      // "{id:X},{ext},{remote},{dlc},{data},{name},{fields}"
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:X},{},{},{},"), f.id, f.extended ? 1 : 0,
+                     f.remote ? 1 : 0, f.dlc);
+      const std::size_t at = out.size();
+      frame_text(out, f);
+      out.erase(at, out.find('#', at) + 1 - at);
+      out += ',';
+      if (!result) {
+        out += failure;
+        out += ',';
+      } else if (!render_message(encode_bus_message(result.value()), out)) {
+        std::string fields = describe(result.value());
+        fields = fields.substr(std::min(fields.size(), std::string_view(name).size() + 1));
+        out += name;
+        out += ',';
+        out += csv_quote(fields);
+      }
+      break;
+    }
+    case DecodeFormat::jsonl: {
+      // {["error":"reason",]"frame":{"data":..,"remote":b  SPLIT  [,"message":{...}]
+      out += '{';
+      if (!result) {
+        out += "\"error\":";
+        json_string(out, to_string(result.reason()));
+        out += ',';
+      }
+      out += "\"frame\":{\"data\":\"";
+      char hex[16];
+      std::size_t n = 0;
+      for (std::uint8_t b : f.payload()) {
+        hex[n++] = kHex[b >> 4];
+        hex[n++] = kHex[b & 0xF];
+      }
+      out.append(hex, n);
+      out += "\",\"dlc\":";
+      put_int(out, unsigned{f.dlc});
+      out += ",\"error\":";
+      out += bool_text(f.error);
+      out += ",\"extended\":";
+      out += bool_text(f.extended);
+      out += ",\"id\":";
+      put_int(out, f.id);
+      out += ",\"remote\":";
+      out += bool_text(f.remote);
+      e.text.push_back('\0');  // the split: the timestamp and the interface go here
+      if (result) {
+        out += ",\"message\":";
+        if (!render_message(encode_bus_message(result.value()), out)) out += to_json(result.value()).dump();
+      }
+      break;
+    }
+  }
+}
+
+const FrameEmitter::Entry& FrameEmitter::rendered(const CanFrame& f) {
+  const std::uint64_t k1 = std::uint64_t{f.id} | std::uint64_t{f.extended} << 32 | std::uint64_t{f.remote} << 33 |
+                           std::uint64_t{f.error} << 34 | std::uint64_t{f.dlc} << 40;
+  std::uint64_t k2 = 0;
+  for (std::size_t i = 0; i < 8; ++i) k2 |= std::uint64_t{f.data[i]} << (8 * i);
+  const std::uint64_t h = (k1 * 0x9E3779B97F4A7C15ULL) ^ (k2 * 0xC2B2AE3D27D4EB4FULL);
+  Entry& e = cache_[(h ^ (h >> 29)) & (cache_.size() - 1)];
+  if (!e.used || e.k1 != k1 || e.k2 != k2) {
+    e.used = true;
+    e.k1 = k1;
+    e.k2 = k2;
+    render(f, e);
+  }
+  return e;
+}
+
+void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts) {
+  const Entry& e = rendered(f);
+  ++counts.frames;
+  switch (e.outcome) {
+    case kDecoded: ++counts.decoded; break;
+    case kUnknown: ++counts.unknown; break;
+    case kErrorFrame: ++counts.errors; break;
+    default: ++counts.rejected; break;
+  }
+  const std::uint64_t ns = f.timestamp_ns.value_or(0);
+  switch (format_) {
+    case DecodeFormat::text: {
+      time_column(ns, out, true);
+      out.push_back(' ');
+      if (interface.empty()) interface = "can0";
+      bool clean = true;
+      for (char c : interface) clean = clean && static_cast<unsigned char>(c) > 0x20 && c != 0x7F;
+      if (clean) {
+        put(out, interface);
+      } else {
+        for (char c : interface) out.push_back(static_cast<unsigned char>(c) <= 0x20 || c == 0x7F ? '_' : c);
+      }
+      out.push_back(' ');
+      put(out, e.text);
+      break;
+    }
+    case DecodeFormat::csv: {
+      time_column(ns, out, false);
+      out.push_back(',');
+      put(out, interface);
+      out.push_back(',');
+      put(out, e.text);
+      break;
+    }
+    case DecodeFormat::jsonl: {
+      bool plain = true;
+      for (char c : interface)
+        if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') plain = false;
+      if (!plain) {  // escapes (or invalid UTF-8, which nlohmann refuses): the reference does it
+        fmt::memory_buffer column;
+        time_column(ns, column, true);
+        put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f));
+        break;
+      }
+      const std::string_view text = e.text;
+      const std::size_t split = text.find('\0');
+      put(out, text.substr(0, split));
+      if (f.timestamp_ns) {
+        put(out, ",\"timestamp_ns\":");
+        timestamp_digits(*f.timestamp_ns, out);
+      }
+      put(out, "},\"interface\":\"");
+      put(out, interface);
+      out.push_back('"');
+      put(out, text.substr(split + 1));
+      put(out, ",\"time\":\"");
+      time_column(ns, out, false);
+      put(out, "\"}");
+      break;
+    }
+  }
+  out.push_back('\n');
+}
+
+}  // namespace saul::host

@@ -1,0 +1,264 @@
+// CandumpScanner (large reads, lines scanned in place, batches) reads what CandumpReader reads: the same frames,
+// interfaces and corrupt-line reports, whatever the block size; an over-long line (200 MB here, written through a
+// pipe on the fly) is reported at its line and skipped without being held, and the lines after it still read;
+// split_candump_blocks cuts at line starts only.
+#include <catch2/catch.hpp>
+#include <unistd.h>
+
+#include <cstdio>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/pcap_scan.hpp"
+
+using saul::CanFrame;
+using namespace saul::host;
+
+namespace {
+
+const std::string kLog =
+    "# comment line\n"
+    "(1700000000.000000) can0 300#E8030CFE\n"
+    "\n"
+    "(1700000000.100000) vcan1 400#0102030405060708\r\n"
+    "(1700000000.2) can0 30G#00\n"
+    "not a frame, a comment to canplayer\n"
+    "(1700000000.300000) can0 12345678#R\n"
+    "(1700000000.400000) can0 20000080#0000000000000000\n"
+    "(1700000000.500000)\n"
+    "(1700000000.600000) can0 123#11";  // last line without newline
+
+struct Seen {
+  std::vector<CanFrame> frames;
+  std::vector<std::string> interfaces;
+  std::vector<std::string> errors;  // in order among the frames: "before N: FILE:LINE:COL: message"
+};
+
+Seen with_reader(const std::string& text) {
+  std::istringstream in(text);
+  CandumpReader reader(in);
+  Seen s;
+  for (;;) {
+    const auto st = reader.next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      s.errors.push_back(std::to_string(s.frames.size()) + ": " + format_capture_error("f", reader.error()));
+      continue;
+    }
+    s.frames.push_back(reader.frame());
+    s.interfaces.emplace_back(reader.interface());
+  }
+  return s;
+}
+
+Seen with_scanner(CandumpScanner& scanner) {
+  Seen s;
+  CandumpBatch batch;
+  while (scanner.next_batch(batch)) {
+    std::size_t c = 0;
+    for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
+      for (; c < batch.corrupt.size() && batch.corrupt[c].before == i; ++c)
+        s.errors.push_back(std::to_string(s.frames.size()) + ": " + format_capture_error("f", batch.corrupt[c].error));
+      if (i < batch.frames.size()) {
+        s.frames.push_back(batch.frames[i]);
+        s.interfaces.emplace_back(batch.interfaces[i]);
+      }
+    }
+  }
+  return s;
+}
+
+/// A pipe whose write end is fed by a thread (so nothing of it is ever a file).
+struct Pipe {
+  int fds[2]{-1, -1};
+  std::thread writer;
+  explicit Pipe(std::function<void(int)> feed) {
+    REQUIRE(::pipe(fds) == 0);
+    writer = std::thread([this, feed] {
+      feed(fds[1]);
+      ::close(fds[1]);
+    });
+  }
+  ~Pipe() {
+    if (writer.joinable()) writer.join();
+    ::close(fds[0]);
+  }
+};
+
+void write_all(int fd, const char* p, std::size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w <= 0) return;
+    p += w;
+    n -= static_cast<std::size_t>(w);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("candump scanner: the frames, interfaces and reports of CandumpReader, at any block size") {
+  const Seen expected = with_reader(kLog);
+  REQUIRE(expected.frames.size() == 5);
+  REQUIRE(expected.errors.size() == 2);
+  CHECK(expected.errors[0] == "2: f:5:23: id is not hexadecimal (line skipped)");
+  for (std::size_t block : {1, 2, 7, 64, 4096}) {
+    INFO("block " << block);
+    Pipe pipe([](int fd) { write_all(fd, kLog.data(), kLog.size()); });
+    CandumpScanner scanner(pipe.fds[0], block);
+    const Seen got = with_scanner(scanner);
+    CHECK(got.frames == expected.frames);
+    CHECK(got.interfaces == expected.interfaces);
+    CHECK(got.errors == expected.errors);
+    CHECK(scanner.lines() == 10);
+    CHECK(scanner.bytes_read() == kLog.size());
+  }
+}
+
+TEST_CASE("candump scanner: a 200 MB line is reported at its line and skipped, the rest still reads") {
+  // Line 1 a frame, line 2 a frame with 200 MB of data digits, line 3 a 200 MB comment, then two frames.
+  constexpr std::size_t kHuge = 200u << 20;
+  Pipe pipe([](int fd) {
+    const std::string head = "(1700000000.000000) can0 300#E8030CFE\n(1700000000.100000) can0 300#";
+    write_all(fd, head.data(), head.size());
+    const std::string chunk(1 << 20, 'A');
+    for (std::size_t n = 0; n < kHuge; n += chunk.size()) write_all(fd, chunk.data(), chunk.size());
+    write_all(fd, "\n# ", 3);
+    for (std::size_t n = 0; n < kHuge; n += chunk.size()) write_all(fd, chunk.data(), chunk.size());
+    const std::string tail = "\n(1700000000.200000) can0 400#01\n(1700000000.300000) can1 401#02\n";
+    write_all(fd, tail.data(), tail.size());
+  });
+  CandumpScanner scanner(pipe.fds[0]);
+  const Seen got = with_scanner(scanner);
+  REQUIRE(got.frames.size() == 3);
+  CHECK(got.frames[0].id == 0x300);
+  CHECK(got.frames[1].id == 0x400);
+  CHECK(*got.frames[2].timestamp_ns == 1'700'000'000'300'000'000ULL);
+  CHECK(got.interfaces[2] == "can1");
+  REQUIRE(got.errors.size() == 1);
+  CHECK(got.errors[0] == "1: f:2:1: line longer than 65536 bytes (line skipped)");
+  CHECK(scanner.lines() == 5);
+}
+
+TEST_CASE("candump scanner: ranges from split_candump_blocks start at line starts and cover the file") {
+  std::string log;
+  for (int i = 0; i < 500; ++i) log += "(1700000000." + std::to_string(100000 + i) + ") can0 300#E8030CFE\n";
+  log += "(1700000001.000000) can0 300#" + std::string(5000, '0') + "\n";  // a line across several blocks
+  for (int i = 0; i < 10; ++i) log += "(1700000002.000000) can0 301#00\n";
+  char name[] = "/tmp/saul_scan_XXXXXX";
+  const int fd = mkstemp(name);
+  REQUIRE(fd >= 0);
+  REQUIRE(::write(fd, log.data(), log.size()) == static_cast<ssize_t>(log.size()));
+  for (std::uint64_t block : {1u, 100u, 1000u, 1u << 20}) {
+    INFO("block " << block);
+    const auto starts = split_candump_blocks(fd, log.size(), block);
+    REQUIRE(starts.front() == 0);
+    REQUIRE(starts.back() == log.size());
+    std::size_t frames = 0;
+    std::string errors;
+    for (std::size_t k = 0; k + 1 < starts.size(); ++k) {
+      REQUIRE(starts[k] < starts[k + 1]);
+      if (k > 0) CHECK(log[starts[k] - 1] == '\n');
+      CandumpScanner scanner(fd, starts[k], starts[k + 1], 64);
+      const Seen s = with_scanner(scanner);
+      frames += s.frames.size();
+      for (const auto& e : s.errors) errors += e;
+    }
+    CHECK(frames == 510);
+    CHECK(errors.find("more than 8 data bytes") != std::string::npos);
+  }
+  ::close(fd);
+  std::remove(name);
+}
+
+namespace {
+
+void le32(std::string& s, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) s += static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+
+/// A pcap record by hand: header (little-endian) and a 16-byte SocketCAN packet (id big-endian).
+std::string pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t id_flags, std::uint8_t len,
+                        std::size_t incl = 16) {
+  std::string r;
+  le32(r, sec);
+  le32(r, usec);
+  le32(r, static_cast<std::uint32_t>(incl));
+  le32(r, static_cast<std::uint32_t>(incl));
+  std::string p(incl, '\0');
+  for (int i = 0; i < 4 && i < static_cast<int>(incl); ++i) p[static_cast<std::size_t>(i)] = static_cast<char>(id_flags >> (24 - 8 * i));
+  if (incl > 4) p[4] = static_cast<char>(len);
+  for (std::size_t i = 8; i < incl && i < 16; ++i) p[i] = static_cast<char>(0x10 + i);
+  return r + p;
+}
+
+}  // namespace
+
+TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at any block size") {
+  std::string pcap;
+  le32(pcap, 0xA1B2C3D4);
+  pcap += std::string("\x02\x00\x04\x00", 4);
+  le32(pcap, 0);
+  le32(pcap, 0);
+  le32(pcap, 0xFFFF);
+  le32(pcap, 227);
+  for (std::uint32_t i = 0; i < 3000; ++i) {
+    switch (i % 500) {
+      case 17: pcap += pcap_record(1700000000 + i, 1'000'000, 0x300, 4); break;             // fraction too big
+      case 18: pcap += pcap_record(1700000000 + i, 5, 0x300, 4, 80); break;                 // longer than CAN FD
+      case 19: pcap += pcap_record(1700000000 + i, 5, 0x300, 9); break;                     // length above 8
+      case 20: pcap += pcap_record(1700000000 + i, 5, 0x900, 2); break;                     // 11-bit id above 7FF
+      case 21: pcap += pcap_record(1700000000 + i, 5, 0x80000344, 6, 12); break;           // too few data bytes
+      case 22: pcap += pcap_record(1700000000 + i, 5, 0x40000123, 3); break;               // remote
+      default: pcap += pcap_record(1700000000 + i, i * 7 % 1'000'000, i % 3 ? 0x400 : 0x80000944, static_cast<std::uint8_t>(i % 9));
+    }
+  }
+  pcap += pcap_record(1700009999, 1, 0x300, 4).substr(0, 20);  // ends inside a record
+
+  std::istringstream in(pcap);
+  const auto reader = make_capture_reader(in, CaptureFormat::pcap);
+  Seen expected;
+  for (;;) {
+    const auto st = reader->next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      expected.errors.push_back(std::to_string(expected.frames.size()) + ": " + format_capture_error("f", reader->error()));
+      continue;
+    }
+    expected.frames.push_back(reader->frame());
+    expected.interfaces.emplace_back(reader->interface());
+  }
+  REQUIRE(expected.frames.size() > 2900);
+  REQUIRE(expected.errors.size() == 31);
+
+  char name[] = "/tmp/saul_pcap_XXXXXX";
+  const int fd = mkstemp(name);
+  REQUIRE(fd >= 0);
+  REQUIRE(::write(fd, pcap.data(), pcap.size()) == static_cast<ssize_t>(pcap.size()));
+  for (std::size_t block : {1, 33, 4096, 1 << 20}) {
+    INFO("block " << block);
+    PcapScanner scanner(fd, pcap.size(), block);
+    Seen got;
+    CandumpBatch batch;
+    while (scanner.next_batch(batch)) {
+      for_each_in_order(
+          batch,
+          [&](const CanFrame& f, std::string_view iface) {
+            got.frames.push_back(f);
+            got.interfaces.emplace_back(iface);
+          },
+          [&](const CaptureError& e) {
+            got.errors.push_back(std::to_string(got.frames.size()) + ": " + format_capture_error("f", e));
+          });
+    }
+    CHECK(got.frames == expected.frames);
+    CHECK(got.interfaces == expected.interfaces);
+    CHECK(got.errors == expected.errors);
+  }
+  ::close(fd);
+  std::remove(name);
+}
