@@ -25,6 +25,19 @@ if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
 fi
 packages+=("$@")
 
+# npm packages the tests use (tests/npm/package.json): DuckDB's Node package for the long CSV check.
+# With the machine's Node.js and npm, from the npm registry; only when they are not there yet.
+npm_packages() {
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/tests/npm"
+  [[ -d $dir/node_modules/@duckdb/node-api ]] && return 0
+  command -v npm >/dev/null || { echo "setup: npm missing (Node.js): tests/cli/long_csv.sh needs it" >&2; return 1; }
+  echo "setup: installing npm packages in tests/npm"
+  # No lock file: the one npm writes here records no download addresses and lacks the other platforms' bindings,
+  # which makes npm ci refuse it; the version is pinned exactly in package.json (its bindings pin theirs).
+  npm install --prefix "$dir" --no-package-lock --no-audit --no-fund --loglevel=error >/dev/null
+}
+
 missing=()
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
@@ -34,6 +47,7 @@ done
 
 if ((${#missing[@]} == 0)); then
   echo "setup: all ${#packages[@]} packages present"
+  npm_packages
   exit 0
 fi
 
@@ -48,4 +62,5 @@ export DEBIAN_FRONTEND=noninteractive
 echo "wireshark-common wireshark-common/install-setuid boolean false" | $sudo debconf-set-selections
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+npm_packages
 echo "setup: done"

@@ -1,6 +1,7 @@
 """saulctl decode --format long: one row per signal (time,interface,id,message,signal,value,unit), loaded into an
-SQL engine and aggregated per signal without parsing strings. DuckDB is not packaged in Debian, so the engine is
-Python's sqlite3; the same query runs in DuckDB over read_csv_auto('signals.csv') (docs/captures.md).
+SQL engine and aggregated per signal without parsing strings: Python's sqlite3, and DuckDB itself (not packaged in
+Debian: its Node package @duckdb/node-api, which scripts/setup.sh installs into tests/npm from the npm registry;
+tests/npm/long_csv_duckdb.mjs runs the query of docs/captures.md over read_csv_auto).
 
 The per-signal counts and means are compared with the same figures worked out from `saulctl decode --json` (the
 wire integers) through a table of scales written here by hand from docs/protocol.md, and a few rows are checked
@@ -86,6 +87,30 @@ for (message, signal), (n, total) in sorted(sums.items()):
     c.check(f"{message}.{signal}: unit {unit}", have is not None and have[2] == unit, have)
 c.check("one row per number signal of every decoded frame", len(lines) - 1 == signals_in_json,
         f"{len(lines) - 1} rows, {signals_in_json} number signals in JSON")
+
+# DuckDB, as a data engineer would load the file: the same counts, means and units per signal, the value column
+# inferred as numbers (DOUBLE) without being told.
+import subprocess  # noqa: E402
+import tempfile  # noqa: E402
+npm_dir = os.path.join(root, "tests", "npm")
+c.check("DuckDB's Node package is installed (scripts/setup.sh: npm ci in tests/npm)",
+        os.path.isdir(os.path.join(npm_dir, "node_modules", "@duckdb", "node-api")), npm_dir)
+with tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False) as f:
+    f.write(long_csv)
+try:
+    r = subprocess.run(["node", os.path.join(npm_dir, "long_csv_duckdb.mjs"), f.name], capture_output=True, text=True,
+                       timeout=120)
+finally:
+    os.unlink(f.name)
+c.check("DuckDB reads the long CSV", r.returncode == 0, r.stderr[-600:])
+duck = {(row["message"], row["signal"]): row for row in json.loads(r.stdout or "[]")}
+c.check("DuckDB: the same message/signal groups as sqlite", set(duck) == set(got), sorted(set(duck) ^ set(got))[:5])
+c.check("DuckDB infers every value as DOUBLE", all(row["value_type"] == "DOUBLE" for row in duck.values()),
+        [k for k, row in duck.items() if row["value_type"] != "DOUBLE"][:5])
+mismatch = [(k, row, got.get(k)) for k, row in duck.items() if got.get(k) is None or row["n"] != got[k][0]
+            or abs(row["mean"] - got[k][1]) > 1e-9 * max(1, abs(got[k][1])) or row["unit"] != (got[k][2] or "")]
+c.check(f"DuckDB: count, mean and unit of all {len(duck)} signals equal sqlite's (checked above against JSON by hand)",
+        not mismatch, mismatch[:3])
 
 # Serial captures too (inter-board STATE pitch -1234 -> -12.34 deg).
 code, out, err = saulctl.run(["decode", "--format", "long", os.path.join(root, "captures", "interboard_uart.serial")])
