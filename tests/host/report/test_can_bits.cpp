@@ -71,8 +71,8 @@ TEST_CASE("can bits: table-driven stuff bits equal the bit-by-bit rule on random
     f.dlc = static_cast<std::uint8_t>(rng() % 9);
     const int style = static_cast<int>(rng() % 3);  // random bytes, all 0x00/0xFF, or few set bits
     for (auto& b : f.data) {
-      b = style == 0 ? static_cast<std::uint8_t>(rng()) : style == 1 ? (rng() % 2 ? 0xFF : 0x00)
-                                                          : static_cast<std::uint8_t>(1U << (rng() % 8));
+      const std::uint64_t r = rng();
+      b = static_cast<std::uint8_t>(style == 0 ? r : style == 1 ? (r % 2 ? 0xFFU : 0x00U) : 1U << (r % 8));
     }
     if (style == 1) f.id = rng() % 2 ? 0 : (f.extended ? 0x1FFFFFFF : 0x7FF);
     INFO("id " << f.id << " ext " << f.extended << " remote " << f.remote << " dlc " << int{f.dlc});
