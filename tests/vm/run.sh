@@ -238,9 +238,11 @@ console="$vm/console.log"
 # every FTDI control request, host-timestamped (-msg timestamp=on: "PID@SEC.USEC:event ..."), one file for both.
 modem_trace="$vm/modem-trace.log"
 rm -f "$modem_trace"
+# 768 MB: the initramfs (ASan builds of saulctl and the guest, their libraries) unpacks into RAM; at 256 MB a
+# 24 MB compressed image no longer fitted ("Initramfs unpacking failed: write error", then no init).
 set +e
 timeout -k 5 "$boot_timeout" qemu-system-x86_64 \
-  -machine q35,accel=tcg -smp 1 -m 256M -nographic -no-reboot -net none \
+  -machine q35,accel=tcg -smp 1 -m 768M -nographic -no-reboot -net none \
   -kernel "$vmlinuz" -initrd "$initrd" -append "$append" \
   -device isa-debug-exit,iobase=0xf4,iosize=0x04 \
   -global isa-serial.baudbase=921600 \
