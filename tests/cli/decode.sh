@@ -35,7 +35,7 @@ check "the sample has 0 unknown ids and no rejected frame" \
 
 "$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/json" 2>/dev/null
 check "--json gives one object per frame" test "$(wc -l <"$out/json")" -eq 452
-check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit_x100":2000,"type":"config_cmd"}' "$out/json"
+check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit_deg":20.0,"tilt_limit_x100":2000,"type":"config_cmd"}' "$out/json"
 check "--json carries VESC values as plain decimals" \
   grep -q '"message":{"controller_id":68,"current_a":1.2,"duty":0.011,"erpm":147,"type":"vesc_status_1"}' "$out/json"
 

@@ -68,15 +68,30 @@ SCALES = {
 code, jsonl, err = saulctl.run(["decode", "--json", log])
 sums = {}
 signals_in_json = 0
+# JSON has a scaled wire integer twice: raw ("pitch_x100": 1234) and physical ("pitch_deg": 12.34), written here
+# by hand; the long CSV has it once, physical. The twin must be the raw value times the factor.
+PHYSICAL_TWINS = {("telemetry_a", "pitch_deg"): "pitch_x100", ("telemetry_b", "battery_v"): "battery_mv",
+                  ("config_cmd", "tilt_limit_deg"): "tilt_limit_x100"}
+twins_checked, twins_wrong = 0, []
 for line in jsonl.splitlines():
     msg = json.loads(line).get("message", {})
     # every signal but the type and strings; named values (state, mode, result, gain) are rows too, as numbers
-    signals_in_json += sum(1 for k, v in msg.items() if k != "type")
+    for k in msg:
+        raw_key = PHYSICAL_TWINS.get((msg["type"], k))
+        if raw_key is None:
+            signals_in_json += k != "type"
+            continue
+        twins_checked += 1
+        want = msg[raw_key] * (0.001 if raw_key == "battery_mv" else 0.01)
+        if not isinstance(msg[k], float) or abs(msg[k] - want) > 1e-9:
+            twins_wrong.append((msg["type"], k, msg[k], msg[raw_key]))
     for key, value in msg.items():
         if (msg["type"], key) in SCALES:
             name, factor, unit = SCALES[(msg["type"], key)]
             n, total = sums.get((msg["type"], name), (0, 0.0))
             sums[(msg["type"], name)] = (n + 1, total + value * factor)
+c.check(f"JSON's physical twins are the raw values scaled ({twins_checked} checked)",
+        twins_checked > 0 and not twins_wrong, twins_wrong[:5])
 for (message, signal), (n, total) in sorted(sums.items()):
     want = (n, total / n)
     have = got.get((message, signal))

@@ -28,8 +28,9 @@ code, _, err = saulctl.run(["wireshark", "-o", lua])
 check("saulctl wireshark -o saul.lua exits 0", code == 0 and os.path.getsize(lua) > 0, err)
 code, out, _ = saulctl.run(["wireshark", "--fields"])
 fields = out.split()
-check("the fields: saul.message, saul.problem and one per signal key",
+check("the fields: saul.message, saul.problem, one per signal key and one per physical value of a scaled key",
       fields[:2] == ["saul.message", "saul.problem"] and "saul.telemetry_a.pitch_x100" in fields
+      and "saul.telemetry_a.pitch_deg" in fields and "saul.telemetry_b.battery_v" in fields
       and "saul.vesc_status_1.erpm" in fields and "saul.pid_gain.value" in fields, fields[:6])
 
 

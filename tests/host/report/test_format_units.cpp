@@ -1,5 +1,5 @@
 // saulctl's text shows scaled wire integers as physical values with units (docs/cli.md "Units"), JSON keeps the
-// wire integers under their keys. Bytes and values worked out by hand from docs/protocol.md (SAUL: little-endian,
+// wire integers under their keys and puts the physical value beside them under "<name>_<unit>". Bytes and values worked out by hand from docs/protocol.md (SAUL: little-endian,
 // pitch in 1/100 deg, battery in mV; CRSF: big-endian, 0.1 V, 1e-7 deg, RC ticks mapped 172 -> 988 us,
 // 992 -> 1500 us, 1811 -> 2012 us as the receivers do).
 #include <catch2/catch.hpp>
@@ -52,11 +52,26 @@ TEST_CASE("text: SAUL pitch, battery and tilt limit in degrees and volts, under 
   CHECK(text_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04}) == "config_cmd tilt_limit=20.00\u00B0 max_speed_mmps=1200");
 }
 
-TEST_CASE("JSON keeps the wire integers under their keys") {
+TEST_CASE("JSON keeps the wire integers under their keys, the physical values beside them") {
   const auto j = json_of_frame(0x400, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01});
-  CHECK(j.dump() == R"({"pid_out":120,"pitch_x100":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})");
-  CHECK(json_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05})["battery_mv"] == 39876);
-  CHECK(json_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04})["tilt_limit_x100"] == 2000);
+  CHECK(j.dump() ==
+        R"({"pid_out":120,"pitch_deg":12.34,"pitch_x100":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})");
+  // -0.05 deg, and a whole degree stays a decimal number (JSON readers see a float column, not ints then floats)
+  CHECK(json_of_frame(0x400, {0xFB, 0xFF, 0, 0, 0, 0, 0}).dump().find(R"("pitch_deg":-0.05,)") != std::string::npos);
+  CHECK(json_of_frame(0x400, {0x64, 0x00, 0, 0, 0, 0, 0}).dump().find(R"("pitch_deg":1.0,)") != std::string::npos);
+  CHECK(json_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05}).dump() ==
+        R"({"battery_mv":39876,"battery_v":39.876,"faults":5,"type":"telemetry_b","vesc_l_rpm":0,"vesc_r_rpm":0})");
+  CHECK(json_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04}).dump() ==
+        R"({"max_speed_mmps":1200,"tilt_limit_deg":20.0,"tilt_limit_x100":2000,"type":"config_cmd"})");
+}
+
+TEST_CASE("physical_key: the signal's name and its unit as a word") {
+  saul::signals::SignalDesc s;
+  s.name = "pitch";
+  CHECK(host::physical_key(s.in("deg")) == "pitch_deg");
+  CHECK(host::physical_key(s.in("V")) == "pitch_v");
+  CHECK(host::physical_key(s.in("km/h")) == "pitch_kmh");
+  CHECK(host::physical_key(s.in("us")) == "pitch_us");
 }
 
 TEST_CASE("text: already physical values are unchanged (VESC, speeds)") {
@@ -80,6 +95,7 @@ TEST_CASE("text: inter-board STATE pitch in degrees") {
   s.error_state = 1;
   CHECK(host::describe(interboard::Message{s}) == "state pitch=-12.34\u00B0 pid_out=300 error_state=1");
   CHECK(host::to_json(interboard::Message{s})["pitch_x100"] == -1234);
+  CHECK(host::to_json(interboard::Message{s}).dump().find(R"("pitch_deg":-12.34,)") != std::string::npos);
 }
 
 TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, km/h, rad and microseconds") {
@@ -90,7 +106,9 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
   b.remaining_pct = 80;
   CHECK(host::describe(crsf::Message{b}) ==
         "battery_sensor voltage=16.8V current=0.5A capacity_mah=1200 remaining_pct=80");
-  CHECK(host::to_json(crsf::Message{b})["voltage_x10"] == 168);
+  CHECK(host::to_json(crsf::Message{b}).dump() ==
+        R"({"capacity_mah":1200,"current_a":0.5,"current_x10":5,"remaining_pct":80,"type":"battery_sensor",)"
+        R"("voltage_v":16.8,"voltage_x10":168})");
 
   crsf::Gps g;
   g.latitude_e7 = 473977420;     // 47.3977420 deg N: all seven decimals kept
@@ -103,6 +121,11 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
         "gps latitude=47.3977420\u00B0 longitude=-122.3456789\u00B0 groundspeed=12.3km/h heading=90.00\u00B0 "
         "altitude_m=500 satellites=9");
   CHECK(host::to_json(crsf::Message{g})["latitude_e7"] == 473977420);
+  const std::string gps = host::to_json(crsf::Message{g}).dump();
+  CHECK(gps.find(R"("latitude_deg":47.397742,)") != std::string::npos);  // shortest form: the trailing 0 goes
+  CHECK(gps.find(R"("longitude_deg":-122.3456789,)") != std::string::npos);
+  CHECK(gps.find(R"("groundspeed_kmh":12.3,)") != std::string::npos);
+  CHECK(gps.find(R"("heading_deg":90.0,)") != std::string::npos);
 
   crsf::Attitude a;
   a.pitch_rad_x10000 = 15708;  // 1.5708 rad
@@ -122,5 +145,6 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
     CHECK(host::describe(crsf::Message{rc}).find(fmt::format("ch1={}\u00B5s ", crsf::ticks_to_us(t))) !=
           std::string::npos);
   }
-  CHECK(host::to_json(crsf::Message{rc})["ch1"] == 2047);  // JSON: ticks
+  CHECK(host::to_json(crsf::Message{rc})["ch1"] == 2047);  // JSON: ticks, and microseconds beside them
+  CHECK(host::to_json(crsf::Message{rc}).dump().find(R"("ch1_us":2159,)") != std::string::npos);
 }

@@ -318,18 +318,26 @@ const FrameEmitter::Layout& FrameEmitter::layout(const MessageDesc& d) {
   // As describe_values() in format.cpp: a value shown in its unit is named by the signal's name.
   for (const auto& s : d.signals)
     l.text_keys.push_back(std::string(" ") + (signals::text_in_unit(s) ? s.name : s.key) + "=");
-  // JSON: nlohmann's objects are sorted by key; equal keys (and "type") form one group, in description order.
-  std::vector<int> sorted{-1};
-  for (std::size_t i = 0; i < d.signals.size(); ++i) sorted.push_back(static_cast<int>(i));
-  auto key = [&d](int i) { return std::string_view(i < 0 ? "type" : d.signals[static_cast<std::size_t>(i)].key); };
-  std::stable_sort(sorted.begin(), sorted.end(), [&](int a, int b) { return key(a) < key(b); });
-  for (std::size_t k = 0; k < sorted.size(); ++k) {
-    if (k == 0 || key(sorted[k]) != key(sorted[k - 1])) {
+  // JSON: nlohmann's objects are sorted by key; equal keys (and "type") form one group, in the order json_values()
+  // in format.cpp sets them: "type", then per signal its key and, for a scaled one, its physical key.
+  struct Keyed {
+    std::string key;
+    Layout::Member member;
+  };
+  std::vector<Keyed> keyed{{"type", {}}};
+  for (std::size_t i = 0; i < d.signals.size(); ++i) {
+    const auto& s = d.signals[i];
+    keyed.push_back({s.key, {static_cast<int>(i), false}});
+    if (signals::text_in_unit(s)) keyed.push_back({physical_key(s), {static_cast<int>(i), true}});
+  }
+  std::stable_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
+  for (std::size_t k = 0; k < keyed.size(); ++k) {
+    if (k == 0 || keyed[k].key != keyed[k - 1].key) {
       l.groups.emplace_back();
-      json_string(l.groups.back().prefix, key(sorted[k]));
+      json_string(l.groups.back().prefix, keyed[k].key);
       l.groups.back().prefix += ':';
     }
-    l.groups.back().members.push_back(sorted[k]);
+    l.groups.back().members.push_back(keyed[k].member);
   }
   layouts_.push_back(std::move(l));
   return layouts_.back();
@@ -349,27 +357,34 @@ bool FrameEmitter::render_message(const CanFrame& g, std::string& out) {
     bool any = false;
     for (const auto& group : l.groups) {
       // Equal keys: the last one present wins, as with repeated j[key] = ... in description order.
-      int chosen = -2;
+      const Layout::Member* chosen = nullptr;
       Read value;
-      for (int m : group.members) {
-        if (m < 0) {
-          chosen = -1;
+      for (const auto& m : group.members) {
+        if (m.signal < 0) {
+          chosen = &m;
           continue;
         }
-        Read r = read_signal(*d, d->signals[static_cast<std::size_t>(m)], wire, mux);
+        Read r = read_signal(*d, d->signals[static_cast<std::size_t>(m.signal)], wire, mux);
         if (r.present) {
-          chosen = m;
+          chosen = &m;
           value = r;
         }
       }
-      if (chosen == -2) continue;
+      if (chosen == nullptr) continue;
       if (any) out += ',';
       any = true;
       out += group.prefix;
-      if (chosen < 0) {
+      if (chosen->signal < 0) {
         out += l.type_value;
+        continue;
+      }
+      const SignalDesc& s = d->signals[static_cast<std::size_t>(chosen->signal)];
+      if (!chosen->physical) {
+        json_value(out, s, value.raw, value.chars);
+      } else if (const PhysicalNumber n = physical_number(s, value.raw); n.integral) {
+        put_int(out, n.whole);
       } else {
-        json_value(out, d->signals[static_cast<std::size_t>(chosen)], value.raw, value.chars);
+        json_double(out, n.value);
       }
     }
     out += '}';

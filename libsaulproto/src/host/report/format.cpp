@@ -77,6 +77,15 @@ std::string_view unit_symbol(std::string_view unit) {
 
 }  // namespace
 
+namespace {
+/// raw's physical value times 10^k, exact in integers for a decimal resolution k = text_decimals(s) >= 0.
+std::int64_t scaled_by_ten_k(const signals::SignalDesc& s, std::int64_t raw, int k, std::int64_t& ten_k) {
+  ten_k = 1;
+  for (int i = 0; i < k; ++i) ten_k *= 10;
+  return raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
+}
+}  // namespace
+
 // A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
 // resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise. Also the fast emitter's (fast_emit.cpp).
 std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
@@ -86,9 +95,7 @@ std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
     number = fmt::format("{}", static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
   } else {
     std::int64_t ten_k = 1;
-    for (int i = 0; i < k; ++i) ten_k *= 10;
-    const std::int64_t scaled =
-        raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
+    const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
     const std::uint64_t magnitude = scaled < 0 ? 0 - static_cast<std::uint64_t>(scaled) : static_cast<std::uint64_t>(scaled);
     const auto whole = magnitude / static_cast<std::uint64_t>(ten_k);
     const auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
@@ -96,6 +103,36 @@ std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
                     : fmt::format("{}{}.{:0{}}", scaled < 0 ? "-" : "", whole, frac, k);
   }
   return number + std::string(unit_symbol(s.unit));
+}
+
+PhysicalNumber physical_number(const signals::SignalDesc& s, std::int64_t raw) {
+  const int k = signals::text_decimals(s);
+  PhysicalNumber n;
+  if (k < 0) {
+    n.integral = true;
+    n.whole = static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw)));
+    return n;
+  }
+  std::int64_t ten_k = 1;
+  const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
+  if (k == 0) {
+    n.integral = true;
+    n.whole = scaled;
+    return n;
+  }
+  // Both exact in a double (|scaled| < 2^53), so the division is the double nearest to the decimal text shows.
+  n.value = static_cast<double>(scaled) / static_cast<double>(ten_k);
+  return n;
+}
+
+std::string physical_key(const signals::SignalDesc& s) {
+  std::string key = s.name;
+  key += '_';
+  for (const char* u = s.unit; *u != '\0'; ++u) {
+    if (*u == '/') continue;
+    key += static_cast<char>(*u >= 'A' && *u <= 'Z' ? *u - 'A' + 'a' : *u);
+  }
+  return key;
 }
 
 namespace {
@@ -149,7 +186,13 @@ std::string describe_values(const SignalValues& values) {
 nlohmann::json json_values(const SignalValues& values) {
   nlohmann::json j;
   j["type"] = values.message->name;
-  for (const auto& v : values.values) j[v.signal->key] = json_of(v);
+  for (const auto& v : values.values) {
+    j[v.signal->key] = json_of(v);
+    if (signals::text_in_unit(*v.signal)) {
+      const PhysicalNumber n = physical_number(*v.signal, v.raw);
+      j[physical_key(*v.signal)] = n.integral ? nlohmann::json(n.whole) : nlohmann::json(n.value);
+    }
+  }
   return j;
 }
 

@@ -80,9 +80,13 @@ class FrameEmitter {
     std::string name;
     std::string type_value;              // the name as a JSON string
     std::vector<std::string> text_keys;  // " key=" per signal
+    struct Member {
+      int signal = -1;        // index into the description's signals; -1: "type"
+      bool physical = false;  // the signal's physical value (physical_key()), not its wire value
+    };
     struct Group {
-      std::vector<int> members;  // signal indices (-1: "type") with this JSON key, in description order
-      std::string prefix;        // "\"key\":"
+      std::vector<Member> members;  // with this JSON key, in the order json_values() sets them
+      std::string prefix;           // "\"key\":"
     };
     std::vector<Group> groups;  // by key, as nlohmann sorts an object
   };

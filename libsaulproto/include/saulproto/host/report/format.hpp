@@ -1,9 +1,10 @@
 // Text and JSON renderings of decoded messages, for saulctl and for logs.
 //
 // SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp): JSON has each
-// signal's key and its value as the wire integer, its value name or its physical value, as the description says;
-// text the same, except that a scaled wire integer (signals::text_in_unit) shows as its physical value with its
-// unit under the signal's name (pitch_x100 1234 -> "pitch=12.34°", docs/cli.md). Any other
+// signal's key and its value as the wire integer, its value name or its physical value, as the description says,
+// and a scaled wire integer (signals::text_in_unit) also as its physical value under physical_key()
+// ("pitch_x100": 1234 and "pitch_deg": 12.34); text shows such a value only in its unit, under the signal's name
+// (pitch_x100 1234 -> "pitch=12.34°", docs/cli.md). Any other
 // message type with kName and fields(visitor) (Pride) prints its fields(), so it needs no change here either.
 #pragma once
 
@@ -45,12 +46,27 @@ SignalValues signal_values(const crsf::Message& message);
 /// name (SignalDesc::name, "pitch"), not its wire key ("pitch_x100").
 std::string physical_text(const signals::SignalDesc& s, std::int64_t raw);
 
+/// The JSON key of a scaled wire integer's physical value: the signal's name and its unit as a word, lower case,
+/// '/' dropped ("pitch" in deg -> "pitch_deg", "battery" in V -> "battery_v", "ch1" in us -> "ch1_us", km/h ->
+/// "kmh"). tests/unit/test_signals_text.cpp holds it unique within each message.
+std::string physical_key(const signals::SignalDesc& s);
+
+/// A scaled wire integer's physical value as JSON holds it: the same number physical_text() prints, as the double
+/// nearest to that exact decimal (1234 x 1/100 -> 12.34), or as an integer where text shows whole units (the CRSF
+/// RC channels' microseconds, rounded down). One function, so the slow and the fast JSON writers agree.
+struct PhysicalNumber {
+  bool integral = false;
+  std::int64_t whole = 0;  ///< when integral
+  double value = 0;        ///< otherwise
+};
+PhysicalNumber physical_number(const signals::SignalDesc& s, std::int64_t raw);
+
 std::string describe(const BusMessage& message);
 std::string describe(const interboard::Message& message);
 std::string describe(const crsf::Message& message);
 std::string describe(const pride::Message& message);
 
-/// {"type":"velocity_cmd","speed_mmps":1000,"steer_mrad":-500}
+/// {"type":"velocity_cmd","speed_mmps":1000,"steer_mrad":-500}; {"pitch_deg":12.34,"pitch_x100":1234,...}
 nlohmann::json to_json(const BusMessage& message);
 nlohmann::json to_json(const interboard::Message& message);
 nlohmann::json to_json(const crsf::Message& message);
