@@ -76,7 +76,8 @@ struct FileSource {
   bool reported = false;              ///< the decompression error went out as a corrupt record
 
   /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with its size).
-  [[nodiscard]] std::uint64_t bytes_read() const { return raw ? raw->delivered() : replay->delivered(); }
+  /// (The inflater's count: it reads `raw` on a thread of its own.)
+  [[nodiscard]] std::uint64_t bytes_read() const { return inflater ? inflater->compressed_bytes() : replay->delivered(); }
   /// After the reader's end: a decompression error, once, as a corrupt record that stops the reading.
   bool take_error(CaptureError& error) {
     if (!inflater || reported || inflater->error().empty()) return false;
@@ -286,7 +287,7 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   std::streambuf* content = &source->file;
   if (compression != Compression::none) {
     source->raw = std::make_unique<ReplayBuf>(source->file, std::move(head));
-    source->inflater = make_decompressing_buf(*source->raw, compression);
+    source->inflater = make_decompressing_buf(*source->raw, compression, /*read_ahead=*/true);
     content = source->inflater.get();
     head = read_head(*content);
     if (head.empty() && !source->inflater->error().empty())
