@@ -103,13 +103,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
       }
       fmt::print("{}\n", j.dump());
     } else if (format == "long") {
-      const SignalValues values = std::visit(
-          [](const auto& message) -> SignalValues {
-            if constexpr (requires { signal_values(message); }) return signal_values(message);
-            return {};
-          },
-          m);
-      fmt::print("{}", long_csv_rows(bare, chunk.link, "", values));
+      fmt::print("{}", long_csv_rows(bare, chunk.link, "", signal_values(m)));
     } else if (format == "csv") {
       const std::string name = name_of(m);
       std::string fields = describe(m);

@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/report/signal_stats.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -17,6 +18,7 @@ namespace {
 struct StatsOptions {
   std::string file;
   bool json = false;
+  bool signals = false;
   std::string bitrate = "500k";
   std::string window = "100ms";
   SerialCliOptions serial;
@@ -45,6 +47,18 @@ int run_stats(const StatsOptions& opt) {
     progress.finish();  // the message gets its own line
     fmt::print(stderr, "saulctl stats: {}\n", format_capture_error(opt.file, error));
   };
+  SignalStats signal_stats;  // --signals: per signal count, mean, min, max in its unit
+  // Both reports, text or JSON: the bus's, then the signals' when asked for.
+  auto print = [&](const auto& stats) {
+    if (opt.json) {
+      nlohmann::json j = stats.json(opt.file);
+      if (opt.signals) j["signals"] = signal_stats.json();
+      fmt::print("{}\n", j.dump());
+    } else {
+      fmt::print("{}", stats.text(opt.file));
+      if (opt.signals) fmt::print("\nsignals (physical units):\n{}", signal_stats.text());
+    }
+  };
   if (opened.frames) {
     BusStats stats(bus);
     // An uncompressed candump file: big reads and batches (capture/candump_scan.hpp); any other format frame by frame.
@@ -55,7 +69,11 @@ int run_stats(const StatsOptions& opt) {
       while (scanner.next_batch(batch)) {
         progress.update_many(batch.frames.size() + batch.corrupt.size(), scanner.bytes_read(), file->size());
         for_each_in_order(
-            batch, [&](const saul::CanFrame& f, std::string_view interface) { stats.add(f, interface); },
+            batch,
+            [&](const saul::CanFrame& f, std::string_view interface) {
+              stats.add(f, interface);
+              if (opt.signals) signal_stats.add(f);
+            },
             [&](const CaptureError& e) {
               stats.add_corrupt();
               report_corrupt(e);
@@ -72,16 +90,17 @@ int run_stats(const StatsOptions& opt) {
         continue;
       }
       stats.add(opened.frames->frame(), opened.frames->interface());
+      if (opt.signals) signal_stats.add(opened.frames->frame());
     }
     progress.finish();
-    if (opt.json) {
-      fmt::print("{}\n", stats.json(opt.file).dump());
-    } else {
-      fmt::print("{}", stats.text(opt.file));
-    }
+    print(stats);
     return kOk;
   }
   SerialStats stats(fallback_protocol(opt.serial));
+  SerialCaptureDecoder signal_decoder(fallback_protocol(opt.serial));  // only with --signals
+  const SerialCaptureDecoder::Callback count_signals = [&](const SerialChunk&, SerialProtocol, const SerialMessage& m) {
+    signal_stats.add(signal_values(m));
+  };
   for (;;) {
     const auto st = opened.chunks->next();
     if (st == SerialCaptureReader::Status::end) break;
@@ -92,14 +111,12 @@ int run_stats(const StatsOptions& opt) {
       continue;
     }
     stats.add(opened.chunks->chunk());
+    if (opt.signals) signal_decoder.add(opened.chunks->chunk(), count_signals);
   }
   progress.finish();
   stats.finish();
-  if (opt.json) {
-    fmt::print("{}\n", stats.json(opt.file).dump());
-  } else {
-    fmt::print("{}", stats.text(opt.file));
-  }
+  if (opt.signals) signal_decoder.finish(count_signals);
+  print(stats);
   return kOk;
 }
 
@@ -116,13 +133,17 @@ void add_stats_command(CLI::App& app, Runner& run) {
       "longer than the BALANCE board's 500 ms Orin timeout.\n"
       "Serial captures: per link the bytes, byte rate, line load, the decoder's counters, and per message type\n"
       "the count, rate and longest gap.\n"
+      "--signals adds per signal of every decoded message its count, mean, min and max in its physical unit\n"
+      "(the values of decode --format long, so a DuckDB or pandas aggregate of that CSV gives the same).\n"
       "One pass, constant memory in the number of frames. Corrupt records are reported on stderr and counted.\n"
       "\nExamples:\n"
       "  saulctl stats captures/robot_bus.log\n"
       "  saulctl stats --json run.pcapng | jq '.ids[] | select(.id_hex == \"300\") | .max_gap_s'\n"
-      "  saulctl stats captures/interboard_uart.serial\n");
+      "  saulctl stats captures/interboard_uart.serial\n"
+      "  saulctl stats --signals --json run.log | jq '.signals[] | select(.signal == \"pitch\")'\n");
   cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
   cmd->add_flag("--json", opt->json, "one JSON object instead of the text report");
+  cmd->add_flag("--signals", opt->signals, "also count, mean, min and max of every signal, in physical units");
   cmd->add_option("--bitrate", opt->bitrate, "CAN bit rate for the load (500k, 1M, 250000)")->capture_default_str();
   cmd->add_option("--window", opt->window, "window of the peak load (100ms, 1s)")->capture_default_str()->check(duration_check());
   add_serial_read_options(cmd, opt->serial);

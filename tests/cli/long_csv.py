@@ -127,6 +127,17 @@ mismatch = [(k, row, got.get(k)) for k, row in duck.items() if got.get(k) is Non
 c.check(f"DuckDB: count, mean and unit of all {len(duck)} signals equal sqlite's (checked above against JSON by hand)",
         not mismatch, mismatch[:3])
 
+# saulctl's own stats --signals: the same counts and means as DuckDB (and sqlite) over the long CSV, min and max
+# bounding the mean, the same units.
+code, out, err = saulctl.run(["stats", "--signals", "--json", log])
+own = {(r["message"], r["signal"]): r for r in (json.loads(out).get("signals", []) if code == 0 else [])}
+c.check("saulctl stats --signals --json exits 0 with a signals list", code == 0 and own, err[-300:])
+c.check("stats --signals: the same message/signal groups as DuckDB", set(own) == set(duck), sorted(set(own) ^ set(duck))[:5])
+differ = [(k, r, duck.get(k)) for k, r in own.items() if duck.get(k) is None or r["count"] != duck[k]["n"]
+          or abs(r["mean"] - duck[k]["mean"]) > 1e-9 * max(1, abs(duck[k]["mean"])) or r["unit"] != duck[k]["unit"]
+          or not r["min"] <= r["mean"] <= r["max"]]
+c.check(f"stats --signals: count, mean and unit of all {len(own)} signals equal DuckDB's", not differ, differ[:3])
+
 # Serial captures too (inter-board STATE pitch -1234 -> -12.34 deg).
 code, out, err = saulctl.run(["decode", "--format", "long", os.path.join(root, "captures", "interboard_uart.serial")])
 c.check("inter-board serial capture: STATE pitch -12.34 deg, no id", code == 0 and

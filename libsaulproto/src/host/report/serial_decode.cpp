@@ -76,6 +76,13 @@ std::string name_of(const SerialMessage& message) {
                     message);
 }
 
+SignalValues signal_values(const SerialMessage& message) {
+  return std::visit(detail::Overload{[](const interboard::Message& m) { return signal_values(m); },
+                                     [](const CrsfMessage& m) { return signal_values(m.message); },
+                                     [](const auto&) { return SignalValues{}; }},
+                    message);
+}
+
 std::string describe(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return describe(m); },
                              [](const CrsfMessage& m) {
