@@ -3,6 +3,8 @@
 // The arithmetic lives in the host library (saulproto/host/report/bus_stats.hpp).
 #include <fmt/core.h>
 
+#include <cstdlib>
+
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
@@ -14,6 +16,13 @@
 
 namespace saulctl {
 namespace {
+
+/// stats reads candump files of this size and more on a second thread (a thread costs ~0.1 ms to start; 4 MiB is
+/// ~90 000 frames, ~20 ms of work: from there on both cores pay off). SAUL_STATS_AHEAD_FROM moves it (tests).
+const std::uint64_t kStatsAheadFrom = [] {
+  const char* from = std::getenv("SAUL_STATS_AHEAD_FROM");
+  return from != nullptr ? std::strtoull(from, nullptr, 10) : std::uint64_t{4} << 20;
+}();
 
 struct StatsOptions {
   std::string file;
@@ -63,22 +72,13 @@ int run_stats(const StatsOptions& opt) {
     BusStats stats(bus);
     // An uncompressed candump file: big reads and batches (capture/candump_scan.hpp); any other format frame by frame.
     const auto file = opened.frames->format() == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
+    // From kStatsAheadFrom bytes on, the file is read and parsed on a second thread while this one counts.
     if (file) {
-      CandumpScanner scanner(file->fd(), 0, file->size());
-      CandumpBatch batch;
-      while (scanner.next_batch(batch)) {
-        progress.update_many(batch.frames.size() + batch.corrupt.size(), scanner.bytes_read(), file->size());
-        for_each_in_order(
-            batch,
-            [&](const saul::CanFrame& f, std::string_view interface) {
-              stats.add(f, interface);
-              if (opt.signals) signal_stats.add(f);
-            },
-            [&](const CaptureError& e) {
-              stats.add_corrupt();
-              report_corrupt(e);
-            });
-      }
+      std::function<void(const saul::CanFrame&)> also;
+      if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
+      add_candump_file(
+          stats, file->fd(), file->size(), file->size() >= kStatsAheadFrom, report_corrupt,
+          [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also);
     }
     for (; !file;) {
       const auto st = opened.frames->next();

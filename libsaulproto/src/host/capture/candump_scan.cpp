@@ -6,10 +6,15 @@
 #include <unistd.h>
 
 #include <array>
+#include <bit>
 #include <cerrno>
+#include <condition_variable>
 #include <cstring>
+#include <exception>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
+#include <thread>
 
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/compressed.hpp"
@@ -28,6 +33,49 @@ constexpr std::array<std::int8_t, 256> kHexValue = [] {
 
 int hex_value(char c) noexcept { return kHexValue[static_cast<unsigned char>(c)]; }
 
+/// Eight ASCII digits at p as a number (the first the most significant), in a few word operations; false when
+/// one of them is not a digit.
+bool eight_digits(const char* p, std::uint64_t& value) noexcept {
+  std::uint64_t v;
+  std::memcpy(&v, p, 8);
+  if constexpr (std::endian::native != std::endian::little) {
+    value = 0;
+    for (int i = 0; i < 8; ++i) {
+      if (static_cast<unsigned>(p[i] - '0') >= 10) return false;
+      value = value * 10 + static_cast<unsigned>(p[i] - '0');
+    }
+    return true;
+  }
+  // every byte 0x30..0x39: its high nibble is 3, and still 3 after adding 6 (a carry out of a byte only happens
+  // for bytes >= 0xFA, which the first test already refuses)
+  constexpr std::uint64_t kHigh = 0xF0F0F0F0F0F0F0F0ULL, kZeros = 0x3030303030303030ULL;
+  if ((v & kHigh) != kZeros || ((v + 0x0606060606060606ULL) & kHigh) != kZeros) return false;
+  v -= kZeros;                    // bytes d0 (lowest) .. d7
+  v = v * 10 + (v >> 8);          // byte 2k: 10 d(2k) + d(2k+1)
+  v = (((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))) +
+       (((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32;
+  value = v;
+  return true;
+}
+
+/// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") ": seconds and nanoseconds. False for any
+/// other shape (then read digit by digit).
+bool candump_time(std::string_view line, std::uint64_t& sec, std::uint64_t& ns) noexcept {
+  const char* p = line.data();
+  if (line.size() < 24 || p[11] != '.' || p[18] != ')' || p[19] != ' ') return false;
+  const unsigned d0 = static_cast<unsigned>(p[1] - '0'), d1 = static_cast<unsigned>(p[2] - '0');
+  std::uint64_t low = 0, frac = 0;
+  if (d0 >= 10 || d1 >= 10 || !eight_digits(p + 3, low)) return false;
+  for (int i = 12; i < 18; ++i) {
+    const unsigned d = static_cast<unsigned>(p[i] - '0');
+    if (d >= 10) return false;
+    frac = frac * 10 + d;
+  }
+  sec = (d0 * 10 + d1) * 100'000'000ULL + low;
+  ns = frac * 1000;
+  return true;
+}
+
 /// The common shape of a line, "(SEC.FRAC) IFACE ID#DATA" with single spaces, an 11- or 29-bit data frame and
 /// nothing after it, in one pass. False for anything else (remote, error and FD frames, '.' separators, raw DLC,
 /// CR, extra spaces, any error): parse_candump_line then reads the line, so frames and reports stay exactly its own.
@@ -35,16 +83,20 @@ bool parse_common(std::string_view line, CanFrame& f, std::string_view& interfac
   const char* p = line.data() + 1;  // after '('
   const char* const end = line.data() + line.size();
   std::uint64_t sec = 0;
-  const char* digits = p;
-  while (p < end && static_cast<unsigned>(*p - '0') < 10) sec = sec * 10 + static_cast<unsigned>(*p++ - '0');
-  if (p == digits || p - digits > 19 || p == end || *p != '.') return false;
-  digits = ++p;
   std::uint64_t frac = 0;
-  while (p < end && static_cast<unsigned>(*p - '0') < 10) frac = frac * 10 + static_cast<unsigned>(*p++ - '0');
-  const auto frac_digits = p - digits;
-  if (frac_digits == 0 || frac_digits > 9 || end - p < 2 || p[0] != ')' || p[1] != ' ') return false;
-  for (auto i = frac_digits; i < 9; ++i) frac *= 10;
-  p += 2;
+  if (!candump_time(line, sec, frac)) {
+    const char* digits = p;
+    while (p < end && static_cast<unsigned>(*p - '0') < 10) sec = sec * 10 + static_cast<unsigned>(*p++ - '0');
+    if (p == digits || p - digits > 19 || p == end || *p != '.') return false;
+    digits = ++p;
+    while (p < end && static_cast<unsigned>(*p - '0') < 10) frac = frac * 10 + static_cast<unsigned>(*p++ - '0');
+    const auto frac_digits = p - digits;
+    if (frac_digits == 0 || frac_digits > 9 || end - p < 2 || p[0] != ')' || p[1] != ' ') return false;
+    for (auto i = frac_digits; i < 9; ++i) frac *= 10;
+    p += 2;
+  } else {
+    p = line.data() + 20;
+  }
   const char* name = p;
   while (p < end && *p != ' ') ++p;
   if (p == name || end - p < 2 || p[1] == ' ') return false;
@@ -211,6 +263,103 @@ bool CandumpScanner::next_batch(CandumpBatch& batch) {
     if (got == 0) eof_ = true;
     tail_ += got;
   }
+}
+
+namespace {
+
+/// A batch read ahead, with its interfaces copied out of the scanner's buffer (which the next read reuses).
+struct AheadSlot {
+  CandumpBatch batch;
+  std::string names;
+  std::uint64_t bytes = 0;
+  void own() {
+    std::size_t total = 0;
+    for (auto v : batch.interfaces) total += v.size();
+    names.clear();
+    names.reserve(total);  // no reallocation below: the views stay valid
+    std::string_view previous_from, previous_to;
+    for (auto& v : batch.interfaces) {
+      if (v == previous_from) {  // the same interface as the frame before (nearly always): one copy
+        v = previous_to;
+        continue;
+      }
+      previous_from = v;
+      const std::size_t at = names.size();
+      names.append(v);
+      v = previous_to = std::string_view(names.data() + at, v.size());
+    }
+  }
+};
+
+}  // namespace
+
+void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const CandumpBatchSink& on_batch,
+                  const CandumpBatchPrepare& prepare) {
+  if (!ahead) {
+    CandumpScanner scanner(fd, begin, end);
+    CandumpBatch batch;
+    while (scanner.next_batch(batch)) {
+      if (prepare) prepare(batch, 0);
+      on_batch(batch, scanner.bytes_read(), 0);
+    }
+    return;
+  }
+  std::array<AheadSlot, kAheadBatches> slots;
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::size_t produced = 0, consumed = 0;
+  bool done = false, stop = false;
+  std::exception_ptr failure;
+  std::thread reader([&] {
+    try {
+      CandumpScanner scanner(fd, begin, end);
+      for (std::size_t k = 0;; ++k) {
+        {
+          std::unique_lock lock(mutex);
+          changed.wait(lock, [&] { return stop || k < consumed + slots.size(); });
+          if (stop) break;
+        }
+        AheadSlot& slot = slots[k % slots.size()];
+        if (!scanner.next_batch(slot.batch)) break;
+        slot.own();
+        if (prepare) prepare(slot.batch, k % slots.size());
+        slot.bytes = scanner.bytes_read();
+        std::lock_guard lock(mutex);
+        ++produced;
+        changed.notify_all();
+      }
+    } catch (...) {
+      std::lock_guard lock(mutex);
+      failure = std::current_exception();
+    }
+    std::lock_guard lock(mutex);
+    done = true;
+    changed.notify_all();
+  });
+  try {
+    for (std::size_t k = 0;; ++k) {
+      {
+        std::unique_lock lock(mutex);
+        changed.wait(lock, [&] { return done || k < produced; });
+        if (k >= produced) break;  // done, and every batch read was handed out
+      }
+      const AheadSlot& slot = slots[k % slots.size()];
+      on_batch(slot.batch, slot.bytes, k % slots.size());
+      std::lock_guard lock(mutex);
+      ++consumed;
+      changed.notify_all();
+    }
+  } catch (...) {
+    {
+      std::lock_guard lock(mutex);
+      stop = true;
+      changed.notify_all();
+    }
+    reader.join();
+    throw;
+  }
+  reader.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block) {

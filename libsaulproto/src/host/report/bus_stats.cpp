@@ -7,6 +7,7 @@
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
 
 namespace saul::host {
 namespace {
@@ -140,7 +141,20 @@ double Cadence::rate_hz() const {
 
 double Cadence::jitter_ns() const { return gaps > 1 ? std::sqrt(m2 / static_cast<double>(gaps)) : 0; }
 
-void BusStats::add(const CanFrame& f, std::string_view interface) {
+const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
+  const FrameKey key = frame_key(f);
+  Entry& e = entries_[key.slot(entries_.size())];
+  if (e.used && e.key == key) return e.facts;
+  e.used = true;
+  e.key = key;
+  e.facts.stuff = f.error ? 0 : can_stuff_bits(f);
+  const auto r = decode_bus_frame(f);
+  e.facts.reason = r ? Reason::ok : r.reason();
+  e.facts.name = r ? saul::name_of(r.value()) : nullptr;
+  return e.facts;
+}
+
+void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFacts& content) {
   ++frames_;
   const auto ts = f.timestamp_ns;
   if (ts) {
@@ -159,14 +173,19 @@ void BusStats::add(const CanFrame& f, std::string_view interface) {
     if (!any) ++error_kinds_["unspecified"];
     return;
   }
-  auto it = interfaces_.find(interface);
-  if (it == interfaces_.end()) it = interfaces_.emplace(std::string(interface), Load{}).first;
-  Load& load = it->second;
+  if (last_load_ == nullptr || interface != last_interface_) {
+    auto it = interfaces_.find(interface);
+    if (it == interfaces_.end()) it = interfaces_.emplace(std::string(interface), Load{}).first;
+    last_interface_.assign(interface);
+    last_load_ = &it->second;
+  }
+  Load& load = *last_load_;
   const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
+  const unsigned none = can_frame_bits(f, StuffBits::none);
   ++load.frames;
-  load.bits_none += can_frame_bits(f, StuffBits::none);
+  load.bits_none += none;
   load.bits_worst += worst;
-  load.bits_exact += can_frame_bits(f, StuffBits::exact);
+  load.bits_exact += none + content.stuff;  // can_frame_bits(f, StuffBits::exact)
   if (ts) {
     if (!load.first_ns) load.first_ns = ts;
     if (!load.last_ns || *ts > *load.last_ns) load.last_ns = ts;
@@ -183,19 +202,21 @@ void BusStats::add(const CanFrame& f, std::string_view interface) {
     }
   }
 
-  IdStats& s = ids_[IdKey{f.extended, f.id}];
+  const IdKey id{f.extended, f.id};
+  IdSlot& slot = id_slots_[(f.id ^ (f.id >> 6) ^ (f.extended ? 0x2A : 0)) % id_slots_.size()];
+  if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
+  IdStats& s = *slot.stats;
   const bool velocity = !f.extended && f.id == saulcan::kVelocityCmdId;
   s.cadence.add(ts, velocity ? kOrinTimeoutNs : 0);
   if (f.remote) ++s.remote;
   s.bits_worst = worst;
   s.dlc = f.dlc;
-  const auto r = decode_bus_frame(f);
-  if (r) {
-    if (s.type.empty() || s.type[0] == '!') s.type = saul::name_of(r.value());
+  if (content.reason == Reason::ok) {
+    if (s.type.empty() || s.type[0] == '!') s.type = content.name;
   } else {
     ++s.decode_errors;
-    ++failures_[to_string(r.reason())];
-    if (s.type.empty()) s.type = std::string("!") + to_string(r.reason());
+    ++failures_[to_string(content.reason)];
+    if (s.type.empty()) s.type = std::string("!") + to_string(content.reason);
   }
 }
 
@@ -332,6 +353,39 @@ nlohmann::json BusStats::json(std::string_view name) const {
   }
   j["ids"] = std::move(ids);
   return j;
+}
+
+void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
+                      const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                      const std::function<void(const CanFrame&)>& also) {
+  FrameFactsCache cache;  // on the reading thread when ahead
+  std::array<std::vector<FrameFacts>, kAheadBatches> facts;
+  scan_candump(
+      fd, 0, size, ahead,
+      [&](const CandumpBatch& batch, std::uint64_t bytes, std::size_t slot) {
+        if (on_progress) on_progress(batch.frames.size() + batch.corrupt.size(), bytes);
+        const std::vector<FrameFacts>& known = facts[slot];
+        std::size_t c = 0;
+        const std::size_t n = batch.frames.size();
+        auto corrupt_before = [&](std::size_t i) {
+          for (; c < batch.corrupt.size() && batch.corrupt[c].before == i; ++c) {
+            stats.add_corrupt();
+            if (on_corrupt) on_corrupt(batch.corrupt[c].error);
+          }
+        };
+        for (std::size_t i = 0; i < n; ++i) {
+          corrupt_before(i);
+          stats.add(batch.frames[i], batch.interfaces[i], known[i]);
+          if (also) also(batch.frames[i]);
+        }
+        corrupt_before(n);
+      },
+      [&](const CandumpBatch& batch, std::size_t slot) {
+        std::vector<FrameFacts>& out = facts[slot];
+        out.clear();
+        for (const CanFrame& f : batch.frames) out.push_back(cache.get(f));
+      });
 }
 
 // ---- serial -----------------------------------------------------------------------------------------------------

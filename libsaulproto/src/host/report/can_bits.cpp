@@ -74,6 +74,16 @@ constexpr std::array<std::array<Step, 256>, 9> kStuffTable = [] {
   return t;
 }();
 
+/// The word's 16 bytes, most significant first (two byte swaps instead of 16 shifts of a 128-bit word).
+void big_endian_bytes(Word w, std::uint8_t (&bytes)[16]) noexcept {
+  const std::uint64_t hi = static_cast<std::uint64_t>(w >> 64);
+  const std::uint64_t lo = static_cast<std::uint64_t>(w);
+  for (int k = 0; k < 8; ++k) {
+    bytes[k] = static_cast<std::uint8_t>(hi >> (56 - 8 * k));
+    bytes[8 + k] = static_cast<std::uint8_t>(lo >> (56 - 8 * k));
+  }
+}
+
 }  // namespace
 
 unsigned can_stuff_bits(const CanFrame& f) noexcept {
@@ -101,7 +111,7 @@ unsigned can_stuff_bits(const CanFrame& f) noexcept {
   // CRC over the n bits, a byte at a time: zeros in front leave a zero register zero, so the bits are padded at
   // the front to whole bytes.
   std::uint8_t bytes[16];
-  for (int k = 0; k < 16; ++k) bytes[k] = static_cast<std::uint8_t>(w >> (120 - 8 * k));  // most significant first
+  big_endian_bytes(w, bytes);
   const unsigned crc_bytes = (n + 7) / 8;
   std::uint16_t crc = 0;
   for (unsigned k = 16 - crc_bytes; k < 16; ++k)
@@ -112,7 +122,7 @@ unsigned can_stuff_bits(const CanFrame& f) noexcept {
   // which never make a run of five and after which SOF (0) starts a run of one, as it does first on the bus.
   const unsigned pad = (8 - n % 8) % 8;
   w |= (Word{0x55} & ((Word{1} << pad) - 1)) << n;
-  for (int k = 0; k < 16; ++k) bytes[k] = static_cast<std::uint8_t>(w >> (120 - 8 * k));
+  big_endian_bytes(w, bytes);
   unsigned stuff = 0;
   std::uint8_t state = 0;
   for (unsigned k = 16 - (n + pad) / 8; k < 16; ++k) {

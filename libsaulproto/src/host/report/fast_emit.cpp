@@ -8,10 +8,12 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/format.hpp"
+#include "saulproto/host/report/frame_key.hpp"
 
 namespace saul::host {
 namespace {
@@ -262,6 +264,12 @@ FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format)
 FrameEmitter::~FrameEmitter() = default;
 
 void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens) {
+  const std::size_t at = out.size();
+  out.resize(at + kTimeColumnMax);
+  out.resize(static_cast<std::size_t>(time_chars(ns, out.data() + at, parens) - out.data()));
+}
+
+char* FrameEmitter::time_chars(std::uint64_t ns, char* w, bool parens) {
   // As decode always wrote it: differences in unsigned arithmetic, "({:010}.{:06})" or "({:4}.{:06})".
   if (!first_) first_ = ns;
   std::uint64_t shown = ns;
@@ -278,15 +286,16 @@ void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out, bool p
     seconds_ = sec;
     seconds_valid_ = true;
   }
-  if (parens) out.push_back('(');
-  put(out, seconds_text_);
-  char u[7];
+  if (parens) *w++ = '(';
+  std::memcpy(w, seconds_text_.data(), seconds_text_.size());
+  w += seconds_text_.size();
   for (int i = 5; i >= 0; --i) {
-    u[i] = static_cast<char>('0' + usec % 10);
+    w[i] = static_cast<char>('0' + usec % 10);
     usec /= 10;
   }
-  u[6] = ')';
-  out.append(u, u + (parens ? 7 : 6));
+  w += 6;
+  if (parens) *w++ = ')';
+  return w;
 }
 
 void FrameEmitter::timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out) {
@@ -495,16 +504,12 @@ void FrameEmitter::render(const CanFrame& f, Entry& e) {
 }
 
 const FrameEmitter::Entry& FrameEmitter::rendered(const CanFrame& f) {
-  const std::uint64_t k1 = std::uint64_t{f.id} | std::uint64_t{f.extended} << 32 | std::uint64_t{f.remote} << 33 |
-                           std::uint64_t{f.error} << 34 | std::uint64_t{f.dlc} << 40;
-  std::uint64_t k2 = 0;
-  for (std::size_t i = 0; i < 8; ++i) k2 |= std::uint64_t{f.data[i]} << (8 * i);
-  const std::uint64_t h = (k1 * 0x9E3779B97F4A7C15ULL) ^ (k2 * 0xC2B2AE3D27D4EB4FULL);
-  Entry& e = cache_[(h ^ (h >> 29)) & (cache_.size() - 1)];
-  if (!e.used || e.k1 != k1 || e.k2 != k2) {
+  const FrameKey key = frame_key(f);
+  Entry& e = cache_[key.slot(cache_.size())];
+  if (!e.used || e.k1 != key.k1 || e.k2 != key.k2) {
     e.used = true;
-    e.k1 = k1;
-    e.k2 = k2;
+    e.k1 = key.k1;
+    e.k2 = key.k2;
     render(f, e);
   }
   return e;
@@ -521,28 +526,30 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   }
   const std::uint64_t ns = f.timestamp_ns.value_or(0);
   switch (format_) {
-    case DecodeFormat::text: {
-      time_column(ns, out, true);
-      out.push_back(' ');
-      if (interface.empty()) interface = "can0";
-      bool clean = true;
-      for (char c : interface) clean = clean && static_cast<unsigned char>(c) > 0x20 && c != 0x7F;
-      if (clean) {
-        put(out, interface);
-      } else {
-        for (char c : interface) out.push_back(static_cast<unsigned char>(c) <= 0x20 || c == 0x7F ? '_' : c);
-      }
-      out.push_back(' ');
-      put(out, e.text);
-      break;
-    }
+    case DecodeFormat::text:
     case DecodeFormat::csv: {
-      time_column(ns, out, false);
-      out.push_back(',');
-      put(out, interface);
-      out.push_back(',');
-      put(out, e.text);
-      break;
+      // One line in one go: room for all of it, then written in place (no append per column).
+      const bool text = format_ == DecodeFormat::text;
+      if (text && interface.empty()) interface = "can0";
+      const std::size_t at = out.size();
+      out.resize(at + kTimeColumnMax + interface.size() + e.text.size() + 3);
+      char* w = time_chars(ns, out.data() + at, text);
+      *w++ = text ? ' ' : ',';
+      if (interface != interface_) {  // candump's interface column: spaces and controls as '_' (text only)
+        interface_.assign(interface);
+        interface_clean_ = interface_;
+        if (text)
+          for (char& c : interface_clean_)
+            if (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F) c = '_';
+      }
+      std::memcpy(w, interface_clean_.data(), interface_clean_.size());
+      w += interface_clean_.size();
+      *w++ = text ? ' ' : ',';
+      std::memcpy(w, e.text.data(), e.text.size());
+      w += e.text.size();
+      *w++ = '\n';
+      out.resize(static_cast<std::size_t>(w - out.data()));
+      return;
     }
     case DecodeFormat::jsonl: {
       bool plain = true;

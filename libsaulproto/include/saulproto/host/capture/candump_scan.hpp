@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -114,6 +115,19 @@ class CandumpFile {
   int fd_;
   std::uint64_t size_;
 };
+
+/// Reads the byte range [begin, end) of a regular file (begin a line start) with a CandumpScanner and calls
+/// prepare(batch, slot) then on_batch(batch, bytes_read, slot) for every batch, in file order, on_batch on the
+/// caller's thread. With `ahead` the scanning and `prepare` run on a second thread, up to kAheadBatches batches
+/// ahead of on_batch, so reading and parsing take one core and the caller's work the other; the batch's interfaces
+/// then point into storage of the batch's own (valid during the call, as without `ahead`). `slot` (below
+/// kAheadBatches) names where prepare may leave its results for on_batch: slots are reused once on_batch returned.
+/// Rethrows what the scanner, prepare or on_batch threw (the reading thread is stopped first).
+inline constexpr std::size_t kAheadBatches = 4;
+using CandumpBatchSink = std::function<void(const CandumpBatch& batch, std::uint64_t bytes_read, std::size_t slot)>;
+using CandumpBatchPrepare = std::function<void(const CandumpBatch& batch, std::size_t slot)>;
+void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const CandumpBatchSink& on_batch,
+                  const CandumpBatchPrepare& prepare = {});
 
 /// Splits [0, size) of a regular file into ranges of about `block` bytes that start at line starts (a range may
 /// be longer, never empty): returns the range starts, first 0, plus `size` as the last element. Reads only near

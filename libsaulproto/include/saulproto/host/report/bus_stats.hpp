@@ -12,15 +12,21 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/result.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/report/frame_key.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
 namespace saul::host {
@@ -65,12 +71,42 @@ struct BusStatsOptions {
   std::uint64_t window_ns = 100'000'000;  ///< window of the peak load
 };
 
+/// What BusStats needs of a frame that depends on its content alone (id, flags, DLC, data): its exact stuff bits
+/// and its decode.
+struct FrameFacts {
+  unsigned stuff = 0;          ///< can_stuff_bits()
+  Reason reason = Reason::ok;  ///< ok: it decoded, as `name`
+  const char* name = nullptr;  ///< saul::name_of() of the decoded message
+};
+
+/// FrameFacts of frames, remembered in a direct-mapped table: a repeated frame (most of a robot bus) costs a
+/// lookup. One per thread.
+class FrameFactsCache {
+ public:
+  const FrameFacts& get(const CanFrame& frame);
+
+ private:
+  struct Entry {
+    FrameKey key;
+    bool used = false;
+    FrameFacts facts;
+  };
+  static constexpr std::size_t kSlots = 4096;
+  std::vector<Entry> entries_ = std::vector<Entry>(kSlots);
+};
+
 /// Statistics of the CAN frames of a capture.
 class BusStats {
  public:
   explicit BusStats(BusStatsOptions options = {}) : options_(options) {}
+  BusStats(const BusStats&) = delete;  // it keeps pointers into its own maps
+  BusStats& operator=(const BusStats&) = delete;
+  BusStats(BusStats&&) = default;  // map nodes stay put when a map moves
+  BusStats& operator=(BusStats&&) = default;
   /// One frame (error frames included) seen on `interface`.
-  void add(const CanFrame& frame, std::string_view interface);
+  void add(const CanFrame& frame, std::string_view interface) { add(frame, interface, facts_.get(frame)); }
+  /// The same with the frame's facts already known (e.g. worked out on another thread).
+  void add(const CanFrame& frame, std::string_view interface, const FrameFacts& facts);
   /// One corrupt record of the file.
   void add_corrupt() { ++corrupt_; }
 
@@ -127,7 +163,26 @@ class BusStats {
   std::map<std::string, Load, std::less<>> interfaces_;
   std::map<std::string, std::uint64_t> failures_;     // decode failure reason -> count
   std::map<std::string, std::uint64_t> error_kinds_;  // error frame description -> count
+  FrameFactsCache facts_;
+  // the last interface and ids looked up (std::map nodes stay where they are)
+  std::string last_interface_;
+  Load* last_load_ = nullptr;
+  struct IdSlot {
+    IdKey key;
+    IdStats* stats = nullptr;
+  };
+  std::array<IdSlot, 64> id_slots_{};
 };
+
+/// Adds every line of an uncompressed candump file (CandumpFile) to `stats`: frames with stats.add(), corrupt
+/// lines with add_corrupt() and on_corrupt(error). With `ahead` the file is read and parsed, and each frame's
+/// FrameFacts worked out, on a second thread while this one adds (the same figures: the frames are added in
+/// file order on one thread). on_progress(records, bytes) after each batch; also(frame), when given, after each
+/// frame's stats.add() (on this thread).
+void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
+                      const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                      const std::function<void(const CanFrame&)>& also = {});
 
 /// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
 class SerialStats {

@@ -91,6 +91,9 @@ class FrameEmitter {
     std::vector<Group> groups;  // by key, as nlohmann sorts an object
   };
   void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
+  /// time_column's text written at `w` (room for kTimeColumnMax characters); returns its end.
+  char* time_chars(std::uint64_t ns, char* w, bool parens);
+  static constexpr std::size_t kTimeColumnMax = 30;  // "(" 20 digits "." 6 digits ")"
   void timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out);
   const Entry& rendered(const CanFrame& frame);
   void render(const CanFrame& frame, Entry& e);
@@ -107,6 +110,7 @@ class FrameEmitter {
   std::uint64_t stamp_seconds_ = 0;
   std::string stamp_text_;
   std::vector<Entry> cache_;
+  std::string interface_, interface_clean_;  // the last interface seen, and as the text column writes it
   std::vector<Layout> layouts_;
   std::string scratch_;
 };
