@@ -5,7 +5,7 @@
 # - stdin ('-') and a file give the same bytes; --format csv and --json the same as through the pcap reader
 #   (another reader, the same emitter), and --json parses line by line;
 # - a file above the two-thread threshold (SAUL_DECODE_PARALLEL_FROM forced low) decodes to the same bytes as on
-#   one thread.
+#   one thread; stats read ahead on a second thread gives the report of one.
 set -uo pipefail
 saulctl=$1
 source "$(dirname "$0")/check.bash"
@@ -59,5 +59,23 @@ for line in open(sys.argv[1]):
     json.loads(line)
     n += 1
 assert n == int(sys.argv[2]), n' "$out/file.jsonl" "$frames"
+
+# stats read ahead (SAUL_STATS_AHEAD_FROM forced low: parsing on a second thread) gives one thread's report and
+# the same corrupt lines, with a corrupt line in the middle, one at the end and a frame on a second interface.
+{
+  head -n 30000 "$out/bus.log"
+  printf '(1763800030.5) can1 300#E8030CFE\n(17638x) can0 300#00\n'
+  tail -n +30001 "$out/bus.log"
+} >"$out/mixed.log"
+for json in "" --json; do
+  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats $json "$out/mixed.log" >"$out/one$json.stats" 2>"$out/one.err"
+  SAUL_STATS_AHEAD_FROM=1 "$saulctl" stats $json "$out/mixed.log" >"$out/ahead$json.stats" 2>"$out/ahead.err"
+  check "stats$json: read ahead gives one thread's report" cmp -s "$out/one$json.stats" "$out/ahead$json.stats"
+  check "stats$json: read ahead reports the same corrupt lines" cmp -s "$out/one.err" "$out/ahead.err"
+done
+check "stats: both corrupt lines reported at their lines" \
+  test "$(grep -cE "mixed.log:(30002|$((frames + 3))):" "$out/ahead.err")" -eq 2
+check "stats: every frame counted, the one on can1 too" grep -q "^$out/mixed.log: $((frames + 1)) frames" "$out/ahead.stats"
+check "stats: can1 has its own load line" grep -q "bus load on can1 " "$out/ahead.stats"
 echo "$fails failed"
 exit $((fails > 0))
