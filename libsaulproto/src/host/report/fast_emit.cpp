@@ -298,23 +298,23 @@ char* FrameEmitter::time_chars(std::uint64_t ns, char* w, bool parens) {
   return w;
 }
 
-void FrameEmitter::timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out) {
+char* FrameEmitter::stamp_chars(std::uint64_t ns, char* w) {
   const std::uint64_t sec = ns / 1'000'000'000ULL;
   auto rest = static_cast<std::uint32_t>(ns % 1'000'000'000ULL);
-  if (sec == 0) return put_int(out, rest);
+  if (sec == 0) return std::to_chars(w, w + kTimeColumnMax, rest).ptr;
   if (!stamp_valid_ || sec != stamp_seconds_) {
     stamp_text_.clear();
     put_int(stamp_text_, sec);
     stamp_seconds_ = sec;
     stamp_valid_ = true;
   }
-  put(out, stamp_text_);
-  char d[9];
+  std::memcpy(w, stamp_text_.data(), stamp_text_.size());
+  w += stamp_text_.size();
   for (int i = 8; i >= 0; --i) {
-    d[i] = static_cast<char>('0' + rest % 10);
+    w[i] = static_cast<char>('0' + rest % 10);
     rest /= 10;
   }
-  out.append(d, d + 9);
+  return w + 9;
 }
 
 const FrameEmitter::Layout& FrameEmitter::layout(const MessageDesc& d) {
@@ -411,10 +411,19 @@ bool FrameEmitter::render_message(const CanFrame& g, std::string& out) {
     text_value(out, s, r.raw, r.chars);
   }
   if (format_ == DecodeFormat::csv) {
-    const std::string fields = out.substr(std::min(out.size(), fields_at + 1));
-    out.resize(fields_at);
-    out += ',';
-    out += csv_quote(fields);
+    // "name,fields": the space after the name becomes the comma when the fields need no quotes (nearly always)
+    bool plain = true;  // (find_first_of would call memchr once per character)
+    for (std::size_t i = fields_at; i < out.size(); ++i) plain = plain && out[i] != ',' && out[i] != '"';
+    if (out.size() == fields_at) {
+      out += ',';
+    } else if (plain) {
+      out[fields_at] = ',';
+    } else {
+      const std::string fields = out.substr(fields_at + 1);
+      out.resize(fields_at);
+      out += ',';
+      out += csv_quote(fields);
+    }
   }
   return true;
 }
@@ -511,6 +520,7 @@ const FrameEmitter::Entry& FrameEmitter::rendered(const CanFrame& f) {
     e.k1 = key.k1;
     e.k2 = key.k2;
     render(f, e);
+    if (format_ == DecodeFormat::jsonl) e.split = e.text.find('\0');
   }
   return e;
 }
@@ -525,60 +535,57 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
     default: ++counts.rejected; break;
   }
   const std::uint64_t ns = f.timestamp_ns.value_or(0);
-  switch (format_) {
-    case DecodeFormat::text:
-    case DecodeFormat::csv: {
-      // One line in one go: room for all of it, then written in place (no append per column).
-      const bool text = format_ == DecodeFormat::text;
-      if (text && interface.empty()) interface = "can0";
-      const std::size_t at = out.size();
-      out.resize(at + kTimeColumnMax + interface.size() + e.text.size() + 3);
-      char* w = time_chars(ns, out.data() + at, text);
-      *w++ = text ? ' ' : ',';
-      if (interface != interface_) {  // candump's interface column: spaces and controls as '_' (text only)
-        interface_.assign(interface);
-        interface_clean_ = interface_;
-        if (text)
-          for (char& c : interface_clean_)
-            if (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F) c = '_';
-      }
-      std::memcpy(w, interface_clean_.data(), interface_clean_.size());
-      w += interface_clean_.size();
-      *w++ = text ? ' ' : ',';
-      std::memcpy(w, e.text.data(), e.text.size());
-      w += e.text.size();
-      *w++ = '\n';
-      out.resize(static_cast<std::size_t>(w - out.data()));
-      return;
-    }
-    case DecodeFormat::jsonl: {
-      bool plain = true;
-      for (char c : interface)
-        if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') plain = false;
-      if (!plain) {  // escapes (or invalid UTF-8, which nlohmann refuses): the reference does it
-        fmt::memory_buffer column;
-        time_column(ns, column, true);
-        put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f));
-        break;
-      }
-      const std::string_view text = e.text;
-      const std::size_t split = text.find('\0');
-      put(out, text.substr(0, split));
-      if (f.timestamp_ns) {
-        put(out, ",\"timestamp_ns\":");
-        timestamp_digits(*f.timestamp_ns, out);
-      }
-      put(out, "},\"interface\":\"");
-      put(out, interface);
-      out.push_back('"');
-      put(out, text.substr(split + 1));
-      put(out, ",\"time\":\"");
-      time_column(ns, out, false);
-      put(out, "\"}");
-      break;
+  const bool text = format_ == DecodeFormat::text;
+  if (text && interface.empty()) interface = "can0";
+  if (interface != interface_) {
+    interface_.assign(interface);
+    interface_column_ = interface_;
+    interface_plain_ = true;
+    for (char& c : interface_column_) {
+      // text: spaces and controls as '_', as candump's column; JSON: escapes are nlohmann's (reference_frame_line)
+      if (text && (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F)) c = '_';
+      if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') interface_plain_ = false;
     }
   }
-  out.push_back('\n');
+  // One line in one go: room for all of it, then written in place (no append per column).
+  const std::size_t at = out.size();
+  out.resize(at + 2 * kTimeColumnMax + interface_column_.size() + e.text.size() + 64);
+  char* w = out.data() + at;
+  auto copy = [&w](std::string_view s) {
+    std::memcpy(w, s.data(), s.size());
+    w += s.size();
+  };
+  if (format_ == DecodeFormat::jsonl) {
+    if (!interface_plain_) {  // escapes (or invalid UTF-8, which nlohmann refuses): the reference does it
+      out.resize(at);
+      fmt::memory_buffer column;
+      time_column(ns, column, true);
+      put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f));
+      out.push_back('\n');
+      return;
+    }
+    const std::string_view line = e.text;  // ...,"remote":b  \0  [,"message":{...}]
+    copy(line.substr(0, e.split));
+    if (f.timestamp_ns) {
+      copy(",\"timestamp_ns\":");
+      w = stamp_chars(*f.timestamp_ns, w);
+    }
+    copy("},\"interface\":\"");
+    copy(interface_column_);
+    *w++ = '"';
+    copy(line.substr(e.split + 1));
+    copy(",\"time\":\"");
+    w = time_chars(ns, w, false);
+    copy("\"}");
+  } else {
+    w = time_chars(ns, w, text);
+    *w++ = text ? ' ' : ',';
+    copy(interface_column_);
+    *w++ = text ? ' ' : ',';
+    copy(e.text);
+  }
+  *w++ = '\n';
+  out.resize(static_cast<std::size_t>(w - out.data()));
 }
 
 }  // namespace saul::host

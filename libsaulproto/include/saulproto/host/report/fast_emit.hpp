@@ -74,6 +74,7 @@ class FrameEmitter {
     bool used = false;
     std::uint8_t outcome = 0;
     std::string text;
+    std::size_t split = 0;  // JSON: where the '\0' in text is (the timestamp and the interface go there)
   };
   struct Layout {  // per message description, made once: what its lines repeat
     const signals::MessageDesc* desc = nullptr;
@@ -94,7 +95,8 @@ class FrameEmitter {
   /// time_column's text written at `w` (room for kTimeColumnMax characters); returns its end.
   char* time_chars(std::uint64_t ns, char* w, bool parens);
   static constexpr std::size_t kTimeColumnMax = 30;  // "(" 20 digits "." 6 digits ")"
-  void timestamp_digits(std::uint64_t ns, fmt::memory_buffer& out);
+  /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
+  char* stamp_chars(std::uint64_t ns, char* w);
   const Entry& rendered(const CanFrame& frame);
   void render(const CanFrame& frame, Entry& e);
   bool render_message(const CanFrame& encoded, std::string& out);
@@ -110,7 +112,8 @@ class FrameEmitter {
   std::uint64_t stamp_seconds_ = 0;
   std::string stamp_text_;
   std::vector<Entry> cache_;
-  std::string interface_, interface_clean_;  // the last interface seen, and as the text column writes it
+  std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
+  bool interface_plain_ = true;               // JSON: no escapes needed
   std::vector<Layout> layouts_;
   std::string scratch_;
 };
