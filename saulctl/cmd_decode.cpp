@@ -162,6 +162,10 @@ int run_decode(const DecodeOptions& opt) {
   if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
   // Tests force the two-thread path on small files (tests/cli/decode_fast.sh).
   if (const char* from = std::getenv("SAUL_DECODE_PARALLEL_FROM")) fast.parallel_from = std::strtoull(from, nullptr, 10);
+  // Formats other than candump and pcap are read on a second thread from 4 MiB on (~20 ms of work: from there a
+  // thread pays off); tests move it (SAUL_DECODE_AHEAD_FROM).
+  std::uint64_t read_ahead_from = std::uint64_t{4} << 20;
+  if (const char* from = std::getenv("SAUL_DECODE_AHEAD_FROM")) read_ahead_from = std::strtoull(from, nullptr, 10);
   auto write_out = [](std::string_view text) { std::fwrite(text.data(), 1, text.size(), stdout); };
   auto count = [&](const saul::host::DecodeCounts& c) {
     frames += c.frames;
@@ -226,6 +230,12 @@ int run_decode(const DecodeOptions& opt) {
       continue;
     }
     any_can = true;
+    if (!fast_result && format != "long" && !watched) {
+      // Any other file format: its reader in batches through the same emitter, reading ahead on a second thread
+      // from read_ahead_from bytes on.
+      const auto total = opened->bytes_total();
+      fast_result = saul::host::decode_reader(*opened, total && *total >= read_ahead_from, fast, sinks);
+    }
     if (fast_result) {
       count(fast_result->counts);
       records += fast_result->records;

@@ -5,7 +5,7 @@
 # - stdin ('-') and a file give the same bytes; --format csv and --json the same as through the pcap reader
 #   (another reader, the same emitter), and --json parses line by line;
 # - a file above the two-thread threshold (SAUL_DECODE_PARALLEL_FROM forced low) decodes to the same bytes as on
-#   one thread; stats read ahead on a second thread gives the report of one.
+#   one thread; stats read ahead on a second thread gives the report of one, and so does decode of a pcapng.
 set -uo pipefail
 saulctl=$1
 source "$(dirname "$0")/check.bash"
@@ -59,6 +59,15 @@ for line in open(sys.argv[1]):
     json.loads(line)
     n += 1
 assert n == int(sys.argv[2]), n' "$out/file.jsonl" "$frames"
+
+# pcapng (a reader of its own, in batches through the same emitter): read ahead on a second thread or not, the
+# bytes of the candump log's decode, the corrupt line of the log excepted (convert skips it).
+"$saulctl" convert "$out/bus.log" "$out/bus.pcapng" >/dev/null 2>&1
+head -n "$frames" "$out/file.text" >"$out/frames.text"
+for ahead in 1 999999999999; do
+  SAUL_DECODE_AHEAD_FROM=$ahead "$saulctl" decode "$out/bus.pcapng" >"$out/pcapng.$ahead" 2>/dev/null
+  check "pcapng (read ahead from $ahead bytes): the bytes of the candump log" cmp -s "$out/frames.text" "$out/pcapng.$ahead"
+done
 
 # stats read ahead (SAUL_STATS_AHEAD_FROM forced low: parsing on a second thread) gives one thread's report and
 # the same corrupt lines, with a corrupt line in the middle, one at the end and a frame on a second interface.

@@ -8,16 +8,13 @@
 #include <array>
 #include <bit>
 #include <cerrno>
-#include <condition_variable>
 #include <cstring>
-#include <exception>
-#include <mutex>
 #include <stdexcept>
 #include <system_error>
-#include <thread>
 
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/compressed.hpp"
+#include "saulproto/host/capture/read_ahead.hpp"
 
 namespace saul::host {
 namespace {
@@ -305,61 +302,18 @@ void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, co
     return;
   }
   std::array<AheadSlot, kAheadBatches> slots;
-  std::mutex mutex;
-  std::condition_variable changed;
-  std::size_t produced = 0, consumed = 0;
-  bool done = false, stop = false;
-  std::exception_ptr failure;
-  std::thread reader([&] {
-    try {
-      CandumpScanner scanner(fd, begin, end);
-      for (std::size_t k = 0;; ++k) {
-        {
-          std::unique_lock lock(mutex);
-          changed.wait(lock, [&] { return stop || k < consumed + slots.size(); });
-          if (stop) break;
-        }
-        AheadSlot& slot = slots[k % slots.size()];
-        if (!scanner.next_batch(slot.batch)) break;
+  CandumpScanner scanner(fd, begin, end);
+  read_ahead(
+      slots.size(),
+      [&](std::size_t k) {
+        AheadSlot& slot = slots[k];
+        if (!scanner.next_batch(slot.batch)) return false;
         slot.own();
-        if (prepare) prepare(slot.batch, k % slots.size());
         slot.bytes = scanner.bytes_read();
-        std::lock_guard lock(mutex);
-        ++produced;
-        changed.notify_all();
-      }
-    } catch (...) {
-      std::lock_guard lock(mutex);
-      failure = std::current_exception();
-    }
-    std::lock_guard lock(mutex);
-    done = true;
-    changed.notify_all();
-  });
-  try {
-    for (std::size_t k = 0;; ++k) {
-      {
-        std::unique_lock lock(mutex);
-        changed.wait(lock, [&] { return done || k < produced; });
-        if (k >= produced) break;  // done, and every batch read was handed out
-      }
-      const AheadSlot& slot = slots[k % slots.size()];
-      on_batch(slot.batch, slot.bytes, k % slots.size());
-      std::lock_guard lock(mutex);
-      ++consumed;
-      changed.notify_all();
-    }
-  } catch (...) {
-    {
-      std::lock_guard lock(mutex);
-      stop = true;
-      changed.notify_all();
-    }
-    reader.join();
-    throw;
-  }
-  reader.join();
-  if (failure) std::rethrow_exception(failure);
+        if (prepare) prepare(slot.batch, k);
+        return true;
+      },
+      [&](std::size_t k) { on_batch(slots[k].batch, slots[k].bytes, k); });
 }
 
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block) {

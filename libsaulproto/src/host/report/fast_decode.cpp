@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <array>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -12,6 +13,7 @@
 
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
+#include "saulproto/host/capture/read_ahead.hpp"
 
 namespace saul::host {
 namespace {
@@ -28,6 +30,18 @@ struct Piece {
 
 bool wanted(const CandumpDecodeOptions& o, const CanFrame& f) { return !o.keep || o.keep(f); }
 
+/// One batch's frames into `piece` (its corrupt records kept there for the caller).
+void emit_batch(const CandumpBatch& batch, FrameEmitter& emitter, const CandumpDecodeOptions& o, Piece& piece) {
+  for (const auto& c : batch.corrupt) piece.corrupt.push_back(c.error);
+  const std::size_t n = batch.frames.size();
+  piece.records += n;
+  for (std::size_t i = 0; i < n; ++i) {
+    const CanFrame& f = batch.frames[i];
+    if (!wanted(o, f)) continue;
+    emitter.add(f, batch.interfaces[i], piece.out, piece.counts);
+  }
+}
+
 /// Reads every batch of `scanner` into `piece`; after each batch calls after_batch(piece, corrupt_from) where
 /// corrupt_from is the first corrupt entry that batch added.
 template <class Scanner, class AfterBatch>
@@ -36,28 +50,26 @@ void scan_all(Scanner& scanner, FrameEmitter& emitter, const CandumpDecodeOption
   CandumpBatch batch;
   while (scanner.next_batch(batch)) {
     const std::size_t corrupt_from = piece.corrupt.size();
-    for (auto& c : batch.corrupt) piece.corrupt.push_back(std::move(c.error));
-    const std::size_t n = batch.frames.size();
-    piece.records += n;
-    for (std::size_t i = 0; i < n; ++i) {
-      const CanFrame& f = batch.frames[i];
-      if (!wanted(o, f)) continue;
-      emitter.add(f, batch.interfaces[i], piece.out, piece.counts);
-    }
+    emit_batch(batch, emitter, o, piece);
     if constexpr (requires { scanner.lines(); }) piece.lines = scanner.lines();
     piece.bytes = scanner.bytes_read();
     after_batch(piece, corrupt_from);
   }
 }
 
-/// One thread: batches in file order, output written every flush_at bytes (every batch when `live`).
-template <class Scanner>
-CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptions& o,
-                           const CandumpDecodeSinks& sinks) {
-  FrameEmitter emitter(o.format, o.time);
+/// One thread's output: reports the batch's corrupt records and progress, writes every flush_at bytes (every batch
+/// when `live`).
+struct InOrder {
+  InOrder(const CandumpDecodeOptions& options, const CandumpDecodeSinks& to, bool is_live)
+      : o(options), sinks(to), live(is_live), emitter(options.format, options.time) {}
+  const CandumpDecodeOptions& o;
+  const CandumpDecodeSinks& sinks;
+  bool live;
+  FrameEmitter emitter;
   Piece piece;
   CandumpDecodeResult result;
-  scan_all(scanner, emitter, o, piece, [&](Piece& p, std::size_t corrupt_from) {
+  void after_batch(std::size_t corrupt_from) {
+    Piece& p = piece;
     if (sinks.progress) sinks.progress(p.records + result.corrupt + p.corrupt.size() - corrupt_from, p.bytes);
     for (std::size_t i = corrupt_from; i < p.corrupt.size(); ++i) sinks.corrupt(p.corrupt[i]);
     result.corrupt += p.corrupt.size() - corrupt_from;
@@ -66,11 +78,56 @@ CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptio
       sinks.write(std::string_view(p.out.data(), p.out.size()));
       p.out.clear();
     }
-  });
-  if (piece.out.size() > 0) sinks.write(std::string_view(piece.out.data(), piece.out.size()));
-  result.counts = piece.counts;
-  result.records = piece.records;
-  return result;
+  }
+  CandumpDecodeResult finish() {
+    if (piece.out.size() > 0) sinks.write(std::string_view(piece.out.data(), piece.out.size()));
+    result.counts = piece.counts;
+    result.records = piece.records;
+    return result;
+  }
+};
+
+/// One thread: batches in file order.
+template <class Scanner>
+CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptions& o,
+                           const CandumpDecodeSinks& sinks) {
+  InOrder run(o, sinks, live);
+  scan_all(scanner, run.emitter, o, run.piece, [&](Piece&, std::size_t corrupt_from) { run.after_batch(corrupt_from); });
+  return run.finish();
+}
+
+/// A batch of any CaptureReader's frames, as CandumpScanner hands them out, its interfaces in `names`.
+struct ReaderSlot {
+  CandumpBatch batch;
+  std::string names;
+  std::uint64_t bytes = 0;
+};
+
+bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
+  CandumpBatch& batch = slot.batch;
+  batch.clear();
+  slot.names.clear();
+  std::vector<std::pair<std::size_t, std::size_t>> spans;  // of the interfaces in names, made views at the end
+  spans.reserve(CandumpScanner::kMaxBatch);
+  while (batch.frames.size() + batch.corrupt.size() < CandumpScanner::kMaxBatch) {
+    const auto st = reader.next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      batch.corrupt.push_back({batch.frames.size(), reader.error()});
+      continue;
+    }
+    batch.frames.push_back(reader.frame());
+    const std::string_view name = reader.interface();
+    if (spans.empty() || name != std::string_view(slot.names).substr(spans.back().first, spans.back().second)) {
+      spans.emplace_back(slot.names.size(), name.size());
+      slot.names.append(name);
+    } else {
+      spans.push_back(spans.back());
+    }
+  }
+  for (const auto& [at, n] : spans) batch.interfaces.emplace_back(slot.names.data() + at, n);
+  slot.bytes = reader.bytes_read();
+  return !batch.frames.empty() || !batch.corrupt.empty();
 }
 
 /// The time of the first frame that passes the filter, for TimeMode::relative.
@@ -199,6 +256,27 @@ std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, 
   const auto file = CandumpFile::open(path);
   if (!file) return std::nullopt;
   return decode_candump(file->fd(), file->size(), options, sinks);
+}
+
+CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const CandumpDecodeOptions& options,
+                                  const CandumpDecodeSinks& sinks) {
+  InOrder run(options, sinks, false);
+  auto take = [&](const ReaderSlot& slot) {
+    const std::size_t corrupt_from = run.piece.corrupt.size();
+    emit_batch(slot.batch, run.emitter, options, run.piece);
+    run.piece.bytes = slot.bytes;
+    run.after_batch(corrupt_from);
+  };
+  if (!ahead) {
+    ReaderSlot slot;
+    while (read_batch(reader, slot)) take(slot);
+    return run.finish();
+  }
+  std::array<ReaderSlot, kAheadBatches> slots;
+  read_ahead(
+      slots.size(), [&](std::size_t k) { return read_batch(reader, slots[k]); },
+      [&](std::size_t k) { take(slots[k]); });
+  return run.finish();
 }
 
 std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,

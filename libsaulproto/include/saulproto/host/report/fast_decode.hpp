@@ -51,6 +51,12 @@ CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, co
 std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
                                                     const CandumpDecodeSinks& sinks);
 
+/// The same for any reader (pcapng, ASC, TRC, BLF, compressed logs, ...): its frames in batches through the same
+/// emitter. With `ahead` the reader (parsing, decompressing) runs on a second thread a few batches ahead of the
+/// decoding and writing on this one; the output is the same bytes. Progress counts records and reader.bytes_read().
+CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const CandumpDecodeOptions& options,
+                                  const CandumpDecodeSinks& sinks);
+
 /// decode_candump() of the file at `path` when it is a regular file holding uncompressed candump text (told by its
 /// first bytes, as detect_capture_format does); nullopt, having read nothing else, when it is not (or cannot be
 /// opened): the caller reads it through open_capture_reader.
