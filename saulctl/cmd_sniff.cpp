@@ -63,6 +63,9 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
                saul::host::to_string(link->timestamp_source()), shared.empty() ? "" : "; " + shared);
   }
   int status = kOk;
+  // Output is flushed once the link has nothing more queued, not after every line: a burst of frames costs one
+  // write, a lone frame still shows at once.
+  bool unflushed = false;
   try {
     while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
       auto wait = milliseconds(200);
@@ -71,7 +74,13 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (left.count() <= 0) break;
         wait = std::min(wait, left);
       }
+      if (unflushed) wait = milliseconds(0);
       const auto f = link->receive(wait);
+      if (!f && unflushed) {
+        std::fflush(stdout);
+        unflushed = false;
+        continue;
+      }
       const auto now_state = link->stats().state;
       if (now_state != state) {
         // Controller state changes are always shown, loudly, with the time they were seen.
@@ -86,12 +95,13 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       } else {
         fmt::print("{}\n", saul::host::frame_line(t, link->name(), *f));
       }
-      std::fflush(stdout);
+      unflushed = true;
       ++shown;
     }
   } catch (const std::exception& e) {
     status = report_link_error(e);
   }
+  std::fflush(stdout);
   const auto s = link->stats();
   fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}{}\n", shown,
              s.rx_frames, s.tx_frames, s.rx_dropped, s.error_frames, s.bus_off_events, saul::host::to_string(s.state),
