@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 
 #include <initializer_list>
+#include <random>
+#include <vector>
 #include <string>
 
 #include "saulproto/core/dispatch.hpp"
@@ -147,4 +149,32 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
   }
   CHECK(host::to_json(crsf::Message{rc})["ch1"] == 2047);  // JSON: ticks, and microseconds beside them
   CHECK(host::to_json(crsf::Message{rc}).dump().find(R"("ch1_us":2159,)") != std::string::npos);
+}
+
+TEST_CASE("append_value_text writes a physical decimal exactly as fmt's {:g} would (its short cut for x/10^k)") {
+  // The short cut skips formatting a double; this holds it to fmt's own "{:g}" of the same value, for every scale
+  // the descriptions use and some they do not, over signed values near the edges of %g's fixed notation.
+  std::mt19937_64 rng(15);
+  int checked = 0;
+  for (std::int32_t den : {1, 10, 100, 1000, 10000, 100000, 4}) {
+    saul::signals::SignalDesc s;
+    s.kind = saul::signals::Kind::signed_int;
+    s.length = 48;
+    s = s.scaled(1, den).shown(saul::signals::Text::physical);
+    std::vector<std::int64_t> raws = {0, 1, -1, 9, 10, 99, 100, 101, 999999, 1000000, -1000000, 123456789, 1999999999};
+    for (int i = 0; i < 3000; ++i) {
+      const int digits = static_cast<int>(rng() % 13);
+      std::int64_t v = static_cast<std::int64_t>(rng() % 10);
+      for (int d = 0; d < digits; ++d) v = v * 10 + static_cast<std::int64_t>(rng() % 10);
+      raws.push_back(rng() % 2 ? v : -v);
+    }
+    for (std::int64_t raw : raws) {
+      std::string got;
+      host::append_value_text(got, s, raw, {});
+      const std::string want = fmt::format("{:g}", saul::signals::raw_to_physical(s, raw));
+      if (got != want) FAIL_CHECK(fmt::format("1/{} of {}: {} but {{:g}} gives {}", den, raw, got, want));
+      ++checked;
+    }
+  }
+  CHECK(checked > 20000);
 }

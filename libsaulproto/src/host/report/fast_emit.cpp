@@ -49,74 +49,7 @@ void put_padded(fmt::memory_buffer& out, std::uint64_t v, std::size_t width, cha
   out.append(tmp, r.ptr);
 }
 
-// ---- values, as format.cpp's text_of() and json_of() write them -----------------------------------------------
-
-/// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
-/// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
-/// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. False
-/// (nothing written) otherwise.
-bool decimal_g(std::string& out, std::int64_t raw, std::int32_t den) {
-  int places = 0;
-  for (std::int32_t d = den; d > 1; d /= 10) {
-    if (d % 10 != 0) return false;
-    ++places;
-  }
-  if (places > 4 || raw <= -1'000'000'000'000LL || raw >= 1'000'000'000'000LL) return false;
-  std::uint64_t v = raw < 0 ? static_cast<std::uint64_t>(-raw) : static_cast<std::uint64_t>(raw);
-  if (v == 0) {
-    out += '0';
-    return true;
-  }
-  if (v / static_cast<std::uint64_t>(den) >= 1'000'000) return false;
-  // drop the fraction's trailing zeros
-  while (places > 0 && v % 10 == 0) {
-    v /= 10;
-    --places;
-  }
-  char digits[24];
-  const auto r = std::to_chars(digits, digits + sizeof digits, v);
-  auto n = static_cast<int>(r.ptr - digits);
-  int significant = n;
-  for (int i = n - 1; i > 0 && digits[i] == '0'; --i) --significant;  // an integer's trailing zeros
-  if (n <= places) significant = n;                                    // 0.00ddd: the leading zeros do not count
-  if (significant > 6) return false;
-  if (raw < 0) out += '-';
-  if (n <= places) {
-    out += "0.";
-    out.append(static_cast<std::size_t>(places - n), '0');
-    out.append(digits, static_cast<std::size_t>(n));
-  } else {
-    out.append(digits, static_cast<std::size_t>(n - places));
-    if (places > 0) {
-      out += '.';
-      out.append(digits + n - places, static_cast<std::size_t>(places));
-    }
-  }
-  return true;
-}
-
-void text_value(std::string& out, const SignalDesc& s, std::int64_t raw, std::string_view chars) {
-  auto it = std::back_inserter(out);
-  if (s.kind == Kind::string) return put(out, chars);
-  if (signals::text_in_unit(s)) return put(out, physical_text(s, raw));  // format.cpp's, so units stay one
-  switch (s.text) {
-    case Text::raw:
-      if (s.kind == Kind::float32) {
-        fmt::format_to(it, FMT_COMPILE("{:g}"), std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
-        return;
-      }
-      return put_int(out, raw);
-    case Text::name:
-      if (const char* name = signals::value_name(s, raw)) return put(out, name);
-      return put_int(out, raw);
-    case Text::physical:
-      if (s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0 && decimal_g(out, raw, s.scale_den)) return;
-      fmt::format_to(it, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw));
-      return;
-    case Text::physical_int: return put_int(out, std::llround(signals::raw_to_physical(s, raw)));
-  }
-  put_int(out, raw);
-}
+// ---- JSON values, as format.cpp's json_of() writes them (text values: format.cpp's append_value_text) -----------------------------------------------
 
 /// A JSON string as nlohmann's dump() writes it (printable ASCII copied; anything else through nlohmann).
 void json_string(std::string& out, std::string_view s) {
@@ -408,7 +341,7 @@ bool FrameEmitter::render_message(const CanFrame& g, std::string& out) {
     const Read r = read_signal(*d, s, wire, mux);
     if (!r.present) continue;
     out += l.text_keys[i];
-    text_value(out, s, r.raw, r.chars);
+    append_value_text(out, s, r.raw, r.chars);
   }
   if (format_ == DecodeFormat::csv) {
     // "name,fields": the space after the name becomes the comma when the fields need no quotes (nearly always)

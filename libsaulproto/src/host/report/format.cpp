@@ -1,9 +1,11 @@
 #include "saulproto/host/report/format.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <string_view>
 #include <type_traits>
@@ -86,24 +88,116 @@ std::int64_t scaled_by_ten_k(const signals::SignalDesc& s, std::int64_t raw, int
 }
 }  // namespace
 
+namespace {
+void append_int(std::string& out, std::int64_t v) {
+  char tmp[24];
+  const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
+  out.append(tmp, r.ptr);
+}
+}  // namespace
+
 // A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
-// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise. Also the fast emitter's (fast_emit.cpp).
-std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
+// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise.
+void append_physical_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw) {
   const int k = signals::text_decimals(s);
-  std::string number;
   if (k < 0) {
-    number = fmt::format("{}", static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
+    append_int(out, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
   } else {
     std::int64_t ten_k = 1;
     const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
     const std::uint64_t magnitude = scaled < 0 ? 0 - static_cast<std::uint64_t>(scaled) : static_cast<std::uint64_t>(scaled);
-    const auto whole = magnitude / static_cast<std::uint64_t>(ten_k);
-    const auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
-    number = k == 0 ? fmt::format("{}{}", scaled < 0 ? "-" : "", whole)
-                    : fmt::format("{}{}.{:0{}}", scaled < 0 ? "-" : "", whole, frac, k);
+    if (scaled < 0) out += '-';
+    char tmp[24];
+    const auto r = std::to_chars(tmp, tmp + sizeof tmp, magnitude / static_cast<std::uint64_t>(ten_k));
+    out.append(tmp, r.ptr);
+    if (k > 0) {
+      // the fraction, k digits with its leading zeros
+      auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
+      const std::size_t at = out.size() + 1;
+      out.append(static_cast<std::size_t>(k) + 1, '0');
+      out[at - 1] = '.';
+      for (int i = k - 1; i >= 0; --i, frac /= 10) out[at + static_cast<std::size_t>(i)] = static_cast<char>('0' + frac % 10);
+    }
   }
-  return number + std::string(unit_symbol(s.unit));
+  out.append(unit_symbol(s.unit));
 }
+
+std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
+  std::string out;
+  append_physical_text(out, s, raw);
+  return out;
+}
+
+namespace {
+/// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
+/// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
+/// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. False
+/// (nothing written) otherwise.
+bool decimal_g(std::string& out, std::int64_t raw, std::int32_t den) {
+  int places = 0;
+  for (std::int32_t d = den; d > 1; d /= 10) {
+    if (d % 10 != 0) return false;
+    ++places;
+  }
+  if (places > 4 || raw <= -1'000'000'000'000LL || raw >= 1'000'000'000'000LL) return false;
+  std::uint64_t v = raw < 0 ? static_cast<std::uint64_t>(-raw) : static_cast<std::uint64_t>(raw);
+  if (v == 0) {
+    out += '0';
+    return true;
+  }
+  if (v / static_cast<std::uint64_t>(den) >= 1'000'000) return false;
+  // drop the fraction's trailing zeros
+  while (places > 0 && v % 10 == 0) {
+    v /= 10;
+    --places;
+  }
+  char digits[24];
+  const auto r = std::to_chars(digits, digits + sizeof digits, v);
+  auto n = static_cast<int>(r.ptr - digits);
+  int significant = n;
+  for (int i = n - 1; i > 0 && digits[i] == '0'; --i) --significant;  // an integer's trailing zeros
+  if (n <= places) significant = n;                                    // 0.00ddd: the leading zeros do not count
+  if (significant > 6) return false;
+  if (raw < 0) out += '-';
+  if (n <= places) {
+    out += "0.";
+    out.append(static_cast<std::size_t>(places - n), '0');
+    out.append(digits, static_cast<std::size_t>(n));
+  } else {
+    out.append(digits, static_cast<std::size_t>(n - places));
+    if (places > 0) {
+      out += '.';
+      out.append(digits + n - places, static_cast<std::size_t>(places));
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+void append_value_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  auto it = std::back_inserter(out);
+  if (s.kind == Kind::string) return out.append(chars), void();
+  if (signals::text_in_unit(s)) return append_physical_text(out, s, raw);
+  switch (s.text) {
+    case Text::raw:
+      if (s.kind == Kind::float32) {
+        fmt::format_to(it, FMT_COMPILE("{:g}"), std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
+        return;
+      }
+      return append_int(out, raw);
+    case Text::name:
+      if (const char* name = signals::value_name(s, raw)) return out.append(name), void();
+      return append_int(out, raw);
+    case Text::physical:
+      if (s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0 && decimal_g(out, raw, s.scale_den)) return;
+      fmt::format_to(it, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw));
+      return;
+    case Text::physical_int: return append_int(out, std::llround(signals::raw_to_physical(s, raw)));
+  }
+  append_int(out, raw);
+}
+
 
 PhysicalNumber physical_number(const signals::SignalDesc& s, std::int64_t raw) {
   const int k = signals::text_decimals(s);
@@ -137,25 +231,6 @@ std::string physical_key(const signals::SignalDesc& s) {
 
 namespace {
 
-// The value as text: the wire integer, its name, or its physical value (SignalDesc::text); a scaled wire
-// integer as its physical value with its unit (signals::text_in_unit).
-std::string text_of(const SignalValue& v) {
-  const auto& s = *v.signal;
-  if (s.kind == Kind::string) return v.text;
-  if (signals::text_in_unit(s)) return physical_text(s, v.raw);
-  switch (s.text) {
-    case Text::raw:
-      if (s.kind == Kind::float32) return fmt::format("{:g}", std::bit_cast<float>(static_cast<std::uint32_t>(v.raw)));
-      return fmt::format("{}", v.raw);
-    case Text::name:
-      if (const char* name = signals::value_name(s, v.raw)) return name;
-      return fmt::format("{}", v.raw);
-    case Text::physical: return fmt::format("{:g}", signals::raw_to_physical(s, v.raw));
-    case Text::physical_int: return fmt::format("{}", std::llround(signals::raw_to_physical(s, v.raw)));
-  }
-  return fmt::format("{}", v.raw);
-}
-
 nlohmann::json json_of(const SignalValue& v) {
   const auto& s = *v.signal;
   if (s.kind == Kind::string) return v.text;
@@ -178,7 +253,7 @@ std::string describe_values(const SignalValues& values) {
     s += ' ';
     s += signals::text_in_unit(*v.signal) ? v.signal->name : v.signal->key;
     s += '=';
-    s += text_of(v);
+    append_value_text(s, *v.signal, v.raw, v.text);
   }
   return s;
 }

@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
@@ -45,6 +46,14 @@ SignalValues signal_values(const crsf::Message& message);
 /// such values, shared by describe() and the fast emitter (fast_emit.hpp). The key text shows then is the signal's
 /// name (SignalDesc::name, "pitch"), not its wire key ("pitch_x100").
 std::string physical_text(const signals::SignalDesc& s, std::int64_t raw);
+/// The same, appended to `out` (no allocation beyond out's growth).
+void append_physical_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw);
+
+/// A signal's value as text shows it, appended to `out`: the wire integer, its value name, its physical value
+/// (fmt's "{:g}", written directly when it is an exact short decimal) or, for a scaled wire integer, its
+/// physical value with its unit (append_physical_text). `chars` is a string signal's text. The one text formatter
+/// of values: describe() and the fast emitter (fast_emit.hpp) both write with it.
+void append_value_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars);
 
 /// The JSON key of a scaled wire integer's physical value: the signal's name and its unit as a word, lower case,
 /// '/' dropped ("pitch" in deg -> "pitch_deg", "battery" in V -> "battery_v", "ch1" in us -> "ch1_us", km/h ->
