@@ -175,6 +175,13 @@ int run_decode(const DecodeOptions& opt) {
     errors += c.errors;
   };
 
+  // Standard input that held lines but not one candump -L line: what it looks like, and exit 1.
+  auto not_candump_on_stdin = [&](const std::string& first_other) {
+    progress.finish();
+    fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",
+               saul::host::describe_non_capture(first_other));
+    status = kFailure;
+  };
   for (const auto& path : opt.files) {
     std::uint64_t progress_records = 0;
     saul::host::CandumpDecodeSinks sinks;
@@ -194,8 +201,16 @@ int run_decode(const DecodeOptions& opt) {
     std::unique_ptr<std::istream> watched_in;
     const std::uint64_t records_before = records, corrupt_before = corrupt;
     try {
-      if (path == "-") {
-        // Standard input frame by frame, watching for a first line that is not candump -L (the hint below).
+      if (path == "-" && format != "long") {
+        // Standard input through the scanner (big reads, each written at once, so a pipe from candump stays live);
+        // its first line that is not candump -L gives the hint below when nothing decoded.
+        sinks.write = [&](std::string_view text) {  // every read's lines out at once: stdout to a pipe buffers
+          write_out(text);
+          std::fflush(stdout);
+        };
+        fast_result = saul::host::decode_candump(STDIN_FILENO, std::nullopt, fast, sinks);
+      } else if (path == "-") {
+        // The long CSV frame by frame, watching for a first line that is not candump -L (the hint below).
         watched = std::make_unique<WatchedLines>(std::cin);
         watched_in = std::make_unique<std::istream>(watched.get());
         opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
@@ -240,6 +255,8 @@ int run_decode(const DecodeOptions& opt) {
       count(fast_result->counts);
       records += fast_result->records;
       corrupt += fast_result->corrupt;
+      if (path == "-" && records == records_before && corrupt == corrupt_before && !fast_result->first_other.empty())
+        not_candump_on_stdin(fast_result->first_other);
       continue;
     }
     saul::host::CaptureReader& reader = *opened;
@@ -286,12 +303,8 @@ int run_decode(const DecodeOptions& opt) {
     }
     write_out(std::string_view(out.data(), out.size()));
     count(counts);
-    if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty()) {
-      progress.finish();
-      fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",
-                 saul::host::describe_non_capture(watched->first_other()));
-      status = kFailure;
-    }
+    if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty())
+      not_candump_on_stdin(watched->first_other());
   }
   progress.finish();
   if (any_can || !any_serial)

@@ -86,5 +86,19 @@ check "stats: both corrupt lines reported at their lines" \
   test "$(grep -cE "mixed.log:(30002|$((frames + 3))):" "$out/ahead.err")" -eq 2
 check "stats: every frame counted, the one on can1 too" grep -q "^$out/mixed.log: $((frames + 1)) frames" "$out/ahead.stats"
 check "stats: can1 has its own load line" grep -q "bus load on can1 " "$out/ahead.stats"
+# Standard input stays live (candump -L can0 | saulctl decode -): a line written to the pipe comes out decoded
+# while the pipe is still open, not at its end.
+check "stdin is live: a frame on an open pipe is decoded before the pipe ends" python3 - "$saulctl" <<'PY'
+import select, subprocess, sys
+p = subprocess.Popen([sys.argv[1], "decode", "-"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                     stderr=subprocess.DEVNULL)
+p.stdin.write(b"(1763800000.000000) can0 300#E8030CFE\n")
+p.stdin.flush()
+ready, _, _ = select.select([p.stdout], [], [], 20)
+line = p.stdout.readline() if ready else b""
+p.stdin.close()
+p.wait(timeout=20)
+sys.exit(0 if b"velocity_cmd speed_mmps=1000 steer_mrad=-500" in line else 1)
+PY
 echo "$fails failed"
 exit $((fails > 0))

@@ -162,7 +162,11 @@ std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
 
 void CandumpScanner::line(std::string_view text, CandumpBatch& batch) {
   ++line_;
-  if (text.empty() || text[0] != '(') return;  // comment or blank, as canplayer (and CandumpReader) does
+  if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer (and CandumpReader) does
+    if (first_other_.empty() && text.find_first_not_of(" \t\r") != std::string_view::npos)
+      first_other_.assign(text.substr(0, 256));
+    return;
+  }
   if (text.size() > kMaxCandumpLine) {
     too_long(batch);
     return;

@@ -248,7 +248,9 @@ CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, co
     return single(scanner, false, options, sinks);
   }
   CandumpScanner scanner(fd);
-  return single(scanner, true, options, sinks);
+  CandumpDecodeResult result = single(scanner, true, options, sinks);
+  result.first_other = scanner.first_other();
+  return result;
 }
 
 std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, const CandumpDecodeOptions& options,

@@ -62,6 +62,9 @@ class CandumpScanner {
   [[nodiscard]] std::uint64_t lines() const noexcept { return line_; }
   /// Bytes read so far (from the range's start).
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return consumed_; }
+  /// The first line that was neither blank nor a candump line (skipped as a comment), its first 256 bytes: what
+  /// a file that yields no frame looks like (describe_non_capture). Empty when there was none.
+  [[nodiscard]] const std::string& first_other() const noexcept { return first_other_; }
 
   static constexpr std::size_t kDefaultBlock = std::size_t{1} << 20;
   /// The most frames one batch holds.
@@ -84,6 +87,7 @@ class CandumpScanner {
   bool skipping_ = false;  // inside an over-long line: drop bytes up to its newline
   std::uint64_t line_ = 0;
   std::uint64_t consumed_ = 0;
+  std::string first_other_;
 };
 
 /// Calls on_frame(frame, interface) and on_corrupt(error) for everything in `batch`, in file order.

@@ -32,6 +32,8 @@ struct CandumpDecodeResult {
   DecodeCounts counts;        ///< frames that passed the id filter
   std::uint64_t records = 0;  ///< frames read, before the filter
   std::uint64_t corrupt = 0;
+  /// A pipe's first line that was no candump line (CandumpScanner::first_other), for "not a capture" hints.
+  std::string first_other;
 };
 
 struct CandumpDecodeSinks {
