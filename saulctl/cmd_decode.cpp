@@ -277,17 +277,8 @@ int run_decode(const DecodeOptions& opt) {
       const saul::CanFrame& f = reader.frame();
       if (!ids.empty() && !saul::host::passes(ids, f)) continue;
       if (format == "long") {
-        ++counts.frames;
         const auto result = saul::decode_bus_frame(f);
-        if (result) {
-          ++counts.decoded;
-        } else if (result.reason() == saul::Reason::unknown_id) {
-          ++counts.unknown;
-        } else if (result.reason() == saul::Reason::error_frame) {
-          ++counts.errors;
-        } else {
-          ++counts.rejected;
-        }
+        counts.count(result);
         const std::string stamp = time_text(opt.time, f.timestamp_ns.value_or(0), first, previous);
         fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
                                                    f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),

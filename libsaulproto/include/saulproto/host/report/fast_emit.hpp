@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/report/frame_text.hpp"
 
@@ -40,6 +41,19 @@ struct DecodeCounts {
     rejected += o.rejected;
     errors += o.errors;
     return *this;
+  }
+  /// One frame's decode counted: decoded, unknown id, error frame, or rejected (any other reason).
+  void count(const Result<BusMessage>& result) noexcept {
+    ++frames;
+    if (result) {
+      ++decoded;
+    } else if (result.reason() == Reason::unknown_id) {
+      ++unknown;
+    } else if (result.reason() == Reason::error_frame) {
+      ++errors;
+    } else {
+      ++rejected;
+    }
   }
 };
 
