@@ -13,6 +13,7 @@
 #include "live.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
+#include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
 #include "saulproto/host/link/socketcan.hpp"
@@ -63,9 +64,29 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
                saul::host::to_string(link->timestamp_source()), shared.empty() ? "" : "; " + shared);
   }
   int status = kOk;
-  // Output is flushed once the link has nothing more queued, not after every line: a burst of frames costs one
-  // write, a lone frame still shows at once.
-  bool unflushed = false;
+  // Lines go into one buffer, written once the link has nothing more queued (or the buffer is large), not after
+  // every line: a burst of frames costs one write, a lone frame still shows at once. They are decode's lines
+  // (FrameEmitter), error frames with what they report.
+  saul::host::FrameEmitter emit(opt.json ? saul::host::DecodeFormat::jsonl : saul::host::DecodeFormat::text,
+                                time_mode(opt.time));
+  emit.show_error_detail();
+  saul::host::DecodeCounts counts;
+  fmt::memory_buffer out;
+  auto flush = [&out] {
+    std::fwrite(out.data(), 1, out.size(), stdout);
+    std::fflush(stdout);
+    out.clear();
+  };
+  // The controller state is looked at when the link is idle and every 64 frames: it takes the link's locks.
+  auto check_state = [&] {
+    const auto now_state = link->stats().state;
+    if (now_state == state) return;
+    // Controller state changes are always shown, loudly, with the time they were seen.
+    flush();
+    fmt::print(stderr, "sniff: {} controller state {} -> {}\n", column(saul::host::realtime_ns()),
+               saul::host::to_string(state), saul::host::to_string(now_state));
+    state = now_state;
+  };
   try {
     while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
       auto wait = milliseconds(200);
@@ -74,34 +95,23 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (left.count() <= 0) break;
         wait = std::min(wait, left);
       }
-      if (unflushed) wait = milliseconds(0);
-      const auto f = link->receive(wait);
-      if (!f && unflushed) {
-        std::fflush(stdout);
-        unflushed = false;
+      if (out.size() != 0) wait = milliseconds(0);
+      auto f = link->receive(wait);
+      if (!f) {
+        if (out.size() != 0) flush();
+        check_state();
         continue;
       }
-      const auto now_state = link->stats().state;
-      if (now_state != state) {
-        // Controller state changes are always shown, loudly, with the time they were seen.
-        fmt::print(stderr, "sniff: {} controller state {} -> {}\n", column(saul::host::realtime_ns()),
-                   saul::host::to_string(state), saul::host::to_string(now_state));
-        state = now_state;
-      }
-      if (!f) continue;
-      const std::string t = column(f->timestamp_ns.value_or(saul::host::realtime_ns()));
-      if (opt.json) {
-        fmt::print("{}\n", saul::host::frame_record(t, link->name(), *f).dump());
-      } else {
-        fmt::print("{}\n", saul::host::frame_line(t, link->name(), *f));
-      }
-      unflushed = true;
+      if (shown % 64 == 0) check_state();
+      if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
+      emit.add(*f, link->name(), out, counts);
       ++shown;
+      if (out.size() >= (1 << 16)) flush();
     }
   } catch (const std::exception& e) {
     status = report_link_error(e);
   }
-  std::fflush(stdout);
+  flush();
   const auto s = link->stats();
   fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}{}\n", shown,
              s.rx_frames, s.tx_frames, s.rx_dropped, s.error_frames, s.bus_off_events, saul::host::to_string(s.state),

@@ -166,6 +166,44 @@ TEST_CASE("fast emitter: text, CSV and JSON lines are byte for byte the referenc
   }
 }
 
+TEST_CASE("fast emitter for sniff: error frames say what they report, other lines are frame_line's and frame_record's") {
+  // sniff printed frame_line() and frame_record().dump() per frame (an nlohmann DOM each); it now writes through the
+  // emitter with show_error_detail(). That older path is the oracle, on the same random frames, in every time mode.
+  std::mt19937_64 rng(20261124);
+  const auto frames = random_frames(rng, 4000);
+  const std::vector<std::string> links = {"slcan:/dev/ttyACM0", "can0", "slcan:/dev/pts/3"};
+  for (auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
+    for (auto mode : {TimeMode::absolute, TimeMode::relative, TimeMode::delta}) {
+      FrameEmitter emitter(format, mode);
+      emitter.show_error_detail();
+      Clock clock{mode, {}, {}};
+      fmt::memory_buffer out;
+      DecodeCounts counts;
+      std::string expected;
+      std::size_t error_frames = 0;
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        const CanFrame& f = frames[i];
+        const std::string& link = links[(i / 100) % links.size()];
+        emitter.add(f, link, out, counts);
+        const std::string column = clock(f.timestamp_ns.value_or(0));
+        expected += format == DecodeFormat::text ? frame_line(column, link, f) : frame_record(column, link, f).dump();
+        expected += '\n';
+        error_frames += f.error ? 1 : 0;
+      }
+      INFO("format " << static_cast<int>(format) << " time mode " << static_cast<int>(mode));
+      std::istringstream a(std::string(out.data(), out.size())), b(expected);
+      std::string la, lb;
+      while (std::getline(b, lb)) {
+        REQUIRE(std::getline(a, la));
+        REQUIRE(la == lb);
+      }
+      CHECK(!std::getline(a, la));
+      CHECK(error_frames > 100);
+      CHECK(counts.errors == error_frames);
+    }
+  }
+}
+
 TEST_CASE("fast emitter: a velocity command, written out by hand in all three formats") {
   CanFrame f;
   f.id = 0x300;

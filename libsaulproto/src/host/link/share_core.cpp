@@ -492,12 +492,14 @@ void OwnerCore::run() {
     polled.clear();
     fds.push_back({wake_fd_, POLLIN, 0});
     fds.push_back({listen_fd_, POLLIN, 0});
-    fds.push_back({device_fd_, POLLIN, 0});
+    // A held device is left out of the poll (a negative fd is ignored) and looked at again in 5 ms at the latest.
+    const bool held = device_fd_ >= 0 && clients_.empty() && device_held();
+    fds.push_back({held ? -1 : device_fd_, POLLIN, 0});
     for (auto& c : clients_) {
       fds.push_back({c->fd, static_cast<short>(POLLIN | (c->outbox.empty() ? 0 : POLLOUT)), 0});
       polled.push_back(c.get());
     }
-    const int r = ::poll(fds.data(), fds.size(), more ? 0 : 100);
+    const int r = ::poll(fds.data(), fds.size(), held ? 5 : more ? 0 : 100);
     if (r < 0 && errno != EINTR) break;
     if (stopping_) break;
     if (fds[0].revents & POLLIN) {
@@ -520,8 +522,8 @@ void OwnerCore::run() {
     std::stable_partition(batch.begin(), batch.end(), [](const auto& p) { return priority(p.second); });
     for (auto& [c, m] : batch)
       if (!c->dead) handle(*c, m);
-    const bool pending = more;
-    more = false;
+    const bool pending = more && !held;
+    more = held && more;
     if (device_fd_ >= 0 && (fds[2].revents || pending)) more = pump_device();
     if (listen_fd_ >= 0 && (fds[1].revents & POLLIN)) accept_client();
     const auto now = steady_clock::now();

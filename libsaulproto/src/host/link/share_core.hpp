@@ -165,6 +165,10 @@ class OwnerCore {
   /// Hooks, on the serving thread.
   /// The device polled readable (or hung up): read it; true when there may be more already read and waiting.
   virtual bool pump_device() = 0;
+  /// True while the device should stay unread: the owner's own reader is behind and nobody else is attached, so the
+  /// frames wait in the device (the kernel's buffer, then the adapter) instead of being read only to be dropped from
+  /// a full queue. While it holds, the thread looks again every few milliseconds and on wake_serving().
+  virtual bool device_held() { return false; }
   virtual void on_message(Client& from, Msg type, In& in) = 0;
   virtual std::vector<std::uint8_t> stats_for(const Client& c) = 0;
   /// "" to accept a hello, else why not.
@@ -179,6 +183,10 @@ class OwnerCore {
   void post_broadcast(std::vector<std::uint8_t> m);
   /// The device is gone: clients get `text`, the socket goes, the device is no longer polled.
   void device_gone(const std::string& text);
+  /// From any thread: the serving thread looks at the device again now (device_held() may have changed).
+  void wake_serving() { wake(); }
+  /// On the serving thread: whether any client is attached (greeted or not), without a lock.
+  [[nodiscard]] bool has_clients() const { return !clients_.empty(); }
 
   [[nodiscard]] int client_count() const { return clients_count_.load(); }
   [[nodiscard]] bool serving() const { return serving_.load(); }

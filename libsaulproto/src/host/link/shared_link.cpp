@@ -10,6 +10,7 @@
 #include <climits>
 #include <condition_variable>
 #include <cstring>
+#include <span>
 
 #include "saulproto/host/link/device_holders.hpp"
 #include "saulproto/host/link/link_spec.hpp"
@@ -24,6 +25,8 @@ using namespace std::chrono;
 namespace {
 
 constexpr std::size_t kMaxQueuedFrames = 8192;
+// The owner's own reader is behind when this many frames wait for it; the device is read again once half are taken.
+constexpr std::size_t kHoldFrames = 2048;
 constexpr std::size_t kMaxQueuedBytes = 1 << 16;
 
 /// What the owner keeps for its own process: frames or bytes the serving thread read, waited for on an eventfd
@@ -146,6 +149,10 @@ class CanOwner final : public CanLink, private OwnerCore {
         if (!queue_.empty()) {
           CanFrame f = queue_.front();
           queue_.pop_front();
+          if (holding_ && queue_.size() <= kHoldFrames / 2) {
+            holding_ = false;
+            wake_serving();
+          }
           return f;
         }
       }
@@ -181,17 +188,31 @@ class CanOwner final : public CanLink, private OwnerCore {
  private:
   void close_device() override { real_.reset(); }  // closes the channel and the device
 
-  void deliver(const CanFrame& f) {
+  /// Queues the frames that pass the filters for this process's receive(), and wakes it once.
+  void deliver(std::span<const CanFrame> frames) {
+    bool queued = false;
     {
       std::lock_guard lock(inbox_.mu);
-      if (!passes(filters_, f)) return;
-      if (queue_.size() >= kMaxQueuedFrames) {
-        queue_.pop_front();
-        ++dropped_;
+      for (const CanFrame& f : frames) {
+        if (!passes(filters_, f)) continue;
+        if (queue_.size() >= kMaxQueuedFrames) {
+          queue_.pop_front();
+          ++dropped_;
+        }
+        queue_.push_back(f);
+        queued = true;
       }
-      queue_.push_back(f);
     }
-    inbox_.signal();
+    if (queued) inbox_.signal();
+  }
+
+  // A burst is read whole, then handed over in one go: one wake-up of the reader per read of the device, not one
+  // per frame (a wake-up costs more than decoding the frame). What the reader has not taken yet holds the device.
+  bool device_held() override {
+    std::lock_guard lock(inbox_.mu);
+    if (queue_.size() < kHoldFrames) return false;
+    holding_ = true;
+    return true;
   }
 
   void leave_listen_only(const std::string& who) {
@@ -202,7 +223,8 @@ class CanOwner final : public CanLink, private OwnerCore {
   }
 
   bool pump_device() override {
-    std::vector<CanFrame> got;
+    std::vector<CanFrame>& got = pumped_;
+    got.clear();
     std::optional<LinkError> error;
     {
       std::lock_guard lock(io_);
@@ -216,10 +238,9 @@ class CanOwner final : public CanLink, private OwnerCore {
         error = e;
       }
     }
-    for (const auto& f : got) {
-      deliver(f);
-      broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), nullptr);
-    }
+    deliver(got);
+    if (has_clients())
+      for (const auto& f : got) broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), nullptr);
     if (error) {
       set_gone(error->kind(), error->what());
       inbox_.signal();
@@ -252,7 +273,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     send_control(from, sent_message(token, client_ns, error, static_cast<std::uint8_t>(kind)));
     if (!error.empty()) return;
     f.timestamp_ns = realtime_ns();
-    deliver(f);
+    deliver(std::span<const CanFrame>(&f, 1));
     broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), &from);
   }
 
@@ -282,6 +303,8 @@ class CanOwner final : public CanLink, private OwnerCore {
   std::vector<CanFilter> filters_;
   std::deque<CanFrame> queue_;
   std::uint64_t dropped_ = 0;
+  bool holding_ = false;          ///< device_held() said so; receive() wakes the serving thread when half is taken
+  std::vector<CanFrame> pumped_;  ///< the serving thread's: one read of the device
   std::atomic<std::uint64_t> last_send_ns_{0};
 };
 

@@ -163,7 +163,8 @@ std::string csv_quote(const std::string& s) {
 }
 
 std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
-                                 const CanFrame& f) {
+                                 const CanFrame& f, bool error_detail) {
+  error_detail = error_detail && f.error;
   const auto result = decode_bus_frame(f);
   const std::string_view bare = time_column.substr(1, time_column.size() - 2);
   if (format == DecodeFormat::jsonl) {
@@ -175,6 +176,7 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
       j["message"] = to_json(result.value());
     } else {
       j["error"] = to_string(result.reason());
+      if (error_detail) j["error_detail"] = describe_error_frame(f);
     }
     return j.dump();
   }
@@ -189,7 +191,8 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
     return fmt::format("{},{},{:X},{},{},{},{},{},{}", bare, interface, f.id, f.extended ? 1 : 0, f.remote ? 1 : 0,
                        f.dlc, raw.substr(raw.find('#') + 1), name, csv_quote(fields));
   }
-  const std::string what = result ? describe(result.value()) : std::string("!") + to_string(result.reason());
+  std::string what = result ? describe(result.value()) : std::string("!") + to_string(result.reason());
+  if (error_detail) what += " " + describe_error_frame(f);
   return fmt::format("{} {} {:<24} {}", time_column, candump_interface(interface), format_candump_frame(f), what);
 }
 
@@ -488,15 +491,17 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
     std::memcpy(w, s.data(), s.size());
     w += s.size();
   };
+  if ((format_ == DecodeFormat::jsonl && !interface_plain_) || (f.error && error_detail_)) {
+    // JSON escapes (or invalid UTF-8, which nlohmann refuses), or an error frame's detail: the reference does it
+    out.resize(at);
+    fmt::memory_buffer column;
+    time_column(ns, column, true);
+    put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f,
+                                  error_detail_));
+    out.push_back('\n');
+    return;
+  }
   if (format_ == DecodeFormat::jsonl) {
-    if (!interface_plain_) {  // escapes (or invalid UTF-8, which nlohmann refuses): the reference does it
-      out.resize(at);
-      fmt::memory_buffer column;
-      time_column(ns, column, true);
-      put(out, reference_frame_line(format_, std::string_view(column.data(), column.size()), interface, f));
-      out.push_back('\n');
-      return;
-    }
     const std::string_view line = e.text;  // ...,"remote":b  \0  [,"message":{...}]
     copy(line.substr(0, e.split));
     if (f.timestamp_ns) {

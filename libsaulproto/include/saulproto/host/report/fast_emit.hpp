@@ -64,9 +64,10 @@ inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended
 std::string csv_quote(const std::string& s);
 
 /// The reference: one frame's line as saulctl decode wrote it through describe(), to_json() and nlohmann's DOM
-/// (without newline). `time_column` is "(sec.usec)" with its parentheses.
+/// (without newline). `time_column` is "(sec.usec)" with its parentheses. With `error_detail`, an error frame also
+/// says what it reports, as sniff shows it (frame_line(), frame_record()): "!error_frame bus-off", "error_detail".
 std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
-                                 const CanFrame& frame);
+                                 const CanFrame& frame, bool error_detail = false);
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
@@ -80,6 +81,8 @@ class FrameEmitter {
   void add(const CanFrame& frame, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts);
   /// The first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
   void set_first(std::uint64_t ns) noexcept { first_ = ns; }
+  /// Error frames with what they report (sniff's lines), not only "!error_frame" (decode's).
+  void show_error_detail() noexcept { error_detail_ = true; }
 
  private:
   struct Entry {
@@ -128,6 +131,7 @@ class FrameEmitter {
   std::vector<Entry> cache_;
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
   bool interface_plain_ = true;               // JSON: no escapes needed
+  bool error_detail_ = false;
   std::vector<Layout> layouts_;
   std::string scratch_;
 };
