@@ -232,6 +232,8 @@ int run_decode(const DecodeOptions& opt) {
           fast_result = saul::host::decode_candump_file(path, fast, sinks);
         } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {
           fast_result = saul::host::decode_pcap_file(path, fast, sinks);
+        } else if (any.frames->format() == saul::host::CaptureFormat::pcapng) {
+          fast_result = saul::host::decode_pcapng_file(path, fast, sinks);  // large ones on both cores
         }
         if (!fast_result) opened = std::move(any.frames);
       }

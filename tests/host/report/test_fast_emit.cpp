@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -19,6 +20,8 @@
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+#include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
 
@@ -331,6 +334,200 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
           }
         CHECK(differ == 1);
       }
+    }
+  }
+}
+
+namespace {
+
+void put_u32(std::string& s, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) s += static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+
+/// A little-endian pcap record header and `payload_bytes` zero bytes, written out by hand.
+std::string raw_pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t payload_bytes) {
+  std::string r;
+  put_u32(r, sec);
+  put_u32(r, usec);
+  put_u32(r, payload_bytes);
+  put_u32(r, payload_bytes);
+  r.append(payload_bytes, '\0');
+  return r;
+}
+
+Decoded run_pcap(const std::string& path, CandumpDecodeOptions o) {
+  Decoded d;
+  CandumpDecodeSinks sinks;
+  sinks.write = [&](std::string_view s) { d.out.append(s); };
+  sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
+  auto r = decode_pcap_file(path, o, sinks);
+  REQUIRE(r);
+  d.result = *r;
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and reports of one thread and of PcapReader") {
+  // Random frames, with corrupt records among them (a fraction of a second too large, a record longer than any
+  // SocketCAN packet: both skipped) and a record cut by the end of the file (the end).
+  std::mt19937_64 rng(11);
+  const auto frames = random_frames(rng, 20000);
+  std::ostringstream pcap;
+  PcapWriter writer(pcap);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    writer.write(frames[i], "can0");
+    writer.flush();
+    if (i % 997 == 0) pcap << raw_pcap_record(1763800000, 1'000'000, 16);
+    if (i % 1999 == 0) pcap << raw_pcap_record(1763800000, 5, 100);
+  }
+  pcap << raw_pcap_record(1763800001, 5, 16).substr(0, 20);
+  TempFile file(pcap.str());
+  for (auto format : {DecodeFormat::text, DecodeFormat::csv, DecodeFormat::jsonl}) {
+    for (auto mode : {TimeMode::absolute, TimeMode::relative}) {
+      INFO("format " << static_cast<int>(format) << " time " << static_cast<int>(mode));
+      CandumpDecodeOptions o;
+      o.format = format;
+      o.time = mode;
+      o.threads = 1;
+      const Decoded one = run_pcap(file.path, o);
+      o.threads = 2;
+      o.parallel_from = 0;
+      o.block = 4096;
+      const Decoded two = run_pcap(file.path, o);
+      CHECK(one.out == two.out);
+      CHECK(one.corrupt == two.corrupt);
+      CHECK(one.result.records == two.result.records);
+      CHECK(one.result.counts.decoded == two.result.counts.decoded);
+
+      std::istringstream in(pcap.str());
+      PcapReader reader(in);
+      Clock clock{mode, {}, {}};
+      std::string expected;
+      std::vector<std::string> corrupt;
+      for (;;) {
+        const auto st = reader.next();
+        if (st == CaptureReader::Status::end) break;
+        if (st == CaptureReader::Status::corrupt) {
+          corrupt.push_back(format_capture_error("f", reader.error()));
+          continue;
+        }
+        expected += reference_frame_line(format, clock(*reader.frame().timestamp_ns), "can0", reader.frame());
+        expected += '\n';
+      }
+      CHECK(two.out == expected);
+      CHECK(two.corrupt == corrupt);
+      CHECK(corrupt.size() == 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
+    }
+  }
+}
+
+namespace {
+
+/// A little-endian Enhanced Packet Block of interface `iface` with a 16-byte SocketCAN packet of id 0x123 and one
+/// data byte, written out by hand; `trailing` the length at its end (the block's own unless testing a bad one).
+std::string raw_epb(std::uint32_t iface, std::uint32_t trailing = 48) {
+  std::string b;
+  put_u32(b, 6);
+  put_u32(b, 48);
+  put_u32(b, iface);
+  put_u32(b, 0);       // timestamp high
+  put_u32(b, 12345);   // timestamp low
+  put_u32(b, 16);      // captured
+  put_u32(b, 16);      // original
+  b += std::string("\x00\x00\x01\x23\x01\x00\x00\x00\x42\x00\x00\x00\x00\x00\x00\x00", 16);
+  put_u32(b, trailing);
+  return b;
+}
+
+Decoded run_pcapng(const std::string& path, CandumpDecodeOptions o) {
+  Decoded d;
+  CandumpDecodeSinks sinks;
+  sinks.write = [&](std::string_view s) { d.out.append(s); };
+  sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
+  if (auto r = decode_pcapng_file(path, o, sinks)) {
+    d.result = *r;
+    return d;
+  }
+  // not cut: the reader, as saulctl decode does then
+  std::ifstream in(path, std::ios::binary);
+  PcapngReader reader(in);
+  d.result = decode_reader(reader, false, o, sinks);
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes and reports of PcapngReader") {
+  // Random frames on two interfaces (the second one's description block comes late: from there the file is not
+  // cut), with bad blocks among them: a trailing length that differs, a packet of an undeclared interface (both
+  // skipped and reported), an unknown block type, and a block cut by the end of the file.
+  std::mt19937_64 rng(13);
+  const auto frames = random_frames(rng, 20000);
+  std::ostringstream png;
+  PcapngWriter writer(png);
+  {
+    std::string before;  // before the first packet, so in what every block reads first: reported once
+    put_u32(before, 0x0BAD);
+    put_u32(before, 16);
+    put_u32(before, 0);
+    put_u32(before, 20);  // differs
+    png << before;
+  }
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    writer.write(frames[i], i >= 15000 && i % 3 == 0 ? "vcan1" : "can0");
+    writer.flush();
+    if (i % 997 == 0) png << raw_epb(0, 52);
+    if (i % 1999 == 0) png << raw_epb(9);
+    if (i == 17000) {
+      std::string unknown;
+      put_u32(unknown, 0x0BAD);
+      put_u32(unknown, 16);
+      put_u32(unknown, 0);
+      put_u32(unknown, 16);
+      png << unknown;
+    }
+  }
+  png << raw_epb(0).substr(0, 30);
+  TempFile file(png.str());
+  {
+    const int fd = ::open(file.path.c_str(), O_RDONLY);
+    const auto cut = pcapng_block_starts(fd, png.str().size(), 4096);
+    ::close(fd);
+    CHECK(cut.starts.size() > 100);  // it was cut...
+    CHECK(cut.starts[cut.starts.size() - 2] < png.str().size() * 3 / 4);  // ...up to the second interface
+  }
+  for (auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
+    for (auto mode : {TimeMode::absolute, TimeMode::relative}) {
+      INFO("format " << static_cast<int>(format) << " time " << static_cast<int>(mode));
+      CandumpDecodeOptions o;
+      o.format = format;
+      o.time = mode;
+      o.threads = 2;
+      o.parallel_from = 0;
+      o.block = 4096;
+      const Decoded two = run_pcapng(file.path, o);
+
+      std::istringstream in(png.str());
+      PcapngReader reader(in);
+      Clock clock{mode, {}, {}};
+      std::string expected;
+      std::vector<std::string> corrupt;
+      for (;;) {
+        const auto st = reader.next();
+        if (st == CaptureReader::Status::end) break;
+        if (st == CaptureReader::Status::corrupt) {
+          corrupt.push_back(format_capture_error("f", reader.error()));
+          continue;
+        }
+        expected += reference_frame_line(format, clock(*reader.frame().timestamp_ns), reader.interface(),
+                                         reader.frame());
+        expected += '\n';
+      }
+      CHECK(two.out == expected);
+      CHECK(two.corrupt == corrupt);
+      CHECK(corrupt.size() == 1 + 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
+      CHECK(two.result.records == frames.size());
     }
   }
 }

@@ -37,7 +37,40 @@ PcapScanner::PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes)
   nano_ = detail::load_u32(h, big_) == pcap_scan::kMagicNano;
 }
 
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
+    : PcapScanner(fd, size, block_bytes) {
+  offset_ = read_to_ = begin < 24 ? 24 : begin;
+  size_ = end < size ? end : size;
+}
+
 PcapScanner::~PcapScanner() = default;
+
+std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
+  std::vector<std::uint64_t> starts{24};
+  if (block == 0) block = 1;
+  std::vector<std::uint8_t> window(std::size_t{1} << 20);
+  std::uint64_t from = 0, to = 0;  // the file bytes in window
+  std::uint64_t pos = 24;
+  while (pos + 16 <= size_) {
+    if (pos + 16 > to) {  // the next header is not in the window: read from it on
+      std::size_t want = window.size();
+      if (want > size_ - pos) want = static_cast<std::size_t>(size_ - pos);
+      const ssize_t got = ::pread(fd_, window.data(), want, static_cast<off_t>(pos));
+      if (got < 0 && errno == EINTR) continue;
+      if (got < 16) break;
+      from = pos;
+      to = pos + static_cast<std::uint64_t>(got);
+    }
+    const std::uint32_t incl = detail::load_u32(window.data() + (pos - from) + 8, big_);
+    if (incl > pcap_scan::kMaxRecord) break;
+    const std::uint64_t next = pos + 16 + incl;
+    if (next >= size_) break;
+    if (next - starts.back() >= block) starts.push_back(next);
+    pos = next;
+  }
+  starts.push_back(size_);
+  return starts;
+}
 
 // At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
 std::size_t PcapScanner::ensure(std::size_t n) {

@@ -4,15 +4,23 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
+#include <cerrno>
 #include <condition_variable>
 #include <exception>
+#include <functional>
+#include <istream>
+#include <streambuf>
+#include <string>
+#include <system_error>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
+#include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/read_ahead.hpp"
 
 namespace saul::host {
@@ -131,8 +139,8 @@ bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
 }
 
 /// The time of the first frame that passes the filter, for TimeMode::relative.
-std::optional<std::uint64_t> first_time(int fd, std::uint64_t size, const CandumpDecodeOptions& o) {
-  CandumpScanner scanner(fd, 0, size, std::size_t{64} << 10);
+template <class Scanner>
+std::optional<std::uint64_t> first_time(Scanner&& scanner, const CandumpDecodeOptions& o) {
   CandumpBatch batch;
   while (scanner.next_batch(batch))
     for (const auto& f : batch.frames)
@@ -140,11 +148,14 @@ std::optional<std::uint64_t> first_time(int fd, std::uint64_t size, const Candum
   return std::nullopt;
 }
 
-CandumpDecodeResult parallel(int fd, std::uint64_t size, const CandumpDecodeOptions& o,
-                             const CandumpDecodeSinks& sinks) {
-  const std::vector<std::uint64_t> starts = split_candump_blocks(fd, size, o.block);
-  const std::size_t blocks = starts.size() - 1;
-  const std::optional<std::uint64_t> first = o.time == TimeMode::relative ? first_time(fd, size, o) : std::nullopt;
+/// Decodes block k of the file into `piece` with the worker's own emitter.
+using BlockDecoder = std::function<void(std::size_t k, FrameEmitter& emitter, Piece& piece)>;
+
+/// `blocks` blocks of a file decoded on o.threads threads, two blocks in flight per thread, handed to the sinks in
+/// file order. Corrupt positions are counted from the block's start when its scanner counts lines (candump), else
+/// they are the file's byte offsets already (pcap). `first`: the first frame's time, for TimeMode::relative.
+CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> first, const BlockDecoder& decode_block,
+                             const CandumpDecodeOptions& o, const CandumpDecodeSinks& sinks) {
   const unsigned threads = o.threads;
   const std::size_t ring = 2 * std::size_t{threads};
 
@@ -179,8 +190,7 @@ CandumpDecodeResult parallel(int fd, std::uint64_t size, const CandumpDecodeOpti
         piece.counts = {};
         piece.records = piece.lines = piece.bytes = 0;
         piece.corrupt.clear();
-        CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
-        scan_all(scanner, emitter, o, piece, [](Piece&, std::size_t) {});
+        decode_block(k, emitter, piece);
       } catch (...) {
         std::lock_guard lock(mutex);
         if (!failure) failure = std::current_exception();
@@ -241,8 +251,19 @@ CandumpDecodeResult parallel(int fd, std::uint64_t size, const CandumpDecodeOpti
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks) {
   // delta needs the previous frame's time across block boundaries: one thread.
-  if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta)
-    return parallel(fd, *size, options, sinks);
+  if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta) {
+    const std::vector<std::uint64_t> starts = split_candump_blocks(fd, *size, options.block);
+    const auto first = options.time == TimeMode::relative
+                           ? first_time(CandumpScanner(fd, 0, *size, std::size_t{64} << 10), options)
+                           : std::nullopt;
+    return parallel(
+        starts.size() - 1, first,
+        [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
+          CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
+          scan_all(scanner, emitter, options, piece, [](Piece&, std::size_t) {});
+        },
+        options, sinks);
+  }
   if (size) {
     CandumpScanner scanner(fd, 0, *size);
     return single(scanner, false, options, sinks);
@@ -291,13 +312,111 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
   } closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
+  const auto size = static_cast<std::uint64_t>(st.st_size);
   std::optional<PcapScanner> scanner;
   try {
-    scanner.emplace(fd, static_cast<std::uint64_t>(st.st_size));
+    scanner.emplace(fd, size);
   } catch (const CaptureOpenError&) {
     return std::nullopt;  // compressed, or not pcap: the caller's reader
   }
+  // As candump files: large ones in blocks of whole records on both cores (delta needs the previous frame: one).
+  if (options.threads > 1 && size >= options.parallel_from && options.time != TimeMode::delta) {
+    const std::vector<std::uint64_t> starts = scanner->block_starts(options.block);
+    const auto first = options.time == TimeMode::relative ? first_time(*scanner, options) : std::nullopt;
+    return parallel(
+        starts.size() - 1, first,
+        [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
+          PcapScanner block(fd, size, starts[k], starts[k + 1], std::size_t{256} << 10);
+          scan_all(block, emitter, options, piece, [](Piece&, std::size_t) {});
+        },
+        options, sinks);
+  }
   return single(*scanner, false, options, sinks);
+}
+
+namespace {
+
+/// A read-only stream over bytes in memory (a pcapng block read whole).
+struct MemoryBuf : std::streambuf {
+  MemoryBuf(char* data, std::size_t n) { setg(data, data, data + n); }
+};
+
+/// Reads [at, at + n) of fd onto the end of `out`.
+void append_range(int fd, std::uint64_t at, std::uint64_t n, std::string& out) {
+  const std::size_t base = out.size();
+  out.resize(base + static_cast<std::size_t>(n));
+  std::uint64_t done = 0;
+  while (done < n) {
+    const ssize_t got = ::pread(fd, out.data() + base + done, static_cast<std::size_t>(n - done),
+                                static_cast<off_t>(at + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) throw std::system_error(errno, std::generic_category(), "reading the capture");
+    if (got == 0) break;  // the file shrank: what there is
+    done += static_cast<std::uint64_t>(got);
+  }
+  out.resize(base + static_cast<std::size_t>(done));
+}
+
+}  // namespace
+
+std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                      const CandumpDecodeSinks& sinks) {
+  if (options.threads < 2 || options.time == TimeMode::delta) return std::nullopt;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  if (size < options.parallel_from) return std::nullopt;
+  const PcapngBlocks cut = pcapng_block_starts(fd, size, options.block);
+  if (cut.starts.size() < 3) return std::nullopt;  // one block: the reader reads ahead instead
+  // Block k > 0 is read after the prefix; what its reader says of the prefix is block 0's to say.
+  auto read_block = [&](std::size_t k, auto&& each) {
+    std::string bytes;
+    if (k > 0) append_range(fd, 0, cut.prefix_end, bytes);
+    const std::uint64_t prefix = bytes.size();
+    append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], bytes);
+    MemoryBuf buf(bytes.data(), bytes.size());
+    std::istream in(&buf);
+    PcapngReader reader(in);
+    ReaderSlot slot;
+    while (read_batch(reader, slot)) {
+      for (auto& c : slot.batch.corrupt) c.error.position += cut.starts[k] - prefix;
+      if (k > 0) {
+        const auto in_prefix = std::remove_if(slot.batch.corrupt.begin(), slot.batch.corrupt.end(), [&](const auto& c) {
+          return c.error.position < cut.starts[k];
+        });
+        slot.batch.corrupt.erase(in_prefix, slot.batch.corrupt.end());
+      }
+      if (!each(slot.batch)) return;
+    }
+  };
+  std::optional<std::uint64_t> first;
+  if (options.time == TimeMode::relative) {
+    for (std::size_t k = 0; k + 1 < cut.starts.size() && !first; ++k)
+      read_block(k, [&](const CandumpBatch& batch) {
+        for (const auto& f : batch.frames)
+          if (wanted(options, f)) {
+            first = f.timestamp_ns.value_or(0);
+            return false;
+          }
+        return true;
+      });
+  }
+  return parallel(
+      cut.starts.size() - 1, first,
+      [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
+        read_block(k, [&](const CandumpBatch& batch) {
+          emit_batch(batch, emitter, options, piece);
+          return true;
+        });
+        piece.bytes = cut.starts[k + 1] - cut.starts[k];
+      },
+      options, sinks);
 }
 
 }  // namespace saul::host

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
 
@@ -16,6 +17,9 @@ class PcapScanner {
   /// Reads the regular file `fd` (not owned) of `size` bytes with pread(2). Throws CaptureOpenError when its
   /// first bytes are not a pcap header (open it with open_capture_reader first for the full checks and messages).
   PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes = std::size_t{1} << 20);
+  /// Reads only the records from byte `begin` (a record's start, e.g. from block_starts()) to `end`.
+  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+              std::size_t block_bytes = std::size_t{1} << 20);
   PcapScanner(const PcapScanner&) = delete;
   PcapScanner& operator=(const PcapScanner&) = delete;
   ~PcapScanner();
@@ -23,6 +27,11 @@ class PcapScanner {
   /// Fills `batch` (cleared first) with up to CandumpScanner::kMaxBatch records; false (batch empty) at the end.
   bool next_batch(CandumpBatch& batch);
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
+
+  /// Record starts that cut the file into blocks of about `block` bytes, for decoding blocks on several threads:
+  /// {24, s1, s2, ..., size}. Walks the record headers (one read of the file in large pieces); from the first
+  /// implausible or cut record on, the rest is one block, so a corrupt file reads as it does in one piece.
+  [[nodiscard]] std::vector<std::uint64_t> block_starts(std::uint64_t block) const;
 
  private:
   std::size_t ensure(std::size_t n);

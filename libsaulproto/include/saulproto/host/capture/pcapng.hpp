@@ -66,6 +66,18 @@ class PcapngReader final : public CaptureReader {
   CaptureError error_;
 };
 
+/// How a pcapng file can be cut for decoding on several threads: `starts` = {0, s1, ..., size}, each s a packet
+/// block's start about `block` bytes after the one before; `prefix_end` is the first packet block's start. Block
+/// k > 0 reads as the bytes [0, prefix_end) (the section header and interface descriptions) followed by
+/// [starts[k], starts[k+1]). From the first block after the first packet that is not a packet block (a new section
+/// or interface, an unknown block), or whose length is not plausible, the rest is one block, so such a file reads as
+/// it does in one piece; a prefix over 1 MiB is not cut at all. Walks the block headers with large reads of `fd`.
+struct PcapngBlocks {
+  std::vector<std::uint64_t> starts;
+  std::uint64_t prefix_end = 0;
+};
+PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block);
+
 class PcapngWriter final : public CaptureWriter {
  public:
   /// Writes the Section Header Block at once.

@@ -1,6 +1,6 @@
 // saulctl decode of a candump file at memory speed: CandumpScanner (large reads, lines scanned in place) feeding
 // FrameEmitter (lines written straight into a big output buffer), flushed in big writes. Files of at least
-// parallel_from bytes are cut into blocks at line starts and decoded on `threads` threads; the output, the
+// parallel_from bytes (4 MiB) are cut into blocks at line starts and decoded on `threads` threads; the output, the
 // corrupt-line reports and the counts come out in file order, the same bytes as on one thread. Memory stays
 // bounded by the blocks in flight (2 per thread), whatever the file size.
 #pragma once
@@ -23,7 +23,9 @@ struct CandumpDecodeOptions {
   /// Only the frames this accepts (saulctl's --id filters); empty: every frame. Called from the decoding threads.
   std::function<bool(const CanFrame&)> keep;
   unsigned threads = 2;
-  std::uint64_t parallel_from = std::uint64_t{64} << 20;  ///< files this big or bigger use `threads`
+  /// Candump and pcap files this big or bigger use `threads` (4 MiB: ~20 ms of work on one core, from where a
+  /// second thread pays off).
+  std::uint64_t parallel_from = std::uint64_t{4} << 20;
   std::uint64_t block = std::uint64_t{256} << 10;         ///< bytes of candump per block (multi-threaded)
   std::size_t flush_at = std::size_t{1} << 20;           ///< output bytes buffered before a write
 };
@@ -48,10 +50,17 @@ struct CandumpDecodeSinks {
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks);
 
-/// The same for a pcap file (PcapScanner, one thread): nullopt when `path` is not a regular, uncompressed pcap
-/// file. Open it with open_capture_reader first: that checks its header and names what is wrong.
+/// The same for a pcap file (PcapScanner; large files in blocks of whole records on `threads` threads): nullopt
+/// when `path` is not a regular, uncompressed pcap file. Open it with open_capture_reader first: that checks its
+/// header and names what is wrong.
 std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
                                                     const CandumpDecodeSinks& sinks);
+
+/// The same for a large pcapng file on `threads` threads (pcapng_block_starts(): blocks of whole packet blocks,
+/// each read by its own PcapngReader after the file's section and interface blocks): nullopt when `path` is not a
+/// regular file of at least parallel_from bytes that can be cut, or the time mode is delta; then decode_reader().
+std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
+                                                      const CandumpDecodeSinks& sinks);
 
 /// The same for any reader (pcapng, ASC, TRC, BLF, compressed logs, ...): its frames in batches through the same
 /// emitter. With `ahead` the reader (parsing, decompressing) runs on a second thread a few batches ahead of the
