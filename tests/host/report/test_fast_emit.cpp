@@ -264,15 +264,46 @@ struct Decoded {
   CandumpDecodeResult result;
 };
 
-Decoded run(const std::string& path, CandumpDecodeOptions o) {
+/// What a decode_*() call wrote, reported and counted.
+template <class Decode>
+Decoded run_with(Decode&& decode) {
   Decoded d;
   CandumpDecodeSinks sinks;
   sinks.write = [&](std::string_view s) { d.out.append(s); };
   sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
-  auto r = decode_candump_file(path, o, sinks);
-  REQUIRE(r);
-  d.result = *r;
+  d.result = decode(sinks);
   return d;
+}
+
+Decoded run(const std::string& path, const CandumpDecodeOptions& o) {
+  return run_with([&](const CandumpDecodeSinks& sinks) {
+    auto r = decode_candump_file(path, o, sinks);
+    REQUIRE(r);
+    return *r;
+  });
+}
+
+/// The reference: a reader record by record, reference_frame_line per frame that passes `ids` (all when null).
+struct Expected {
+  std::string out;
+  std::vector<std::string> corrupt;
+};
+Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode,
+                       const std::set<std::uint32_t>* ids = nullptr) {
+  Expected e;
+  Clock clock{mode, {}, {}};
+  for (;;) {
+    const auto st = reader.next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      e.corrupt.push_back(format_capture_error("f", reader.error()));
+      continue;
+    }
+    if (ids != nullptr && !ids->count(reader.frame().id)) continue;
+    e.out += reference_frame_line(format, clock(*reader.frame().timestamp_ns), reader.interface(), reader.frame());
+    e.out += '\n';
+  }
+  return e;
 }
 
 }  // namespace
@@ -307,21 +338,7 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
         // The reference: CandumpReader line by line, reference_frame_line per frame.
         std::istringstream in(log);
         CandumpReader reader(in);
-        Clock clock{mode, {}, {}};
-        std::string expected;
-        std::vector<std::string> corrupt;
-        for (;;) {
-          const auto st = reader.next();
-          if (st == CaptureReader::Status::end) break;
-          if (st == CaptureReader::Status::corrupt) {
-            corrupt.push_back(format_capture_error("f", reader.error()));
-            continue;
-          }
-          if (ids != nullptr && !ids->count(reader.frame().id)) continue;
-          expected += reference_frame_line(format, clock(*reader.frame().timestamp_ns), reader.interface(),
-                                           reader.frame());
-          expected += '\n';
-        }
+        const auto [expected, corrupt] = expected_from(reader, format, mode, ids);
         CHECK(one.out == expected);
         // CandumpReader holds the over-long line and parses it ("more than 8 data bytes"); the scanner reports
         // it by its length. Every other report is the same.
@@ -355,15 +372,12 @@ std::string raw_pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t
   return r;
 }
 
-Decoded run_pcap(const std::string& path, CandumpDecodeOptions o) {
-  Decoded d;
-  CandumpDecodeSinks sinks;
-  sinks.write = [&](std::string_view s) { d.out.append(s); };
-  sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
-  auto r = decode_pcap_file(path, o, sinks);
-  REQUIRE(r);
-  d.result = *r;
-  return d;
+Decoded run_pcap(const std::string& path, const CandumpDecodeOptions& o) {
+  return run_with([&](const CandumpDecodeSinks& sinks) {
+    auto r = decode_pcap_file(path, o, sinks);
+    REQUIRE(r);
+    return *r;
+  });
 }
 
 }  // namespace
@@ -402,19 +416,7 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
 
       std::istringstream in(pcap.str());
       PcapReader reader(in);
-      Clock clock{mode, {}, {}};
-      std::string expected;
-      std::vector<std::string> corrupt;
-      for (;;) {
-        const auto st = reader.next();
-        if (st == CaptureReader::Status::end) break;
-        if (st == CaptureReader::Status::corrupt) {
-          corrupt.push_back(format_capture_error("f", reader.error()));
-          continue;
-        }
-        expected += reference_frame_line(format, clock(*reader.frame().timestamp_ns), "can0", reader.frame());
-        expected += '\n';
-      }
+      const auto [expected, corrupt] = expected_from(reader, format, mode);
       CHECK(two.out == expected);
       CHECK(two.corrupt == corrupt);
       CHECK(corrupt.size() == 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
@@ -440,20 +442,13 @@ std::string raw_epb(std::uint32_t iface, std::uint32_t trailing = 48) {
   return b;
 }
 
-Decoded run_pcapng(const std::string& path, CandumpDecodeOptions o) {
-  Decoded d;
-  CandumpDecodeSinks sinks;
-  sinks.write = [&](std::string_view s) { d.out.append(s); };
-  sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
-  if (auto r = decode_pcapng_file(path, o, sinks)) {
-    d.result = *r;
-    return d;
-  }
-  // not cut: the reader, as saulctl decode does then
-  std::ifstream in(path, std::ios::binary);
-  PcapngReader reader(in);
-  d.result = decode_reader(reader, false, o, sinks);
-  return d;
+Decoded run_pcapng(const std::string& path, const CandumpDecodeOptions& o) {
+  return run_with([&](const CandumpDecodeSinks& sinks) {
+    if (auto r = decode_pcapng_file(path, o, sinks)) return *r;
+    std::ifstream in(path, std::ios::binary);  // not cut: the reader, as saulctl decode does then
+    PcapngReader reader(in);
+    return decode_reader(reader, false, o, sinks);
+  });
 }
 
 }  // namespace
@@ -510,20 +505,7 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
 
       std::istringstream in(png.str());
       PcapngReader reader(in);
-      Clock clock{mode, {}, {}};
-      std::string expected;
-      std::vector<std::string> corrupt;
-      for (;;) {
-        const auto st = reader.next();
-        if (st == CaptureReader::Status::end) break;
-        if (st == CaptureReader::Status::corrupt) {
-          corrupt.push_back(format_capture_error("f", reader.error()));
-          continue;
-        }
-        expected += reference_frame_line(format, clock(*reader.frame().timestamp_ns), reader.interface(),
-                                         reader.frame());
-        expected += '\n';
-      }
+      const auto [expected, corrupt] = expected_from(reader, format, mode);
       CHECK(two.out == expected);
       CHECK(two.corrupt == corrupt);
       CHECK(corrupt.size() == 1 + 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);

@@ -1,8 +1,11 @@
 // Private helpers of the binary capture formats (pcap, pcapng): byte-order loads and stores, and reading that
-// counts the offset and skips without seeking (so pipes work). Not installed, not part of the API.
+// counts the offset and skips without seeking (so pipes work), a window for walking headers. Not installed, not part of the API.
 #pragma once
 
+#include <unistd.h>
+
 #include <array>
+#include <cerrno>
 #include <cstdint>
 #include <istream>
 #include <limits>
@@ -72,6 +75,35 @@ inline void store_u32le(std::uint8_t* p, std::uint32_t v) noexcept {
 inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n) {
   out.write(reinterpret_cast<const char*>(p), static_cast<std::streamsize>(n));
 }
+
+/// A window of a regular file for walking record or block headers with large reads: at(pos, n) gives the n bytes
+/// at file offset pos (reading the next MiB from pos when they are not in the window), nullptr past the end or on
+/// a read error. Used to cut files into blocks for several threads.
+class HeaderWindow {
+ public:
+  HeaderWindow(int fd, std::uint64_t size) : fd_(fd), size_(size), buf_(std::size_t{1} << 20) {}
+  const std::uint8_t* at(std::uint64_t pos, std::size_t n) {
+    if (pos + n > size_) return nullptr;
+    if (pos < from_ || pos + n > to_) {
+      std::size_t want = buf_.size();
+      if (want > size_ - pos) want = static_cast<std::size_t>(size_ - pos);
+      ssize_t got;
+      do {
+        got = ::pread(fd_, buf_.data(), want, static_cast<off_t>(pos));
+      } while (got < 0 && errno == EINTR);
+      if (got < static_cast<ssize_t>(n)) return nullptr;
+      from_ = pos;
+      to_ = pos + static_cast<std::uint64_t>(got);
+    }
+    return buf_.data() + (pos - from_);
+  }
+
+ private:
+  int fd_;
+  std::uint64_t size_;
+  std::vector<std::uint8_t> buf_;
+  std::uint64_t from_ = 0, to_ = 0;  // the file bytes in buf_
+};
 
 /// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end).
 inline std::size_t read_counted(std::istream& in, std::uint8_t* dst, std::size_t n, std::uint64_t& offset) {

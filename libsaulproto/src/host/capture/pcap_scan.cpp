@@ -48,20 +48,10 @@ PcapScanner::~PcapScanner() = default;
 std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
   std::vector<std::uint64_t> starts{24};
   if (block == 0) block = 1;
-  std::vector<std::uint8_t> window(std::size_t{1} << 20);
-  std::uint64_t from = 0, to = 0;  // the file bytes in window
+  detail::HeaderWindow window(fd_, size_);
   std::uint64_t pos = 24;
-  while (pos + 16 <= size_) {
-    if (pos + 16 > to) {  // the next header is not in the window: read from it on
-      std::size_t want = window.size();
-      if (want > size_ - pos) want = static_cast<std::size_t>(size_ - pos);
-      const ssize_t got = ::pread(fd_, window.data(), want, static_cast<off_t>(pos));
-      if (got < 0 && errno == EINTR) continue;
-      if (got < 16) break;
-      from = pos;
-      to = pos + static_cast<std::uint64_t>(got);
-    }
-    const std::uint32_t incl = detail::load_u32(window.data() + (pos - from) + 8, big_);
+  while (const std::uint8_t* h = window.at(pos, 16)) {
+    const std::uint32_t incl = detail::load_u32(h + 8, big_);
     if (incl > pcap_scan::kMaxRecord) break;
     const std::uint64_t next = pos + 16 + incl;
     if (next >= size_) break;

@@ -2,10 +2,7 @@
 
 #include <fmt/format.h>
 
-#include <unistd.h>
-
 #include <array>
-#include <cerrno>
 #include <span>
 #include <stdexcept>
 
@@ -110,22 +107,11 @@ PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block
   PcapngBlocks out;
   out.starts = {0};
   if (block == 0) block = 1;
-  std::vector<std::uint8_t> window(std::size_t{1} << 20);
-  std::uint64_t from = 0, to = 0;  // the file bytes in window
+  detail::HeaderWindow window(fd, size);
   bool big = false;
   bool packets = false;  // a packet block was seen
   std::uint64_t pos = 0;
-  while (pos + 12 <= size) {
-    if (pos + 12 > to) {  // the next header is not in the window: read from it on
-      std::size_t want = window.size();
-      if (want > size - pos) want = static_cast<std::size_t>(size - pos);
-      const ssize_t got = ::pread(fd, window.data(), want, static_cast<off_t>(pos));
-      if (got < 0 && errno == EINTR) continue;
-      if (got < 12) break;
-      from = pos;
-      to = pos + static_cast<std::uint64_t>(got);
-    }
-    const std::uint8_t* h = window.data() + (pos - from);
+  while (const std::uint8_t* h = window.at(pos, 12)) {
     const std::uint32_t type = load_u32(h, big);
     if (type == kShb) {
       if (pos != 0) break;  // a second section: not cut from here on

@@ -302,17 +302,35 @@ CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const Candu
   return run.finish();
 }
 
+namespace {
+
+/// A regular file opened for reading (fd -1 when it cannot be, or is no regular file), closed at the end.
+struct RegularFile {
+  int fd = -1;
+  std::uint64_t size = 0;
+  explicit RegularFile(const std::string& path) : fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+    struct stat st {};
+    if (fd >= 0 && (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))) {
+      ::close(fd);
+      fd = -1;
+    }
+    if (fd >= 0) size = static_cast<std::uint64_t>(st.st_size);
+  }
+  ~RegularFile() {
+    if (fd >= 0) ::close(fd);
+  }
+  RegularFile(const RegularFile&) = delete;
+  RegularFile& operator=(const RegularFile&) = delete;
+};
+
+}  // namespace
+
 std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
                                                     const CandumpDecodeSinks& sinks) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return std::nullopt;
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
-  struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
-  const auto size = static_cast<std::uint64_t>(st.st_size);
+  const RegularFile file(path);
+  if (file.fd < 0) return std::nullopt;
+  const int fd = file.fd;
+  const std::uint64_t size = file.size;
   std::optional<PcapScanner> scanner;
   try {
     scanner.emplace(fd, size);
@@ -362,15 +380,10 @@ void append_range(int fd, std::uint64_t at, std::uint64_t n, std::string& out) {
 std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
                                                       const CandumpDecodeSinks& sinks) {
   if (options.threads < 2 || options.time == TimeMode::delta) return std::nullopt;
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return std::nullopt;
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
-  struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
-  const auto size = static_cast<std::uint64_t>(st.st_size);
+  const RegularFile file(path);
+  if (file.fd < 0) return std::nullopt;
+  const int fd = file.fd;
+  const std::uint64_t size = file.size;
   if (size < options.parallel_from) return std::nullopt;
   const PcapngBlocks cut = pcapng_block_starts(fd, size, options.block);
   if (cut.starts.size() < 3) return std::nullopt;  // one block: the reader reads ahead instead
