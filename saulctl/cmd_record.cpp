@@ -107,7 +107,10 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   const std::string iface =
       !opt.interface.empty() ? opt.interface : spec.kind == LinkSpec::Kind::socketcan ? spec.device : "can0";
 
-  auto link = open_can_link(spec, opt.listen_only);
+  LinkOpenOptions open;
+  open.listen_only = opt.listen_only;
+  open.paced = true;  // every frame is written: a burst waits in the adapter rather than being dropped here
+  auto link = open_can_link(spec, open);
   RotatingCaptureWriter writer(opt.output, *format, rotation_of(opt), [&](const std::string& path) {
     if (!opt.quiet) fmt::print(stderr, "record: writing {} ({})\n", path, to_string(*format));
   });

@@ -47,6 +47,7 @@ std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, cons
   saul::host::LinkOpenOptions o;
   o.listen_only = opt.listen_only;
   o.filters = id_filters(opt.filters);
+  o.paced = true;  // every frame is printed: a burst waits in the adapter rather than being dropped here
   return saul::host::open_can_link(spec, o);
 }
 

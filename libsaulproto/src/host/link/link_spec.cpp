@@ -93,7 +93,7 @@ std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptio
       return open_socketcan(spec.device, o);
     }
     case LinkSpec::Kind::slcan: {
-      if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters);
+      if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters, options.paced);
       SlcanOptions o;
       o.bitrate = spec.bitrate;
       o.listen_only = options.listen_only;

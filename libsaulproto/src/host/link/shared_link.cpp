@@ -119,10 +119,12 @@ std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::
 
 class CanOwner final : public CanLink, private OwnerCore {
  public:
-  CanOwner(std::unique_ptr<CanLink> real, const LinkSpec& spec, bool listen_only, std::vector<CanFilter> filters)
+  CanOwner(std::unique_ptr<CanLink> real, const LinkSpec& spec, bool listen_only, std::vector<CanFilter> filters,
+           bool paced)
       : OwnerCore(spec.device, Kind::can, spec.text(), listen_only),
         real_(std::move(real)),
         bitrate_(spec.bitrate),
+        paced_(paced),
         filters_(std::move(filters)) {
     start_serving(real_->poll_handle());
   }
@@ -207,8 +209,10 @@ class CanOwner final : public CanLink, private OwnerCore {
   }
 
   // A burst is read whole, then handed over in one go: one wake-up of the reader per read of the device, not one
-  // per frame (a wake-up costs more than decoding the frame). What the reader has not taken yet holds the device.
+  // per frame (a wake-up costs more than decoding the frame). When paced, what the reader has not taken yet holds
+  // the device.
   bool device_held() override {
+    if (!paced_) return false;
     std::lock_guard lock(inbox_.mu);
     if (queue_.size() < kHoldFrames) return false;
     holding_ = true;
@@ -299,6 +303,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   mutable std::mutex io_;  ///< the device: the serving thread's reads, every write
   std::unique_ptr<CanLink> real_;
   std::uint32_t bitrate_;
+  bool paced_;                ///< LinkOpenOptions::paced
   mutable LocalInbox inbox_;  ///< its mutex guards what follows
   std::vector<CanFilter> filters_;
   std::deque<CanFrame> queue_;
@@ -437,7 +442,7 @@ class Attachment {
 
 class SharedCanLink final : public CanLink {
  public:
-  SharedCanLink(const LinkSpec& spec, bool listen_only, const std::vector<CanFilter>& filters)
+  SharedCanLink(const LinkSpec& spec, bool listen_only, const std::vector<CanFilter>& filters, bool paced)
       : filters_(filters),
         link_(
             spec.device,
@@ -453,12 +458,12 @@ class SharedCanLink final : public CanLink {
               if (!sock) return nullptr;
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
             },
-            [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
+            [spec, listen_only, paced, this]() -> std::unique_ptr<CanLink> {
               SlcanOptions o;
               o.bitrate = spec.bitrate;
               o.listen_only = listen_only;
               o.backend = spec.backend;
-              return std::make_unique<CanOwner>(open_slcan(spec.device, o), spec, listen_only, filters_);
+              return std::make_unique<CanOwner>(open_slcan(spec.device, o), spec, listen_only, filters_, paced);
             }) {}
 
   void send(const CanFrame& frame, milliseconds timeout) override {
@@ -730,8 +735,8 @@ std::optional<ShareInfo> query_share(const std::string& device) {
 }
 
 std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,
-                                           const std::vector<CanFilter>& filters) {
-  return std::make_unique<share::SharedCanLink>(spec, listen_only, filters);
+                                           const std::vector<CanFilter>& filters, bool paced) {
+  return std::make_unique<share::SharedCanLink>(spec, listen_only, filters, paced);
 }
 
 std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,

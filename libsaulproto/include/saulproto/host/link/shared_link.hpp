@@ -56,9 +56,10 @@ struct ShareInfo {
 std::optional<ShareInfo> query_share(const std::string& device);
 
 /// Opens an slcan link shared as described above: joins the owner, or becomes it. `command` names this process
-/// in the owner's and the others' messages ("saulctl estop"); empty: taken from /proc/self/cmdline.
+/// in the owner's and the others' messages ("saulctl estop"); empty: taken from /proc/self/cmdline. `paced`: as
+/// LinkOpenOptions::paced (link_spec.hpp).
 std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,
-                                           const std::vector<CanFilter>& filters);
+                                           const std::vector<CanFilter>& filters, bool paced = false);
 
 /// Opens a serial byte link shared as described above.
 std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,
