@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <array>
+#include <cstring>
 #include <span>
 #include <stdexcept>
 
@@ -140,9 +141,44 @@ PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block
 
 // ---- reader ----
 
-PcapngReader::PcapngReader(std::istream& in) : in_(in) {
+PcapngReader::PcapngReader(std::istream& in) : in_(&in) { open(); }
+
+PcapngReader::PcapngReader(std::span<const std::uint8_t> bytes) : mem_(bytes) { open(); }
+
+std::size_t PcapngReader::take(std::uint8_t* dst, std::size_t n) {
+  if (in_ != nullptr) return detail::read_counted(*in_, dst, n, offset_);
+  const std::size_t left = mem_.size() - static_cast<std::size_t>(offset_);
+  if (n > left) n = left;
+  std::memcpy(dst, mem_.data() + offset_, n);
+  offset_ += n;
+  return n;
+}
+
+std::size_t PcapngReader::take_body(std::size_t n) {
+  if (in_ != nullptr) {
+    body_.resize(n);
+    const std::size_t got = detail::read_counted(*in_, body_.data(), n, offset_);
+    body_view_ = std::span<const std::uint8_t>(body_.data(), got);
+    return got;
+  }
+  const std::size_t left = mem_.size() - static_cast<std::size_t>(offset_);
+  if (n > left) n = left;
+  body_view_ = mem_.subspan(static_cast<std::size_t>(offset_), n);
+  offset_ += n;
+  return n;
+}
+
+std::uint64_t PcapngReader::skip(std::uint64_t n) {
+  if (in_ != nullptr) return detail::skip_counted(*in_, n, offset_);
+  const std::uint64_t left = mem_.size() - offset_;
+  if (n > left) n = left;
+  offset_ += n;
+  return n;
+}
+
+void PcapngReader::open() {
   std::array<std::uint8_t, 12> h{};
-  const std::size_t got = detail::read_counted(in_, h.data(), h.size(), offset_);
+  const std::size_t got = take(h.data(), h.size());
   if (got < h.size() || load_u32(h.data(), false) != kShb)
     throw CaptureOpenError("not a pcapng file: it does not start with a Section Header Block");
   if (load_u32(h.data() + 8, false) == kByteOrderMagic) {
@@ -171,7 +207,7 @@ PcapngReader::Status PcapngReader::next() {
     if (stopped_) return Status::end;
     const std::uint64_t start = offset_;
     std::array<std::uint8_t, 12> h{};
-    std::size_t got = detail::read_counted(in_, h.data(), 8, offset_);
+    std::size_t got = take(h.data(), 8);
     if (got == 0) return Status::end;
     if (got < 8) {
       corrupt(start, Recovery::stop, fmt::format("file ends inside a block header ({} of 8 bytes)", got));
@@ -181,7 +217,7 @@ PcapngReader::Status PcapngReader::next() {
     std::uint32_t header_bytes = 8;
     if (type == kShb) {  // a new section, maybe in the other byte order
       header_bytes = 12;
-      got = detail::read_counted(in_, h.data() + 8, 4, offset_);
+      got = take(h.data() + 8, 4);
       if (got < 4) {
         corrupt(start, Recovery::stop, "file ends inside a section header");
         return Status::corrupt;
@@ -215,13 +251,12 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
   const bool parse = wanted && body_length <= kMaxBody;
   std::uint64_t got = 0;
   if (parse) {
-    body_.resize(body_length);
-    got = detail::read_counted(in_, body_.data(), body_length, offset_);
+    got = take_body(body_length);
   } else {
-    got = detail::skip_counted(in_, body_length, offset_);
+    got = skip(body_length);
   }
   std::array<std::uint8_t, 4> trailer{};
-  if (got == body_length) got += detail::read_counted(in_, trailer.data(), 4, offset_);
+  if (got == body_length) got += take(trailer.data(), 4);
   if (got < std::uint64_t{body_length} + 4)
     return corrupt(start, Recovery::stop,
                    fmt::format("file ends inside a block ({} of {} bytes)", got + header_bytes, length));
@@ -252,7 +287,7 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
   }
   if (type == kShb) {
     if (!parse) return corrupt(start, Recovery::stop, "section header block is too long");
-    const std::uint16_t major = load_u16(body_.data(), big_);
+    const std::uint16_t major = load_u16(body_view_.data(), big_);
     if (major != 1) return corrupt(start, Recovery::stop, fmt::format("pcapng version {} is not supported", major));
     interfaces_.clear();  // interface ids count from 0 in every section
     return Step::skipped;
@@ -262,24 +297,24 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
 
 PcapngReader::Step PcapngReader::interface_block(std::uint64_t start) {
   Interface iface;
-  const std::size_t n = body_.size();
+  const std::size_t n = body_view_.size();
   if (n < 8) {
     interfaces_.push_back(iface);
     return corrupt(start, Recovery::next_block, "interface description block is too short");
   }
-  iface.linktype = load_u16(body_.data(), big_);
-  iface.snaplen = load_u32(body_.data() + 4, big_);
+  iface.linktype = load_u16(body_view_.data(), big_);
+  iface.snaplen = load_u32(body_view_.data() + 4, big_);
   std::size_t pos = 8;
   while (pos + 4 <= n) {
-    const std::uint16_t code = load_u16(body_.data() + pos, big_);
-    const std::uint16_t len = load_u16(body_.data() + pos + 2, big_);
+    const std::uint16_t code = load_u16(body_view_.data() + pos, big_);
+    const std::uint16_t len = load_u16(body_view_.data() + pos + 2, big_);
     if (code == kOptEnd) break;
     if (pos + 4 + len > n) {
       interfaces_.push_back(iface);
       return corrupt(start, Recovery::next_block,
                      fmt::format("interface option {} runs past the end of its block", code));
     }
-    const std::uint8_t* value = body_.data() + pos + 4;
+    const std::uint8_t* value = body_view_.data() + pos + 4;
     if (code == kIfName) {
       std::size_t used = len;
       while (used > 0 && value[used - 1] == 0) --used;  // some writers add a terminating NUL
@@ -297,11 +332,11 @@ PcapngReader::Step PcapngReader::interface_block(std::uint64_t start) {
 }
 
 PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
-  const std::size_t n = body_.size();
+  const std::size_t n = body_view_.size();
   if (n < 20) return corrupt(start, Recovery::next_block, "enhanced packet block is too short");
-  const std::uint32_t id = load_u32(body_.data(), big_);
-  const std::uint64_t ticks = std::uint64_t{load_u32(body_.data() + 4, big_)} << 32 | load_u32(body_.data() + 8, big_);
-  const std::uint32_t captured = load_u32(body_.data() + 12, big_);
+  const std::uint32_t id = load_u32(body_view_.data(), big_);
+  const std::uint64_t ticks = std::uint64_t{load_u32(body_view_.data() + 4, big_)} << 32 | load_u32(body_view_.data() + 8, big_);
+  const std::uint32_t captured = load_u32(body_view_.data() + 12, big_);
   if (captured > n - 20)
     return corrupt(start, Recovery::next_block,
                    fmt::format("captured length {} runs past the end of its block", captured));
@@ -318,32 +353,32 @@ PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
     ns = ns > back ? ns - back : 0;
   }
   frame_.timestamp_ns = ns;
-  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_.data() + 20, captured));
+  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_view_.data() + 20, captured));
 }
 
 PcapngReader::Step PcapngReader::socketcan_packet(std::uint64_t start, const Interface& iface,
                                                   std::span<const std::uint8_t> packet) {
   const std::string_view why = decode_socketcan_packet(packet, frame_);
   if (!why.empty()) return corrupt(start, Recovery::next_block, std::string(why));
-  name_ = iface.name;
+  if (name_ != iface.name) name_ = iface.name;  // nearly always the same interface as the packet before
   return Step::frame;
 }
 
 PcapngReader::Step PcapngReader::simple_packet_block(std::uint64_t start) {
   // Original length, then the packet cut to interface 0's snap length (and padded): no interface id, no time.
-  const std::size_t n = body_.size();
+  const std::size_t n = body_view_.size();
   if (n < 4) return corrupt(start, Recovery::next_block, "simple packet block is too short");
   if (interfaces_.empty())
     return corrupt(start, Recovery::next_block, "simple packet block before any interface description block");
   const Interface& iface = interfaces_[0];
   if (iface.linktype != kLinktypeCanSocketcan) return Step::skipped;
-  std::size_t captured = load_u32(body_.data(), big_);
+  std::size_t captured = load_u32(body_view_.data(), big_);
   if (iface.snaplen != 0 && captured > iface.snaplen) captured = iface.snaplen;
   if (captured > n - 4)
     return corrupt(start, Recovery::next_block,
                    fmt::format("packet length {} runs past the end of its simple packet block", captured));
   frame_.timestamp_ns.reset();
-  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_.data() + 4, captured));
+  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_view_.data() + 4, captured));
 }
 
 // ---- writer ----

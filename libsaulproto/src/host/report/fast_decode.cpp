@@ -10,8 +10,6 @@
 #include <condition_variable>
 #include <exception>
 #include <functional>
-#include <istream>
-#include <streambuf>
 #include <string>
 #include <system_error>
 #include <mutex>
@@ -354,11 +352,6 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
 
 namespace {
 
-/// A read-only stream over bytes in memory (a pcapng block read whole).
-struct MemoryBuf : std::streambuf {
-  MemoryBuf(char* data, std::size_t n) { setg(data, data, data + n); }
-};
-
 /// Reads [at, at + n) of fd onto the end of `out`.
 void append_range(int fd, std::uint64_t at, std::uint64_t n, std::string& out) {
   const std::size_t base = out.size();
@@ -393,9 +386,8 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
     if (k > 0) append_range(fd, 0, cut.prefix_end, bytes);
     const std::uint64_t prefix = bytes.size();
     append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], bytes);
-    MemoryBuf buf(bytes.data(), bytes.size());
-    std::istream in(&buf);
-    PcapngReader reader(in);
+    PcapngReader reader(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(bytes.data()),
+                                                      bytes.size()));
     ReaderSlot slot;
     while (read_batch(reader, slot)) {
       for (auto& c : slot.batch.corrupt) c.error.position += cut.starts[k] - prefix;

@@ -28,6 +28,8 @@ class PcapngReader final : public CaptureReader {
  public:
   /// Reads the first Section Header Block; throws CaptureOpenError when the stream does not start with one.
   explicit PcapngReader(std::istream& in);
+  /// The same over bytes in memory (they must outlive the reader): packets are read in place, not copied.
+  explicit PcapngReader(std::span<const std::uint8_t> bytes);
 
   Status next() override;
   [[nodiscard]] const CanFrame& frame() const override { return frame_; }
@@ -54,8 +56,16 @@ class PcapngReader final : public CaptureReader {
   Step simple_packet_block(std::uint64_t start);
   Step socketcan_packet(std::uint64_t start, const Interface& iface, std::span<const std::uint8_t> packet);
   Step corrupt(std::uint64_t offset, Recovery recovery, std::string message);
+  void open();
+  /// Up to n bytes into dst (from the stream or memory), counted in offset_; returns how many.
+  std::size_t take(std::uint8_t* dst, std::size_t n);
+  /// The next n bytes as body_view_ (in memory: in place; else read into body_), counted; returns how many.
+  std::size_t take_body(std::size_t n);
+  std::uint64_t skip(std::uint64_t n);
 
-  std::istream& in_;
+  std::istream* in_ = nullptr;               ///< the stream, or
+  std::span<const std::uint8_t> mem_;        ///< the bytes in memory
+  std::span<const std::uint8_t> body_view_;  ///< the block being parsed (in body_ or in mem_)
   std::uint64_t offset_ = 0;
   bool big_ = false;
   bool stopped_ = false;

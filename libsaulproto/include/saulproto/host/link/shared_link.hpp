@@ -14,6 +14,11 @@
 // Both ends check the other's user with SO_PEERCRED: a connection from another account is refused and told why, and
 // a socket served by another account is not used. Confirmation of motion stays with the command (saulctl asks
 // before it opens anything), so a shared link needs the same confirmation as a direct one.
+// The owner reads the device on a thread of its own and hands what one read brought to its own process in one go
+// (one wake-up per burst, not per frame: sniff of a saturated bus costs ~2 us of CPU a frame). A paced owner
+// (LinkOpenOptions::paced: sniff, record) with no client attached stops reading the device while 2048 frames wait
+// for it, so a burst waits in the adapter instead of being read only to be dropped; with a client attached, or when
+// not paced, the device is always read and an owner that falls 8192 frames behind loses its oldest, counted.
 // When the owner exits, its clients are told; one of them takes the device over and the others reconnect to it
 // (each prints one line saying so). When the device disappears, every client ends with the owner's "disappeared"
 // error. A device held by a program that is not saulctl is refused with its name and pid (device_holders.hpp).
