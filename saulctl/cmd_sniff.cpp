@@ -78,7 +78,8 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
     std::fflush(stdout);
     out.clear();
   };
-  // The controller state is looked at when the link is idle and every 64 frames: it takes the link's locks.
+  // The controller state is looked at when the link is idle, at every error frame (SocketCAN reports its changes
+  // with them), every 64 frames and at the end: it takes the link's locks.
   auto check_state = [&] {
     const auto now_state = link->stats().state;
     if (now_state == state) return;
@@ -103,12 +104,13 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         check_state();
         continue;
       }
-      if (shown % 64 == 0) check_state();
+      if (f->error || shown % 64 == 0) check_state();
       if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
       emit.add(*f, link->name(), out, counts);
       ++shown;
       if (out.size() >= (1 << 16)) flush();
     }
+    check_state();  // a change the last frames brought (-n reached) is still shown
   } catch (const std::exception& e) {
     status = report_link_error(e);
   }

@@ -447,17 +447,18 @@ TEST_CASE("share: a client is never held back by a paced owner that does not rea
   auto& [dir, pty, log, owner] = h;
   auto client = h.client();
   std::string rest;
-  // A held device would stop the client near 6 000 (2048 queued, what the link and the pty hold); a slow client may
-  // lose a frame now and then (counted), so the check is that it gets far past that, near the end.
+  // A held device would stop the writer near 3 300 and the client near there (2048 queued, what the link and the
+  // pty hold); a slow client loses frames (counted: the owner drops them for it when its socket is full, and under
+  // load that can be all of the last few thousand), so the check is that it gets well past that.
   std::uint64_t last = 0;
   std::thread reader([&] {
     const auto end = steady_clock::now() + seconds(10);
-    while (last < 19000 && steady_clock::now() < end)
+    while (last < 10000 && steady_clock::now() < end)
       if (auto f = client->receive(milliseconds(50))) last = std::max(last, sequence_of(*f));
   });
   const std::uint64_t written = write_numbered_frames(pty.master, 20000, rest);
   CHECK(written == 20000);  // never stalled on the owner's full queue
   reader.join();
-  CHECK(last >= 19000);
+  CHECK(last >= 10000);
   CHECK(owner->stats().rx_dropped > 0);  // the owner's reader took nothing: its queue overflowed
 }

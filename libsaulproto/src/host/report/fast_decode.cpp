@@ -146,8 +146,14 @@ std::optional<std::uint64_t> first_time(Scanner&& scanner, const CandumpDecodeOp
   return std::nullopt;
 }
 
-/// Decodes block k of the file into `piece` with the worker's own emitter.
-using BlockDecoder = std::function<void(std::size_t k, FrameEmitter& emitter, Piece& piece)>;
+/// What a worker keeps from one block to the next: a block's bytes and a batch (no allocation per block).
+struct BlockScratch {
+  std::vector<std::uint8_t> bytes;  // grown, never shrunk: only the first `used` bytes are the block's
+  ReaderSlot slot;
+};
+
+/// Decodes block k of the file into `piece` with the worker's own emitter and scratch.
+using BlockDecoder = std::function<void(std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch& scratch)>;
 
 /// `blocks` blocks of a file decoded on o.threads threads, two blocks in flight per thread, handed to the sinks in
 /// file order. Corrupt positions are counted from the block's start when its scanner counts lines (candump), else
@@ -173,6 +179,7 @@ CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> fi
   auto work = [&] {
     FrameEmitter emitter(o.format, o.time);
     if (first) emitter.set_first(*first);
+    BlockScratch scratch;
     for (;;) {
       std::size_t k;
       {
@@ -188,7 +195,7 @@ CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> fi
         piece.counts = {};
         piece.records = piece.lines = piece.bytes = 0;
         piece.corrupt.clear();
-        decode_block(k, emitter, piece);
+        decode_block(k, emitter, piece, scratch);
       } catch (...) {
         std::lock_guard lock(mutex);
         if (!failure) failure = std::current_exception();
@@ -256,7 +263,7 @@ CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, co
                            : std::nullopt;
     return parallel(
         starts.size() - 1, first,
-        [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
+        [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch&) {
           CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
           scan_all(scanner, emitter, options, piece, [](Piece&, std::size_t) {});
         },
@@ -341,7 +348,7 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
     const auto first = options.time == TimeMode::relative ? first_time(*scanner, options) : std::nullopt;
     return parallel(
         starts.size() - 1, first,
-        [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
+        [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch&) {
           PcapScanner block(fd, size, starts[k], starts[k + 1], std::size_t{256} << 10);
           scan_all(block, emitter, options, piece, [](Piece&, std::size_t) {});
         },
@@ -352,20 +359,19 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
 
 namespace {
 
-/// Reads [at, at + n) of fd onto the end of `out`.
-void append_range(int fd, std::uint64_t at, std::uint64_t n, std::string& out) {
-  const std::size_t base = out.size();
-  out.resize(base + static_cast<std::size_t>(n));
+/// Reads [at, at + n) of fd into `out` from out[used] on (growing out when needed); returns the new `used`.
+std::size_t append_range(int fd, std::uint64_t at, std::uint64_t n, std::vector<std::uint8_t>& out, std::size_t used) {
+  if (out.size() < used + n) out.resize(used + static_cast<std::size_t>(n));
   std::uint64_t done = 0;
   while (done < n) {
-    const ssize_t got = ::pread(fd, out.data() + base + done, static_cast<std::size_t>(n - done),
+    const ssize_t got = ::pread(fd, out.data() + used + done, static_cast<std::size_t>(n - done),
                                 static_cast<off_t>(at + done));
     if (got < 0 && errno == EINTR) continue;
     if (got < 0) throw std::system_error(errno, std::generic_category(), "reading the capture");
     if (got == 0) break;  // the file shrank: what there is
     done += static_cast<std::uint64_t>(got);
   }
-  out.resize(base + static_cast<std::size_t>(done));
+  return used + static_cast<std::size_t>(done);
 }
 
 }  // namespace
@@ -381,14 +387,11 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
   const PcapngBlocks cut = pcapng_block_starts(fd, size, options.block);
   if (cut.starts.size() < 3) return std::nullopt;  // one block: the reader reads ahead instead
   // Block k > 0 is read after the prefix; what its reader says of the prefix is block 0's to say.
-  auto read_block = [&](std::size_t k, auto&& each) {
-    std::string bytes;
-    if (k > 0) append_range(fd, 0, cut.prefix_end, bytes);
-    const std::uint64_t prefix = bytes.size();
-    append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], bytes);
-    PcapngReader reader(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(bytes.data()),
-                                                      bytes.size()));
-    ReaderSlot slot;
+  auto read_block = [&](std::size_t k, BlockScratch& scratch, auto&& each) {
+    const std::size_t prefix = k > 0 ? append_range(fd, 0, cut.prefix_end, scratch.bytes, 0) : 0;
+    const std::size_t used = append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], scratch.bytes, prefix);
+    PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
+    ReaderSlot& slot = scratch.slot;
     while (read_batch(reader, slot)) {
       for (auto& c : slot.batch.corrupt) c.error.position += cut.starts[k] - prefix;
       if (k > 0) {
@@ -402,8 +405,9 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
   };
   std::optional<std::uint64_t> first;
   if (options.time == TimeMode::relative) {
+    BlockScratch scratch;
     for (std::size_t k = 0; k + 1 < cut.starts.size() && !first; ++k)
-      read_block(k, [&](const CandumpBatch& batch) {
+      read_block(k, scratch, [&](const CandumpBatch& batch) {
         for (const auto& f : batch.frames)
           if (wanted(options, f)) {
             first = f.timestamp_ns.value_or(0);
@@ -414,8 +418,8 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
   }
   return parallel(
       cut.starts.size() - 1, first,
-      [&](std::size_t k, FrameEmitter& emitter, Piece& piece) {
-        read_block(k, [&](const CandumpBatch& batch) {
+      [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch& scratch) {
+        read_block(k, scratch, [&](const CandumpBatch& batch) {
           emit_batch(batch, emitter, options, piece);
           return true;
         });
