@@ -106,6 +106,7 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       }
       if (f->error || shown % 64 == 0) check_state();
       if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
+      column.note(*f->timestamp_ns);  // a state change's time in --time rel/delta counts from the frames
       emit.add(*f, link->name(), out, counts);
       ++shown;
       if (out.size() >= (1 << 16)) flush();

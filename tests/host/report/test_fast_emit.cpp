@@ -262,6 +262,7 @@ struct Decoded {
   std::string out;
   std::vector<std::string> corrupt;
   CandumpDecodeResult result;
+  std::uint64_t progress_bytes = 0;  ///< the last progress report's
 };
 
 /// What a decode_*() call wrote, reported and counted.
@@ -271,6 +272,7 @@ Decoded run_with(Decode&& decode) {
   CandumpDecodeSinks sinks;
   sinks.write = [&](std::string_view s) { d.out.append(s); };
   sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
+  sinks.progress = [&](std::uint64_t, std::uint64_t bytes) { d.progress_bytes = bytes; };
   d.result = decode(sinks);
   return d;
 }
@@ -329,6 +331,8 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
         const Decoded two = run(file.path, o);
         CHECK(one.out == two.out);
         CHECK(one.corrupt == two.corrupt);
+        CHECK(one.progress_bytes == log.size());
+        CHECK(two.progress_bytes == log.size());
         CHECK(one.result.records == two.result.records);
         CHECK(one.result.corrupt == two.result.corrupt);
         CHECK(one.result.counts.frames == two.result.counts.frames);
@@ -420,6 +424,7 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
       CHECK(two.out == expected);
       CHECK(two.corrupt == corrupt);
       CHECK(corrupt.size() == 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
+      CHECK(two.progress_bytes == pcap.str().size());  // progress counts each block's bytes once
     }
   }
 }
@@ -510,6 +515,7 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
       CHECK(two.corrupt == corrupt);
       CHECK(corrupt.size() == 1 + 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
       CHECK(two.result.records == frames.size());
+      CHECK(two.progress_bytes == png.str().size());
     }
   }
 }

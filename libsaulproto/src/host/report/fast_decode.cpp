@@ -351,6 +351,7 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
         [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch&) {
           PcapScanner block(fd, size, starts[k], starts[k + 1], std::size_t{256} << 10);
           scan_all(block, emitter, options, piece, [](Piece&, std::size_t) {});
+          piece.bytes = starts[k + 1] - (k == 0 ? 0 : starts[k]);  // the scanner counts file offsets: the block's
         },
         options, sinks);
   }

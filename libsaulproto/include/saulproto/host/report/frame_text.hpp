@@ -20,6 +20,11 @@ class TimeColumn {
  public:
   explicit TimeColumn(TimeMode mode) : mode_(mode) {}
   std::string operator()(std::uint64_t ns);
+  /// Counts a stamp written elsewhere (the FrameEmitter's lines) as the first or previous one, without text.
+  void note(std::uint64_t ns) {
+    if (!first_) first_ = ns;
+    previous_ = ns;
+  }
   /// The same value without parentheses, for JSON and CSV.
   static std::string bare(const std::string& column) { return column.substr(1, column.size() - 2); }
 
