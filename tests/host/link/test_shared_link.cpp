@@ -363,8 +363,9 @@ TEST_CASE("share: another user is refused and nothing it sends reaches the adapt
 namespace {
 
 /// Writes slcan frames "t1238<sequence as 16 hex digits>\r" (0, 1, 2...) into the pty's master without blocking,
-/// until `n` are written or the pty has stayed full for 300 ms (its reader stopped reading). Returns the frames
-/// written whole; `rest` keeps the unwritten end of a frame cut by a full pty.
+/// until `n` are written or the pty has stayed full for a second (its reader stopped reading: a loaded machine may
+/// leave a reader waiting tens of ms, not a second). Returns the frames written whole; `rest` keeps the unwritten
+/// end of a frame cut by a full pty.
 std::uint64_t write_numbered_frames(int master, std::uint64_t n, std::string& rest) {
   const int flags = ::fcntl(master, F_GETFL);
   ::fcntl(master, F_SETFL, flags | O_NONBLOCK);
@@ -379,7 +380,7 @@ std::uint64_t write_numbered_frames(int master, std::uint64_t n, std::string& re
         continue;
       }
       pollfd p{master, POLLOUT, 0};
-      if (::poll(&p, 1, 300) <= 0) {  // full and nobody reading: stop here
+      if (::poll(&p, 1, 1000) <= 0) {  // full and nobody reading: stop here
         rest = line.substr(at);
         ::fcntl(master, F_SETFL, flags);
         return whole;
