@@ -447,6 +447,16 @@ std::string raw_epb(std::uint32_t iface, std::uint32_t trailing = 48) {
   return b;
 }
 
+/// A 16-byte block of a type no reader knows (0x0BAD), its trailing length `trailing` (16 unless testing a bad one).
+std::string raw_unknown_block(std::uint32_t trailing = 16) {
+  std::string b;
+  put_u32(b, 0x0BAD);
+  put_u32(b, 16);
+  put_u32(b, 0);
+  put_u32(b, trailing);
+  return b;
+}
+
 Decoded run_pcapng(const std::string& path, const CandumpDecodeOptions& o) {
   return run_with([&](const CandumpDecodeSinks& sinks) {
     if (auto r = decode_pcapng_file(path, o, sinks)) return *r;
@@ -466,27 +476,14 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
   const auto frames = random_frames(rng, 20000);
   std::ostringstream png;
   PcapngWriter writer(png);
-  {
-    std::string before;  // before the first packet, so in what every block reads first: reported once
-    put_u32(before, 0x0BAD);
-    put_u32(before, 16);
-    put_u32(before, 0);
-    put_u32(before, 20);  // differs
-    png << before;
-  }
+  // Before the first packet, so in what every block reads first: reported once. Its trailing length differs.
+  png << raw_unknown_block(20);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     writer.write(frames[i], i >= 15000 && i % 3 == 0 ? "vcan1" : "can0");
     writer.flush();
     if (i % 997 == 0) png << raw_epb(0, 52);
     if (i % 1999 == 0) png << raw_epb(9);
-    if (i == 17000) {
-      std::string unknown;
-      put_u32(unknown, 0x0BAD);
-      put_u32(unknown, 16);
-      put_u32(unknown, 0);
-      put_u32(unknown, 16);
-      png << unknown;
-    }
+    if (i == 17000) png << raw_unknown_block();
   }
   png << raw_epb(0).substr(0, 30);
   TempFile file(png.str());
