@@ -165,7 +165,7 @@ std::string top_table(const saul::host::BusStats& stats, const std::map<saul::ho
     const auto& c = st.cadence;
     out += fmt::format("{:>8}  {:<18} {:>8} {:>8.1f} {:>10.2f} {:>10.2f}  {}\n",
                        key.first ? fmt::format("{:08X}", key.second) : fmt::format("{:03X}", key.second), st.type,
-                       c.count, c.rate_hz(), c.mean_gap_ns / 1e6, c.jitter_ns() / 1e6, data);
+                       c.count, c.rate_hz(), c.mean_gap_ns() / 1e6, c.jitter_ns() / 1e6, data);
   }
   return out;
 }
@@ -212,9 +212,9 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
     std::string type = ist.type.substr(0, static_cast<std::size_t>(type_w));
     const bool error = ist.type.find("error") != std::string::npos;
     c = s.put(row, 0, wide ? fmt::format("{:>8} {:<18} {:>8} {:>8.1f} {:>9.2f} {:>9.2f}  ", id, type, cad.count,
-                                         cad.rate_hz(), cad.mean_gap_ns / 1e6, cad.jitter_ns() / 1e6)
+                                         cad.rate_hz(), cad.mean_gap_ns() / 1e6, cad.jitter_ns() / 1e6)
                            : fmt::format("{:>8} {:<14} {:>7} {:>7.1f} {:>9.2f}  ", id, type, cad.count, cad.rate_hz(),
-                                         cad.mean_gap_ns / 1e6),
+                                         cad.mean_gap_ns() / 1e6),
               error ? Style::bad : Style::normal);
     if (const auto it = rows.find(key); it != rows.end()) {
       const TopRow& r = it->second;

@@ -2,11 +2,18 @@
 // small hand-made capture whose numbers are worked out by hand in the comments.
 #include <catch2/catch.hpp>
 
+#include <fmt/format.h>
+
 #include <initializer_list>
+#include <map>
+#include <random>
 #include <sstream>
+#include <vector>
 
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
+#include "host/temp_file.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
@@ -119,7 +126,9 @@ TEST_CASE("bus statistics of a hand-made capture") {
   CHECK(velocity.cadence.max_gap_start_ns == 50 * kMs);
   CHECK(velocity.cadence.gaps_over_timeout == 1);
   CHECK(velocity.cadence.rate_hz() == Approx(3.0));        // 3 gaps in 1 s
-  CHECK(velocity.cadence.mean_gap_ns == Approx(1e9 / 3));  // (50 + 600 + 350) / 3 ms
+  CHECK(velocity.cadence.mean_gap_ns() == Approx(1e9 / 3));  // (50 + 600 + 350) / 3 ms
+  // deviations from 333.33 ms: -283.33, 266.67, 16.67; mean square 50 555.6 ms^2; root 224.85 ms
+  CHECK(velocity.cadence.jitter_ns() == Approx(224.8456e6).epsilon(1e-6));
   CHECK(velocity.decode_errors == 1);
   CHECK(stats.ids().at({false, 0x123}).type == "!unknown_id");
 
@@ -170,4 +179,203 @@ TEST_CASE("serial statistics: counts per message type and the decoder's counters
   CHECK(stats.decode_errors() == 0);
   const auto j = stats.json("pride");
   CHECK(j["links"][0]["decoder"]["frames"] == 8);
+}
+
+// ---- blocks counted apart and appended (stats on both cores) ----------------------------------------------------
+// The property: for any frames and any cut into blocks, appending the blocks' BusStats(options, Block{}) in order
+// gives what add() of every frame on one BusStats gives, to the last bit of every figure (the text and the JSON).
+
+namespace {
+
+struct Event {
+  CanFrame frame;
+  std::string interface;
+  bool corrupt = false;
+};
+
+/// Frames a capture can hold, hostile ones included: several interfaces, standard and extended ids (0x300 among
+/// them, with silences over the Orin timeout), remote and error frames, payloads that decode and that do not, times
+/// that repeat (equal gaps: the first longest gap must win), go back, are missing or sit near 2^64.
+std::vector<Event> random_events(std::mt19937_64& rng, std::size_t n) {
+  static const char* const kInterfaces[] = {"can0", "can1", "vcan7"};
+  static const std::uint32_t kStandard[] = {0x300, 0x301, 0x400, 0x401, 0x402, 0x123};
+  static const std::uint32_t kExtended[] = {0x944, 0x938, 0x1B44, 0x344, 0x1FFFFFFF};
+  std::vector<Event> events;
+  std::uint64_t t = (rng() % 4 == 0) ? ~std::uint64_t{0} - 5'000'000'000ULL : 1'763'800'000'000'000'000ULL;
+  for (std::size_t i = 0; i < n; ++i) {
+    Event e;
+    if (rng() % 40 == 0) {
+      e.corrupt = true;
+      events.push_back(e);
+      continue;
+    }
+    CanFrame& f = e.frame;
+    e.interface = kInterfaces[rng() % (rng() % 3 == 0 ? 3 : 1)];
+    f.extended = rng() % 3 == 0;
+    f.id = f.extended ? kExtended[rng() % 5] : kStandard[rng() % 6];
+    f.dlc = static_cast<std::uint8_t>(rng() % 9);
+    if (rng() % 4 != 0 && !f.extended && f.id == 0x300) f.dlc = 4;  // mostly a velocity command that decodes
+    for (auto& b : f.data) b = static_cast<std::uint8_t>(rng() % 3 == 0 ? rng() : 0);
+    f.remote = rng() % 25 == 0;
+    if (rng() % 30 == 0) {
+      f.error = true;
+      f.id = static_cast<std::uint32_t>(rng() % 0x400);
+      f.dlc = 8;
+    }
+    static const std::uint64_t kGaps[] = {0, 1'000'000, 10'000'000, 10'000'000, 120'000'000, 700'000'000};
+    switch (rng() % 20) {
+      case 0: f.timestamp_ns = std::nullopt; break;                          // no time
+      case 1: f.timestamp_ns = t - std::min<std::uint64_t>(t, 50'000'000); break;  // back in time
+      default:
+        t += std::min(kGaps[rng() % 6], ~std::uint64_t{0} - t);  // held at 2^64 - 1 at the end
+        f.timestamp_ns = t;
+    }
+    events.push_back(e);
+  }
+  return events;
+}
+
+void add(BusStats& stats, const Event& e) {
+  if (e.corrupt)
+    stats.add_corrupt();
+  else
+    stats.add(e.frame, e.interface);
+}
+
+}  // namespace
+
+TEST_CASE("stats of blocks appended in order equal one pass over every frame") {
+  std::mt19937_64 rng(20261124);
+  for (int round = 0; round < 400; ++round) {
+    INFO("round " << round);
+    BusStatsOptions options;
+    options.window_ns = (rng() % 2 == 0 ? 100 : 1 + rng() % 1000) * kMs;
+    const auto events = random_events(rng, rng() % 300);
+    BusStats one(options);
+    for (const Event& e : events) add(one, e);
+
+    // cut anywhere, empty blocks included
+    std::vector<std::size_t> cuts{0, events.size()};
+    for (int c = static_cast<int>(rng() % 6); c-- > 0;) cuts.push_back(events.empty() ? 0 : rng() % events.size());
+    std::sort(cuts.begin(), cuts.end());
+    BusStats appended(options);
+    for (std::size_t b = 0; b + 1 < cuts.size(); ++b) {
+      BusStats block(options, BusStats::Block{});
+      for (std::size_t i = cuts[b]; i < cuts[b + 1]; ++i) add(block, events[i]);
+      appended.append(block);
+    }
+    REQUIRE(appended.json("f").dump() == one.json("f").dump());
+    REQUIRE(appended.text("f") == one.text("f"));
+
+    // The busiest window against the rule written out plainly (a division per frame): windows of window_ns from
+    // the interface's first timed frame, in file order; a frame that falls in an earlier window counts in the
+    // current one.
+    struct Model {
+      std::optional<std::uint64_t> first;
+      std::uint64_t index = 0, bits = 0, peak = 0, peak_index = 0;
+    };
+    std::map<std::string, Model> model;
+    for (const Event& e : events) {
+      if (e.corrupt || e.frame.error || !e.frame.timestamp_ns) continue;
+      Model& m = model[e.interface];
+      const std::uint64_t ns = *e.frame.timestamp_ns;
+      if (!m.first) m.first = ns;
+      const std::uint64_t index = (ns >= *m.first ? ns - *m.first : 0) / options.window_ns;
+      if (index > m.index) {
+        m.index = index;
+        m.bits = 0;
+      }
+      m.bits += can_frame_bits(e.frame, StuffBits::worst_case);
+      if (m.bits > m.peak) {
+        m.peak = m.bits;
+        m.peak_index = m.index;
+      }
+    }
+    for (const auto& [name, m] : model) {
+      INFO(name);
+      REQUIRE(one.interfaces().at(name).peak_bits == m.peak);
+      REQUIRE(one.interfaces().at(name).peak_index == m.peak_index);
+    }
+  }
+}
+
+TEST_CASE("cadences of consecutive parts appended equal one cadence over the whole") {
+  std::mt19937_64 rng(7);
+  for (int round = 0; round < 2000; ++round) {
+    std::vector<std::optional<std::uint64_t>> times;
+    std::uint64_t t = 1000;
+    for (std::size_t i = rng() % 20; i-- > 0;) {
+      t += rng() % 3 * 500;  // equal gaps are common: of equal longest gaps the first must stay
+      times.push_back(rng() % 8 == 0 ? std::nullopt : std::optional<std::uint64_t>(rng() % 10 == 0 ? t - 700 : t));
+    }
+    const std::uint64_t timeout = rng() % 2 * 600;
+    Cadence one;
+    for (auto ns : times) one.add(ns, timeout);
+    const std::size_t cut = times.empty() ? 0 : rng() % (times.size() + 1);
+    Cadence first, second;
+    for (std::size_t i = 0; i < times.size(); ++i) (i < cut ? first : second).add(times[i], timeout);
+    first.append(second, timeout);
+    INFO("round " << round << " cut " << cut);
+    REQUIRE(first.count == one.count);
+    REQUIRE(first.first_ns == one.first_ns);
+    REQUIRE(first.last_ns == one.last_ns);
+    REQUIRE(first.gaps == one.gaps);
+    REQUIRE(first.max_gap_ns == one.max_gap_ns);
+    REQUIRE(first.max_gap_start_ns == one.max_gap_start_ns);
+    REQUIRE(first.gaps_over_timeout == one.gaps_over_timeout);
+    REQUIRE(first.gap_sum_ns == one.gap_sum_ns);
+    REQUIRE(first.gap_square_sum == one.gap_square_sum);
+  }
+}
+
+TEST_CASE("stats of a candump file on both cores equal one thread: figures, corrupt lines and their line numbers") {
+  std::mt19937_64 rng(99);
+  std::string log;
+  std::uint64_t us = 1'763'800'000'000'000ULL;
+  for (int i = 0; i < 6000; ++i) {
+    us += 100 + rng() % 3 * 400 + (rng() % 500 == 0 ? 600'000 : 0);
+    const auto sec = us / 1'000'000, usec = us % 1'000'000;
+    switch (rng() % 50) {
+      case 0: log += "(garbage line\n"; break;
+      case 1: log += fmt::format("({}.{:06}) can0 30#ZZ\n", sec, usec); break;
+      case 2: log += "# a comment\n"; break;
+      case 3: log += fmt::format("({}.{:06}) can1 20000080#0000000000000040\n", sec, usec); break;  // error frame
+      default:
+        log += fmt::format("({}.{:06}) can{} {}#{:04X}{:04X}\n", sec, usec, rng() % 7 == 0 ? 1 : 0,
+                           rng() % 2 ? "300" : "00000944", rng() % 3 == 0 ? rng() % 0x10000 : 0, rng() % 4);
+    }
+  }
+  TempFile file(log);
+  struct Run {
+    std::string text;
+    std::vector<std::uint64_t> corrupt_lines;
+    std::uint64_t records = 0;
+    std::uint64_t last_bytes = 0;
+  };
+  auto run = [&](bool ahead, std::uint64_t block) {
+    auto candump = CandumpFile::open(file.path);
+    REQUIRE(candump);
+    BusStats stats;
+    Run r;
+    add_candump_file(
+        stats, candump->fd(), candump->size(), ahead,
+        [&](const saul::host::CaptureError& e) { r.corrupt_lines.push_back(e.position); },
+        [&](std::uint64_t records, std::uint64_t bytes) {
+          r.records += records;
+          r.last_bytes = bytes;
+        },
+        {}, block);
+    r.text = stats.text("f") + stats.json("f").dump();
+    return r;
+  };
+  const Run one = run(false, 0);
+  REQUIRE(one.corrupt_lines.size() > 100);
+  for (std::uint64_t block : {std::uint64_t{1}, std::uint64_t{777}, std::uint64_t{4096}, std::uint64_t{1} << 30}) {
+    INFO("blocks of " << block << " bytes");
+    const Run blocks = run(true, block);
+    CHECK(blocks.text == one.text);
+    CHECK(blocks.corrupt_lines == one.corrupt_lines);
+    CHECK(blocks.records == one.records);
+    CHECK(blocks.last_bytes == log.size());
+  }
 }

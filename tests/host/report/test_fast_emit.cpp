@@ -24,6 +24,7 @@
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
+#include "host/temp_file.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
@@ -244,19 +245,6 @@ std::string random_log(std::mt19937_64& rng, std::size_t frames) {
   log += "(1763800000.000000) can0 123#11";  // no newline at the end
   return log;
 }
-
-struct TempFile {
-  std::string path;
-  explicit TempFile(const std::string& content) {
-    char name[] = "/tmp/saul_fast_decode_XXXXXX";
-    const int fd = mkstemp(name);
-    REQUIRE(fd >= 0);
-    REQUIRE(::write(fd, content.data(), content.size()) == static_cast<ssize_t>(content.size()));
-    ::close(fd);
-    path = name;
-  }
-  ~TempFile() { std::remove(path.c_str()); }
-};
 
 struct Decoded {
   std::string out;

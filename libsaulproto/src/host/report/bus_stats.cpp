@@ -8,6 +8,7 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "../in_order.hpp"
 
 namespace saul::host {
 namespace {
@@ -55,6 +56,20 @@ std::uint16_t crc15(const FrameBits& b) {
 }
 
 double seconds(std::uint64_t ns) { return static_cast<double>(ns) / 1e9; }
+
+std::uint64_t saturating_add(std::uint64_t a, std::uint64_t b) {
+  std::uint64_t sum;
+  return __builtin_add_overflow(a, b, &sum) ? ~std::uint64_t{0} : sum;
+}
+std::uint64_t saturating_mul(std::uint64_t a, std::uint64_t b) {
+  std::uint64_t product;
+  return __builtin_mul_overflow(a, b, &product) ? ~std::uint64_t{0} : product;
+}
+
+/// Gaps of this id longer than this are counted (0: none): 0x300 against the BALANCE board's Orin timeout.
+std::uint64_t timeout_of(const BusStats::IdKey& id) {
+  return !id.first && id.second == saulcan::kVelocityCmdId ? kOrinTimeoutNs : 0;
+}
 
 std::string duration_text(double ns) {
   if (ns >= 1e9) return fmt::format("{:.3f} s", ns / 1e9);
@@ -115,23 +130,44 @@ unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept {
   return fixed + can_stuff_bits(frame);  // table-driven (can_bits.cpp)
 }
 
+void Cadence::gap_to(std::uint64_t ns, std::uint64_t timeout_ns) {
+  const std::uint64_t gap = ns >= *last_ns ? ns - *last_ns : 0;
+  ++gaps;
+  if (gap > max_gap_ns || gaps == 1) {
+    max_gap_ns = gap;
+    max_gap_start_ns = *last_ns;
+  }
+  if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
+  gap_sum_ns += gap;
+  const Sum square = Sum{gap} * gap;
+  // A square reaches 2^128 only for gaps of centuries (hostile timestamps): hold the sum there, never wrap.
+  if (__builtin_add_overflow(gap_square_sum, square, &gap_square_sum)) gap_square_sum = ~Sum{0};
+}
+
 void Cadence::add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns) {
   ++count;
   if (!ns) return;
-  if (last_ns) {
-    const std::uint64_t gap = *ns >= *last_ns ? *ns - *last_ns : 0;
-    ++gaps;
-    if (gap > max_gap_ns || gaps == 1) {
-      max_gap_ns = gap;
-      max_gap_start_ns = *last_ns;
-    }
-    if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
-    const double delta = static_cast<double>(gap) - mean_gap_ns;
-    mean_gap_ns += delta / static_cast<double>(gaps);
-    m2 += delta * (static_cast<double>(gap) - mean_gap_ns);
-  }
+  if (last_ns) gap_to(*ns, timeout_ns);
   if (!first_ns) first_ns = ns;
   last_ns = ns;
+}
+
+void Cadence::append(const Cadence& later, std::uint64_t timeout_ns) {
+  count += later.count;
+  if (!later.first_ns) return;  // no timestamps there: nothing else to add
+  if (last_ns) gap_to(*later.first_ns, timeout_ns);  // from the last event here to the first there
+  if (later.gaps > 0) {
+    if (gaps == 0 || later.max_gap_ns > max_gap_ns) {  // strictly longer: of equal gaps the first stays
+      max_gap_ns = later.max_gap_ns;
+      max_gap_start_ns = later.max_gap_start_ns;
+    }
+    gaps += later.gaps;
+    gaps_over_timeout += later.gaps_over_timeout;
+    gap_sum_ns += later.gap_sum_ns;
+    if (__builtin_add_overflow(gap_square_sum, later.gap_square_sum, &gap_square_sum)) gap_square_sum = ~Sum{0};
+  }
+  if (!first_ns) first_ns = later.first_ns;
+  last_ns = later.last_ns;
 }
 
 double Cadence::rate_hz() const {
@@ -139,7 +175,25 @@ double Cadence::rate_hz() const {
   return static_cast<double>(gaps) / seconds(*last_ns - *first_ns);
 }
 
-double Cadence::jitter_ns() const { return gaps > 1 ? std::sqrt(m2 / static_cast<double>(gaps)) : 0; }
+double Cadence::mean_gap_ns() const {
+  return gaps > 0 ? static_cast<double>(gap_sum_ns) / static_cast<double>(gaps) : 0;
+}
+
+double Cadence::jitter_ns() const {
+  if (gaps < 2) return 0;
+  // variance = (n * sum(g^2) - sum(g)^2) / n^2: exact in 128-bit integers for any real capture; in long double when
+  // that would overflow.
+  const Sum n = gaps;
+  Sum n_squares = 0, sum_squared = 0;
+  if (!__builtin_mul_overflow(n, gap_square_sum, &n_squares) &&
+      !__builtin_mul_overflow(gap_sum_ns, gap_sum_ns, &sum_squared)) {
+    const Sum spread = n_squares >= sum_squared ? n_squares - sum_squared : 0;
+    return static_cast<double>(std::sqrt(static_cast<long double>(spread)) / static_cast<long double>(n));
+  }
+  const long double mean = static_cast<long double>(gap_sum_ns) / static_cast<long double>(n);
+  const long double variance = static_cast<long double>(gap_square_sum) / static_cast<long double>(n) - mean * mean;
+  return variance > 0 ? static_cast<double>(std::sqrt(variance)) : 0;
+}
 
 const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   const FrameKey key = frame_key(f);
@@ -187,27 +241,17 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   load.bits_worst += worst;
   load.bits_exact += none + content.stuff;  // can_frame_bits(f, StuffBits::exact)
   if (ts) {
-    if (!load.first_ns) load.first_ns = ts;
-    if (!load.last_ns || *ts > *load.last_ns) load.last_ns = ts;
-    const std::uint64_t since = *ts >= *load.first_ns ? *ts - *load.first_ns : 0;
-    const std::uint64_t index = since / options_.window_ns;
-    if (index > load.window_index) {
-      load.window_index = index;
-      load.window_bits = 0;
-    }
-    load.window_bits += worst;
-    if (load.window_bits > load.peak_bits) {
-      load.peak_bits = load.window_bits;
-      load.peak_index = load.window_index;
-    }
+    if (block_)
+      load.timed.push_back({*ts, worst});  // the windows are worked out by append(), in file order
+    else
+      add_timed(load, *ts, worst);
   }
 
   const IdKey id{f.extended, f.id};
   IdSlot& slot = id_slots_[(f.id ^ (f.id >> 6) ^ (f.extended ? 0x2A : 0)) % id_slots_.size()];
   if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
   IdStats& s = *slot.stats;
-  const bool velocity = !f.extended && f.id == saulcan::kVelocityCmdId;
-  s.cadence.add(ts, velocity ? kOrinTimeoutNs : 0);
+  s.cadence.add(ts, timeout_of(id));
   if (f.remote) ++s.remote;
   s.bits_worst = worst;
   s.dlc = f.dlc;
@@ -217,6 +261,70 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
     ++s.decode_errors;
     ++failures_[to_string(content.reason)];
     if (s.type.empty()) s.type = std::string("!") + to_string(content.reason);
+  }
+}
+
+void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const {
+  if (!load.first_ns) {
+    load.first_ns = ns;
+    load.window_end_ns = saturating_add(ns, options_.window_ns);
+  }
+  if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
+  // Windows of window_ns from the interface's first frame, in file order: a frame at or past the current window's
+  // end opens the window it falls in; a frame before it (times can go back) counts in the current one.
+  if (ns >= load.window_end_ns) {
+    const std::uint64_t index = (ns - *load.first_ns) / options_.window_ns;
+    if (index > load.window_index) {
+      load.window_index = index;
+      load.window_bits = 0;
+      load.window_end_ns = saturating_add(*load.first_ns, saturating_mul(index + 1, options_.window_ns));
+    }
+  }
+  load.window_bits += worst;
+  if (load.window_bits > load.peak_bits) {
+    load.peak_bits = load.window_bits;
+    load.peak_index = load.window_index;
+  }
+}
+
+void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns) {
+  to.cadence.append(later.cadence, timeout_ns);
+  to.remote += later.remote;
+  to.decode_errors += later.decode_errors;
+  to.bits_worst = later.bits_worst;  // of the last frame, which is there
+  to.dlc = later.dlc;
+  // the name of the first frame that decoded, else the first failure
+  if (to.type.empty() || (to.type[0] == '!' && !later.type.empty() && later.type[0] != '!')) to.type = later.type;
+}
+
+void BusStats::append(const BusStats& later) {
+  assert(later.block_ && later.options_.window_ns == options_.window_ns && later.options_.bitrate == options_.bitrate);
+  frames_ += later.frames_;
+  corrupt_ += later.corrupt_;
+  error_frames_ += later.error_frames_;
+  if (later.first_ns_ && (!first_ns_ || *later.first_ns_ < *first_ns_)) first_ns_ = later.first_ns_;
+  if (later.last_ns_ && (!last_ns_ || *later.last_ns_ > *last_ns_)) last_ns_ = later.last_ns_;
+  for (const auto& [kind, count] : later.error_kinds_) error_kinds_[kind] += count;
+  for (const auto& [reason, count] : later.failures_) failures_[reason] += count;
+  for (const auto& [name, from] : later.interfaces_) {
+    auto it = interfaces_.find(name);
+    if (it == interfaces_.end()) it = interfaces_.emplace(name, Load{}).first;
+    Load& load = it->second;
+    load.frames += from.frames;
+    load.bits_none += from.bits_none;
+    load.bits_worst += from.bits_worst;
+    load.bits_exact += from.bits_exact;
+    if (block_)
+      load.timed.insert(load.timed.end(), from.timed.begin(), from.timed.end());
+    else
+      for (const Load::Timed& t : from.timed) add_timed(load, t.ns, t.bits);
+  }
+  for (const auto& [key, from] : later.ids_) {
+    auto [it, added] = ids_.try_emplace(key);
+    if (added)
+      it->second = from;
+    else
+      append_id(it->second, from, timeout_of(key));
   }
 }
 
@@ -290,7 +398,7 @@ std::string BusStats::text(std::string_view name) const {
     out += fmt::format("{:<9} {:<20} {:>7} {:>9} {:>11} {:>11} {:>11} {:>10} {:>5} {:>7}\n",
                        id_text(key.first, key.second), s.type, c.count,
                        c.gaps ? fmt::format("{:.2f}", c.rate_hz()) : "-",
-                       c.gaps ? duration_text(c.mean_gap_ns) : "-",
+                       c.gaps ? duration_text(c.mean_gap_ns()) : "-",
                        c.gaps ? duration_text(static_cast<double>(c.max_gap_ns)) : "-", from,
                        c.gaps > 1 ? duration_text(c.jitter_ns()) : "-", s.bits_worst, s.decode_errors);
   }
@@ -340,7 +448,7 @@ nlohmann::json BusStats::json(std::string_view name) const {
                      {"decode_errors", s.decode_errors},
                      {"bits_worst_case", s.bits_worst}};
     if (c.gaps > 0) {
-      e["mean_gap_s"] = c.mean_gap_ns / 1e9;
+      e["mean_gap_s"] = c.mean_gap_ns() / 1e9;
       e["max_gap_s"] = seconds(c.max_gap_ns);
       e["max_gap_from_s"] = first_ns_ ? seconds(c.max_gap_start_ns - *first_ns_) : 0.0;
       e["jitter_s"] = c.jitter_ns() / 1e9;
@@ -355,10 +463,67 @@ nlohmann::json BusStats::json(std::string_view name) const {
   return j;
 }
 
+namespace {
+
+/// Blocks of a candump file counted on both cores, added to `stats` in file order (add_candump_file with `ahead`).
+void add_candump_blocks(BusStats& stats, int fd, std::uint64_t size, std::uint64_t block_bytes,
+                        const std::function<void(const CaptureError&)>& on_corrupt,
+                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
+  // 4 MiB blocks (~90 000 frames) by default: a block's timed frames take ~1.4 MiB until it is appended.
+  const std::vector<std::uint64_t> starts = split_candump_blocks(fd, size, block_bytes);
+  struct Counted {
+    BusStats stats;
+    std::vector<CaptureError> corrupt;  // positions: lines counted from the block's start
+    std::uint64_t lines = 0;
+    std::uint64_t records = 0;
+  };
+  struct Worker {
+    FrameFactsCache facts;  // kept from block to block: the bus repeats its frames
+    CandumpBatch batch;
+  };
+  std::uint64_t lines = 0;
+  detail::run_blocks_in_order<Counted>(
+      starts.size() - 1, 2, [] { return Worker{}; },
+      [&](std::size_t k, Worker& w, Counted& block) {
+        block.stats = BusStats(stats.options(), BusStats::Block{});
+        block.corrupt.clear();
+        block.records = 0;
+        CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
+        while (scanner.next_batch(w.batch)) {
+          for (const auto& c : w.batch.corrupt) {
+            block.stats.add_corrupt();
+            block.corrupt.push_back(c.error);
+          }
+          const std::size_t n = w.batch.frames.size();
+          for (std::size_t i = 0; i < n; ++i) {
+            const CanFrame& f = w.batch.frames[i];
+            block.stats.add(f, w.batch.interfaces[i], w.facts.get(f));
+          }
+          block.records += n + w.batch.corrupt.size();
+        }
+        block.lines = scanner.lines();
+      },
+      [&](std::size_t k, Counted& block) {
+        for (CaptureError& e : block.corrupt) {
+          e.position += lines;
+          if (on_corrupt) on_corrupt(e);
+        }
+        lines += block.lines;
+        stats.append(block.stats);
+        if (on_progress) on_progress(block.records, starts[k + 1]);
+      });
+}
+
+}  // namespace
+
 void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
                       const std::function<void(const CaptureError&)>& on_corrupt,
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      const std::function<void(const CanFrame&)>& also) {
+                      const std::function<void(const CanFrame&)>& also, std::uint64_t block_bytes) {
+  if (ahead && !also) {
+    add_candump_blocks(stats, fd, size, block_bytes, on_corrupt, on_progress);
+    return;
+  }
   FrameFactsCache cache;  // on the reading thread when ahead
   std::array<std::vector<FrameFacts>, kAheadBatches> facts;
   scan_candump(
@@ -440,7 +605,7 @@ std::string SerialStats::text(std::string_view name) const {
     for (const auto& [type, m] : link.messages)
       out += fmt::format("  {:<20} {:>7} {:>9} {:>11} {:>11}\n", type, m.count,
                          m.gaps ? fmt::format("{:.2f}", m.rate_hz()) : "-",
-                         m.gaps ? duration_text(m.mean_gap_ns) : "-",
+                         m.gaps ? duration_text(m.mean_gap_ns()) : "-",
                          m.gaps ? duration_text(static_cast<double>(m.max_gap_ns)) : "-");
   }
   return out;
@@ -469,7 +634,7 @@ nlohmann::json SerialStats::json(std::string_view name) const {
     for (const auto& [type, m] : link.messages) {
       nlohmann::json e{{"count", m.count}, {"rate_hz", m.rate_hz()}};
       if (m.gaps) {
-        e["mean_gap_s"] = m.mean_gap_ns / 1e9;
+        e["mean_gap_s"] = m.mean_gap_ns() / 1e9;
         e["max_gap_s"] = seconds(m.max_gap_ns);
       }
       messages[type] = e;

@@ -1,6 +1,7 @@
-// The exact stuff-bit count of a classic CAN frame, table-driven: the frame's bits (SOF to the end of the data) in
-// one 128-bit word, its CRC-15 a byte at a time from a 256-entry table, then the bit stuffing as a state machine
-// over (last bit, run length) stepped a byte at a time from a table of 9 states x 256 bytes. Exactly the bit-by-bit
+// The exact stuff-bit count of a classic CAN frame, table-driven: the frame's header (SOF to the DLC) padded at the
+// front to whole bytes so that the data bytes follow unshifted, its CRC-15 a byte at a time from a 256-entry table,
+// and the bit stuffing as a state machine over (last bit, run length) stepped a byte at a time from a table of 9
+// states x 256 bytes, alongside (the two chains of lookups overlap), then over the CRC's 8 + 7 bits. Exactly the bit-by-bit
 // rule (after five equal bits the opposite bit is inserted, and it starts the next run), checked against the
 // bit-by-bit model on random frames and the Python model's vectors in tests/host/report/test_bus_stats.cpp.
 #include <array>
@@ -10,8 +11,6 @@
 
 namespace saul::host {
 namespace {
-
-__extension__ typedef unsigned __int128 Word;
 
 // ---- CRC-15 (polynomial 0x4599, MSB first, initial 0) ------------------------------------------------------------
 
@@ -59,12 +58,14 @@ constexpr Step stuff_bit(std::uint8_t state, unsigned bit) noexcept {
   return {static_cast<std::uint8_t>(1 + 2 * (run - 1) + last), stuff};
 }
 
-constexpr std::array<std::array<Step, 256>, 9> kStuffTable = [] {
-  std::array<std::array<Step, 256>, 9> t{};
+/// The machine stepped over `Bits` bits at once (most significant first), from each of the 9 states.
+template <unsigned Bits>
+constexpr std::array<std::array<Step, 1U << Bits>, 9> stuff_table() {
+  std::array<std::array<Step, 1U << Bits>, 9> t{};
   for (std::uint8_t s = 0; s < 9; ++s)
-    for (unsigned b = 0; b < 256; ++b) {
+    for (unsigned b = 0; b < (1U << Bits); ++b) {
       Step step{s, 0};
-      for (int i = 7; i >= 0; --i) {
+      for (unsigned i = Bits; i-- > 0;) {
         const Step next = stuff_bit(step.state, (b >> i) & 1U);
         step.state = next.state;
         step.stuff = static_cast<std::uint8_t>(step.stuff + next.stuff);
@@ -72,65 +73,59 @@ constexpr std::array<std::array<Step, 256>, 9> kStuffTable = [] {
       t[s][b] = step;
     }
   return t;
-}();
-
-/// The word's 16 bytes, most significant first (two byte swaps instead of 16 shifts of a 128-bit word).
-void big_endian_bytes(Word w, std::uint8_t (&bytes)[16]) noexcept {
-  const std::uint64_t hi = static_cast<std::uint64_t>(w >> 64);
-  const std::uint64_t lo = static_cast<std::uint64_t>(w);
-  for (int k = 0; k < 8; ++k) {
-    bytes[k] = static_cast<std::uint8_t>(hi >> (56 - 8 * k));
-    bytes[8 + k] = static_cast<std::uint8_t>(lo >> (56 - 8 * k));
-  }
 }
+constexpr auto kStuffTable = stuff_table<8>();   // a byte
+constexpr auto kStuffTable7 = stuff_table<7>();  // the CRC's last 7 bits (15 = 8 + 7)
 
 }  // namespace
 
 unsigned can_stuff_bits(const CanFrame& f) noexcept {
-  Word w = 0;
-  unsigned n = 0;
-  auto put = [&](std::uint64_t value, unsigned width) {
-    w = (w << width) | value;
-    n += width;
-  };
-  put(0, 1);  // SOF
+  // The header (SOF, arbitration, control: 19 bits, or 39 with a 29-bit id) padded at the front to whole bytes,
+  // so that the data bytes follow as they are: 3 or 5 header bytes, most significant first.
+  std::uint64_t header;
+  unsigned header_bytes;
+  const std::uint64_t dlc = f.dlc > 8 ? 8 : f.dlc;
+  const std::uint64_t rtr = f.remote ? 1 : 0;
   if (f.extended) {
-    put(f.id >> 18 & 0x7FF, 11);
-    put(3, 2);  // SRR, IDE
-    put(f.id & 0x3FFFF, 18);
-    put(f.remote ? 1 : 0, 1);
-    put(0, 2);  // r1, r0
+    // SOF 0, base id 11, SRR 1, IDE 1, id extension 18, RTR, r1 r0, DLC 4
+    header = (std::uint64_t{f.id >> 18 & 0x7FF} << 27) | (std::uint64_t{3} << 25) |
+             (std::uint64_t{f.id & 0x3FFFF} << 7) | (rtr << 6) | dlc;
+    header_bytes = 5;  // 39 bits + 1 pad bit
   } else {
-    put(f.id & 0x7FF, 11);
-    put(f.remote ? 1 : 0, 1);
-    put(0, 2);  // IDE, r0
+    // SOF 0, id 11, RTR, IDE 0, r0 0, DLC 4
+    header = (std::uint64_t{f.id & 0x7FF} << 7) | (rtr << 6) | dlc;
+    header_bytes = 3;  // 19 bits + 5 pad bits
   }
-  put(f.dlc > 8 ? 8 : f.dlc, 4);
-  for (std::uint8_t byte : f.payload()) put(byte, 8);
+  const unsigned pad = header_bytes * 8 - (f.extended ? 39U : 19U);
+  const auto payload = f.payload();
 
-  // CRC over the n bits, a byte at a time: zeros in front leave a zero register zero, so the bits are padded at
-  // the front to whole bytes.
-  std::uint8_t bytes[16];
-  big_endian_bytes(w, bytes);
-  const unsigned crc_bytes = (n + 7) / 8;
+  // CRC over the bits a byte at a time: zeros in front leave a zero register zero, so the padding is zeros here.
   std::uint16_t crc = 0;
-  for (unsigned k = 16 - crc_bytes; k < 16; ++k)
-    crc = static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ bytes[k]) & 0xFF]);
-  put(crc, 15);
-
-  // Stuffing over the n bits and the CRC, a byte at a time: padded at the front with alternating bits ending in 1,
-  // which never make a run of five and after which SOF (0) starts a run of one, as it does first on the bus.
-  const unsigned pad = (8 - n % 8) % 8;
-  w |= (Word{0x55} & ((Word{1} << pad) - 1)) << n;
-  big_endian_bytes(w, bytes);
+  auto crc_byte = [&crc](std::uint8_t byte) {
+    crc = static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]);
+  };
+  // Stuffing a byte at a time: padded at the front with alternating bits ending in 1, which never make a run of
+  // five and after which SOF (0) starts a run of one, as it does first on the bus.
+  const std::uint64_t stuffed_header = header | ((std::uint64_t{0x55} & ((std::uint64_t{1} << pad) - 1)) << (header_bytes * 8 - pad));
   unsigned stuff = 0;
   std::uint8_t state = 0;
-  for (unsigned k = 16 - (n + pad) / 8; k < 16; ++k) {
-    const Step st = kStuffTable[state][bytes[k]];
+  auto stuff_byte = [&](std::uint8_t byte) {
+    const Step st = kStuffTable[state][byte];
     state = st.state;
     stuff += st.stuff;
+  };
+  for (unsigned k = header_bytes; k-- > 0;) {
+    crc_byte(static_cast<std::uint8_t>(header >> (8 * k)));
+    stuff_byte(static_cast<std::uint8_t>(stuffed_header >> (8 * k)));
   }
-  return stuff;
+  for (std::uint8_t byte : payload) {
+    crc_byte(byte);
+    stuff_byte(byte);
+  }
+  // then the CRC's 15 bits, the last to be stuffed
+  stuff_byte(static_cast<std::uint8_t>(crc >> 7));
+  const Step last = kStuffTable7[state][crc & 0x7F];
+  return stuff + last.stuff;
 }
 
 }  // namespace saul::host

@@ -7,19 +7,16 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <condition_variable>
-#include <exception>
 #include <functional>
 #include <string>
 #include <system_error>
-#include <mutex>
-#include <thread>
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/read_ahead.hpp"
+#include "../in_order.hpp"
 
 namespace saul::host {
 namespace {
@@ -160,94 +157,39 @@ using BlockDecoder = std::function<void(std::size_t k, FrameEmitter& emitter, Pi
 /// they are the file's byte offsets already (pcap). `first`: the first frame's time, for TimeMode::relative.
 CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> first, const BlockDecoder& decode_block,
                              const CandumpDecodeOptions& o, const CandumpDecodeSinks& sinks) {
-  const unsigned threads = o.threads;
-  const std::size_t ring = 2 * std::size_t{threads};
-
-  struct Slot {
-    Piece piece;
-    std::size_t block = 0;
-    bool ready = false;
-  };
-  std::vector<Slot> slots(ring);
-  std::mutex mutex;
-  std::condition_variable changed;
-  std::size_t next_block = 0;   // the next block a worker takes
-  std::size_t written = 0;      // blocks handed to the sinks
-  std::exception_ptr failure;
-  bool stop = false;
-
-  auto work = [&] {
-    FrameEmitter emitter(o.format, o.time);
-    if (first) emitter.set_first(*first);
+  struct Worker {
+    Worker(const CandumpDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
+      if (first) emitter.set_first(*first);
+    }
+    FrameEmitter emitter;
     BlockScratch scratch;
-    for (;;) {
-      std::size_t k;
-      {
-        std::unique_lock lock(mutex);
-        changed.wait(lock, [&] { return stop || next_block >= blocks || next_block < written + ring; });
-        if (stop || next_block >= blocks) return;
-        k = next_block++;
-      }
-      Slot& slot = slots[k % ring];
-      Piece& piece = slot.piece;
-      try {
+  };
+  CandumpDecodeResult result;
+  std::uint64_t lines = 0;
+  std::uint64_t bytes = 0;
+  detail::run_blocks_in_order<Piece>(
+      blocks, o.threads,
+      [&] { return Worker(o, first); },
+      [&](std::size_t k, Worker& w, Piece& piece) {
         piece.out.clear();
         piece.counts = {};
         piece.records = piece.lines = piece.bytes = 0;
         piece.corrupt.clear();
-        decode_block(k, emitter, piece, scratch);
-      } catch (...) {
-        std::lock_guard lock(mutex);
-        if (!failure) failure = std::current_exception();
-        stop = true;
-        changed.notify_all();
-        return;
-      }
-      std::lock_guard lock(mutex);
-      slot.block = k;
-      slot.ready = true;
-      changed.notify_all();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work);
-
-  CandumpDecodeResult result;
-  std::uint64_t lines = 0;
-  std::uint64_t bytes = 0;
-  try {
-    while (written < blocks) {
-      Slot& slot = slots[written % ring];
-      {
-        std::unique_lock lock(mutex);
-        changed.wait(lock, [&] { return stop || (slot.ready && slot.block == written); });
-        if (stop) break;
-      }
-      Piece& piece = slot.piece;
-      for (auto& e : piece.corrupt) {
-        e.position += lines;
-        sinks.corrupt(e);
-      }
-      result.corrupt += piece.corrupt.size();
-      if (piece.out.size() > 0) sinks.write(std::string_view(piece.out.data(), piece.out.size()));
-      result.counts += piece.counts;
-      result.records += piece.records;
-      lines += piece.lines;
-      bytes += piece.bytes;
-      if (sinks.progress) sinks.progress(result.records + result.corrupt, bytes);
-      std::lock_guard lock(mutex);
-      slot.ready = false;
-      ++written;
-      changed.notify_all();
-    }
-  } catch (...) {
-    std::lock_guard lock(mutex);
-    if (!failure) failure = std::current_exception();
-    stop = true;
-    changed.notify_all();
-  }
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+        decode_block(k, w.emitter, piece, w.scratch);
+      },
+      [&](std::size_t, Piece& piece) {
+        for (auto& e : piece.corrupt) {
+          e.position += lines;
+          sinks.corrupt(e);
+        }
+        result.corrupt += piece.corrupt.size();
+        if (piece.out.size() > 0) sinks.write(std::string_view(piece.out.data(), piece.out.size()));
+        result.counts += piece.counts;
+        result.records += piece.records;
+        lines += piece.lines;
+        bytes += piece.bytes;
+        if (sinks.progress) sinks.progress(result.records + result.corrupt, bytes);
+      });
   return result;
 }
 

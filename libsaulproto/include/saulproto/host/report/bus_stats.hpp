@@ -50,20 +50,30 @@ std::uint16_t can_crc15(const CanFrame& frame) noexcept;
 /// The BALANCE board stops driving when no 0x300 came for this long.
 inline constexpr std::uint64_t kOrinTimeoutNs = 500'000'000ULL;
 
-/// Timing of a stream of events (frames of one id, messages of one type), in constant memory.
+/// Timing of a stream of events (frames of one id, messages of one type), in constant memory. The gaps are summed
+/// as integers, so two Cadences of consecutive parts of a stream append() to exactly the figures of one Cadence
+/// over the whole (stats reads a file's blocks on several threads and must give what one thread gives).
 struct Cadence {
+  __extension__ typedef unsigned __int128 Sum;
   std::uint64_t count = 0;
   std::optional<std::uint64_t> first_ns;
   std::optional<std::uint64_t> last_ns;
   std::uint64_t gaps = 0;            ///< gaps measured (events with a timestamp after the first)
-  std::uint64_t max_gap_ns = 0;
+  std::uint64_t max_gap_ns = 0;      ///< the longest gap; of equal ones, the first
   std::uint64_t max_gap_start_ns = 0;  ///< when the longest gap began (the event before it)
   std::uint64_t gaps_over_timeout = 0;  ///< gaps longer than the timeout given to add()
-  double mean_gap_ns = 0;            ///< Welford running mean
-  double m2 = 0;                     ///< and sum of squared deviations
+  Sum gap_sum_ns = 0;                ///< sum of the gaps
+  Sum gap_square_sum = 0;            ///< sum of their squares (ns^2; held at its maximum rather than wrapping)
   void add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns = 0);
+  /// The events that came right after these ones (the same timeout as their add() calls): afterwards this is
+  /// what add() of every event in order would have made.
+  void append(const Cadence& later, std::uint64_t timeout_ns = 0);
   [[nodiscard]] double rate_hz() const;        ///< (count - 1) / (last - first); 0 when undefined
-  [[nodiscard]] double jitter_ns() const;      ///< standard deviation of the gaps
+  [[nodiscard]] double mean_gap_ns() const;    ///< 0 without gaps
+  [[nodiscard]] double jitter_ns() const;      ///< standard deviation of the gaps (population)
+
+ private:
+  void gap_to(std::uint64_t ns, std::uint64_t timeout_ns);
 };
 
 struct BusStatsOptions {
@@ -99,6 +109,12 @@ class FrameFactsCache {
 class BusStats {
  public:
   explicit BusStats(BusStatsOptions options = {}) : options_(options) {}
+  /// Statistics of one block of a file, to be append()ed to those of the blocks before it (several threads each
+  /// count their own blocks). The busiest window needs each interface's first time, which only the blocks before
+  /// may know: such a block keeps its timed frames' time and bits (16 bytes a frame, so memory grows with the
+  /// block, never with the file) and append() works the windows out from them in file order.
+  struct Block {};
+  BusStats(BusStatsOptions options, Block) : options_(options), block_(true) {}
   BusStats(const BusStats&) = delete;  // it keeps pointers into its own maps
   BusStats& operator=(const BusStats&) = delete;
   BusStats(BusStats&&) = default;  // map nodes stay put when a map moves
@@ -109,6 +125,10 @@ class BusStats {
   void add(const CanFrame& frame, std::string_view interface, const FrameFacts& facts);
   /// One corrupt record of the file.
   void add_corrupt() { ++corrupt_; }
+  /// Adds the statistics of the frames that came right after these ones in the file, counted by a
+  /// BusStats(options, Block{}) with the same options: afterwards this holds what add() of each of those frames
+  /// in order would have made. Cost: the number of ids, interfaces and error kinds there, plus its timed frames.
+  void append(const BusStats& later);
 
   struct Load {
     std::uint64_t bits_none = 0;
@@ -122,6 +142,13 @@ class BusStats {
     std::uint64_t window_bits = 0;
     std::uint64_t peak_bits = 0;
     std::uint64_t peak_index = 0;
+    std::uint64_t window_end_ns = 0;  ///< the current window ends here (saturated): a frame before it stays in it
+    /// Block statistics only: each timed frame's time and worst-case bits, for append().
+    struct Timed {
+      std::uint64_t ns;
+      std::uint64_t bits;
+    };
+    std::vector<Timed> timed;
   };
   struct IdStats {
     std::string type;  ///< message name of the first frame that decoded, else "!" + the first failure reason
@@ -153,7 +180,12 @@ class BusStats {
   [[nodiscard]] nlohmann::json json(std::string_view name) const;
 
  private:
+  /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
+  void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
+  static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
+
   BusStatsOptions options_;
+  bool block_ = false;  // BusStats(options, Block): windows left to append()
   std::uint64_t frames_ = 0;
   std::uint64_t corrupt_ = 0;
   std::uint64_t error_frames_ = 0;
@@ -175,14 +207,17 @@ class BusStats {
 };
 
 /// Adds every line of an uncompressed candump file (CandumpFile) to `stats`: frames with stats.add(), corrupt
-/// lines with add_corrupt() and on_corrupt(error). With `ahead` the file is read and parsed, and each frame's
-/// FrameFacts worked out, on a second thread while this one adds (the same figures: the frames are added in
-/// file order on one thread). on_progress(records, bytes) after each batch; also(frame), when given, after each
-/// frame's stats.add() (on this thread).
+/// lines with add_corrupt() and on_corrupt(error), in file order. With `ahead` both cores work: the file is cut
+/// into blocks of about `block_bytes` at line starts, each block counted on a worker thread into BusStats(options, Block{}) and
+/// appended here in file order (the same figures as one thread; at most four blocks held at a time). With `ahead`
+/// and `also` (which must see the frames in order on this thread), the file is read and parsed, and each frame's
+/// FrameFacts worked out, on a second thread while this one adds. on_progress(records, bytes read so far) after
+/// each batch or block; also(frame), when given, after each frame's stats.add() (on this thread).
 void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
                       const std::function<void(const CaptureError&)>& on_corrupt,
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      const std::function<void(const CanFrame&)>& also = {});
+                      const std::function<void(const CanFrame&)>& also = {},
+                      std::uint64_t block_bytes = std::uint64_t{4} << 20);
 
 /// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
 class SerialStats {
