@@ -4,6 +4,7 @@
 // stand for many records: its bound is per container, not per input byte.
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "fuzz_util.hpp"
 #include "saulproto/host/capture/blf.hpp"
@@ -31,17 +32,47 @@ void same_in_memory(const std::uint8_t* data, std::size_t size) {
     if (a || b) saul::fuzz::fail();
     return;
   }
+  // c: the same bytes in batches (next_batch: the usual packets read straight from memory, the rest by next()),
+  // batch sizes varied; flattened in order, it must say what the stream reader says, record by record.
+  std::unique_ptr<PcapngReader> c = std::make_unique<PcapngReader>(std::span<const std::uint8_t>(data, size));
+  struct Record {
+    bool frame;
+    saul::CanFrame f;
+    std::string interface;
+    std::string error;
+  };
+  std::vector<Record> batched;
+  CandumpBatch batch;
+  for (std::size_t max = 1; c->next_batch(batch, max); max = max % 7 + 1) {
+    if (batch.frames.size() + batch.corrupt.size() > max) saul::fuzz::fail();
+    std::size_t k = 0;
+    for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
+      for (; k < batch.corrupt.size() && batch.corrupt[k].before == i; ++k)
+        batched.push_back({false, {}, {}, format_capture_error("f", batch.corrupt[k].error)});
+      if (i < batch.frames.size()) batched.push_back({true, batch.frames[i], std::string(batch.interfaces[i]), {}});
+    }
+    if (batched.size() > size + 1) saul::fuzz::fail();  // every record consumes input
+  }
+  std::size_t at = 0;
   for (std::size_t n = 0; n <= size + 1; ++n) {
     const auto sa = a->next();
     const auto sb = b->next();
     if (sa != sb) saul::fuzz::fail();
-    if (sa == CaptureReader::Status::end) return;
+    if (sa == CaptureReader::Status::end) {
+      if (at != batched.size()) saul::fuzz::fail();
+      return;
+    }
+    if (at >= batched.size() || batched[at].frame != (sa == CaptureReader::Status::frame)) saul::fuzz::fail();
+    const Record& r = batched[at++];
     if (sa == CaptureReader::Status::frame) {
       if (!a->frame().same_wire(b->frame()) || a->frame().timestamp_ns != b->frame().timestamp_ns ||
           a->interface() != b->interface())
         saul::fuzz::fail();
-    } else if (format_capture_error("f", a->error()) != format_capture_error("f", b->error())) {
-      saul::fuzz::fail();
+      if (!a->frame().same_wire(r.f) || a->frame().timestamp_ns != r.f.timestamp_ns || a->interface() != r.interface)
+        saul::fuzz::fail();
+    } else {
+      const std::string error = format_capture_error("f", a->error());
+      if (error != format_capture_error("f", b->error()) || error != r.error) saul::fuzz::fail();
     }
   }
 }

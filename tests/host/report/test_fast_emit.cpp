@@ -419,18 +419,19 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
 
 namespace {
 
-/// A little-endian Enhanced Packet Block of interface `iface` with a 16-byte SocketCAN packet of id 0x123 and one
-/// data byte, written out by hand; `trailing` the length at its end (the block's own unless testing a bad one).
-std::string raw_epb(std::uint32_t iface, std::uint32_t trailing = 48) {
+/// A little-endian Enhanced Packet Block of interface `iface` with a 16-byte SocketCAN packet of id 0x123 and
+/// `length` data bytes (1; above 8 is bad), written out by hand; `trailing` the length at its end and `captured` the
+/// packet's captured length (48 and 16 unless testing bad ones).
+std::string raw_epb(std::uint32_t iface, std::uint32_t trailing = 48, std::uint32_t captured = 16, char length = 1) {
   std::string b;
   put_u32(b, 6);
   put_u32(b, 48);
   put_u32(b, iface);
   put_u32(b, 0);       // timestamp high
   put_u32(b, 12345);   // timestamp low
-  put_u32(b, 16);      // captured
+  put_u32(b, captured);
   put_u32(b, 16);      // original
-  b += std::string("\x00\x00\x01\x23\x01\x00\x00\x00\x42\x00\x00\x00\x00\x00\x00\x00", 16);
+  b += std::string("\x00\x00\x01\x23", 4) + length + std::string("\x00\x00\x00\x42\x00\x00\x00\x00\x00\x00\x00", 11);
   put_u32(b, trailing);
   return b;
 }
@@ -458,8 +459,9 @@ Decoded run_pcapng(const std::string& path, const CandumpDecodeOptions& o) {
 
 TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes and reports of PcapngReader") {
   // Random frames on two interfaces (the second one's description block comes late: from there the file is not
-  // cut), with bad blocks among them: a trailing length that differs, a packet of an undeclared interface (both
-  // skipped and reported), an unknown block type, and a block cut by the end of the file.
+  // cut), with bad blocks among them: a trailing length that differs, a packet of an undeclared interface, a
+  // captured length past the block, a SocketCAN packet with 9 data bytes (each skipped and reported), an unknown
+  // block type, and a block cut by the end of the file.
   std::mt19937_64 rng(13);
   const auto frames = random_frames(rng, 20000);
   std::ostringstream png;
@@ -471,6 +473,8 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
     writer.flush();
     if (i % 997 == 0) png << raw_epb(0, 52);
     if (i % 1999 == 0) png << raw_epb(9);
+    if (i % 1499 == 0) png << raw_epb(0, 48, 17);     // captured past the block's end
+    if (i % 1777 == 0) png << raw_epb(0, 48, 16, 9);  // SocketCAN payload_length 9
     if (i == 17000) png << raw_unknown_block();
   }
   png << raw_epb(0).substr(0, 30);
@@ -498,7 +502,7 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
       const auto [expected, corrupt] = expected_from(reader, format, mode);
       CHECK(two.out == expected);
       CHECK(two.corrupt == corrupt);
-      CHECK(corrupt.size() == 1 + 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
+      CHECK(corrupt.size() == 1 + 20000 / 997 + 1 + 20000 / 1999 + 1 + 20000 / 1499 + 1 + 20000 / 1777 + 1 + 1);
       CHECK(two.result.records == frames.size());
       CHECK(two.progress_bytes == png.str().size());
     }

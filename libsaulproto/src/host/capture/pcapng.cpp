@@ -345,6 +345,11 @@ PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
                    fmt::format("packet of interface {}, which no interface description block declared", id));
   const Interface& iface = interfaces_[id];
   if (iface.linktype != kLinktypeCanSocketcan) return Step::skipped;  // another kind of interface in the file
+  frame_.timestamp_ns = packet_time(iface, ticks);
+  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_view_.data() + 20, captured));
+}
+
+std::uint64_t PcapngReader::packet_time(const Interface& iface, std::uint64_t ticks) {
   std::uint64_t ns = ticks_to_ns(ticks, iface.tsresol);
   if (iface.tsoffset >= 0) {
     ns += static_cast<std::uint64_t>(iface.tsoffset) * kNsPerSec;
@@ -352,8 +357,52 @@ PcapngReader::Step PcapngReader::packet_block(std::uint64_t start) {
     const std::uint64_t back = static_cast<std::uint64_t>(-iface.tsoffset) * kNsPerSec;
     ns = ns > back ? ns - back : 0;
   }
-  frame_.timestamp_ns = ns;
-  return socketcan_packet(start, iface, std::span<const std::uint8_t>(body_view_.data() + 20, captured));
+  return ns;
+}
+
+bool PcapngReader::usual_packet(CandumpBatch& batch) {
+  // Exactly the checks block() and packet_block() make on the way to a frame; the first that does not pass hands
+  // the block to next(), which reports it as those do.
+  const std::size_t left = mem_.size() - static_cast<std::size_t>(offset_);
+  if (left < 32) return false;  // header 8 + packet fields 20 + trailer 4
+  const std::uint8_t* const p = mem_.data() + offset_;
+  if (load_u32(p, big_) != kEpb) return false;
+  const std::uint32_t length = load_u32(p + 4, big_);
+  if (length < 32 || length % 4 != 0 || length > left || length - 12 > kMaxBody) return false;
+  if (load_u32(p + length - 4, big_) != length) return false;
+  const std::uint8_t* const body = p + 8;
+  const std::uint32_t id = load_u32(body, big_);
+  const std::uint32_t captured = load_u32(body + 12, big_);
+  if (id >= interfaces_.size() || captured > length - 32) return false;
+  const Interface& iface = interfaces_[id];
+  if (iface.linktype != kLinktypeCanSocketcan) return false;
+  CanFrame& f = batch.frames.emplace_back();
+  f.timestamp_ns = packet_time(iface, std::uint64_t{load_u32(body + 4, big_)} << 32 | load_u32(body + 8, big_));
+  if (!decode_socketcan_packet(std::span<const std::uint8_t>(body + 20, captured), f).empty()) {
+    batch.frames.pop_back();
+    return false;
+  }
+  batch.interfaces.push_back(iface.name);
+  offset_ += length;
+  return true;
+}
+
+bool PcapngReader::next_batch(CandumpBatch& batch, std::size_t max) {
+  batch.clear();
+  while (batch.frames.size() + batch.corrupt.size() < max) {
+    if (in_ == nullptr && !stopped_ && usual_packet(batch)) continue;
+    // next() may add or clear interfaces, whose names the batch's views point into: only first in a batch
+    if (!batch.frames.empty() || !batch.corrupt.empty()) break;
+    const Status st = next();
+    if (st == Status::end) break;
+    if (st == Status::corrupt) {
+      batch.corrupt.push_back({batch.frames.size(), error_});
+    } else {
+      batch.frames.push_back(frame_);
+      batch.interfaces.push_back(name_);
+    }
+  }
+  return !batch.frames.empty() || !batch.corrupt.empty();
 }
 
 PcapngReader::Step PcapngReader::socketcan_packet(std::uint64_t start, const Interface& iface,

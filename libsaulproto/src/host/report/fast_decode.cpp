@@ -146,7 +146,7 @@ std::optional<std::uint64_t> first_time(Scanner&& scanner, const CandumpDecodeOp
 /// What a worker keeps from one block to the next: a block's bytes and a batch (no allocation per block).
 struct BlockScratch {
   std::vector<std::uint8_t> bytes;  // grown, never shrunk: only the first `used` bytes are the block's
-  ReaderSlot slot;
+  CandumpBatch batch;
 };
 
 /// Decodes block k of the file into `piece` with the worker's own emitter and scratch.
@@ -334,16 +334,16 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
     const std::size_t prefix = k > 0 ? append_range(fd, 0, cut.prefix_end, scratch.bytes, 0) : 0;
     const std::size_t used = append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], scratch.bytes, prefix);
     PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
-    ReaderSlot& slot = scratch.slot;
-    while (read_batch(reader, slot)) {
-      for (auto& c : slot.batch.corrupt) c.error.position += cut.starts[k] - prefix;
+    CandumpBatch& batch = scratch.batch;
+    while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
+      for (auto& c : batch.corrupt) c.error.position += cut.starts[k] - prefix;
       if (k > 0) {
-        const auto in_prefix = std::remove_if(slot.batch.corrupt.begin(), slot.batch.corrupt.end(), [&](const auto& c) {
+        const auto in_prefix = std::remove_if(batch.corrupt.begin(), batch.corrupt.end(), [&](const auto& c) {
           return c.error.position < cut.starts[k];
         });
-        slot.batch.corrupt.erase(in_prefix, slot.batch.corrupt.end());
+        batch.corrupt.erase(in_prefix, batch.corrupt.end());
       }
-      if (!each(slot.batch)) return;
+      if (!each(batch)) return;
     }
   };
   std::optional<std::uint64_t> first;

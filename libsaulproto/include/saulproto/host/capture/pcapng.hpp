@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
 
 namespace saul::host {
@@ -32,6 +33,12 @@ class PcapngReader final : public CaptureReader {
   explicit PcapngReader(std::span<const std::uint8_t> bytes);
 
   Status next() override;
+  /// Fills `batch` (cleared first) with what next() would give, in order, up to `max` frames and corrupt records;
+  /// false (batch empty) at the end. Over bytes in memory the usual packet (an Enhanced Packet Block of a SocketCAN
+  /// interface that reads cleanly) is decoded straight from the bytes, ~4x faster than next() one by one;
+  /// anything else goes through next(), which may come only first in a batch, so the interface names the batch
+  /// points into stay put until the next call. frame() and interface() are not kept up to date by it.
+  bool next_batch(CandumpBatch& batch, std::size_t max);
   [[nodiscard]] const CanFrame& frame() const override { return frame_; }
   [[nodiscard]] std::string_view interface() const override { return name_; }
   [[nodiscard]] const CaptureError& error() const override { return error_; }
@@ -54,6 +61,10 @@ class PcapngReader final : public CaptureReader {
   Step interface_block(std::uint64_t start);
   Step packet_block(std::uint64_t start);
   Step simple_packet_block(std::uint64_t start);
+  /// The packet at offset_ into `batch` when it is the usual clean one (next_batch); false, nothing read, else.
+  bool usual_packet(CandumpBatch& batch);
+  /// An Enhanced Packet Block's time in ns since 1970 from its ticks, in the interface's resolution and offset.
+  static std::uint64_t packet_time(const Interface& iface, std::uint64_t ticks);
   Step socketcan_packet(std::uint64_t start, const Interface& iface, std::span<const std::uint8_t> packet);
   Step corrupt(std::uint64_t offset, Recovery recovery, std::string message);
   void open();
