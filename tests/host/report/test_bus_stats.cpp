@@ -355,7 +355,7 @@ TEST_CASE("stats of a candump file on both cores equal one thread: figures, corr
   auto run = [&](bool ahead, std::uint64_t block) {
     auto candump = CandumpFile::open(file.path);
     REQUIRE(candump);
-    BusStats stats;
+    BusStats stats(BusStatsOptions{250'000, 7 * kMs});  // not the defaults: the blocks must count with these
     Run r;
     add_candump_file(
         stats, candump->fd(), candump->size(), ahead,

@@ -144,14 +144,6 @@ void Cadence::gap_to(std::uint64_t ns, std::uint64_t timeout_ns) {
   if (__builtin_add_overflow(gap_square_sum, square, &gap_square_sum)) gap_square_sum = ~Sum{0};
 }
 
-void Cadence::add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns) {
-  ++count;
-  if (!ns) return;
-  if (last_ns) gap_to(*ns, timeout_ns);
-  if (!first_ns) first_ns = ns;
-  last_ns = ns;
-}
-
 void Cadence::append(const Cadence& later, std::uint64_t timeout_ns) {
   count += later.count;
   if (!later.first_ns) return;  // no timestamps there: nothing else to add
@@ -197,7 +189,8 @@ double Cadence::jitter_ns() const {
 
 const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   const FrameKey key = frame_key(f);
-  Entry& e = entries_[key.slot(entries_.size())];
+  if (entries_.empty()) entries_.resize(kSlots);  // at first use: a BusStats given every frame's facts has none
+  Entry& e = entries_[key.slot(kSlots)];
   if (e.used && e.key == key) return e.facts;
   e.used = true;
   e.key = key;
@@ -229,7 +222,13 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   }
   if (last_load_ == nullptr || interface != last_interface_) {
     auto it = interfaces_.find(interface);
-    if (it == interfaces_.end()) it = interfaces_.emplace(std::string(interface), Load{}).first;
+    if (it == interfaces_.end()) {
+      it = interfaces_.emplace(std::string(interface), Load{}).first;
+      if (!spare_timed_.empty()) {  // restart_block() kept it
+        it->second.timed = std::move(spare_timed_.back());
+        spare_timed_.pop_back();
+      }
+    }
     last_interface_.assign(interface);
     last_load_ = &it->second;
   }
@@ -251,7 +250,10 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   IdSlot& slot = id_slots_[(f.id ^ (f.id >> 6) ^ (f.extended ? 0x2A : 0)) % id_slots_.size()];
   if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
   IdStats& s = *slot.stats;
-  s.cadence.add(ts, timeout_of(id));
+  if (ts)
+    s.cadence.add_at(*ts, timeout_of(id));
+  else
+    ++s.cadence.count;
   if (f.remote) ++s.remote;
   s.bits_worst = worst;
   s.dlc = f.dlc;
@@ -295,6 +297,17 @@ void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeou
   to.dlc = later.dlc;
   // the name of the first frame that decoded, else the first failure
   if (to.type.empty() || (to.type[0] == '!' && !later.type.empty() && later.type[0] != '!')) to.type = later.type;
+}
+
+void BusStats::restart_block(BusStatsOptions options) {
+  assert(block_);
+  std::vector<std::vector<Load::Timed>> spare = std::move(spare_timed_);
+  for (auto& [name, load] : interfaces_) {
+    load.timed.clear();
+    spare.push_back(std::move(load.timed));
+  }
+  *this = BusStats(options, Block{});
+  spare_timed_ = std::move(spare);
 }
 
 void BusStats::append(const BusStats& later) {
@@ -472,7 +485,7 @@ void add_candump_blocks(BusStats& stats, int fd, std::uint64_t size, std::uint64
   // 4 MiB blocks (~90 000 frames) by default: a block's timed frames take ~1.4 MiB until it is appended.
   const std::vector<std::uint64_t> starts = split_candump_blocks(fd, size, block_bytes);
   struct Counted {
-    BusStats stats;
+    BusStats stats{BusStatsOptions{}, BusStats::Block{}};  // restart_block() gives it the options
     std::vector<CaptureError> corrupt;  // positions: lines counted from the block's start
     std::uint64_t lines = 0;
     std::uint64_t records = 0;
@@ -485,7 +498,7 @@ void add_candump_blocks(BusStats& stats, int fd, std::uint64_t size, std::uint64
   detail::run_blocks_in_order<Counted>(
       starts.size() - 1, 2, [] { return Worker{}; },
       [&](std::size_t k, Worker& w, Counted& block) {
-        block.stats = BusStats(stats.options(), BusStats::Block{});
+        block.stats.restart_block(stats.options());
         block.corrupt.clear();
         block.records = 0;
         CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);

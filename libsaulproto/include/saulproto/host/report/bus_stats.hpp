@@ -64,7 +64,20 @@ struct Cadence {
   std::uint64_t gaps_over_timeout = 0;  ///< gaps longer than the timeout given to add()
   Sum gap_sum_ns = 0;                ///< sum of the gaps
   Sum gap_square_sum = 0;            ///< sum of their squares (ns^2; held at its maximum rather than wrapping)
-  void add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns = 0);
+  /// One event at `ns` (or without a time): the gap from the event before counts when both have times.
+  void add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns = 0) {
+    if (ns)
+      add_at(*ns, timeout_ns);
+    else
+      ++count;
+  }
+  /// The same for an event with a time (stats' per-frame path: inline, and no std::optional passed through memory).
+  void add_at(std::uint64_t ns, std::uint64_t timeout_ns = 0) {
+    ++count;
+    if (last_ns) gap_to(ns, timeout_ns);
+    if (!first_ns) first_ns = ns;
+    last_ns = ns;
+  }
   /// The events that came right after these ones (the same timeout as their add() calls): afterwards this is
   /// what add() of every event in order would have made.
   void append(const Cadence& later, std::uint64_t timeout_ns = 0);
@@ -102,7 +115,7 @@ class FrameFactsCache {
     FrameFacts facts;
   };
   static constexpr std::size_t kSlots = 4096;
-  std::vector<Entry> entries_ = std::vector<Entry>(kSlots);
+  std::vector<Entry> entries_;  // kSlots of them from the first get()
 };
 
 /// Statistics of the CAN frames of a capture.
@@ -123,6 +136,9 @@ class BusStats {
   void add(const CanFrame& frame, std::string_view interface) { add(frame, interface, facts_.get(frame)); }
   /// The same with the frame's facts already known (e.g. worked out on another thread).
   void add(const CanFrame& frame, std::string_view interface, const FrameFacts& facts);
+  /// Block statistics only: starts again empty (with `options`) for the next block, keeping the memory of the timed
+  /// frames.
+  void restart_block(BusStatsOptions options);
   /// One corrupt record of the file.
   void add_corrupt() { ++corrupt_; }
   /// Adds the statistics of the frames that came right after these ones in the file, counted by a
@@ -186,6 +202,7 @@ class BusStats {
 
   BusStatsOptions options_;
   bool block_ = false;  // BusStats(options, Block): windows left to append()
+  std::vector<std::vector<Load::Timed>> spare_timed_;  // restart_block(): buffers for the next block's interfaces
   std::uint64_t frames_ = 0;
   std::uint64_t corrupt_ = 0;
   std::uint64_t error_frames_ = 0;
