@@ -17,12 +17,15 @@
 namespace saulctl {
 namespace {
 
-/// stats reads candump files of this size and more on a second thread (a thread costs ~0.1 ms to start; 4 MiB is
-/// ~90 000 frames, ~20 ms of work: from there on both cores pay off). SAUL_STATS_AHEAD_FROM moves it (tests).
-const std::uint64_t kStatsAheadFrom = [] {
-  const char* from = std::getenv("SAUL_STATS_AHEAD_FROM");
-  return from != nullptr ? std::strtoull(from, nullptr, 10) : std::uint64_t{4} << 20;
-}();
+/// stats counts candump files of this size and more on both cores (a thread costs ~0.1 ms to start; 4 MiB is
+/// ~90 000 frames, ~20 ms of work: from there on both cores pay off), in blocks of kStatsBlock bytes.
+/// SAUL_STATS_AHEAD_FROM and SAUL_STATS_BLOCK move them (tests: many blocks from a small file).
+std::uint64_t from_env(const char* name, std::uint64_t otherwise) {
+  const char* value = std::getenv(name);
+  return value != nullptr ? std::strtoull(value, nullptr, 10) : otherwise;
+}
+const std::uint64_t kStatsAheadFrom = from_env("SAUL_STATS_AHEAD_FROM", std::uint64_t{4} << 20);
+const std::uint64_t kStatsBlock = from_env("SAUL_STATS_BLOCK", std::uint64_t{4} << 20);
 
 struct StatsOptions {
   std::string file;
@@ -72,13 +75,14 @@ int run_stats(const StatsOptions& opt) {
     BusStats stats(bus);
     // An uncompressed candump file: big reads and batches (capture/candump_scan.hpp); any other format frame by frame.
     const auto file = opened.frames->format() == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
-    // From kStatsAheadFrom bytes on, the file is read and parsed on a second thread while this one counts.
+    // From kStatsAheadFrom bytes on, both cores count (add_candump_file: blocks, or with --signals a reading thread).
     if (file) {
       std::function<void(const saul::CanFrame&)> also;
       if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
       add_candump_file(
           stats, file->fd(), file->size(), file->size() >= kStatsAheadFrom, report_corrupt,
-          [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also);
+          [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also,
+          kStatsBlock);
     }
     for (; !file;) {
       const auto st = opened.frames->next();

@@ -69,8 +69,9 @@ for ahead in 1 999999999999; do
   check "pcapng (read ahead from $ahead bytes): the bytes of the candump log" cmp -s "$out/frames.text" "$out/pcapng.$ahead"
 done
 
-# stats read ahead (SAUL_STATS_AHEAD_FROM forced low: parsing on a second thread) gives one thread's report and
-# the same corrupt lines, with a corrupt line in the middle, one at the end and a frame on a second interface.
+# stats on both cores (SAUL_STATS_AHEAD_FROM forced low; SAUL_STATS_BLOCK small: the file counted in ~40 blocks
+# appended in order) gives one thread's report and the same corrupt lines, with a corrupt line in the middle, one
+# at the end and a frame on a second interface; so does --signals (parsing on a second thread).
 {
   head -n 30000 "$out/bus.log"
   printf '(1763800030.5) can1 300#E8030CFE\n(17638x) can0 300#00\n'
@@ -78,9 +79,12 @@ done
 } >"$out/mixed.log"
 for json in "" --json; do
   SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats $json "$out/mixed.log" >"$out/one$json.stats" 2>"$out/one.err"
-  SAUL_STATS_AHEAD_FROM=1 "$saulctl" stats $json "$out/mixed.log" >"$out/ahead$json.stats" 2>"$out/ahead.err"
-  check "stats$json: read ahead gives one thread's report" cmp -s "$out/one$json.stats" "$out/ahead$json.stats"
-  check "stats$json: read ahead reports the same corrupt lines" cmp -s "$out/one.err" "$out/ahead.err"
+  SAUL_STATS_AHEAD_FROM=1 SAUL_STATS_BLOCK=65536 "$saulctl" stats $json "$out/mixed.log" >"$out/ahead$json.stats" 2>"$out/ahead.err"
+  check "stats$json: both cores give one thread's report" cmp -s "$out/one$json.stats" "$out/ahead$json.stats"
+  check "stats$json: both cores report the same corrupt lines" cmp -s "$out/one.err" "$out/ahead.err"
+  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats --signals $json "$out/mixed.log" >"$out/one$json.signals" 2>/dev/null
+  SAUL_STATS_AHEAD_FROM=1 "$saulctl" stats --signals $json "$out/mixed.log" >"$out/ahead$json.signals" 2>/dev/null
+  check "stats --signals$json: read ahead gives one thread's report" cmp -s "$out/one$json.signals" "$out/ahead$json.signals"
 done
 check "stats: both corrupt lines reported at their lines" \
   test "$(grep -cE "mixed.log:(30002|$((frames + 3))):" "$out/ahead.err")" -eq 2
