@@ -24,6 +24,8 @@
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
+#include "saulproto/host/report/format.hpp"
+#include "saulproto/host/report/frame_text.hpp"
 #include "host/temp_file.hpp"
 
 using saul::CanFrame;
@@ -170,9 +172,34 @@ TEST_CASE("fast emitter: text, CSV and JSON lines are byte for byte the referenc
   }
 }
 
-TEST_CASE("fast emitter for sniff: error frames say what they report, other lines are frame_line's and frame_record's") {
-  // sniff printed frame_line() and frame_record().dump() per frame (an nlohmann DOM each); it now writes through the
-  // emitter with show_error_detail(). That older path is the oracle, on the same random frames, in every time mode.
+namespace {
+
+// sniff's lines as it once printed them, frame by frame (an nlohmann DOM each), kept here as the oracle of the
+// emitter with show_error_detail(): the text line, and the JSON record with an error frame's detail.
+std::string sniff_line(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
+  return fmt::format("{} {} {:<24} {}", time_column, interface, format_candump_frame(frame), describe_frame(frame));
+}
+
+nlohmann::json sniff_record(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
+  nlohmann::json j;
+  j["time"] = TimeColumn::bare(time_column);
+  j["interface"] = interface;
+  j["frame"] = frame_to_json(frame);
+  const auto r = saul::decode_bus_frame(frame);
+  if (r) {
+    j["message"] = to_json(r.value());
+  } else {
+    j["error"] = to_string(r.reason());
+    if (frame.error) j["error_detail"] = describe_error_frame(frame);
+  }
+  return j;
+}
+
+}  // namespace
+
+TEST_CASE("fast emitter for sniff: error frames say what they report, other lines are sniff's old lines") {
+  // sniff printed sniff_line() and sniff_record().dump() per frame; it now writes through the emitter with
+  // show_error_detail(). That older path is the oracle, on the same random frames, in every time mode.
   std::mt19937_64 rng(20261124);
   const auto frames = random_frames(rng, 4000);
   const std::vector<std::string> links = {"slcan:/dev/ttyACM0", "can0", "slcan:/dev/pts/3"};
@@ -190,7 +217,7 @@ TEST_CASE("fast emitter for sniff: error frames say what they report, other line
         const std::string& link = links[(i / 100) % links.size()];
         emitter.add(f, link, out, counts);
         const std::string column = clock(f.timestamp_ns.value_or(0));
-        expected += format == DecodeFormat::text ? frame_line(column, link, f) : frame_record(column, link, f).dump();
+        expected += format == DecodeFormat::text ? sniff_line(column, link, f) : sniff_record(column, link, f).dump();
         expected += '\n';
         error_frames += f.error ? 1 : 0;
       }

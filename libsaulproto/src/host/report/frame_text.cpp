@@ -61,23 +61,4 @@ std::string describe_frame(const CanFrame& frame) {
   return std::string("!") + to_string(r.reason());
 }
 
-std::string frame_line(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
-  return fmt::format("{} {} {:<24} {}", time_column, interface, format_candump_frame(frame), describe_frame(frame));
-}
-
-nlohmann::json frame_record(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
-  nlohmann::json j;
-  j["time"] = TimeColumn::bare(time_column);
-  j["interface"] = interface;
-  j["frame"] = frame_to_json(frame);
-  const auto r = decode_bus_frame(frame);
-  if (r) {
-    j["message"] = to_json(r.value());
-  } else {
-    j["error"] = to_string(r.reason());
-    if (frame.error) j["error_detail"] = describe_error_frame(frame);
-  }
-  return j;
-}
-
 }  // namespace saul::host

@@ -65,7 +65,7 @@ std::string csv_quote(const std::string& s);
 
 /// The reference: one frame's line as saulctl decode wrote it through describe(), to_json() and nlohmann's DOM
 /// (without newline). `time_column` is "(sec.usec)" with its parentheses. With `error_detail`, an error frame also
-/// says what it reports, as sniff shows it (frame_line(), frame_record()): "!error_frame bus-off", "error_detail".
+/// says what it reports, as sniff shows it: "!error_frame bus-off" after the reason, or an "error_detail" member.
 std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
                                  const CanFrame& frame, bool error_detail = false);
 

@@ -1,9 +1,8 @@
-// One greppable line per CAN frame, shared by `saulctl decode`, `sniff` and logs:
+// The pieces of the one greppable line per CAN frame that `saulctl decode`, `sniff` and logs write (the line itself
+// is fast_emit.hpp's FrameEmitter):
 //   (1763800000.600000) can0 301#000100000000C03F     pid_gain gain=kp sequence=1 value=1.5
-// and the JSON Lines equivalent. The raw part is the candump compact syntax, so lines stay familiar.
+// the time column, a frame's meaning, an error frame's meaning. The raw part is the candump compact syntax.
 #pragma once
-
-#include <nlohmann/json.hpp>
 
 #include <optional>
 #include <string>
@@ -37,12 +36,6 @@ class TimeColumn {
 /// "velocity_cmd speed_mmps=1000 steer_mrad=-500", or "!wrong_dlc" / "!unknown_id" when it does not decode,
 /// or the error frame's meaning for error frames.
 std::string describe_frame(const CanFrame& frame);
-
-/// The whole text line, without newline.
-std::string frame_line(const std::string& time_column, std::string_view interface, const CanFrame& frame);
-
-/// {"time":..., "interface":..., "frame":{...}, "message":{...}} or {..., "error":"wrong_dlc"}
-nlohmann::json frame_record(const std::string& time_column, std::string_view interface, const CanFrame& frame);
 
 /// One line naming what a SocketCAN error frame says (class bits in the id, details in the data, as
 /// linux/can/error.h lays them out: live links and capture files carry the same layout), e.g. "bus-off",
