@@ -12,20 +12,22 @@
 #include "saulproto/host/report/signal_stats.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
 namespace saulctl {
 namespace {
 
-/// stats counts candump files of this size and more on both cores (a thread costs ~0.1 ms to start; 4 MiB is
-/// ~90 000 frames, ~20 ms of work: from there on both cores pay off), in blocks of kStatsBlock bytes.
+/// stats counts candump, pcap and pcapng files of this size and more on both cores (a thread costs ~0.1 ms to start;
+/// 4 MiB is ~90 000 frames, ~20 ms of work: from there on both cores pay off), in blocks of kStatsBlock bytes (1 MiB:
+/// as fast as larger ones, and a pcapng block is held whole while it is counted).
 /// SAUL_STATS_AHEAD_FROM and SAUL_STATS_BLOCK move them (tests: many blocks from a small file).
 std::uint64_t from_env(const char* name, std::uint64_t otherwise) {
   const char* value = std::getenv(name);
   return value != nullptr ? std::strtoull(value, nullptr, 10) : otherwise;
 }
 const std::uint64_t kStatsAheadFrom = from_env("SAUL_STATS_AHEAD_FROM", std::uint64_t{4} << 20);
-const std::uint64_t kStatsBlock = from_env("SAUL_STATS_BLOCK", std::uint64_t{4} << 20);
+const std::uint64_t kStatsBlock = from_env("SAUL_STATS_BLOCK", std::uint64_t{1} << 20);
 
 struct StatsOptions {
   std::string file;
@@ -73,8 +75,20 @@ int run_stats(const StatsOptions& opt) {
   };
   if (opened.frames) {
     BusStats stats(bus);
-    // An uncompressed candump file: big reads and batches (capture/candump_scan.hpp); any other format frame by frame.
-    const auto file = opened.frames->format() == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
+    // Uncompressed pcap and pcapng files from kStatsAheadFrom bytes on: blocks on both cores (not with --signals,
+    // which needs the frames in order on one thread). An uncompressed candump file: big reads and batches
+    // (capture/candump_scan.hpp), in blocks on both cores when large. Any other format frame by frame.
+    const CaptureFormat format = opened.frames->format();
+    const auto total = opened.frames->bytes_total();
+    std::unique_ptr<CaptureBlocks> blocks;
+    if (!opt.signals && (format == CaptureFormat::pcap || format == CaptureFormat::pcapng) && total &&
+        *total >= kStatsAheadFrom)
+      blocks = CaptureBlocks::open(opt.file, kStatsBlock);
+    if (blocks)
+      add_capture_blocks(stats, *blocks, report_corrupt, [&](std::uint64_t records, std::uint64_t bytes) {
+        progress.update_many(records, bytes, blocks->size());
+      });
+    const auto file = !blocks && format == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
     // From kStatsAheadFrom bytes on, both cores count (add_candump_file: blocks, or with --signals a reading thread).
     if (file) {
       std::function<void(const saul::CanFrame&)> also;
@@ -84,7 +98,7 @@ int run_stats(const StatsOptions& opt) {
           [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also,
           kStatsBlock);
     }
-    for (; !file;) {
+    for (; !file && !blocks;) {
       const auto st = opened.frames->next();
       if (st == CaptureReader::Status::end) break;
       progress.update(opened.frames->bytes_read(), opened.frames->bytes_total());

@@ -86,6 +86,12 @@ for json in "" --json; do
   SAUL_STATS_AHEAD_FROM=1 "$saulctl" stats --signals $json "$out/mixed.log" >"$out/ahead$json.signals" 2>/dev/null
   check "stats --signals$json: read ahead gives one thread's report" cmp -s "$out/one$json.signals" "$out/ahead$json.signals"
 done
+# pcap and pcapng in blocks on both cores: one thread's report
+for f in bus.pcap bus.pcapng; do
+  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats --json "$out/$f" >"$out/$f.one" 2>/dev/null
+  SAUL_STATS_AHEAD_FROM=1 SAUL_STATS_BLOCK=65536 "$saulctl" stats --json "$out/$f" >"$out/$f.blocks" 2>/dev/null
+  check "stats of $f: blocks on both cores give one thread's report" cmp -s "$out/$f.one" "$out/$f.blocks"
+done
 check "stats: both corrupt lines reported at their lines" \
   test "$(grep -cE "mixed.log:(30002|$((frames + 3))):" "$out/ahead.err")" -eq 2
 check "stats: every frame counted, the one on can1 too" grep -q "^$out/mixed.log: $((frames + 1)) frames" "$out/ahead.stats"

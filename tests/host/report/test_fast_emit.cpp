@@ -20,8 +20,10 @@
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
@@ -401,6 +403,43 @@ Decoded run_pcap(const std::string& path, const CandumpDecodeOptions& o) {
 
 }  // namespace
 
+namespace {
+
+/// stats of the file at `path` counted in blocks of `block_bytes` on two threads (add_capture_blocks) against stats
+/// of `reader` (the same file) frame by frame: the same report, the same corrupt records in the same order, and
+/// progress up to the file's size.
+void check_stats_in_blocks(const std::string& path, CaptureReader& reader, std::uint64_t block_bytes,
+                           std::uint64_t size) {
+  BusStats one;
+  std::vector<std::string> one_corrupt;
+  for (;;) {
+    const auto st = reader.next();
+    if (st == CaptureReader::Status::end) break;
+    if (st == CaptureReader::Status::corrupt) {
+      one.add_corrupt();
+      one_corrupt.push_back(format_capture_error("f", reader.error()));
+      continue;
+    }
+    one.add(reader.frame(), reader.interface());
+  }
+  const auto blocks = CaptureBlocks::open(path, block_bytes);
+  REQUIRE(blocks);
+  CHECK(blocks->count() > 10);
+  BusStats two;
+  std::vector<std::string> two_corrupt;
+  std::uint64_t progress = 0;
+  add_capture_blocks(
+      two, *blocks, [&](const CaptureError& e) { two_corrupt.push_back(format_capture_error("f", e)); },
+      [&](std::uint64_t, std::uint64_t bytes) { progress = bytes; });
+  CHECK(two.text("f") == one.text("f"));
+  CHECK(two.json("f").dump() == one.json("f").dump());
+  CHECK(two_corrupt == one_corrupt);
+  CHECK(one_corrupt.size() > 10);
+  CHECK(progress == size);
+}
+
+}  // namespace
+
 TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and reports of one thread and of PcapReader") {
   // Random frames, with corrupt records among them (a fraction of a second too large, a record longer than any
   // SocketCAN packet: both skipped) and a record cut by the end of the file (the end).
@@ -441,6 +480,11 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
       CHECK(corrupt.size() == 20000 / 997 + 1 + 20000 / 1999 + 1 + 1);
       CHECK(two.progress_bytes == pcap.str().size());  // progress counts each block's bytes once
     }
+  }
+  SECTION("stats in blocks: one thread's figures and reports") {
+    std::istringstream in(pcap.str());
+    PcapReader reader(in);
+    check_stats_in_blocks(file.path, reader, 4096, pcap.str().size());
   }
 }
 
@@ -533,5 +577,10 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
       CHECK(two.result.records == frames.size());
       CHECK(two.progress_bytes == png.str().size());
     }
+  }
+  SECTION("stats in blocks: one thread's figures and reports") {
+    std::istringstream in(png.str());
+    PcapngReader reader(in);
+    check_stats_in_blocks(file.path, reader, 4096, png.str().size());
   }
 }

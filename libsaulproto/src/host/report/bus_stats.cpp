@@ -8,6 +8,7 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
 #include "../in_order.hpp"
 
 namespace saul::host {
@@ -476,65 +477,60 @@ nlohmann::json BusStats::json(std::string_view name) const {
   return j;
 }
 
-namespace {
-
-/// Blocks of a candump file counted on both cores, added to `stats` in file order (add_candump_file with `ahead`).
-void add_candump_blocks(BusStats& stats, int fd, std::uint64_t size, std::uint64_t block_bytes,
+void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
                         const std::function<void(const CaptureError&)>& on_corrupt,
                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
-  // 4 MiB blocks (~90 000 frames) by default: a block's timed frames take ~1.4 MiB until it is appended.
-  const std::vector<std::uint64_t> starts = split_candump_blocks(fd, size, block_bytes);
   struct Counted {
     BusStats stats{BusStatsOptions{}, BusStats::Block{}};  // restart_block() gives it the options
-    std::vector<CaptureError> corrupt;  // positions: lines counted from the block's start
-    std::uint64_t lines = 0;
+    std::vector<CaptureError> corrupt;  // positions: candump lines counted from the block's start
     std::uint64_t records = 0;
+    CaptureBlocks::Read read;
   };
   struct Worker {
     FrameFactsCache facts;  // kept from block to block: the bus repeats its frames
-    CandumpBatch batch;
+    CaptureBlocks::Scratch scratch;
   };
   std::uint64_t lines = 0;
+  std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Counted>(
-      starts.size() - 1, 2, [] { return Worker{}; },
+      blocks.count(), 2, [] { return Worker{}; },
       [&](std::size_t k, Worker& w, Counted& block) {
         block.stats.restart_block(stats.options());
         block.corrupt.clear();
         block.records = 0;
-        CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
-        while (scanner.next_batch(w.batch)) {
-          for (const auto& c : w.batch.corrupt) {
+        block.read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
+          for (const auto& c : batch.corrupt) {
             block.stats.add_corrupt();
             block.corrupt.push_back(c.error);
           }
-          const std::size_t n = w.batch.frames.size();
+          const std::size_t n = batch.frames.size();
           for (std::size_t i = 0; i < n; ++i) {
-            const CanFrame& f = w.batch.frames[i];
-            block.stats.add(f, w.batch.interfaces[i], w.facts.get(f));
+            const CanFrame& f = batch.frames[i];
+            block.stats.add(f, batch.interfaces[i], w.facts.get(f));
           }
-          block.records += n + w.batch.corrupt.size();
-        }
-        block.lines = scanner.lines();
+          block.records += n + batch.corrupt.size();
+          return true;
+        });
       },
-      [&](std::size_t k, Counted& block) {
+      [&](std::size_t, Counted& block) {
         for (CaptureError& e : block.corrupt) {
           e.position += lines;
           if (on_corrupt) on_corrupt(e);
         }
-        lines += block.lines;
+        lines += block.read.lines;
+        bytes += block.read.bytes;
         stats.append(block.stats);
-        if (on_progress) on_progress(block.records, starts[k + 1]);
+        if (on_progress) on_progress(block.records, bytes);
       });
 }
-
-}  // namespace
 
 void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
                       const std::function<void(const CaptureError&)>& on_corrupt,
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
                       const std::function<void(const CanFrame&)>& also, std::uint64_t block_bytes) {
   if (ahead && !also) {
-    add_candump_blocks(stats, fd, size, block_bytes, on_corrupt, on_progress);
+    add_capture_blocks(stats, *CaptureBlocks::of(fd, size, CaptureFormat::candump, block_bytes), on_corrupt,
+                       on_progress);
     return;
   }
   FrameFactsCache cache;  // on the reading thread when ahead

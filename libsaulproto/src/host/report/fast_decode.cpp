@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/read_ahead.hpp"
@@ -133,49 +134,36 @@ bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
   return !batch.frames.empty() || !batch.corrupt.empty();
 }
 
-/// The time of the first frame that passes the filter, for TimeMode::relative.
-template <class Scanner>
-std::optional<std::uint64_t> first_time(Scanner&& scanner, const CandumpDecodeOptions& o) {
-  CandumpBatch batch;
-  while (scanner.next_batch(batch))
-    for (const auto& f : batch.frames)
-      if (wanted(o, f)) return f.timestamp_ns.value_or(0);
-  return std::nullopt;
-}
-
-/// What a worker keeps from one block to the next: a block's bytes and a batch (no allocation per block).
-struct BlockScratch {
-  std::vector<std::uint8_t> bytes;  // grown, never shrunk: only the first `used` bytes are the block's
-  CandumpBatch batch;
-};
-
-/// Decodes block k of the file into `piece` with the worker's own emitter and scratch.
-using BlockDecoder = std::function<void(std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch& scratch)>;
-
-/// `blocks` blocks of a file decoded on o.threads threads, two blocks in flight per thread, handed to the sinks in
-/// file order. Corrupt positions are counted from the block's start when its scanner counts lines (candump), else
-/// they are the file's byte offsets already (pcap). `first`: the first frame's time, for TimeMode::relative.
-CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> first, const BlockDecoder& decode_block,
-                             const CandumpDecodeOptions& o, const CandumpDecodeSinks& sinks) {
+/// The blocks of a file decoded on o.threads threads, two blocks in flight per thread, handed to the sinks in file
+/// order. Corrupt positions are counted from the block's start when its scanner counts lines (candump), else they
+/// are the file's byte offsets already (pcap, pcapng). Relative times count from the first wanted frame's time.
+CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOptions& o,
+                             const CandumpDecodeSinks& sinks) {
+  std::optional<std::uint64_t> first;
+  if (o.time == TimeMode::relative) first = blocks.first_time(o.keep);
   struct Worker {
     Worker(const CandumpDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
       if (first) emitter.set_first(*first);
     }
     FrameEmitter emitter;
-    BlockScratch scratch;
+    CaptureBlocks::Scratch scratch;
   };
   CandumpDecodeResult result;
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Piece>(
-      blocks, o.threads,
-      [&] { return Worker(o, first); },
+      blocks.count(), o.threads, [&] { return Worker(o, first); },
       [&](std::size_t k, Worker& w, Piece& piece) {
         piece.out.clear();
         piece.counts = {};
-        piece.records = piece.lines = piece.bytes = 0;
+        piece.records = 0;
         piece.corrupt.clear();
-        decode_block(k, w.emitter, piece, w.scratch);
+        const auto read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
+          emit_batch(batch, w.emitter, o, piece);
+          return true;
+        });
+        piece.lines = read.lines;
+        piece.bytes = read.bytes;
       },
       [&](std::size_t, Piece& piece) {
         for (auto& e : piece.corrupt) {
@@ -198,19 +186,8 @@ CandumpDecodeResult parallel(std::size_t blocks, std::optional<std::uint64_t> fi
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks) {
   // delta needs the previous frame's time across block boundaries: one thread.
-  if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta) {
-    const std::vector<std::uint64_t> starts = split_candump_blocks(fd, *size, options.block);
-    const auto first = options.time == TimeMode::relative
-                           ? first_time(CandumpScanner(fd, 0, *size, std::size_t{64} << 10), options)
-                           : std::nullopt;
-    return parallel(
-        starts.size() - 1, first,
-        [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch&) {
-          CandumpScanner scanner(fd, starts[k], starts[k + 1], std::size_t{256} << 10);
-          scan_all(scanner, emitter, options, piece, [](Piece&, std::size_t) {});
-        },
-        options, sinks);
-  }
+  if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta)
+    return parallel(*CaptureBlocks::of(fd, *size, CaptureFormat::candump, options.block), options, sinks);
   if (size) {
     CandumpScanner scanner(fd, 0, *size);
     return single(scanner, false, options, sinks);
@@ -286,38 +263,11 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
   }
   // As candump files: large ones in blocks of whole records on both cores (delta needs the previous frame: one).
   if (options.threads > 1 && size >= options.parallel_from && options.time != TimeMode::delta) {
-    const std::vector<std::uint64_t> starts = scanner->block_starts(options.block);
-    const auto first = options.time == TimeMode::relative ? first_time(*scanner, options) : std::nullopt;
-    return parallel(
-        starts.size() - 1, first,
-        [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch&) {
-          PcapScanner block(fd, size, starts[k], starts[k + 1], std::size_t{256} << 10);
-          scan_all(block, emitter, options, piece, [](Piece&, std::size_t) {});
-          piece.bytes = starts[k + 1] - (k == 0 ? 0 : starts[k]);  // the scanner counts file offsets: the block's
-        },
-        options, sinks);
+    if (const auto blocks = CaptureBlocks::of(fd, size, CaptureFormat::pcap, options.block))
+      return parallel(*blocks, options, sinks);
   }
   return single(*scanner, false, options, sinks);
 }
-
-namespace {
-
-/// Reads [at, at + n) of fd into `out` from out[used] on (growing out when needed); returns the new `used`.
-std::size_t append_range(int fd, std::uint64_t at, std::uint64_t n, std::vector<std::uint8_t>& out, std::size_t used) {
-  if (out.size() < used + n) out.resize(used + static_cast<std::size_t>(n));
-  std::uint64_t done = 0;
-  while (done < n) {
-    const ssize_t got = ::pread(fd, out.data() + used + done, static_cast<std::size_t>(n - done),
-                                static_cast<off_t>(at + done));
-    if (got < 0 && errno == EINTR) continue;
-    if (got < 0) throw std::system_error(errno, std::generic_category(), "reading the capture");
-    if (got == 0) break;  // the file shrank: what there is
-    done += static_cast<std::uint64_t>(got);
-  }
-  return used + static_cast<std::size_t>(done);
-}
-
-}  // namespace
 
 std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
                                                       const CandumpDecodeSinks& sinks) {
@@ -327,48 +277,9 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
   const int fd = file.fd;
   const std::uint64_t size = file.size;
   if (size < options.parallel_from) return std::nullopt;
-  const PcapngBlocks cut = pcapng_block_starts(fd, size, options.block);
-  if (cut.starts.size() < 3) return std::nullopt;  // one block: the reader reads ahead instead
-  // Block k > 0 is read after the prefix; what its reader says of the prefix is block 0's to say.
-  auto read_block = [&](std::size_t k, BlockScratch& scratch, auto&& each) {
-    const std::size_t prefix = k > 0 ? append_range(fd, 0, cut.prefix_end, scratch.bytes, 0) : 0;
-    const std::size_t used = append_range(fd, cut.starts[k], cut.starts[k + 1] - cut.starts[k], scratch.bytes, prefix);
-    PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
-    CandumpBatch& batch = scratch.batch;
-    while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
-      for (auto& c : batch.corrupt) c.error.position += cut.starts[k] - prefix;
-      if (k > 0) {
-        const auto in_prefix = std::remove_if(batch.corrupt.begin(), batch.corrupt.end(), [&](const auto& c) {
-          return c.error.position < cut.starts[k];
-        });
-        batch.corrupt.erase(in_prefix, batch.corrupt.end());
-      }
-      if (!each(batch)) return;
-    }
-  };
-  std::optional<std::uint64_t> first;
-  if (options.time == TimeMode::relative) {
-    BlockScratch scratch;
-    for (std::size_t k = 0; k + 1 < cut.starts.size() && !first; ++k)
-      read_block(k, scratch, [&](const CandumpBatch& batch) {
-        for (const auto& f : batch.frames)
-          if (wanted(options, f)) {
-            first = f.timestamp_ns.value_or(0);
-            return false;
-          }
-        return true;
-      });
-  }
-  return parallel(
-      cut.starts.size() - 1, first,
-      [&](std::size_t k, FrameEmitter& emitter, Piece& piece, BlockScratch& scratch) {
-        read_block(k, scratch, [&](const CandumpBatch& batch) {
-          emit_batch(batch, emitter, options, piece);
-          return true;
-        });
-        piece.bytes = cut.starts[k + 1] - cut.starts[k];
-      },
-      options, sinks);
+  const auto blocks = CaptureBlocks::of(fd, size, CaptureFormat::pcapng, options.block);
+  if (!blocks || blocks->count() < 2) return std::nullopt;  // one block: the reader reads ahead instead
+  return parallel(*blocks, options, sinks);
 }
 
 }  // namespace saul::host

@@ -26,6 +26,7 @@
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/core/result.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/report/frame_key.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
@@ -225,8 +226,7 @@ class BusStats {
 
 /// Adds every line of an uncompressed candump file (CandumpFile) to `stats`: frames with stats.add(), corrupt
 /// lines with add_corrupt() and on_corrupt(error), in file order. With `ahead` both cores work: the file is cut
-/// into blocks of about `block_bytes` at line starts, each block counted on a worker thread into BusStats(options, Block{}) and
-/// appended here in file order (the same figures as one thread; at most four blocks held at a time). With `ahead`
+/// into blocks of about `block_bytes` at line starts and counted by add_capture_blocks(). With `ahead`
 /// and `also` (which must see the frames in order on this thread), the file is read and parsed, and each frame's
 /// FrameFacts worked out, on a second thread while this one adds. on_progress(records, bytes read so far) after
 /// each batch or block; also(frame), when given, after each frame's stats.add() (on this thread).
@@ -234,7 +234,15 @@ void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
                       const std::function<void(const CaptureError&)>& on_corrupt,
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
                       const std::function<void(const CanFrame&)>& also = {},
-                      std::uint64_t block_bytes = std::uint64_t{4} << 20);
+                      std::uint64_t block_bytes = std::uint64_t{1} << 20);
+
+/// Adds every record of a capture file read in blocks (CaptureBlocks: candump, pcap, pcapng) to `stats`, on two
+/// threads: each block is counted into BusStats(options, Block{}) and appended here in file order, so the figures
+/// are one thread's; corrupt records go to add_corrupt() and on_corrupt(error) in file order. At most four blocks
+/// are held at a time. on_progress(records, bytes read so far) after each block.
+void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
+                        const std::function<void(const CaptureError&)>& on_corrupt,
+                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress);
 
 /// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
 class SerialStats {

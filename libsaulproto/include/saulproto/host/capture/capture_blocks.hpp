@@ -1,0 +1,70 @@
+// A capture file read in blocks on several threads. Each block starts at a record's start (a candump line, a pcap
+// record, a pcapng packet block), so every thread reads its own blocks with its own scanner and the caller puts
+// what they found back in file order: decode's and stats' two-core paths (report/fast_decode.cpp,
+// report/bus_stats.cpp). Uncompressed regular files of those three formats only; the cuts are found once, up front
+// (candump: reads near each nominal cut; pcap and pcapng: a walk over the record headers).
+//
+// A corrupt file reads as it does in one piece: where a cut could not be made safely (an implausible pcap record, a
+// pcapng section or interface block after the first packet) the rest of the file is one block.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/capture.hpp"
+
+namespace saul::host {
+
+class CaptureBlocks {
+ public:
+  /// `path` cut into blocks of about `block_bytes`; nullptr when it is not an uncompressed candump, pcap or pcapng
+  /// regular file (read it with open_capture then). Throws std::system_error when reading fails.
+  static std::unique_ptr<CaptureBlocks> open(const std::string& path, std::uint64_t block_bytes);
+  /// The same over a file already open (`fd` not owned, `size` its size) whose format is known: a candump file
+  /// (CandumpFile), or a pcap or pcapng file (nullptr when its header says otherwise).
+  static std::unique_ptr<CaptureBlocks> of(int fd, std::uint64_t size, CaptureFormat format, std::uint64_t block_bytes);
+  CaptureBlocks(const CaptureBlocks&) = delete;
+  CaptureBlocks& operator=(const CaptureBlocks&) = delete;
+  ~CaptureBlocks();
+
+  [[nodiscard]] CaptureFormat format() const noexcept { return format_; }
+  [[nodiscard]] std::size_t count() const noexcept { return starts_.size() - 1; }
+  [[nodiscard]] std::uint64_t size() const noexcept { return size_; }
+
+  /// What a reading thread keeps from block to block (no allocation per block).
+  struct Scratch {
+    CandumpBatch batch;
+    std::vector<std::uint8_t> bytes;  // pcapng: the header blocks and the block, read in place
+  };
+  /// What reading a block found besides its frames.
+  struct Read {
+    /// candump: the block's lines. Its corrupt records' positions are lines counted from the block's first line,
+    /// so the caller adds the lines of the blocks before. pcap and pcapng: 0 (positions are file offsets already).
+    std::uint64_t lines = 0;
+    std::uint64_t bytes = 0;  ///< the block's share of the file (the blocks' shares add up to its size)
+  };
+  /// Block k's frames and corrupt records, batch by batch in file order, to each(batch) until it returns false.
+  /// Blocks can be read at the same time on different threads, each with its own Scratch. Throws
+  /// std::system_error when reading fails.
+  Read read(std::size_t k, Scratch& scratch, const std::function<bool(const CandumpBatch&)>& each) const;
+  /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt
+  /// when none does. Reads the blocks in order up to that frame.
+  [[nodiscard]] std::optional<std::uint64_t> first_time(const std::function<bool(const CanFrame&)>& keep) const;
+
+ private:
+  CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format) : fd_(fd), size_(size), format_(format) {}
+  int fd_;
+  bool owned_ = false;  // open() opened fd_: closed with this
+  std::uint64_t size_;
+  CaptureFormat format_;
+  std::vector<std::uint64_t> starts_;  // block k is [starts_[k], starts_[k + 1])
+  std::uint64_t prefix_end_ = 0;       // pcapng: the header blocks that every block is read after
+};
+
+}  // namespace saul::host

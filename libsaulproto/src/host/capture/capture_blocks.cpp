@@ -1,0 +1,155 @@
+#include "saulproto/host/capture/capture_blocks.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <span>
+#include <system_error>
+
+#include "saulproto/host/capture/compressed.hpp"
+#include "saulproto/host/capture/pcap_scan.hpp"
+#include "saulproto/host/capture/pcapng.hpp"
+
+namespace saul::host {
+namespace {
+
+/// Reads [at, at + n) of fd into `out` from out[used] on (growing out when needed); returns the new `used`.
+std::size_t append_range(int fd, std::uint64_t at, std::uint64_t n, std::vector<std::uint8_t>& out, std::size_t used) {
+  if (out.size() < used + n) out.resize(used + static_cast<std::size_t>(n));
+  std::uint64_t done = 0;
+  while (done < n) {
+    const ssize_t got = ::pread(fd, out.data() + used + done, static_cast<std::size_t>(n - done),
+                                static_cast<off_t>(at + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) throw std::system_error(errno, std::generic_category(), "reading the capture");
+    if (got == 0) break;  // the file shrank: what there is
+    done += static_cast<std::uint64_t>(got);
+  }
+  return used + static_cast<std::size_t>(done);
+}
+
+}  // namespace
+
+std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, CaptureFormat format,
+                                                 std::uint64_t block_bytes) {
+  std::unique_ptr<CaptureBlocks> blocks(new CaptureBlocks(fd, size, format));
+  switch (format) {
+    case CaptureFormat::candump:
+      blocks->starts_ = split_candump_blocks(fd, size, block_bytes);
+      break;
+    case CaptureFormat::pcap:
+      try {
+        blocks->starts_ = PcapScanner(fd, size).block_starts(block_bytes);
+      } catch (const CaptureOpenError&) {
+        return nullptr;  // not a pcap header after all
+      }
+      break;
+    case CaptureFormat::pcapng: {
+      PcapngBlocks cut = pcapng_block_starts(fd, size, block_bytes);
+      if (cut.starts.size() < 2) return nullptr;
+      blocks->starts_ = std::move(cut.starts);
+      blocks->prefix_end_ = cut.prefix_end;
+      break;
+    }
+    default:
+      return nullptr;
+  }
+  return blocks;
+}
+
+std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return nullptr;
+  struct stat st {};
+  std::uint8_t head[4096];
+  ssize_t got = 0;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || (got = ::pread(fd, head, sizeof head, 0)) <= 0) {
+    ::close(fd);
+    return nullptr;
+  }
+  const std::span<const std::uint8_t> first(head, static_cast<std::size_t>(got));
+  const auto format = detect_capture_format(first);
+  std::unique_ptr<CaptureBlocks> blocks;
+  if (detect_compression(first) == Compression::none && format) {
+    try {
+      blocks = of(fd, static_cast<std::uint64_t>(st.st_size), *format, block_bytes);
+    } catch (...) {
+      ::close(fd);
+      throw;
+    }
+  }
+  if (!blocks) {
+    ::close(fd);
+    return nullptr;
+  }
+  blocks->owned_ = true;
+  return blocks;
+}
+
+CaptureBlocks::~CaptureBlocks() {
+  if (owned_) ::close(fd_);
+}
+
+CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
+                                        const std::function<bool(const CandumpBatch&)>& each) const {
+  const std::uint64_t begin = starts_[k], end = starts_[k + 1];
+  Read read;
+  CandumpBatch& batch = scratch.batch;
+  switch (format_) {
+    case CaptureFormat::candump: {
+      CandumpScanner scanner(fd_, begin, end, std::size_t{256} << 10);
+      while (scanner.next_batch(batch) && each(batch)) {
+      }
+      read.lines = scanner.lines();
+      read.bytes = end - begin;
+      break;
+    }
+    case CaptureFormat::pcap: {
+      PcapScanner scanner(fd_, size_, begin, end, std::size_t{256} << 10);
+      while (scanner.next_batch(batch) && each(batch)) {
+      }
+      read.bytes = end - (k == 0 ? 0 : begin);  // block 0 counts the file header too
+      break;
+    }
+    case CaptureFormat::pcapng: {
+      // Block k > 0 is read after the header blocks; what its reader says of them is block 0's to say.
+      const std::size_t prefix = k > 0 ? append_range(fd_, 0, prefix_end_, scratch.bytes, 0) : 0;
+      const std::size_t used = append_range(fd_, begin, end - begin, scratch.bytes, prefix);
+      PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
+      while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
+        for (auto& c : batch.corrupt) c.error.position += begin - prefix;
+        if (k > 0) {
+          const auto in_prefix = std::remove_if(batch.corrupt.begin(), batch.corrupt.end(),
+                                                [&](const auto& c) { return c.error.position < begin; });
+          batch.corrupt.erase(in_prefix, batch.corrupt.end());
+        }
+        if (!each(batch)) break;
+      }
+      read.bytes = end - begin;
+      break;
+    }
+    default:
+      break;
+  }
+  return read;
+}
+
+std::optional<std::uint64_t> CaptureBlocks::first_time(const std::function<bool(const CanFrame&)>& keep) const {
+  Scratch scratch;
+  std::optional<std::uint64_t> first;
+  for (std::size_t k = 0; k < count() && !first; ++k)
+    read(k, scratch, [&](const CandumpBatch& batch) {
+      for (const auto& f : batch.frames)
+        if (!keep || keep(f)) {
+          first = f.timestamp_ns.value_or(0);
+          return false;
+        }
+      return true;
+    });
+  return first;
+}
+
+}  // namespace saul::host
