@@ -9,10 +9,12 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -326,6 +328,37 @@ Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode
 }
 
 }  // namespace
+
+TEST_CASE("fast decode on two threads: what a decoding thread or the writer throws ends the decode with it") {
+  // The blocks-in-order engine (host/in_order.hpp) under both failures: a block's work throws (here the --id
+  // filter, which runs on the decoding threads), or handing a block on throws (the writer). Either way the
+  // exception comes out of decode_candump_file, the threads are stopped and joined, and nothing hangs.
+  std::mt19937_64 rng(31);
+  TempFile file(random_log(rng, 20000));
+  CandumpDecodeOptions o;
+  o.threads = 2;
+  o.parallel_from = 0;
+  o.block = 4096;
+  CandumpDecodeSinks sinks;
+  std::size_t writes = 0;
+  sinks.write = [&](std::string_view) { ++writes; };
+  sinks.corrupt = [](const CaptureError&) {};
+  std::atomic<int> seen{0};
+  o.keep = [&](const saul::CanFrame&) {
+    if (++seen == 12345) throw std::runtime_error("filter failed");
+    return true;
+  };
+  REQUIRE_THROWS_WITH(decode_candump_file(file.path, o, sinks), "filter failed");
+  CHECK(writes < 20000 * 45 / 4096);  // stopped early: not every block was written
+
+  o.keep = {};
+  writes = 0;
+  sinks.write = [&](std::string_view) {
+    if (++writes == 7) throw std::runtime_error("disk full");
+  };
+  REQUIRE_THROWS_WITH(decode_candump_file(file.path, o, sinks), "disk full");
+  CHECK(writes == 7);  // nothing written after the failure
+}
 
 TEST_CASE("fast decode: two threads give the bytes, reports and counts of one thread and of CandumpReader") {
   std::mt19937_64 rng(7);
