@@ -1,7 +1,5 @@
 #include "saulproto/host/capture/capture_blocks.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +10,7 @@
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "regular_file.hpp"
 
 namespace saul::host {
 namespace {
@@ -61,31 +60,18 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
 }
 
 std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return nullptr;
-  struct stat st {};
+  detail::RegularFile file(path);
+  if (file.fd < 0) return nullptr;
   std::uint8_t head[4096];
-  ssize_t got = 0;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || (got = ::pread(fd, head, sizeof head, 0)) <= 0) {
-    ::close(fd);
-    return nullptr;
-  }
+  const ssize_t got = ::pread(file.fd, head, sizeof head, 0);
+  if (got <= 0) return nullptr;
   const std::span<const std::uint8_t> first(head, static_cast<std::size_t>(got));
   const auto format = detect_capture_format(first);
-  std::unique_ptr<CaptureBlocks> blocks;
-  if (detect_compression(first) == Compression::none && format) {
-    try {
-      blocks = of(fd, static_cast<std::uint64_t>(st.st_size), *format, block_bytes);
-    } catch (...) {
-      ::close(fd);
-      throw;
-    }
-  }
-  if (!blocks) {
-    ::close(fd);
-    return nullptr;
-  }
+  if (detect_compression(first) != Compression::none || !format) return nullptr;
+  auto blocks = of(file.fd, file.size, *format, block_bytes);
+  if (!blocks) return nullptr;
   blocks->owned_ = true;
+  file.release();  // closed by ~CaptureBlocks from here
   return blocks;
 }
 
