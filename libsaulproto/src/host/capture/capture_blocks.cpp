@@ -1,5 +1,7 @@
 #include "saulproto/host/capture/capture_blocks.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,7 +12,6 @@
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
-#include "regular_file.hpp"
 
 namespace saul::host {
 namespace {
@@ -60,18 +61,31 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
 }
 
 std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
-  detail::RegularFile file(path);
-  if (file.fd < 0) return nullptr;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return nullptr;
+  struct stat st {};
   std::uint8_t head[4096];
-  const ssize_t got = ::pread(file.fd, head, sizeof head, 0);
-  if (got <= 0) return nullptr;
+  ssize_t got = 0;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || (got = ::pread(fd, head, sizeof head, 0)) <= 0) {
+    ::close(fd);
+    return nullptr;
+  }
   const std::span<const std::uint8_t> first(head, static_cast<std::size_t>(got));
   const auto format = detect_capture_format(first);
-  if (detect_compression(first) != Compression::none || !format) return nullptr;
-  auto blocks = of(file.fd, file.size, *format, block_bytes);
-  if (!blocks) return nullptr;
+  std::unique_ptr<CaptureBlocks> blocks;
+  if (detect_compression(first) == Compression::none && format) {
+    try {
+      blocks = of(fd, static_cast<std::uint64_t>(st.st_size), *format, block_bytes);
+    } catch (...) {
+      ::close(fd);
+      throw;
+    }
+  }
+  if (!blocks) {
+    ::close(fd);
+    return nullptr;
+  }
   blocks->owned_ = true;
-  file.release();  // closed by ~CaptureBlocks from here
   return blocks;
 }
 

@@ -1,11 +1,15 @@
 #include "saulproto/host/report/fast_decode.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <functional>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
@@ -13,7 +17,6 @@
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/read_ahead.hpp"
-#include "../capture/regular_file.hpp"
 #include "../in_order.hpp"
 
 namespace saul::host {
@@ -223,9 +226,32 @@ CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const Candu
   return run.finish();
 }
 
+namespace {
+
+/// A regular file opened for reading (fd -1 when it cannot be, or is no regular file), closed at the end.
+struct RegularFile {
+  int fd = -1;
+  std::uint64_t size = 0;
+  explicit RegularFile(const std::string& path) : fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+    struct stat st {};
+    if (fd >= 0 && (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))) {
+      ::close(fd);
+      fd = -1;
+    }
+    if (fd >= 0) size = static_cast<std::uint64_t>(st.st_size);
+  }
+  ~RegularFile() {
+    if (fd >= 0) ::close(fd);
+  }
+  RegularFile(const RegularFile&) = delete;
+  RegularFile& operator=(const RegularFile&) = delete;
+};
+
+}  // namespace
+
 std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
                                                     const CandumpDecodeSinks& sinks) {
-  const detail::RegularFile file(path);
+  const RegularFile file(path);
   if (file.fd < 0) return std::nullopt;
   const int fd = file.fd;
   const std::uint64_t size = file.size;
@@ -246,7 +272,7 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
 std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
                                                       const CandumpDecodeSinks& sinks) {
   if (options.threads < 2 || options.time == TimeMode::delta) return std::nullopt;
-  const detail::RegularFile file(path);
+  const RegularFile file(path);
   if (file.fd < 0) return std::nullopt;
   const int fd = file.fd;
   const std::uint64_t size = file.size;
