@@ -1,5 +1,6 @@
 // saulctl stats' arithmetic: CAN frame lengths on the wire, and the per-id, load and silence statistics of a
 // small hand-made capture whose numbers are worked out by hand in the comments.
+#include <array>
 #include <catch2/catch.hpp>
 
 #include <fmt/format.h>
@@ -340,6 +341,19 @@ TEST_CASE("stats of a candump file on both cores equal one thread: figures, corr
       case 1: log += fmt::format("({}.{:06}) can0 30#ZZ\n", sec, usec); break;
       case 2: log += "# a comment\n"; break;
       case 3: log += fmt::format("({}.{:06}) can1 20000080#0000000000000040\n", sec, usec); break;  // error frame
+      // The lines stats takes by their text (its line memo) next to those it parses: a remote frame, a frame that
+      // does not decode (0x300 with 3 bytes), a time of another shape, and texts of up to 42 bytes after the time
+      // that differ only in their last byte (the memo's key is 40).
+      case 4: log += fmt::format("({}.{:06}) can0 300#R\n", sec, usec); break;
+      case 5: log += fmt::format("({}.{:06}) can0 300#0000{:02X}\n", sec, usec, rng() % 2); break;
+      case 6: log += fmt::format("({}.{:09}) can0 300#00006400\n", sec, usec * 1000 + rng() % 1000); break;
+      case 7:
+      case 8:
+        // 00 and AA differ in their stuff bits
+        log += fmt::format("({}.{:06}) {} 00000944#00000000000000{}\n", sec, usec,
+                           std::array{"robot_bus0", "robot_bus0_a_b", "robot_bus0_a_b_c"}[rng() % 3],
+                           rng() % 2 ? "00" : "AA");
+        break;
       default:
         log += fmt::format("({}.{:06}) can{} {}#{:04X}{:04X}\n", sec, usec, rng() % 7 == 0 ? 1 : 0,
                            rng() % 2 ? "300" : "00000944", rng() % 3 == 0 ? rng() % 0x10000 : 0, rng() % 4);

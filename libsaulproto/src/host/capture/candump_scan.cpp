@@ -30,58 +30,18 @@ constexpr std::array<std::int8_t, 256> kHexValue = [] {
 
 int hex_value(char c) noexcept { return kHexValue[static_cast<unsigned char>(c)]; }
 
-/// Eight ASCII digits at p as a number (the first the most significant), in a few word operations; false when
-/// one of them is not a digit.
-bool eight_digits(const char* p, std::uint64_t& value) noexcept {
-  std::uint64_t v;
-  std::memcpy(&v, p, 8);
-  if constexpr (std::endian::native != std::endian::little) {
-    value = 0;
-    for (int i = 0; i < 8; ++i) {
-      if (static_cast<unsigned>(p[i] - '0') >= 10) return false;
-      value = value * 10 + static_cast<unsigned>(p[i] - '0');
-    }
-    return true;
-  }
-  // every byte 0x30..0x39: its high nibble is 3, and still 3 after adding 6 (a carry out of a byte only happens
-  // for bytes >= 0xFA, which the first test already refuses)
-  constexpr std::uint64_t kHigh = 0xF0F0F0F0F0F0F0F0ULL, kZeros = 0x3030303030303030ULL;
-  if ((v & kHigh) != kZeros || ((v + 0x0606060606060606ULL) & kHigh) != kZeros) return false;
-  v -= kZeros;                    // bytes d0 (lowest) .. d7
-  v = v * 10 + (v >> 8);          // byte 2k: 10 d(2k) + d(2k+1)
-  v = (((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))) +
-       (((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32;
-  value = v;
-  return true;
-}
+}  // namespace
 
-/// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") ": seconds and nanoseconds. False for any
-/// other shape (then read digit by digit).
-bool candump_time(std::string_view line, std::uint64_t& sec, std::uint64_t& ns) noexcept {
-  const char* p = line.data();
-  if (line.size() < 24 || p[11] != '.' || p[18] != ')' || p[19] != ' ') return false;
-  const unsigned d0 = static_cast<unsigned>(p[1] - '0'), d1 = static_cast<unsigned>(p[2] - '0');
-  std::uint64_t low = 0, frac = 0;
-  if (d0 >= 10 || d1 >= 10 || !eight_digits(p + 3, low)) return false;
-  for (int i = 12; i < 18; ++i) {
-    const unsigned d = static_cast<unsigned>(p[i] - '0');
-    if (d >= 10) return false;
-    frac = frac * 10 + d;
-  }
-  sec = (d0 * 10 + d1) * 100'000'000ULL + low;
-  ns = frac * 1000;
-  return true;
-}
-
-/// The common shape of a line, "(SEC.FRAC) IFACE ID#DATA" with single spaces, an 11- or 29-bit data frame and
-/// nothing after it, in one pass. False for anything else (remote, error and FD frames, '.' separators, raw DLC,
-/// CR, extra spaces, any error): parse_candump_line then reads the line, so frames and reports stay exactly its own.
-bool parse_common(std::string_view line, CanFrame& f, std::string_view& interface) noexcept {
+// For anything else parse_candump_line reads the line, so frames and reports stay exactly its own.
+bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& interface) noexcept {
   const char* p = line.data() + 1;  // after '('
   const char* const end = line.data() + line.size();
-  std::uint64_t sec = 0;
-  std::uint64_t frac = 0;
-  if (!candump_time(line, sec, frac)) {
+  std::uint64_t ns = 0;
+  if (candump_fixed_time(line, ns)) {
+    p = line.data() + kCandumpFixedTimeLength;
+  } else {
+    std::uint64_t sec = 0;
+    std::uint64_t frac = 0;
     const char* digits = p;
     while (p < end && static_cast<unsigned>(*p - '0') < 10) sec = sec * 10 + static_cast<unsigned>(*p++ - '0');
     if (p == digits || p - digits > 19 || p == end || *p != '.') return false;
@@ -91,8 +51,7 @@ bool parse_common(std::string_view line, CanFrame& f, std::string_view& interfac
     if (frac_digits == 0 || frac_digits > 9 || end - p < 2 || p[0] != ')' || p[1] != ' ') return false;
     for (auto i = frac_digits; i < 9; ++i) frac *= 10;
     p += 2;
-  } else {
-    p = line.data() + 20;
+    ns = sec * 1'000'000'000ULL + frac;
   }
   const char* name = p;
   while (p < end && *p != ' ') ++p;
@@ -125,21 +84,21 @@ bool parse_common(std::string_view line, CanFrame& f, std::string_view& interfac
   f.error = false;
   f.dlc = n;
   for (std::size_t i = n; i < 8; ++i) f.data[i] = 0;
-  f.timestamp_ns = sec * 1'000'000'000ULL + frac;
+  f.timestamp_ns = ns;
   return true;
 }
 
-}  // namespace
-
 CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes)
     : fd_(fd), positional_(false), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  buf_.reset(new char[cap_]);  // not zeroed: only what was read is looked at
+  buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
+  std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
 }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), positional_(true), offset_(begin), end_(end), cap_(block_bytes + kMaxCandumpLine + 1),
       block_(block_bytes) {
-  buf_.reset(new char[cap_]);  // not zeroed: only what was read is looked at
+  buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
+  std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
 }
 
 CandumpScanner::~CandumpScanner() = default;
@@ -160,7 +119,7 @@ std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
   }
 }
 
-void CandumpScanner::line(std::string_view text, CandumpBatch& batch) {
+void CandumpScanner::line(std::string_view text, CandumpBatch& batch, CandumpLineTaker* taker) {
   ++line_;
   if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer (and CandumpReader) does
     if (first_other_.empty() && text.find_first_not_of(" \t\r") != std::string_view::npos)
@@ -171,9 +130,10 @@ void CandumpScanner::line(std::string_view text, CandumpBatch& batch) {
     too_long(batch);
     return;
   }
+  if (taker != nullptr && taker->take(text)) return;
   CanFrame& f = batch.frames.emplace_back();
   std::string_view name;
-  if (parse_common(text, f, name)) {
+  if (parse_candump_usual(text, f, name)) {
     batch.interfaces.push_back(name);
     return;
   }
@@ -203,8 +163,10 @@ void CandumpScanner::too_long(CandumpBatch& batch) {
   batch.corrupt.push_back(std::move(bad));
 }
 
-bool CandumpScanner::next_batch(CandumpBatch& batch) {
+bool CandumpScanner::next_batch(CandumpBatch& batch, CandumpLineTaker* taker) {
   batch.clear();
+  // with a taker, a batch ends at its first entry (what was taken after it would come before it)
+  auto taker_stops = [&] { return taker != nullptr && (!batch.frames.empty() || !batch.corrupt.empty()); };
   for (;;) {
     char* const buf = buf_.get();
     if (skipping_) {
@@ -223,17 +185,18 @@ bool CandumpScanner::next_batch(CandumpBatch& batch) {
     if (!skipping_) {
       // Every complete line in the buffer.
       for (;;) {
+        if (taker_stops()) return true;
         const void* nl = std::memchr(buf + head_, '\n', tail_ - head_);
         if (nl == nullptr) break;
         const std::size_t at = static_cast<std::size_t>(static_cast<const char*>(nl) - buf);
-        line(std::string_view(buf + head_, at - head_), batch);
+        line(std::string_view(buf + head_, at - head_), batch, taker);
         consumed_ += at + 1 - head_;
         head_ = at + 1;
         if (batch.frames.size() >= kMaxBatch) return true;
       }
       if (eof_) {
         if (head_ < tail_) {  // a last line without newline
-          line(std::string_view(buf + head_, tail_ - head_), batch);
+          line(std::string_view(buf + head_, tail_ - head_), batch, taker);
           consumed_ += tail_ - head_;
           head_ = tail_;
         }

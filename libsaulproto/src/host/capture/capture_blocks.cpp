@@ -94,14 +94,15 @@ CaptureBlocks::~CaptureBlocks() {
 }
 
 CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
-                                        const std::function<bool(const CandumpBatch&)>& each) const {
+                                        const std::function<bool(const CandumpBatch&)>& each,
+                                        CandumpLineTaker* taker) const {
   const std::uint64_t begin = starts_[k], end = starts_[k + 1];
   Read read;
   CandumpBatch& batch = scratch.batch;
   switch (format_) {
     case CaptureFormat::candump: {
       CandumpScanner scanner(fd_, begin, end, std::size_t{256} << 10);
-      while (scanner.next_batch(batch) && each(batch)) {
+      while (scanner.next_batch(batch, taker) && each(batch)) {
       }
       read.lines = scanner.lines();
       read.bytes = end - begin;

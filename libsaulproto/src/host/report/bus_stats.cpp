@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
@@ -188,6 +190,15 @@ double Cadence::jitter_ns() const {
   return variance > 0 ? static_cast<double>(std::sqrt(variance)) : 0;
 }
 
+FrameFacts facts_of(const CanFrame& f) {
+  FrameFacts facts;
+  facts.stuff = f.error ? 0 : can_stuff_bits(f);
+  const auto r = decode_bus_frame(f);
+  facts.reason = r ? Reason::ok : r.reason();
+  facts.name = r ? saul::name_of(r.value()) : nullptr;
+  return facts;
+}
+
 const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   const FrameKey key = frame_key(f);
   if (entries_.empty()) entries_.resize(kSlots);  // at first use: a BusStats given every frame's facts has none
@@ -195,10 +206,7 @@ const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   if (e.used && e.key == key) return e.facts;
   e.used = true;
   e.key = key;
-  e.facts.stuff = f.error ? 0 : can_stuff_bits(f);
-  const auto r = decode_bus_frame(f);
-  e.facts.reason = r ? Reason::ok : r.reason();
-  e.facts.name = r ? saul::name_of(r.value()) : nullptr;
+  e.facts = facts_of(f);
   return e.facts;
 }
 
@@ -221,19 +229,7 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
     if (!any) ++error_kinds_["unspecified"];
     return;
   }
-  if (last_load_ == nullptr || interface != last_interface_) {
-    auto it = interfaces_.find(interface);
-    if (it == interfaces_.end()) {
-      it = interfaces_.emplace(std::string(interface), Load{}).first;
-      if (!spare_timed_.empty()) {  // restart_block() kept it
-        it->second.timed = std::move(spare_timed_.back());
-        spare_timed_.pop_back();
-      }
-    }
-    last_interface_.assign(interface);
-    last_load_ = &it->second;
-  }
-  Load& load = *last_load_;
+  Load& load = load_of(interface);
   const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
   const unsigned none = can_frame_bits(f, StuffBits::none);
   ++load.frames;
@@ -248,9 +244,7 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   }
 
   const IdKey id{f.extended, f.id};
-  IdSlot& slot = id_slots_[(f.id ^ (f.id >> 6) ^ (f.extended ? 0x2A : 0)) % id_slots_.size()];
-  if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
-  IdStats& s = *slot.stats;
+  IdStats& s = id_of(id);
   if (ts)
     s.cadence.add_at(*ts, timeout_of(id));
   else
@@ -265,6 +259,60 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
     ++failures_[to_string(content.reason)];
     if (s.type.empty()) s.type = std::string("!") + to_string(content.reason);
   }
+}
+
+void BusStats::add_known(const CanFrame& f, std::string_view interface, const FrameFacts& content, std::uint64_t ns,
+                         Known& known) {
+  assert(!f.error && !f.remote && content.reason == Reason::ok);
+  const IdKey id{f.extended, f.id};
+  if (known.owner != serial_) known = {serial_, &load_of(interface), &id_of(id)};
+  // what add() does for such a frame
+  ++frames_;
+  if (!first_ns_ || ns < *first_ns_) first_ns_ = ns;
+  if (!last_ns_ || ns > *last_ns_) last_ns_ = ns;
+  Load& load = *known.load;
+  const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
+  const unsigned none = can_frame_bits(f, StuffBits::none);
+  ++load.frames;
+  load.bits_none += none;
+  load.bits_worst += worst;
+  load.bits_exact += none + content.stuff;
+  if (block_)
+    load.timed.push_back({ns, worst});
+  else
+    add_timed(load, ns, worst);
+  IdStats& s = *known.id;
+  s.cadence.add_at(ns, timeout_of(id));
+  s.bits_worst = worst;
+  s.dlc = f.dlc;
+  if (s.type.empty() || s.type[0] == '!') s.type = content.name;
+}
+
+BusStats::Load& BusStats::load_of(std::string_view interface) {
+  if (last_load_ == nullptr || interface != last_interface_) {
+    auto it = interfaces_.find(interface);
+    if (it == interfaces_.end()) {
+      it = interfaces_.emplace(std::string(interface), Load{}).first;
+      if (!spare_timed_.empty()) {  // restart_block() kept it
+        it->second.timed = std::move(spare_timed_.back());
+        spare_timed_.pop_back();
+      }
+    }
+    last_interface_.assign(interface);
+    last_load_ = &it->second;
+  }
+  return *last_load_;
+}
+
+BusStats::IdStats& BusStats::id_of(const IdKey& id) {
+  IdSlot& slot = id_slots_[(id.second ^ (id.second >> 6) ^ (id.first ? 0x2A : 0)) % id_slots_.size()];
+  if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
+  return *slot.stats;
+}
+
+std::uint64_t BusStats::next_serial() {
+  static std::atomic<std::uint64_t> serials{0};
+  return ++serials;
 }
 
 void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const {
@@ -477,6 +525,101 @@ nlohmann::json BusStats::json(std::string_view name) const {
   return j;
 }
 
+namespace {
+
+/// stats' reading of the usual candump lines: what a line says besides its time (frame, interface, facts) is
+/// remembered by the line's text after the time, so a line seen before costs a time parse, a copy and a compare
+/// instead of a hex parse and a facts lookup (a robot bus repeats most of its lines word for word after the time).
+/// Direct-mapped: a line missing here is parsed and takes its slot. Lines of another shape, and those the usual
+/// parse refuses, go back to the scanner (then to BusStats::add through the batch, in file order).
+class LineMemo final : public CandumpLineTaker {
+ public:
+  LineMemo() : slots_(kSlots) {}
+  /// The lines of the next block go to `stats`.
+  void start(BusStats& stats) {
+    stats_ = &stats;
+    taken_ = 0;
+  }
+  [[nodiscard]] std::uint64_t taken() const { return taken_; }
+
+  bool take(std::string_view line) override {
+    std::uint64_t ns = 0;
+    if (!candump_fixed_time(line, ns)) return false;
+    const std::string_view rest = line.substr(kCandumpFixedTimeLength);
+    if (rest.size() > sizeof(Key::words)) return false;
+    const Key key = Key::of(rest);
+    Entry& e = slots_[key.slot()];
+    if (e.length != rest.size() || !(e.key == key)) {
+      CanFrame f;
+      std::string_view interface;
+      if (!parse_candump_usual(line, f, interface)) return false;
+      e.key = key;
+      e.length = static_cast<std::uint8_t>(rest.size());
+      e.interface_length = static_cast<std::uint8_t>(interface.size());  // the interface starts the text
+      e.frame = f;
+      e.frame.timestamp_ns.reset();
+      // Worked out here, not looked up in a FrameFactsCache: a line missing here is nearly always new content
+      // (a changed telemetry value), which that cache would not have either.
+      e.facts = facts_of(f);
+      e.known = {};
+    }
+    const std::string_view interface(reinterpret_cast<const char*>(e.key.words), e.interface_length);
+    if (e.facts.reason == Reason::ok) {
+      stats_->add_known(e.frame, interface, e.facts, ns, e.known);
+    } else {
+      CanFrame f = e.frame;
+      f.timestamp_ns = ns;
+      stats_->add(f, interface, e.facts);
+    }
+    ++taken_;
+    return true;
+  }
+
+ private:
+  /// The text after the time, zeros after it: "can0 00000938#0011223344556677" is 30 bytes.
+  struct Key {
+    std::uint64_t words[5]{};
+    /// Read in whole words (kCandumpLineSlack bytes follow any line) and masked: no byte copies, which the
+    /// word loads would then wait for.
+    static Key of(std::string_view text) {
+      Key k;
+      for (std::size_t i = 0; i < 5; ++i) {
+        std::uint64_t w;
+        std::memcpy(&w, text.data() + 8 * i, 8);
+        const std::size_t valid = text.size() > 8 * i ? text.size() - 8 * i : 0;
+        const std::uint64_t mask = valid >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * valid)) - 1;
+        k.words[i] = w & mask;
+      }
+      return k;
+    }
+    bool operator==(const Key& o) const {
+      const auto* a = words;
+      const auto* b = o.words;
+      return ((a[0] ^ b[0]) | (a[1] ^ b[1]) | (a[2] ^ b[2]) | (a[3] ^ b[3]) | (a[4] ^ b[4])) == 0;
+    }
+    [[nodiscard]] std::size_t slot() const {
+      const auto* w = words;
+      const std::uint64_t h = w[0] * 0x9E3779B97F4A7C15ULL + w[1] * 0xC2B2AE3D27D4EB4FULL +
+                              w[2] * 0x165667B19E3779F9ULL + w[3] * 0xD6E8FEB86659FD93ULL + w[4] * 0xFF51AFD7ED558CCDULL;
+      return static_cast<std::size_t>((h ^ (h >> 32)) >> 22) & (kSlots - 1);
+    }
+  };
+  struct Entry {
+    Key key;
+    std::uint8_t length = 0xFF;  // no text is this long: the slot is empty
+    std::uint8_t interface_length = 0;
+    CanFrame frame;
+    FrameFacts facts;
+    BusStats::Known known;
+  };
+  static constexpr std::size_t kSlots = 4096;
+  std::vector<Entry> slots_;
+  BusStats* stats_ = nullptr;
+  std::uint64_t taken_ = 0;
+};
+
+}  // namespace
+
 void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
                         const std::function<void(const CaptureError&)>& on_corrupt,
                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
@@ -488,6 +631,7 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
   };
   struct Worker {
     FrameFactsCache facts;  // kept from block to block: the bus repeats its frames
+    LineMemo lines;
     CaptureBlocks::Scratch scratch;
   };
   std::uint64_t lines = 0;
@@ -498,19 +642,24 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
         block.stats.restart_block(stats.options());
         block.corrupt.clear();
         block.records = 0;
-        block.read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
-          for (const auto& c : batch.corrupt) {
-            block.stats.add_corrupt();
-            block.corrupt.push_back(c.error);
-          }
-          const std::size_t n = batch.frames.size();
-          for (std::size_t i = 0; i < n; ++i) {
-            const CanFrame& f = batch.frames[i];
-            block.stats.add(f, batch.interfaces[i], w.facts.get(f));
-          }
-          block.records += n + batch.corrupt.size();
-          return true;
-        });
+        w.lines.start(block.stats);
+        block.read = blocks.read(
+            k, w.scratch,
+            [&](const CandumpBatch& batch) {
+              for (const auto& c : batch.corrupt) {
+                block.stats.add_corrupt();
+                block.corrupt.push_back(c.error);
+              }
+              const std::size_t n = batch.frames.size();
+              for (std::size_t i = 0; i < n; ++i) {
+                const CanFrame& f = batch.frames[i];
+                block.stats.add(f, batch.interfaces[i], w.facts.get(f));
+              }
+              block.records += n + batch.corrupt.size();
+              return true;
+            },
+            &w.lines);
+        block.records += w.lines.taken();
       },
       [&](std::size_t, Counted& block) {
         for (CaptureError& e : block.corrupt) {

@@ -11,7 +11,9 @@
 // read one file, each with its own scanner, and the caller puts the results back in file order.
 #pragma once
 
+#include <bit>
 #include <cstddef>
+#include <cstring>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -44,6 +46,61 @@ struct CandumpBatch {
   }
 };
 
+/// Takes whole candump lines before the scanner parses them: a consumer that can handle the usual lines cheaper
+/// than a CanFrame each (stats keeps what it worked out of a line by the line's text). take() gets every line that
+/// starts with '(' and is not too long, in file order; a line it refuses (false) is read the usual way. The
+/// scanner's buffer goes on for kCandumpLineSlack bytes after any line (bytes of no meaning), so that take() may read
+/// a line in whole words.
+inline constexpr std::size_t kCandumpLineSlack = 64;
+class CandumpLineTaker {
+ public:
+  virtual bool take(std::string_view line) = 0;
+
+ protected:
+  ~CandumpLineTaker() = default;
+};
+
+/// The usual shape of a line, "(SEC.FRAC) IFACE ID#DATA" (single spaces, an 11- or 29-bit data frame, nothing after
+/// it): its frame (timestamp included) and interface (a view into `line`), in one pass. False for any other shape
+/// (remote, error and FD frames, '.' separators, raw DLC, CR, extra spaces, any error), which parse_candump_line
+/// reads; for the lines it accepts both give the same frame.
+bool parse_candump_usual(std::string_view line, CanFrame& frame, std::string_view& interface) noexcept;
+namespace detail {
+/// Eight ASCII digits in a word read from memory on a little-endian machine (the first digit the lowest byte) as a
+/// number, in a few word operations; false when one of them is not a digit.
+inline bool eight_digits(std::uint64_t v, std::uint64_t& value) noexcept {
+  // every byte 0x30..0x39: its high nibble is 3, and still 3 after adding 6 (a carry out of a byte only happens
+  // for bytes >= 0xFA, which the first test already refuses)
+  constexpr std::uint64_t kHigh = 0xF0F0F0F0F0F0F0F0ULL, kZeros = 0x3030303030303030ULL;
+  if ((v & kHigh) != kZeros || ((v + 0x0606060606060606ULL) & kHigh) != kZeros) return false;
+  v -= kZeros;            // bytes d0 (lowest) .. d7
+  v = v * 10 + (v >> 8);  // byte 2k: 10 d(2k) + d(2k+1)
+  v = (((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))) +
+       (((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32;
+  value = v;
+  return true;
+}
+}  // namespace detail
+
+/// Where the text after the time starts in a line of candump_fixed_time's shape.
+inline constexpr std::size_t kCandumpFixedTimeLength = 20;
+/// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") " (so what follows starts at line[20]), in
+/// ns; false for any other shape. Inline: stats reads it for every line.
+inline bool candump_fixed_time(std::string_view line, std::uint64_t& ns) noexcept {
+  if constexpr (std::endian::native != std::endian::little) return false;  // read digit by digit then
+  const char* p = line.data();
+  if (line.size() < 24 || p[11] != '.' || p[18] != ')' || p[19] != ' ') return false;
+  const unsigned d9 = static_cast<unsigned>(p[9] - '0'), d10 = static_cast<unsigned>(p[10] - '0');
+  std::uint64_t high, fraction;
+  std::memcpy(&high, p + 1, 8);
+  std::memcpy(&fraction, p + 12, 8);  // 6 digits and ") ", which become "00": the fraction times 100
+  fraction = (fraction & 0x0000FFFFFFFFFFFFULL) | 0x3030000000000000ULL;
+  if (d9 >= 10 || d10 >= 10 || !detail::eight_digits(high, high) || !detail::eight_digits(fraction, fraction))
+    return false;
+  ns = (high * 100 + d9 * 10 + d10) * 1'000'000'000ULL + fraction * 10;
+  return true;
+}
+
 class CandumpScanner {
  public:
   /// Reads `fd` (not owned, not closed) from its current position to its end with read(2): files and pipes.
@@ -57,7 +114,11 @@ class CandumpScanner {
 
   /// Fills `batch` (cleared first) with the lines of up to one block (at most kMaxBatch frames); false (batch empty) at the end. Throws
   /// std::runtime_error when reading fails.
-  bool next_batch(CandumpBatch& batch);
+  bool next_batch(CandumpBatch& batch) { return next_batch(batch, nullptr); }
+  /// The same with the lines `taker` takes left out of the batch: those are handled by then, so that the caller
+  /// sees everything in file order a batch ends at the first frame or corrupt line the taker did not take (false
+  /// at the end, when the taker may have taken everything).
+  bool next_batch(CandumpBatch& batch, CandumpLineTaker* taker);
   /// Lines seen so far (comments and corrupt lines included).
   [[nodiscard]] std::uint64_t lines() const noexcept { return line_; }
   /// Bytes read so far (from the range's start).
@@ -71,7 +132,7 @@ class CandumpScanner {
   static constexpr std::size_t kMaxBatch = 4096;
 
  private:
-  void line(std::string_view text, CandumpBatch& batch);
+  void line(std::string_view text, CandumpBatch& batch, CandumpLineTaker* taker);
   void too_long(CandumpBatch& batch);
   std::size_t fill(char* dst, std::size_t n);
 

@@ -52,7 +52,10 @@ class CaptureBlocks {
   /// Block k's frames and corrupt records, batch by batch in file order, to each(batch) until it returns false.
   /// Blocks can be read at the same time on different threads, each with its own Scratch. Throws
   /// std::system_error when reading fails.
-  Read read(std::size_t k, Scratch& scratch, const std::function<bool(const CandumpBatch&)>& each) const;
+  /// A candump block's lines go to `taker` first (CandumpScanner::next_batch): `each` then sees only the rest, in
+  /// order with them; other formats ignore it.
+  Read read(std::size_t k, Scratch& scratch, const std::function<bool(const CandumpBatch&)>& each,
+            CandumpLineTaker* taker = nullptr) const;
   /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt
   /// when none does. Reads the blocks in order up to that frame.
   [[nodiscard]] std::optional<std::uint64_t> first_time(const std::function<bool(const CanFrame&)>& keep) const;

@@ -103,6 +103,9 @@ struct FrameFacts {
   const char* name = nullptr;  ///< saul::name_of() of the decoded message
 };
 
+/// A frame's FrameFacts, worked out (its stuff bits and its decode).
+FrameFacts facts_of(const CanFrame& frame);
+
 /// FrameFacts of frames, remembered in a direct-mapped table: a repeated frame (most of a robot bus) costs a
 /// lookup. One per thread.
 class FrameFactsCache {
@@ -122,13 +125,13 @@ class FrameFactsCache {
 /// Statistics of the CAN frames of a capture.
 class BusStats {
  public:
-  explicit BusStats(BusStatsOptions options = {}) : options_(options) {}
+  explicit BusStats(BusStatsOptions options = {}) : options_(options), serial_(next_serial()) {}
   /// Statistics of one block of a file, to be append()ed to those of the blocks before it (several threads each
   /// count their own blocks). The busiest window needs each interface's first time, which only the blocks before
   /// may know: such a block keeps its timed frames' time and bits (16 bytes a frame, so memory grows with the
   /// block, never with the file) and append() works the windows out from them in file order.
   struct Block {};
-  BusStats(BusStatsOptions options, Block) : options_(options), block_(true) {}
+  BusStats(BusStatsOptions options, Block) : options_(options), block_(true), serial_(next_serial()) {}
   BusStats(const BusStats&) = delete;  // it keeps pointers into its own maps
   BusStats& operator=(const BusStats&) = delete;
   BusStats(BusStats&&) = default;  // map nodes stay put when a map moves
@@ -176,6 +179,18 @@ class BusStats {
     std::uint8_t dlc = 0;     ///< of the last frame
   };
   using IdKey = std::pair<bool, std::uint32_t>;  ///< (extended, id): standard ids sort first
+  /// Where add() counts a frame of some interface and id, kept by a caller that sees them again and again (stats'
+  /// candump line memo) so that add_known() can skip the lookups. Good for this object until its restart_block();
+  /// looked up again by add_known() after that.
+  struct Known {
+    std::uint64_t owner = 0;  ///< serial of the BusStats it was looked up in (0: never)
+    Load* load = nullptr;
+    IdStats* id = nullptr;
+  };
+  /// add(frame, interface, facts) of a data frame that decoded (facts.reason == ok, not remote, not an error frame)
+  /// at time `ns`, through `known`. Cost: a few additions, the lookups only when `known` is stale.
+  void add_known(const CanFrame& frame, std::string_view interface, const FrameFacts& facts, std::uint64_t ns,
+                 Known& known);
 
   [[nodiscard]] std::uint64_t frames() const { return frames_; }
   [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
@@ -200,9 +215,15 @@ class BusStats {
   /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
+  /// The interface's load, made when new (the last one looked up is remembered).
+  Load& load_of(std::string_view interface);
+  /// The id's statistics, made when new (a small direct-mapped table of the ids looked up).
+  IdStats& id_of(const IdKey& id);
+  static std::uint64_t next_serial();
 
   BusStatsOptions options_;
   bool block_ = false;  // BusStats(options, Block): windows left to append()
+  std::uint64_t serial_ = 0;  // Known::owner: different for every BusStats and every restart_block()
   std::vector<std::vector<Load::Timed>> spare_timed_;  // restart_block(): buffers for the next block's interfaces
   std::uint64_t frames_ = 0;
   std::uint64_t corrupt_ = 0;
