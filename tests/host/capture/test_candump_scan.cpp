@@ -262,3 +262,72 @@ TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at an
   ::close(fd);
   std::remove(name);
 }
+
+TEST_CASE("candump scanner: a line taker's lines and the batches give CandumpReader's frames and reports in order") {
+  // The taker (stats' line memo) takes every other line it can read with parse_candump_usual; the rest go into
+  // batches. Frames and reports put together in the order they come must be the reader's, at any block size and
+  // through a pipe, and every line given to the taker is followed by kCandumpLineSlack readable bytes (ASan checks
+  // the reads below).
+  std::string log;
+  std::uint64_t rng = 12345;
+  auto next = [&] { return rng = rng * 6364136223846793005ULL + 1442695040888963407ULL, rng >> 33; };
+  const std::vector<std::string> lines{
+      "(1700000000.000000) can0 300#E8030CFE",   "(1700000000.100000) vcan1 400#0102030405060708\r",
+      "(1700000000.2) can0 30G#00",              "(1700000000.300000) can0 12345678#R",
+      "(1700000000.400000) can0 20000080#0000000000000000", "(1700000000.500000)",
+      "# comment",                               "",
+      "(1700000001.123456) can0 00000944#0011223344556677", "(1700000001.123457) robot_bus_long_name 123#",
+      "(170000000.123457) can0 123#11"};
+  for (int i = 0; i < 3000; ++i) {
+    log += lines[next() % lines.size()] + "\n";
+    // A line of the longest length read (corrupt): with small reads it ends near the buffer's end, where only the
+    // slack is left after it.
+    if (i == 1000) log += "(" + std::string(kMaxCandumpLine - 1, '7') + "\n";
+  }
+  log += "(1700000002.000000) can0 123#11";  // last line without newline
+  const Seen expected = with_reader(log);
+  REQUIRE(expected.errors.size() > 100);
+
+  struct Taker final : CandumpLineTaker {
+    Seen* seen = nullptr;
+    bool odd = false;
+    std::size_t taken = 0;
+    bool take(std::string_view line) override {
+      volatile char last = line.data()[line.size() + kCandumpLineSlack - 1];  // in the buffer: ASan would say
+      (void)last;
+      CanFrame f;
+      std::string_view interface;
+      if (!parse_candump_usual(line, f, interface) || (odd = !odd)) return false;
+      std::uint64_t ns = 0;
+      if (candump_fixed_time(line, ns)) CHECK(ns == f.timestamp_ns);
+      seen->frames.push_back(f);
+      seen->interfaces.emplace_back(interface);
+      ++taken;
+      return true;
+    }
+  };
+  for (std::size_t block : {1, 7, 100, 4096, 1 << 20}) {
+    INFO("block " << block);
+    Pipe pipe([&](int fd) { write_all(fd, log.data(), log.size()); });
+    CandumpScanner scanner(pipe.fds[0], block);
+    Seen got;
+    Taker taker;
+    taker.seen = &got;
+    CandumpBatch batch;
+    while (scanner.next_batch(batch, &taker)) {
+      // a batch ends at its first entry: a frame or a report, never both, never more than one
+      CHECK(batch.frames.size() + batch.corrupt.size() == 1);
+      for (const auto& c : batch.corrupt)
+        got.errors.push_back(std::to_string(got.frames.size()) + ": " + format_capture_error("f", c.error));
+      for (std::size_t i = 0; i < batch.frames.size(); ++i) {
+        got.frames.push_back(batch.frames[i]);
+        got.interfaces.emplace_back(batch.interfaces[i]);
+      }
+    }
+    CHECK(taker.taken > 500);
+    CHECK(got.frames == expected.frames);
+    CHECK(got.interfaces == expected.interfaces);
+    CHECK(got.errors == expected.errors);
+    CHECK(scanner.bytes_read() == log.size());
+  }
+}
