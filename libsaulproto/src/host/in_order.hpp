@@ -7,19 +7,33 @@
 #include <exception>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace saul::host::detail {
+
+/// `blocks` for run_blocks_in_order when the blocks are found as they are read: work() says where they end.
+inline constexpr std::size_t kBlocksUntilNone = static_cast<std::size_t>(-1);
 
 /// Calls work(k, state, result) for every block k in [0, blocks) on `threads` threads, and take(k, result) on the
 /// caller's thread for k = 0, 1, 2... in that order. Each thread has its own `state`, made on it by make_state()
 /// (a prvalue: it need not be movable), kept from block to block. At most 2 x threads blocks are worked ahead of
 /// take(): memory is that many Results, whatever the number of blocks. Results are slots that are reused, so
 /// work() starts by resetting what it fills. What work() or take() throws stops every thread (the blocks under
-/// way finish first) and is rethrown here.
+/// way finish first) and is rethrown here. A work() that returns bool says with false that there is no block k
+/// (nor any after it: blocks may then be kBlocksUntilNone); take() then ends with block k - 1.
 template <class Result, class MakeState, class Work, class Take>
 void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_state, Work&& work, Take&& take) {
   if (threads == 0) threads = 1;
+  // work(k, state, result), false when there is no block k
+  auto work_on = [&work](std::size_t k, auto& state, Result& result) {
+    if constexpr (std::is_same_v<decltype(work(k, state, result)), bool>) {
+      return work(k, state, result);
+    } else {
+      work(k, state, result);
+      return true;
+    }
+  };
   const std::size_t ring = 2 * std::size_t{threads};
   struct Slot {
     Result result;
@@ -51,13 +65,19 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
         k = next_block++;
       }
       Slot& slot = slots[k % ring];
+      bool there = false;
       try {
-        work(k, state, slot.result);
+        there = work_on(k, state, slot.result);
       } catch (...) {
         fail();
         return;
       }
       std::lock_guard lock(mutex);
+      if (!there) {  // the blocks end before k: no worker takes another, take() stops at k
+        if (k < blocks) blocks = k;
+        changed.notify_all();
+        return;
+      }
       slot.block = k;
       slot.ready = true;
       changed.notify_all();
@@ -69,21 +89,18 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
   } catch (...) {  // no thread to be had: the threads that started do all the work, or none did and it is done here
     if (pool.empty()) {
       auto state = make_state();
-      for (std::size_t k = 0; k < blocks; ++k) {
-        work(k, state, slots[0].result);
-        take(k, slots[0].result);
-      }
+      for (std::size_t k = 0; k < blocks && work_on(k, state, slots[0].result); ++k) take(k, slots[0].result);
       return;
     }
   }
 
   try {
-    while (taken < blocks) {
+    for (;;) {
       Slot& slot = slots[taken % ring];
       {
         std::unique_lock lock(mutex);
-        changed.wait(lock, [&] { return stop || (slot.ready && slot.block == taken); });
-        if (stop) break;
+        changed.wait(lock, [&] { return stop || taken >= blocks || (slot.ready && slot.block == taken); });
+        if (stop || taken >= blocks) break;
       }
       take(taken, slot.result);
       std::lock_guard lock(mutex);

@@ -9,13 +9,16 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
+#include <numeric>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "saulproto/core/dispatch.hpp"
@@ -586,9 +589,25 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
   {
     const int fd = ::open(file.path.c_str(), O_RDONLY);
     const auto cut = pcapng_block_starts(fd, png.str().size(), 4096);
-    ::close(fd);
     CHECK(cut.starts.size() > 100);  // it was cut...
     CHECK(cut.starts[cut.starts.size() - 2] < png.str().size() * 3 / 4);  // ...up to the second interface
+    // CaptureBlocks cuts it as its blocks are asked for, here by two threads at once in no order: the same blocks.
+    const auto blocks = CaptureBlocks::of(fd, png.str().size(), CaptureFormat::pcapng, 4096);
+    REQUIRE(blocks);
+    std::vector<std::size_t> asked(cut.starts.size() + 5);
+    std::iota(asked.begin(), asked.end(), std::size_t{0});
+    std::shuffle(asked.begin(), asked.end(), rng);
+    std::atomic<std::size_t> wrong{0};
+    auto ask = [&](std::size_t from) {
+      for (std::size_t i = from; i < asked.size(); i += 2)
+        if (blocks->has(asked[i]) != (asked[i] + 1 < cut.starts.size())) ++wrong;
+    };
+    std::thread other(ask, 1);
+    ask(0);
+    other.join();
+    CHECK(wrong == 0);
+    CHECK(blocks->count() == cut.starts.size() - 1);
+    ::close(fd);
   }
   for (auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
     for (auto mode : {TimeMode::absolute, TimeMode::relative}) {

@@ -12,6 +12,7 @@
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "capture_io.hpp"
 
 namespace saul::host {
 namespace {
@@ -42,22 +43,45 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
       break;
     case CaptureFormat::pcap:
       try {
-        blocks->starts_ = PcapScanner(fd, size).block_starts(block_bytes);
+        blocks->cutter_ = detail::pcap_block_cutter(fd, size, PcapScanner(fd, size).big_endian(), block_bytes);
       } catch (const CaptureOpenError&) {
         return nullptr;  // not a pcap header after all
       }
       break;
-    case CaptureFormat::pcapng: {
-      PcapngBlocks cut = pcapng_block_starts(fd, size, block_bytes);
-      if (cut.starts.size() < 2) return nullptr;
-      blocks->starts_ = std::move(cut.starts);
-      blocks->prefix_end_ = cut.prefix_end;
+    case CaptureFormat::pcapng:
+      blocks->cutter_ = detail::pcapng_block_cutter(fd, size, block_bytes);
       break;
-    }
     default:
       return nullptr;
   }
   return blocks;
+}
+
+CaptureBlocks::CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format)
+    : fd_(fd), size_(size), format_(format) {}
+
+std::optional<CaptureBlocks::Range> CaptureBlocks::range(std::size_t k) const {
+  std::lock_guard lock(mutex_);
+  while (cutter_ && starts_.size() < k + 2) {
+    std::uint64_t start = 0;
+    if (!cutter_->next(start)) {
+      cutter_.reset();
+      break;
+    }
+    starts_.push_back(start);
+    prefix_end_ = cutter_->prefix_end();
+    if (start >= size_) cutter_.reset();  // the size comes last
+  }
+  if (starts_.size() < k + 2) return std::nullopt;
+  return Range{starts_[k], starts_[k + 1], prefix_end_};
+}
+
+bool CaptureBlocks::has(std::size_t k) const { return range(k).has_value(); }
+
+std::size_t CaptureBlocks::count() const {
+  std::size_t k = 0;
+  while (has(k)) ++k;
+  return k;
 }
 
 std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
@@ -96,8 +120,10 @@ CaptureBlocks::~CaptureBlocks() {
 CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
                                         const std::function<bool(const CandumpBatch&)>& each,
                                         CandumpLineTaker* taker) const {
-  const std::uint64_t begin = starts_[k], end = starts_[k + 1];
+  const auto r = range(k);
   Read read;
+  if (!r) return read;
+  const std::uint64_t begin = r->begin, end = r->end, prefix_end = r->prefix_end;
   CandumpBatch& batch = scratch.batch;
   switch (format_) {
     case CaptureFormat::candump: {
@@ -117,7 +143,7 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
     }
     case CaptureFormat::pcapng: {
       // Block k > 0 is read after the header blocks; what its reader says of them is block 0's to say.
-      const std::size_t prefix = k > 0 ? append_range(fd_, 0, prefix_end_, scratch.bytes, 0) : 0;
+      const std::size_t prefix = k > 0 ? append_range(fd_, 0, prefix_end, scratch.bytes, 0) : 0;
       const std::size_t used = append_range(fd_, begin, end - begin, scratch.bytes, prefix);
       PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
       while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
@@ -141,7 +167,7 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
 std::optional<std::uint64_t> CaptureBlocks::first_time(const std::function<bool(const CanFrame&)>& keep) const {
   Scratch scratch;
   std::optional<std::uint64_t> first;
-  for (std::size_t k = 0; k < count() && !first; ++k)
+  for (std::size_t k = 0; !first && has(k); ++k)
     read(k, scratch, [&](const CandumpBatch& batch) {
       for (const auto& f : batch.frames)
         if (!keep || keep(f)) {

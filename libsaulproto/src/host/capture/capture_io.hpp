@@ -7,6 +7,7 @@
 #include <array>
 #include <cerrno>
 #include <cstdint>
+#include <memory>
 #include <istream>
 #include <limits>
 #include <ostream>
@@ -131,5 +132,47 @@ inline std::uint64_t skip_counted(std::istream& in, std::uint64_t n, std::uint64
   offset += done;
   return done;
 }
+
+/// A file's block starts found one at a time by walking its record headers (pcap, pcapng), so that CaptureBlocks can
+/// hand out the first blocks while the walk goes on: the walk (~11 ms for 1 M pcapng packets, one core) then overlaps
+/// the decoding instead of coming before it.
+class BlockCutter {
+ public:
+  virtual ~BlockCutter() = default;
+  /// The next start (the first record's first, the file's size last); false once the size was given.
+  bool next(std::uint64_t& start) {
+    switch (state_) {
+      case State::first:
+        state_ = State::walking;
+        start = first_;
+        return true;
+      case State::walking:
+        if (walk(start)) return true;
+        state_ = State::over;  // the rest is one block
+        start = size_;
+        return true;
+      case State::over:
+        break;
+    }
+    return false;
+  }
+  /// pcapng: where the header blocks end (the first packet block), known once a start after the first was given.
+  [[nodiscard]] virtual std::uint64_t prefix_end() const { return 0; }
+
+ protected:
+  BlockCutter(std::uint64_t first, std::uint64_t size) : first_(first), size_(size) {}
+  /// The next start before the end; false where the walk stops (the end, or a record it cannot cut after).
+  virtual bool walk(std::uint64_t& start) = 0;
+
+ private:
+  enum class State { first, walking, over };
+  State state_ = State::first;
+  std::uint64_t first_;
+  std::uint64_t size_;
+};
+/// PcapScanner::block_starts one at a time (`big`: the file's byte order).
+std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);
+/// pcapng_block_starts one at a time.
+std::unique_ptr<BlockCutter> pcapng_block_cutter(int fd, std::uint64_t size, std::uint64_t block);
 
 }  // namespace saul::host::detail

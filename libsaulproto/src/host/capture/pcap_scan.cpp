@@ -45,20 +45,49 @@ PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::u
 
 PcapScanner::~PcapScanner() = default;
 
-std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
-  std::vector<std::uint64_t> starts{24};
-  if (block == 0) block = 1;
-  detail::HeaderWindow window(fd_, size_);
-  std::uint64_t pos = 24;
-  while (const std::uint8_t* h = window.at(pos, 16)) {
-    const std::uint32_t incl = detail::load_u32(h + 8, big_);
-    if (incl > pcap_scan::kMaxRecord) break;
-    const std::uint64_t next = pos + 16 + incl;
-    if (next >= size_) break;
-    if (next - starts.back() >= block) starts.push_back(next);
-    pos = next;
+namespace {
+
+class PcapCutter final : public detail::BlockCutter {
+ public:
+  PcapCutter(int fd, std::uint64_t size, bool big, std::uint64_t block)
+      : BlockCutter(24, size), window_(fd, size), size_(size), block_(block == 0 ? 1 : block), big_(big) {}
+
+ private:
+  bool walk(std::uint64_t& start) override {
+    while (const std::uint8_t* h = window_.at(pos_, 16)) {
+      const std::uint32_t incl = detail::load_u32(h + 8, big_);
+      if (incl > pcap_scan::kMaxRecord) break;
+      const std::uint64_t next = pos_ + 16 + incl;
+      if (next >= size_) break;
+      pos_ = next;
+      if (next - last_ >= block_) {
+        start = last_ = next;
+        return true;
+      }
+    }
+    return false;  // from the first implausible or cut record on, the rest is one block
   }
-  starts.push_back(size_);
+
+  detail::HeaderWindow window_;
+  std::uint64_t size_;
+  std::uint64_t block_;
+  bool big_;
+  std::uint64_t pos_ = 24;
+  std::uint64_t last_ = 24;  // the last start given
+};
+
+}  // namespace
+
+std::unique_ptr<detail::BlockCutter> detail::pcap_block_cutter(int fd, std::uint64_t size, bool big,
+                                                               std::uint64_t block) {
+  return std::make_unique<PcapCutter>(fd, size, big, block);
+}
+
+std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
+  std::vector<std::uint64_t> starts;
+  const auto cut = detail::pcap_block_cutter(fd_, size_, big_, block);
+  std::uint64_t start = 0;
+  while (cut->next(start)) starts.push_back(start);
   return starts;
 }
 

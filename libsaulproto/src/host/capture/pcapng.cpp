@@ -104,38 +104,68 @@ std::span<const std::uint8_t> as_bytes(std::string_view s) {
 
 // ---- blocks for several threads ----
 
-PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block) {
-  PcapngBlocks out;
-  out.starts = {0};
-  if (block == 0) block = 1;
-  detail::HeaderWindow window(fd, size);
-  bool big = false;
-  bool packets = false;  // a packet block was seen
-  std::uint64_t pos = 0;
-  while (const std::uint8_t* h = window.at(pos, 12)) {
-    const std::uint32_t type = load_u32(h, big);
-    if (type == kShb) {
-      if (pos != 0) break;  // a second section: not cut from here on
-      if (load_u32(h + 8, true) == kByteOrderMagic) {
-        big = true;
-      } else if (load_u32(h + 8, false) != kByteOrderMagic) {
+namespace {
+
+class PcapngCutter final : public detail::BlockCutter {
+ public:
+  PcapngCutter(int fd, std::uint64_t size, std::uint64_t block)
+      : BlockCutter(0, size), window_(fd, size), size_(size), block_(block == 0 ? 1 : block) {}
+  [[nodiscard]] std::uint64_t prefix_end() const override { return prefix_end_; }
+
+ private:
+  bool walk(std::uint64_t& start) override {
+    while (const std::uint8_t* h = window_.at(pos_, 12)) {
+      const std::uint32_t type = load_u32(h, big_);
+      if (type == kShb) {
+        if (pos_ != 0) break;  // a second section: not cut from here on
+        if (load_u32(h + 8, true) == kByteOrderMagic) {
+          big_ = true;
+        } else if (load_u32(h + 8, false) != kByteOrderMagic) {
+          break;
+        }
+      }
+      const std::uint32_t length = load_u32(h + 4, big_);
+      if (length < 12 || length % 4 != 0 || pos_ + length > size_) break;
+      const bool packet = type == kEpb || type == kSpb;
+      if (!packets_ && packet) {
+        if (pos_ > (std::uint64_t{1} << 20)) break;  // a prefix too large to read again per block
+        packets_ = true;
+        prefix_end_ = pos_;
+      } else if (packets_ && !packet) {
         break;
       }
+      const std::uint64_t at = pos_;
+      pos_ += length;
+      if (packet && at - last_ >= block_ && at > prefix_end_) {
+        start = last_ = at;
+        return true;
+      }
     }
-    const std::uint32_t length = load_u32(h + 4, big);
-    if (length < 12 || length % 4 != 0 || pos + length > size) break;
-    const bool packet = type == kEpb || type == kSpb;
-    if (!packets && packet) {
-      if (pos > (std::uint64_t{1} << 20)) break;  // a prefix too large to read again per block
-      packets = true;
-      out.prefix_end = pos;
-    } else if (packets && !packet) {
-      break;
-    }
-    if (packet && pos - out.starts.back() >= block && pos > out.prefix_end) out.starts.push_back(pos);
-    pos += length;
+    return false;
   }
-  out.starts.push_back(size);
+
+  detail::HeaderWindow window_;
+  std::uint64_t size_;
+  std::uint64_t block_;
+  std::uint64_t pos_ = 0;
+  std::uint64_t last_ = 0;  // the last start given
+  bool big_ = false;
+  bool packets_ = false;  // a packet block was seen
+  std::uint64_t prefix_end_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<detail::BlockCutter> detail::pcapng_block_cutter(int fd, std::uint64_t size, std::uint64_t block) {
+  return std::make_unique<PcapngCutter>(fd, size, block);
+}
+
+PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block) {
+  PcapngCutter cut(fd, size, block);
+  PcapngBlocks out;
+  std::uint64_t start = 0;
+  while (cut.next(start)) out.starts.push_back(start);
+  out.prefix_end = cut.prefix_end();
   return out;
 }
 

@@ -637,8 +637,9 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Counted>(
-      blocks.count(), 2, [] { return Worker{}; },
+      detail::kBlocksUntilNone, 2, [] { return Worker{}; },
       [&](std::size_t k, Worker& w, Counted& block) {
+        if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
         block.stats.restart_block(stats.options());
         block.corrupt.clear();
         block.records = 0;
@@ -660,6 +661,7 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
             },
             &w.lines);
         block.records += w.lines.taken();
+        return true;
       },
       [&](std::size_t, Counted& block) {
         for (CaptureError& e : block.corrupt) {

@@ -152,8 +152,9 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Piece>(
-      blocks.count(), o.threads, [&] { return Worker(o, first); },
+      detail::kBlocksUntilNone, o.threads, [&] { return Worker(o, first); },
       [&](std::size_t k, Worker& w, Piece& piece) {
+        if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
         piece.out.clear();
         piece.counts = {};
         piece.records = 0;
@@ -164,6 +165,7 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
         });
         piece.lines = read.lines;
         piece.bytes = read.bytes;
+        return true;
       },
       [&](std::size_t, Piece& piece) {
         for (auto& e : piece.corrupt) {
@@ -278,7 +280,7 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
   const std::uint64_t size = file.size;
   if (size < options.parallel_from) return std::nullopt;
   const auto blocks = CaptureBlocks::of(fd, size, CaptureFormat::pcapng, options.block);
-  if (!blocks || blocks->count() < 2) return std::nullopt;  // one block: the reader reads ahead instead
+  if (!blocks || !blocks->has(1)) return std::nullopt;  // one block: the reader reads ahead instead
   return parallel(*blocks, options, sinks);
 }
 

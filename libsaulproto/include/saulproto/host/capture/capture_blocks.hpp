@@ -2,7 +2,8 @@
 // record, a pcapng packet block), so every thread reads its own blocks with its own scanner and the caller puts
 // what they found back in file order: decode's and stats' two-core paths (report/fast_decode.cpp,
 // report/bus_stats.cpp). Uncompressed regular files of those three formats only; the cuts are found once, up front
-// (candump: reads near each nominal cut; pcap and pcapng: a walk over the record headers).
+// (candump: reads near each nominal cut, up front; pcap and pcapng: a walk over the record headers, as far as the
+// blocks asked for so far, so that the first blocks are read while the rest is still being cut).
 //
 // A corrupt file reads as it does in one piece: where a cut could not be made safely (an implausible pcap record, a
 // pcapng section or interface block after the first packet) the rest of the file is one block.
@@ -11,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +22,9 @@
 #include "saulproto/host/capture/capture.hpp"
 
 namespace saul::host {
+namespace detail {
+class BlockCutter;
+}
 
 class CaptureBlocks {
  public:
@@ -34,7 +39,12 @@ class CaptureBlocks {
   ~CaptureBlocks();
 
   [[nodiscard]] CaptureFormat format() const noexcept { return format_; }
-  [[nodiscard]] std::size_t count() const noexcept { return starts_.size() - 1; }
+  /// Whether there is a block k. A pcap or pcapng file is cut as it is read: this walks its record headers up to
+  /// block k's end when that is not known yet (the walk is serial, behind a lock; threads reading other blocks go
+  /// on meanwhile). Thread-safe; every block before an existing one exists.
+  [[nodiscard]] bool has(std::size_t k) const;
+  /// The number of blocks (cuts the whole file first).
+  [[nodiscard]] std::size_t count() const;
   [[nodiscard]] std::uint64_t size() const noexcept { return size_; }
 
   /// What a reading thread keeps from block to block (no allocation per block).
@@ -49,7 +59,7 @@ class CaptureBlocks {
     std::uint64_t lines = 0;
     std::uint64_t bytes = 0;  ///< the block's share of the file (the blocks' shares add up to its size)
   };
-  /// Block k's frames and corrupt records, batch by batch in file order, to each(batch) until it returns false.
+  /// Block k's (has(k)) frames and corrupt records, batch by batch in file order, to each(batch) until it returns false.
   /// Blocks can be read at the same time on different threads, each with its own Scratch. Throws
   /// std::system_error when reading fails.
   /// A candump block's lines go to `taker` first (CandumpScanner::next_batch): `each` then sees only the rest, in
@@ -61,13 +71,21 @@ class CaptureBlocks {
   [[nodiscard]] std::optional<std::uint64_t> first_time(const std::function<bool(const CanFrame&)>& keep) const;
 
  private:
-  CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format) : fd_(fd), size_(size), format_(format) {}
+  CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format);
+  struct Range {
+    std::uint64_t begin = 0, end = 0;
+    std::uint64_t prefix_end = 0;  // pcapng: the header blocks that every block is read after
+  };
+  /// Block k's bytes, cutting the file that far when needed; nullopt when there is no block k.
+  [[nodiscard]] std::optional<Range> range(std::size_t k) const;
   int fd_;
   bool owned_ = false;  // open() opened fd_: closed with this
   std::uint64_t size_;
   CaptureFormat format_;
-  std::vector<std::uint64_t> starts_;  // block k is [starts_[k], starts_[k + 1])
-  std::uint64_t prefix_end_ = 0;       // pcapng: the header blocks that every block is read after
+  mutable std::mutex mutex_;  // guards what follows: the cut goes on as blocks are read
+  mutable std::vector<std::uint64_t> starts_;  // block k is [starts_[k], starts_[k + 1])
+  mutable std::unique_ptr<detail::BlockCutter> cutter_;  // the starts still to find (null: all known)
+  mutable std::uint64_t prefix_end_ = 0;
 };
 
 }  // namespace saul::host

@@ -32,6 +32,8 @@ class PcapScanner {
   /// {24, s1, s2, ..., size}. Walks the record headers (one read of the file in large pieces); from the first
   /// implausible or cut record on, the rest is one block, so a corrupt file reads as it does in one piece.
   [[nodiscard]] std::vector<std::uint64_t> block_starts(std::uint64_t block) const;
+  /// The file's byte order (for cutting it one block at a time: CaptureBlocks).
+  [[nodiscard]] bool big_endian() const noexcept { return big_; }
 
  private:
   std::size_t ensure(std::size_t n);
