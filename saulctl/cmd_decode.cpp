@@ -230,6 +230,13 @@ int run_decode(const DecodeOptions& opt) {
           // the long CSV is written frame by frame below
         } else if (any.frames->format() == saul::host::CaptureFormat::candump) {
           fast_result = saul::host::decode_candump_file(path, fast, sinks);
+          // A compressed log: its text cut into blocks on both cores as it inflates (whatever its size: a few MB
+          // of zstd hold 40 MB of text).
+          if (!fast_result) {
+            const auto text = saul::host::open_capture_text(path, serial_options.format);
+            if (text->compressed() && text->format() == saul::host::CaptureFormat::candump)
+              fast_result = saul::host::decode_candump_text(*text, fast, sinks);
+          }
         } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {
           fast_result = saul::host::decode_pcap_file(path, fast, sinks);
         } else if (any.frames->format() == saul::host::CaptureFormat::pcapng) {

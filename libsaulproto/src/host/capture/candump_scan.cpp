@@ -90,20 +90,35 @@ bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& i
 
 CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes)
     : fd_(fd), positional_(false), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
-  std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
+  allocate();
 }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), positional_(true), offset_(begin), end_(end), cap_(block_bytes + kMaxCandumpLine + 1),
       block_(block_bytes) {
-  buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
-  std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
+  allocate();
 }
 
 CandumpScanner::~CandumpScanner() = default;
 
+void CandumpScanner::allocate() {
+  buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
+  std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
+}
+
+CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
+    : fd_(-1), positional_(false), text_(text), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
+  allocate();
+}
+
 std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
+  if (fd_ < 0) {
+    if (n > text_.size()) n = text_.size();
+    std::memcpy(dst, text_.data(), n);
+    text_.remove_prefix(n);
+    offset_ += n;
+    return n;
+  }
   if (positional_) {
     if (offset_ >= end_) return 0;
     if (n > end_ - offset_) n = static_cast<std::size_t>(end_ - offset_);

@@ -80,11 +80,16 @@ struct FileSource {
   [[nodiscard]] std::uint64_t bytes_read() const { return inflater ? inflater->compressed_bytes() : replay->delivered(); }
   /// After the reader's end: a decompression error, once, as a corrupt record that stops the reading.
   bool take_error(CaptureError& error) {
-    if (!inflater || reported || inflater->error().empty()) return false;
+    const auto e = decompression_error();
+    if (reported || !e) return false;
     reported = true;
-    error = CaptureError{0, inflater->error(), PositionKind::byte_offset, inflater->compressed_bytes(),
-                         Recovery::stop};
+    error = *e;
     return true;
+  }
+  /// What stopped the decompressor (nullopt: nothing), as a corrupt record at the compressed byte it reached.
+  [[nodiscard]] std::optional<CaptureError> decompression_error() const {
+    if (!inflater || inflater->error().empty()) return std::nullopt;
+    return CaptureError{0, inflater->error(), PositionKind::byte_offset, inflater->compressed_bytes(), Recovery::stop};
   }
 };
 
@@ -600,6 +605,38 @@ std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std:
   } catch (const CaptureOpenError& e) {
     throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
   }
+}
+
+namespace {
+
+class FileText final : public CaptureText {
+ public:
+  FileText(std::unique_ptr<FileSource> source, CaptureFormat format) : source_(std::move(source)), format_(format) {}
+  std::size_t read(char* dst, std::size_t n) override {
+    std::size_t done = 0;
+    while (done < n) {  // a stream buffer may hand out less than asked before its end
+      const auto got = source_->stream.rdbuf()->sgetn(dst + done, static_cast<std::streamsize>(n - done));
+      if (got <= 0) break;
+      done += static_cast<std::size_t>(got);
+    }
+    return done;
+  }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
+  [[nodiscard]] std::optional<CaptureError> end_error() const override { return source_->decompression_error(); }
+  [[nodiscard]] CaptureFormat format() const override { return format_; }
+  [[nodiscard]] bool compressed() const override { return source_->inflater != nullptr; }
+
+ private:
+  std::unique_ptr<FileSource> source_;
+  CaptureFormat format_;
+};
+
+}  // namespace
+
+std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format) {
+  auto source = open_source(path, format);
+  return std::make_unique<FileText>(std::move(source), *format);
 }
 
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,

@@ -7,12 +7,15 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <condition_variable>
 #include <functional>
+#include <mutex>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
@@ -134,38 +137,33 @@ bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
   return !batch.frames.empty() || !batch.corrupt.empty();
 }
 
-/// The blocks of a file decoded on o.threads threads, two blocks in flight per thread, handed to the sinks in file
-/// order. Corrupt positions are counted from the block's start when its scanner counts lines (candump), else they
-/// are the file's byte offsets already (pcap, pcapng). Relative times count from the first wanted frame's time.
-CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOptions& o,
-                             const CandumpDecodeSinks& sinks) {
-  std::optional<std::uint64_t> first;
-  if (o.time == TimeMode::relative) first = blocks.first_time(o.keep);
-  struct Worker {
-    Worker(const CandumpDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
-      if (first) emitter.set_first(*first);
-    }
-    FrameEmitter emitter;
-    CaptureBlocks::Scratch scratch;
-  };
+/// Blocks decoded on o.threads threads, two in flight per thread, handed to the sinks in file order.
+/// read_block(k, worker, piece) decodes block k into `piece` (false: there is no block k) with worker.emitter;
+/// piece.bytes is the block's share of the bytes read (the shares add up to the file's size).
+/// Corrupt positions are counted from the block's start when its scanner counts lines (candump), else they are
+/// the file's byte offsets already (pcap, pcapng). Relative times count from `first`.
+struct Worker {
+  Worker(const CandumpDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
+    if (first) emitter.set_first(*first);
+  }
+  FrameEmitter emitter;
+  CaptureBlocks::Scratch scratch;
+  std::string text;  // decode_candump_text: the block's lines
+};
+template <class ReadBlock>
+CandumpDecodeResult in_blocks(const CandumpDecodeOptions& o, const CandumpDecodeSinks& sinks,
+                              std::optional<std::uint64_t> first, ReadBlock&& read_block) {
   CandumpDecodeResult result;
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Piece>(
       detail::kBlocksUntilNone, o.threads, [&] { return Worker(o, first); },
       [&](std::size_t k, Worker& w, Piece& piece) {
-        if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
         piece.out.clear();
         piece.counts = {};
         piece.records = 0;
         piece.corrupt.clear();
-        const auto read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
-          emit_batch(batch, w.emitter, o, piece);
-          return true;
-        });
-        piece.lines = read.lines;
-        piece.bytes = read.bytes;
-        return true;
+        return read_block(k, w, piece);
       },
       [&](std::size_t, Piece& piece) {
         for (auto& e : piece.corrupt) {
@@ -183,7 +181,119 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
   return result;
 }
 
+/// The blocks of a file (CaptureBlocks).
+CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOptions& o,
+                             const CandumpDecodeSinks& sinks) {
+  std::optional<std::uint64_t> first;
+  if (o.time == TimeMode::relative) first = blocks.first_time(o.keep);
+  return in_blocks(o, sinks, first, [&](std::size_t k, Worker& w, Piece& piece) {
+    if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
+    const auto read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
+      emit_batch(batch, w.emitter, o, piece);
+      return true;
+    });
+    piece.lines = read.lines;
+    piece.bytes = read.bytes;
+    return true;
+  });
+}
+
+/// Candump text read from a stream and cut into blocks of whole lines, by whichever thread takes the next block,
+/// one at a time and in order. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the
+/// scanner reports it as too long, at its line) and the rest of it is dropped as it is read: a block holds at most
+/// about twice the block size plus one such line.
+class TextBlocks {
+ public:
+  TextBlocks(CaptureText& text, std::size_t block) : text_(text), block_(block == 0 ? 1 : block) {}
+  /// Block k's lines into `out`, once blocks 0 .. k - 1 were taken, and the bytes of the file read for them;
+  /// false when the text ended before it.
+  bool take(std::size_t k, std::string& out, std::uint64_t& bytes_read) {
+    std::unique_lock lock(mutex_);
+    turn_.wait(lock, [&] { return next_ == k; });
+    struct Next {  // the next block's turn, whatever happens here
+      TextBlocks& t;
+      ~Next() {
+        ++t.next_;
+        t.turn_.notify_all();
+      }
+    } next{*this};
+    out.clear();
+    out.swap(carry_);
+    for (;;) {
+      const std::size_t nl = out.rfind('\n');
+      if (nl != std::string::npos && (out.size() >= block_ || end_)) {  // whole lines, the rest for the next block
+        carry_.assign(out, nl + 1);
+        out.resize(nl + 1);
+        break;
+      }
+      if (end_) break;  // what is left: the last line, without its newline
+      const std::size_t line = nl == std::string::npos ? 0 : nl + 1;
+      if (out.size() - line > kMaxCandumpLine + 1) {
+        out.resize(line + kMaxCandumpLine + 1);
+        drop_rest_of_line(out);
+        continue;
+      }
+      read_more(out);
+    }
+    bytes_read = text_.bytes_read() - counted_;
+    counted_ += bytes_read;
+    return !out.empty();
+  }
+
+ private:
+  void read_more(std::string& out) {
+    const std::size_t at = out.size();
+    out.resize(at + block_);
+    const std::size_t got = text_.read(out.data() + at, block_);
+    out.resize(at + got);
+    if (got == 0) end_ = true;
+  }
+  /// Reads past the current line's newline, which ends `out`'s line; what follows it goes on `out`.
+  void drop_rest_of_line(std::string& out) {
+    std::string rest;
+    for (;;) {
+      read_more(rest);
+      const std::size_t nl = rest.find('\n');
+      if (nl != std::string::npos) {
+        out.append(rest, nl, std::string::npos);
+        return;
+      }
+      rest.clear();
+      if (end_) return;
+    }
+  }
+
+  CaptureText& text_;
+  std::size_t block_;
+  std::mutex mutex_;
+  std::condition_variable turn_;
+  std::size_t next_ = 0;  // the block whose turn it is
+  std::string carry_;     // text read after the last block's last newline
+  bool end_ = false;
+  std::uint64_t counted_ = 0;  // file bytes given to blocks so far
+};
+
 }  // namespace
+
+std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const CandumpDecodeOptions& options,
+                                                       const CandumpDecodeSinks& sinks) {
+  if (options.threads < 2 || options.time != TimeMode::absolute) return std::nullopt;
+  TextBlocks blocks(text, options.block);
+  CandumpDecodeResult result = in_blocks(options, sinks, std::nullopt, [&](std::size_t k, Worker& w, Piece& piece) {
+    if (!blocks.take(k, w.text, piece.bytes)) return false;
+    CandumpScanner scanner(std::string_view(w.text), options.block);
+    CandumpBatch& batch = w.scratch.batch;
+    while (scanner.next_batch(batch)) emit_batch(batch, w.emitter, options, piece);
+    piece.lines = scanner.lines();
+    return true;
+  });
+  if (const auto e = text.end_error()) {  // the decompressor stopped: what the reader reports at its end
+    sinks.corrupt(*e);
+    ++result.corrupt;
+    if (sinks.progress) sinks.progress(result.records + result.corrupt, text.bytes_read());
+  }
+  return result;
+}
 
 CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
                                    const CandumpDecodeSinks& sinks) {

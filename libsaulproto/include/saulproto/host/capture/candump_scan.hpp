@@ -108,6 +108,8 @@ class CandumpScanner {
   /// Reads the byte range [begin, end) of a regular file with pread(2) (begin a line start, e.g. from
   /// split_candump_blocks). Line numbers count from the range's first line.
   CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes = kDefaultBlock);
+  /// Reads `text` (kept alive by the caller; a block of lines cut from a stream, decode_candump_text).
+  explicit CandumpScanner(std::string_view text, std::size_t block_bytes = kDefaultBlock);
   CandumpScanner(const CandumpScanner&) = delete;
   CandumpScanner& operator=(const CandumpScanner&) = delete;
   ~CandumpScanner();
@@ -135,9 +137,11 @@ class CandumpScanner {
   void line(std::string_view text, CandumpBatch& batch, CandumpLineTaker* taker);
   void too_long(CandumpBatch& batch);
   std::size_t fill(char* dst, std::size_t n);
+  void allocate();
 
   int fd_;
   bool positional_;
+  std::string_view text_;  // what is left of the text read from memory (fd_ < 0)
   std::uint64_t offset_ = 0;  // next pread position
   std::uint64_t end_ = 0;
   std::unique_ptr<char[]> buf_;

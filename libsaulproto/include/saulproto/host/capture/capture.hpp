@@ -152,6 +152,25 @@ class CaptureWriter {
 /// (Recovery::stop).
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
+/// A capture file's content as bytes in order, through its decompressor when it is gzip or zstd: for candump text
+/// that the caller cuts into blocks and parses on several threads (decode_candump_text).
+class CaptureText {
+ public:
+  virtual ~CaptureText() = default;
+  /// Up to n bytes of the content (fewer only at its end); 0 at the end.
+  virtual std::size_t read(char* dst, std::size_t n) = 0;
+  /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with bytes_total).
+  [[nodiscard]] virtual std::uint64_t bytes_read() const = 0;
+  [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const = 0;
+  /// After the end: what open_capture_reader's reader reports then, a decompression error as one corrupt record
+  /// (Recovery::stop); nullopt at a clean end.
+  [[nodiscard]] virtual std::optional<CaptureError> end_error() const = 0;
+  [[nodiscard]] virtual CaptureFormat format() const = 0;
+  /// Whether the file is gzip or zstd.
+  [[nodiscard]] virtual bool compressed() const = 0;
+};
+/// Opens a file as open_capture_reader does (the same checks and errors, `format` forced when given), for its bytes.
+std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format = std::nullopt);
 /// What the first bytes of a file that is no capture look like, for the message that refuses it: "binary data of
 /// no format saulctl knows, starting 28 B1 ...", "candump's default output, ... record with 'candump -L ...'",
 /// "a BusMaster log", "a text file whose first line is '...'". open_capture_reader's refusals name it too.

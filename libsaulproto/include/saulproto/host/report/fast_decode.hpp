@@ -68,6 +68,15 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
 CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const CandumpDecodeOptions& options,
                                   const CandumpDecodeSinks& sinks);
 
+/// Candump text from a stream (a compressed log, open_capture_text) on options.threads threads: the text is cut
+/// into blocks of whole lines as it is read (one thread at a time, in order; a line longer than kMaxCandumpLine is
+/// cut short there and reported as too long, as decode_candump does, so no block holds it), each block decoded by
+/// whichever thread read it, the output in text order, and a decompression error at the end as CaptureReader
+/// reports it. The bytes, reports and counts of decode_candump() over the uncompressed text. nullopt, having read
+/// nothing, for a relative or delta time (they need the frames before) or one thread: then decode_reader().
+std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const CandumpDecodeOptions& options,
+                                                       const CandumpDecodeSinks& sinks);
+
 /// decode_candump() of the file at `path` when it is a regular file holding uncompressed candump text (told by its
 /// first bytes, as detect_capture_format does); nullopt, having read nothing else, when it is not (or cannot be
 /// opened): the caller reads it through open_capture_reader.
