@@ -210,45 +210,27 @@ const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   return e.facts;
 }
 
-void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFacts& content) {
-  ++frames_;
-  const auto ts = f.timestamp_ns;
-  if (ts) {
-    if (!first_ns_ || *ts < *first_ns_) first_ns_ = ts;
-    if (!last_ns_ || *ts > *last_ns_) last_ns_ = ts;
-  }
-  if (f.error) {
-    ++error_frames_;
-    bool any = false;
-    for (const auto& [bit, name] : kErrorClasses) {
-      if (f.id & bit) {
-        ++error_kinds_[name];
-        any = true;
-      }
-    }
-    if (!any) ++error_kinds_["unspecified"];
-    return;
-  }
-  Load& load = load_of(interface);
+// Inline: the per-frame path of add() and add_known() (stats counts every line through one of them).
+inline void BusStats::count(const CanFrame& f, bool timed, std::uint64_t ns, const FrameFacts& content,
+                            const Known& where) {
+  Load& load = *where.load;
   const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
   const unsigned none = can_frame_bits(f, StuffBits::none);
   ++load.frames;
   load.bits_none += none;
   load.bits_worst += worst;
   load.bits_exact += none + content.stuff;  // can_frame_bits(f, StuffBits::exact)
-  if (ts) {
-    if (block_)
-      load.timed.push_back({*ts, worst});  // the windows are worked out by append(), in file order
-    else
-      add_timed(load, *ts, worst);
-  }
-
   const IdKey id{f.extended, f.id};
-  IdStats& s = id_of(id);
-  if (ts)
-    s.cadence.add_at(*ts, timeout_of(id));
-  else
+  IdStats& s = *where.id;
+  if (timed) {
+    if (block_)
+      load.timed.push_back({ns, worst});  // the windows are worked out by append(), in file order
+    else
+      add_timed(load, ns, worst);
+    s.cadence.add_at(ns, timeout_of(id));
+  } else {
     ++s.cadence.count;
+  }
   if (f.remote) ++s.remote;
   s.bits_worst = worst;
   s.dlc = f.dlc;
@@ -261,31 +243,37 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   }
 }
 
+void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFacts& content) {
+  ++frames_;
+  if (f.timestamp_ns) note_time(*f.timestamp_ns);
+  if (f.error) {
+    ++error_frames_;
+    bool any = false;
+    for (const auto& [bit, name] : kErrorClasses) {
+      if (f.id & bit) {
+        ++error_kinds_[name];
+        any = true;
+      }
+    }
+    if (!any) ++error_kinds_["unspecified"];
+    return;
+  }
+  count(f, f.timestamp_ns.has_value(), f.timestamp_ns.value_or(0), content,
+        {serial_, &load_of(interface), &id_of({f.extended, f.id})});
+}
+
 void BusStats::add_known(const CanFrame& f, std::string_view interface, const FrameFacts& content, std::uint64_t ns,
                          Known& known) {
-  assert(!f.error && !f.remote && content.reason == Reason::ok);
-  const IdKey id{f.extended, f.id};
-  if (known.owner != serial_) known = {serial_, &load_of(interface), &id_of(id)};
-  // what add() does for such a frame
+  assert(!f.error);
+  if (known.owner != serial_) known = {serial_, &load_of(interface), &id_of({f.extended, f.id})};
   ++frames_;
+  note_time(ns);
+  count(f, true, ns, content, known);
+}
+
+void BusStats::note_time(std::uint64_t ns) {
   if (!first_ns_ || ns < *first_ns_) first_ns_ = ns;
   if (!last_ns_ || ns > *last_ns_) last_ns_ = ns;
-  Load& load = *known.load;
-  const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
-  const unsigned none = can_frame_bits(f, StuffBits::none);
-  ++load.frames;
-  load.bits_none += none;
-  load.bits_worst += worst;
-  load.bits_exact += none + content.stuff;
-  if (block_)
-    load.timed.push_back({ns, worst});
-  else
-    add_timed(load, ns, worst);
-  IdStats& s = *known.id;
-  s.cadence.add_at(ns, timeout_of(id));
-  s.bits_worst = worst;
-  s.dlc = f.dlc;
-  if (s.type.empty() || s.type[0] == '!') s.type = content.name;
 }
 
 BusStats::Load& BusStats::load_of(std::string_view interface) {
@@ -564,13 +552,7 @@ class LineMemo final : public CandumpLineTaker {
       e.known = {};
     }
     const std::string_view interface(reinterpret_cast<const char*>(e.key.words), e.interface_length);
-    if (e.facts.reason == Reason::ok) {
-      stats_->add_known(e.frame, interface, e.facts, ns, e.known);
-    } else {
-      CanFrame f = e.frame;
-      f.timestamp_ns = ns;
-      stats_->add(f, interface, e.facts);
-    }
+    stats_->add_known(e.frame, interface, e.facts, ns, e.known);
     ++taken_;
     return true;
   }

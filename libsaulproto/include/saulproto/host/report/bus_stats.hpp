@@ -187,8 +187,8 @@ class BusStats {
     Load* load = nullptr;
     IdStats* id = nullptr;
   };
-  /// add(frame, interface, facts) of a data frame that decoded (facts.reason == ok, not remote, not an error frame)
-  /// at time `ns`, through `known`. Cost: a few additions, the lookups only when `known` is stale.
+  /// add(frame, interface, facts) of a frame at time `ns` (not an error frame; its own timestamp is not looked at),
+  /// through `known`. Cost: a few additions, the lookups only when `known` is stale.
   void add_known(const CanFrame& frame, std::string_view interface, const FrameFacts& facts, std::uint64_t ns,
                  Known& known);
 
@@ -220,6 +220,11 @@ class BusStats {
   /// The id's statistics, made when new (a small direct-mapped table of the ids looked up).
   IdStats& id_of(const IdKey& id);
   static std::uint64_t next_serial();
+  /// The first and last times.
+  void note_time(std::uint64_t ns);
+  /// What a data or remote frame (at `ns` when `timed`) adds to its interface's load and its id's statistics
+  /// (`where`), after add()/add_known() counted it and its time.
+  void count(const CanFrame& frame, bool timed, std::uint64_t ns, const FrameFacts& facts, const Known& where);
 
   BusStatsOptions options_;
   bool block_ = false;  // BusStats(options, Block): windows left to append()
