@@ -1,5 +1,6 @@
 // saulctl stats' arithmetic: CAN frame lengths on the wire, and the per-id, load and silence statistics of a
 // small hand-made capture whose numbers are worked out by hand in the comments.
+#include <algorithm>
 #include <array>
 #include <catch2/catch.hpp>
 
@@ -391,5 +392,103 @@ TEST_CASE("stats of a candump file on both cores equal one thread: figures, corr
     CHECK(blocks.corrupt_lines == one.corrupt_lines);
     CHECK(blocks.records == one.records);
     CHECK(blocks.last_bytes == log.size());
+  }
+}
+
+// stats reads the usual line by its text: a head ("IFACE ID") looked up in a table of 256, the data's hex digits in a
+// table of 16384 contents, the digits read a word at a time. Random lines near every edge of that, long enough to
+// evict both tables many times over, must count exactly as the parsed lines of the one-thread path do.
+TEST_CASE("stats' line tables on random lines near their edges equal one thread's parse") {
+  std::mt19937_64 rng(2026);
+  auto pick = [&](std::string_view chars) { return chars[rng() % chars.size()]; };
+  auto hex_digits = [&](std::size_t n, bool lower) {
+    std::string d;
+    for (std::size_t k = 0; k < n; ++k) d += pick(lower ? "0123456789abcdef" : "0123456789ABCDEF");
+    return d;
+  };
+  // 600 heads (more than the table's 256): interfaces of 1 to 24 bytes, one with '#' in it, ids of 3 and 8 digits in
+  // either case, ids too large for their format, ids of 2, 4 and 9 digits
+  std::vector<std::string> heads;
+  for (int h = 0; h < 600; ++h) {
+    std::string iface;
+    switch (h % 8) {
+      case 0: iface = "can0"; break;
+      case 1: iface = "ca#0"; break;
+      default:
+        for (std::size_t k = 1 + rng() % 24; k-- > 0;) iface += pick("abcxyz019_-.");
+    }
+    std::string id;
+    switch (rng() % 12) {
+      case 0: id = "8" + hex_digits(2, false); break;            // > 0x7FF: not a standard id
+      case 1: id = "3" + hex_digits(7, false); break;            // > 0x1FFFFFFF
+      case 2: id = hex_digits(std::array{2, 4, 9}[rng() % 3], false); break;
+      case 3: id = "1" + hex_digits(7, true); break;
+      default: id = rng() % 2 ? std::string(1, pick("01234567")) + hex_digits(2, rng() % 4 == 0)
+                              : "0000" + hex_digits(4, false);  // saul and vesc ids, and unknown ones
+    }
+    heads.push_back(iface + " " + id);
+  }
+  // heads of more than the 24 bytes the table holds, alike in those 24
+  heads[5] = "bench_bus_left_wheel_0 00000944";
+  heads[6] = "bench_bus_left_wheel_0 00000938";
+  // data: mostly a few values per head (seen again), some always new, odd lengths, non-hex bytes, 9 bytes
+  auto data = [&]() -> std::string {
+    switch (rng() % 16) {
+      case 0: return hex_digits(rng() % 19, rng() % 2);  // any length up to 18 digits
+      case 1: {
+        std::string d = hex_digits(2 * (1 + rng() % 8), false);
+        using namespace std::string_view_literals;
+        d[rng() % d.size()] = pick("Gg:@`/ R\x7f\xc3*\0"sv);  // a byte just outside the hex digits' ranges, or NUL
+        return d;
+      }
+      case 2: return "R";
+      case 3: return hex_digits(16, rng() % 2);  // always new
+      default: {
+        const std::size_t bytes = std::array{0, 2, 3, 4, 8, 8, 8}[rng() % 7];
+        std::string d;
+        for (std::size_t k = 0; k < bytes; ++k) d += std::array{"00", "FF", "AA", "55", "0F", "ff", "a5"}[rng() % 7];
+        return d;
+      }
+    }
+  };
+  std::string log;
+  std::uint64_t us = 1'763'800'000'000'000ULL;
+  for (int i = 0; i < 60000; ++i) {
+    us += rng() % 700;
+    const auto sec = us / 1'000'000, usec = us % 1'000'000;
+    const std::string& head = rng() % 4 ? heads[rng() % 40] : heads[rng() % heads.size()];  // some heads often
+    std::string line = fmt::format("({}.{:06}) {}#{}", sec, usec, head, data());
+    switch (rng() % 40) {
+      case 0: line += "\r"; break;
+      case 1: line = fmt::format("({}.{:06}) {}  {}#11", sec, usec, head.substr(0, head.find(' ')), "300"); break;
+      case 2: line = fmt::format("({}.{:09}) {}#{}", sec, usec * 1000, head, data()); break;
+      case 3: line += "#"; break;
+      case 4: line = fmt::format("({}.{:06}) {}", sec, usec, head) + std::string(1, '\0') + "#" + data(); break;
+      case 5: line += std::string(2, '\0'); break;  // the same text as far as the table's zeros go
+      default: break;
+    }
+    if (log.size() < 8192) std::replace(line.begin(), line.end(), '\0', '*');  // the first 4 KiB say it is text
+    log += line;
+    log += '\n';
+  }
+  log += "(1763800099.000001) can0 300#0011";  // the last line without its newline
+  TempFile file(log);
+  auto run = [&](bool ahead, std::uint64_t block) {
+    auto candump = CandumpFile::open(file.path);
+    REQUIRE(candump);
+    BusStats stats(BusStatsOptions{500'000, 3 * kMs});
+    std::vector<std::uint64_t> corrupt;
+    add_candump_file(
+        stats, candump->fd(), candump->size(), ahead,
+        [&](const saul::host::CaptureError& e) { corrupt.push_back(e.position); }, {}, {}, block);
+    return std::pair{stats.text("f") + stats.json("f").dump(), corrupt};
+  };
+  const auto one = run(false, 0);
+  REQUIRE(one.second.size() > 1000);
+  for (std::uint64_t block : {std::uint64_t{333}, std::uint64_t{1} << 16, std::uint64_t{1} << 30}) {
+    INFO("blocks of " << block << " bytes");
+    const auto blocks = run(true, block);
+    CHECK(blocks.first == one.first);
+    CHECK(blocks.second == one.second);
   }
 }

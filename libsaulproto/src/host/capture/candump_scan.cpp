@@ -201,6 +201,12 @@ bool CandumpScanner::next_batch(CandumpBatch& batch, CandumpLineTaker* taker) {
       // Every complete line in the buffer.
       for (;;) {
         if (taker_stops()) return true;
+        if (taker != nullptr) {  // the batch is empty here
+          std::size_t used = 0;
+          line_ += taker->take_run(buf + head_, buf + tail_, used);
+          consumed_ += used;
+          head_ += used;
+        }
         const void* nl = std::memchr(buf + head_, '\n', tail_ - head_);
         if (nl == nullptr) break;
         const std::size_t at = static_cast<std::size_t>(static_cast<const char*>(nl) - buf);

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <cstring>
@@ -133,20 +136,6 @@ unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept {
   return fixed + can_stuff_bits(frame);  // table-driven (can_bits.cpp)
 }
 
-void Cadence::gap_to(std::uint64_t ns, std::uint64_t timeout_ns) {
-  const std::uint64_t gap = ns >= *last_ns ? ns - *last_ns : 0;
-  ++gaps;
-  if (gap > max_gap_ns || gaps == 1) {
-    max_gap_ns = gap;
-    max_gap_start_ns = *last_ns;
-  }
-  if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
-  gap_sum_ns += gap;
-  const Sum square = Sum{gap} * gap;
-  // A square reaches 2^128 only for gaps of centuries (hostile timestamps): hold the sum there, never wrap.
-  if (__builtin_add_overflow(gap_square_sum, square, &gap_square_sum)) gap_square_sum = ~Sum{0};
-}
-
 void Cadence::append(const Cadence& later, std::uint64_t timeout_ns) {
   count += later.count;
   if (!later.first_ns) return;  // no timestamps there: nothing else to add
@@ -210,40 +199,60 @@ const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   return e.facts;
 }
 
+inline void BusStats::note_time(std::uint64_t ns) {
+  if (!first_ns_ || ns < *first_ns_) first_ns_ = ns;
+  if (!last_ns_ || ns > *last_ns_) last_ns_ = ns;
+}
+
+BusStats::Content BusStats::content_of(const CanFrame& f, const FrameFacts& facts) {
+  Content c;
+  c.id = f.id;
+  c.extended = f.extended;
+  c.remote = f.remote;
+  c.dlc = f.dlc;
+  c.reason = facts.reason;
+  c.name = facts.name;
+  c.bits_none = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::none));
+  c.bits_worst = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::worst_case));
+  c.bits_exact = static_cast<std::uint16_t>(c.bits_none + facts.stuff);  // can_frame_bits(f, StuffBits::exact)
+  c.timeout_ns = timeout_of({f.extended, f.id});
+  return c;
+}
+
 // Inline: the per-frame path of add() and add_known() (stats counts every line through one of them).
-inline void BusStats::count(const CanFrame& f, bool timed, std::uint64_t ns, const FrameFacts& content,
-                            const Known& where) {
+inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, const Known& where) {
   Load& load = *where.load;
-  const unsigned worst = can_frame_bits(f, StuffBits::worst_case);
-  const unsigned none = can_frame_bits(f, StuffBits::none);
   ++load.frames;
-  load.bits_none += none;
-  load.bits_worst += worst;
-  load.bits_exact += none + content.stuff;  // can_frame_bits(f, StuffBits::exact)
-  const IdKey id{f.extended, f.id};
+  load.bits_none += c.bits_none;
+  load.bits_worst += c.bits_worst;
+  load.bits_exact += c.bits_exact;
   IdStats& s = *where.id;
   if (timed) {
     if (block_)
-      load.timed.push_back({ns, worst});  // the windows are worked out by append(), in file order
+      load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
     else
-      add_timed(load, ns, worst);
-    s.cadence.add_at(ns, timeout_of(id));
+      add_timed(load, ns, c.bits_worst);
+    s.cadence.add_at(ns, c.timeout_ns);
   } else {
     ++s.cadence.count;
   }
-  if (f.remote) ++s.remote;
-  s.bits_worst = worst;
-  s.dlc = f.dlc;
-  if (content.reason == Reason::ok) {
-    if (s.type.empty() || s.type[0] == '!') s.type = content.name;
+  if (c.remote) ++s.remote;
+  s.bits_worst = c.bits_worst;
+  s.dlc = c.dlc;
+  if (c.reason == Reason::ok) {
+    if (s.type.empty() || s.type[0] == '!') s.type = c.name;
   } else {
-    ++s.decode_errors;
-    ++failures_[to_string(content.reason)];
-    if (s.type.empty()) s.type = std::string("!") + to_string(content.reason);
+    count_failure(s, c.reason);
   }
 }
 
-void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFacts& content) {
+void BusStats::count_failure(IdStats& s, Reason reason) {
+  ++s.decode_errors;
+  ++failures_[to_string(reason)];
+  if (s.type.empty()) s.type = std::string("!") + to_string(reason);
+}
+
+void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFacts& facts) {
   ++frames_;
   if (f.timestamp_ns) note_time(*f.timestamp_ns);
   if (f.error) {
@@ -258,22 +267,15 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
     if (!any) ++error_kinds_["unspecified"];
     return;
   }
-  count(f, f.timestamp_ns.has_value(), f.timestamp_ns.value_or(0), content,
+  count(content_of(f, facts), f.timestamp_ns.has_value(), f.timestamp_ns.value_or(0),
         {serial_, &load_of(interface), &id_of({f.extended, f.id})});
 }
 
-void BusStats::add_known(const CanFrame& f, std::string_view interface, const FrameFacts& content, std::uint64_t ns,
-                         Known& known) {
-  assert(!f.error);
-  if (known.owner != serial_) known = {serial_, &load_of(interface), &id_of({f.extended, f.id})};
+void BusStats::add_known(const Content& c, std::string_view interface, std::uint64_t ns, Known& known) {
+  if (known.owner != serial_) known = {serial_, &load_of(interface), &id_of({c.extended, c.id})};
   ++frames_;
   note_time(ns);
-  count(f, true, ns, content, known);
-}
-
-void BusStats::note_time(std::uint64_t ns) {
-  if (!first_ns_ || ns < *first_ns_) first_ns_ = ns;
-  if (!last_ns_ || ns > *last_ns_) last_ns_ = ns;
+  count(c, true, ns, known);
 }
 
 BusStats::Load& BusStats::load_of(std::string_view interface) {
@@ -520,9 +522,15 @@ namespace {
 /// instead of a hex parse and a facts lookup (a robot bus repeats most of its lines word for word after the time).
 /// Direct-mapped: a line missing here is parsed and takes its slot. Lines of another shape, and those the usual
 /// parse refuses, go back to the scanner (then to BusStats::add through the batch, in file order).
+// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. A line is cut at
+// its '#': the head, "IFACE ID", is looked up in a small table of the heads seen (a bus has a few dozen), which keeps
+// where its frames count (BusStats::Known); the data's hex digits are read as bytes in a few word operations and,
+// with the head, looked up in a table of the contents seen, which keeps the frame's exact stuff bits and decode.
+// So a line costs its time, two lookups and a few additions; a content not seen before (a changed telemetry value)
+// also costs its stuff bits and decode. A line of any other shape is refused and read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
-  LineMemo() : slots_(kSlots) {}
+  LineMemo() : heads_(kHeads), contents_(kContents) {}
   /// The lines of the next block go to `stats`.
   void start(BusStats& stats) {
     stats_ = &stats;
@@ -531,71 +539,219 @@ class LineMemo final : public CandumpLineTaker {
   [[nodiscard]] std::uint64_t taken() const { return taken_; }
 
   bool take(std::string_view line) override {
+    if (line.size() > kCandumpFixedTimeLength + sizeof(Words)) return false;
     std::uint64_t ns = 0;
     if (!candump_fixed_time(line, ns)) return false;
-    const std::string_view rest = line.substr(kCandumpFixedTimeLength);
-    if (rest.size() > sizeof(Key::words)) return false;
-    const Key key = Key::of(rest);
-    Entry& e = slots_[key.slot()];
-    if (e.length != rest.size() || !(e.key == key)) {
-      CanFrame f;
-      std::string_view interface;
-      if (!parse_candump_usual(line, f, interface)) return false;
-      e.key = key;
-      e.length = static_cast<std::uint8_t>(rest.size());
-      e.interface_length = static_cast<std::uint8_t>(interface.size());  // the interface starts the text
-      e.frame = f;
-      e.frame.timestamp_ns.reset();
-      // Worked out here, not looked up in a FrameFactsCache: a line missing here is nearly always new content
-      // (a changed telemetry value), which that cache would not have either.
-      e.facts = facts_of(f);
-      e.known = {};
-    }
-    const std::string_view interface(reinterpret_cast<const char*>(e.key.words), e.interface_length);
-    stats_->add_known(e.frame, interface, e.facts, ns, e.known);
+    Words words;
+    std::memcpy(words, line.data() + kCandumpFixedTimeLength, sizeof words);  // kCandumpLineSlack bytes follow
+    if (!count(line, words, ns)) return false;
     ++taken_;
     return true;
   }
 
+  // The loop stats spends its time in: a line's end found in the words read of it anyway, no call per line.
+  [[gnu::flatten]] std::size_t take_run(const char* begin, const char* end, std::size_t& used) override {
+    const char* p = begin;
+    std::size_t n = 0;
+    while (end - p > static_cast<std::ptrdiff_t>(kCandumpFixedTimeLength) && *p == '(') {
+      Words words;
+      std::memcpy(words, p + kCandumpFixedTimeLength, sizeof words);  // kCandumpLineSlack bytes follow `end`
+      const std::size_t length = first_byte(words, '\n');  // of the text after the time
+      if (length >= sizeof words || length >= static_cast<std::size_t>(end - p) - kCandumpFixedTimeLength) break;
+      const std::string_view line(p, kCandumpFixedTimeLength + length);
+      std::uint64_t ns = 0;
+      if (!candump_fixed_time(line, ns) || !count(line, words, ns)) break;
+      ++n;
+      p += line.size() + 1;
+    }
+    used = static_cast<std::size_t>(p - begin);
+    taken_ += n;
+    return n;
+  }
+
  private:
-  /// The text after the time, zeros after it: "can0 00000938#0011223344556677" is 30 bytes.
-  struct Key {
-    std::uint64_t words[5]{};
-    /// Read in whole words (kCandumpLineSlack bytes follow any line) and masked: no byte copies, which the
-    /// word loads would then wait for.
-    static Key of(std::string_view text) {
-      Key k;
-      for (std::size_t i = 0; i < 5; ++i) {
-        std::uint64_t w;
-        std::memcpy(&w, text.data() + 8 * i, 8);
-        const std::size_t valid = text.size() > 8 * i ? text.size() - 8 * i : 0;
-        const std::uint64_t mask = valid >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * valid)) - 1;
-        k.words[i] = w & mask;
-      }
-      return k;
+  static constexpr std::size_t kWords = 5;      // the text after the time: 40 bytes at most
+  static constexpr std::size_t kHeadWords = 3;  // "IFACE ID": 24 bytes at most
+  using Words = std::uint64_t[kWords];
+  static constexpr std::uint64_t kOnes = 0x0101010101010101ULL, kHighs = 0x8080808080808080ULL;
+
+  /// Where the first byte `c` is in `words` (the bytes in memory order on a little-endian machine, which
+  /// candump_fixed_time() requires), or 8 * kWords.
+  static std::size_t first_byte(const Words& words, char c) {
+    for (std::size_t i = 0; i < kWords; ++i) {
+      const std::uint64_t x = words[i] ^ (kOnes * static_cast<unsigned char>(c));
+      // a zero byte of x sets its high bit here; a byte above a zero byte may too, but never one below it
+      const std::uint64_t zero = (x - kOnes) & ~x & kHighs;
+      if (zero != 0) return 8 * i + static_cast<std::size_t>(std::countr_zero(zero)) / 8;
     }
-    bool operator==(const Key& o) const {
-      const auto* a = words;
-      const auto* b = o.words;
-      return ((a[0] ^ b[0]) | (a[1] ^ b[1]) | (a[2] ^ b[2]) | (a[3] ^ b[3]) | (a[4] ^ b[4])) == 0;
+    return 8 * kWords;
+  }
+  /// The word's first `n` bytes (n <= 8), zeros after them.
+  static std::uint64_t first_bytes(std::uint64_t word, std::size_t n) {
+    return n >= 8 ? word : word & ((std::uint64_t{1} << (8 * n)) - 1);
+  }
+  /// Eight hex digits (either case) in a word read from memory as four bytes, the first two digits the lowest
+  /// byte; false when one of them is not a hex digit. Each test adds to every byte at once: the bytes are below
+  /// 0x80, so no sum carries into the next byte.
+  static bool hex_word(std::uint64_t v, std::uint32_t& bytes) {
+    if ((v & kHighs) != 0) return false;
+    auto at_least = [v](unsigned c) { return (v + kOnes * (0x80 - c)) & kHighs; };  // bytes >= c
+    const std::uint64_t digit = at_least('0') & ~at_least('9' + 1);
+    const std::uint64_t letter = (at_least('A') & ~at_least('F' + 1)) | (at_least('a') & ~at_least('f' + 1));
+    if ((digit | letter) != kHighs) return false;
+    const std::uint64_t nibbles = (v & (kOnes * 0x0F)) + (letter >> 7) * 9;  // 'A' and 'a' are 0x?1: 1 + 9
+    std::uint64_t t = ((nibbles << 4) | (nibbles >> 8)) & 0x00FF00FF00FF00FFULL;  // a byte per digit pair
+    t = (t | (t >> 8)) & 0x0000FFFF0000FFFFULL;
+    t = (t | (t >> 16)) & 0xFFFFFFFFULL;
+    bytes = static_cast<std::uint32_t>(t);
+    return true;
+  }
+  /// `digits` (even, <= 16) hex digits at `p` (16 bytes may be read) as bytes, the first the lowest byte.
+  static bool hex_bytes(const char* p, std::size_t digits, std::uint64_t& data) {
+    std::uint64_t w[2];
+    std::memcpy(w, p, sizeof w);
+    std::uint32_t low = 0, high = 0;
+    for (std::size_t i = 0; i < 2; ++i) {  // digits past the last become '0'
+      const std::size_t valid = digits > 8 * i ? digits - 8 * i : 0;
+      const std::uint64_t keep = valid >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * valid)) - 1;
+      w[i] = (w[i] & keep) | (kOnes * '0' & ~keep);
     }
-    [[nodiscard]] std::size_t slot() const {
-      const auto* w = words;
-      const std::uint64_t h = w[0] * 0x9E3779B97F4A7C15ULL + w[1] * 0xC2B2AE3D27D4EB4FULL +
-                              w[2] * 0x165667B19E3779F9ULL + w[3] * 0xD6E8FEB86659FD93ULL + w[4] * 0xFF51AFD7ED558CCDULL;
-      return static_cast<std::size_t>((h ^ (h >> 32)) >> 22) & (kSlots - 1);
-    }
-  };
-  struct Entry {
-    Key key;
-    std::uint8_t length = 0xFF;  // no text is this long: the slot is empty
+    if (!hex_word(w[0], low) || !hex_word(w[1], high)) return false;
+    data = std::uint64_t{high} << 32 | low;
+    return true;
+  }
+
+  struct Head {
+    std::uint64_t key[kHeadWords]{};  // the text before '#', zeros after it
+    std::uint8_t length = 0xFF;       // no head is this long: the slot is empty
     std::uint8_t interface_length = 0;
-    CanFrame frame;
-    FrameFacts facts;
+    bool extended = false;
+    std::uint32_t id = 0;
+    std::uint32_t serial = 0;  // which head this is, for the contents' table: 1 .. kSerials - 1
+    std::uint64_t timeout_ns = 0;
+    std::array<std::uint16_t, 9> bits_none{};  // can_frame_bits() by DLC
+    std::array<std::uint16_t, 9> bits_worst{};
     BusStats::Known known;
   };
-  static constexpr std::size_t kSlots = 4096;
-  std::vector<Entry> slots_;
+  struct Content {  // 24 bytes
+    std::uint64_t text[2]{};  // the data's hex digits, zeros after them
+    std::uint32_t tag = 0;    // tag_of(Head::serial, DLC); 0: empty
+    std::uint8_t stuff = 0;
+    Reason reason = Reason::ok;
+    std::uint8_t name = 0;  // in names_
+  };
+
+  /// Counts the line (time `ns`; `words` from the text after the time, which ends at a newline or the line's end)
+  /// from the tables, filling in what they lack; false for a line of another shape, which then is read the usual way.
+  bool count(std::string_view line, const Words& words, std::uint64_t ns) {
+    const std::size_t length = line.size() - kCandumpFixedTimeLength;
+    const std::size_t hash = first_byte(words, '#');
+    if (hash > 8 * kHeadWords || hash >= length) return false;
+    const std::size_t digits = length - hash - 1;
+    if (digits > 16 || digits % 2 != 0) return false;
+
+    std::uint64_t key[kHeadWords];
+    for (std::size_t i = 0; i < kHeadWords; ++i) key[i] = first_bytes(words[i], hash > 8 * i ? hash - 8 * i : 0);
+    const std::uint64_t h = key[0] * 0x9E3779B97F4A7C15ULL + key[1] * 0xC2B2AE3D27D4EB4FULL +
+                            key[2] * 0x165667B19E3779F9ULL;
+    Head& head = heads_[h >> (64 - kHeadBits)];  // a product's top bits depend on all of the factor's bits
+    if (head.length != hash || ((head.key[0] ^ key[0]) | (head.key[1] ^ key[1]) | (head.key[2] ^ key[2])) != 0) {
+      if (!learn(head, line, key, hash)) return false;
+    }
+
+    // the data is looked up by its text: its hex digits are read only when it is new
+    const char* const data_text = line.data() + kCandumpFixedTimeLength + hash + 1;
+    std::uint64_t text[2];
+    std::memcpy(text, data_text, sizeof text);  // kCandumpLineSlack bytes follow the line
+    text[0] = first_bytes(text[0], digits);
+    text[1] = first_bytes(text[1], digits > 8 ? digits - 8 : 0);
+    const auto dlc = static_cast<std::uint8_t>(digits / 2);
+    const std::uint64_t c = text[0] * 0x9E3779B97F4A7C15ULL + text[1] * 0xC2B2AE3D27D4EB4FULL +
+                            std::uint64_t{tag_of(head, dlc)} * 0xD6E8FEB86659FD93ULL;
+    Content& content = contents_[c >> (64 - kContentBits)];
+    // the DLC with the text: "AA" and "AA" and two NULs (a corrupt line, to be refused) are the same text here
+    if ((content.tag != tag_of(head, dlc) || ((content.text[0] ^ text[0]) | (content.text[1] ^ text[1])) != 0) &&
+        !learn(content, head, dlc, data_text, text))
+      return false;
+
+    BusStats::Content known;
+    known.id = head.id;
+    known.extended = head.extended;
+    known.dlc = dlc;
+    known.reason = content.reason;
+    known.name = names_[content.name];
+    known.bits_none = head.bits_none[dlc];
+    known.bits_worst = head.bits_worst[dlc];
+    known.bits_exact = static_cast<std::uint16_t>(known.bits_none + content.stuff);
+    known.timeout_ns = head.timeout_ns;
+    const std::string_view interface(reinterpret_cast<const char*>(head.key), head.interface_length);
+    stats_->add_known(known, interface, ns, head.known);
+    return true;
+  }
+
+  /// A head not in the table, "IFACE ID" (`length` bytes, in `key`), from the whole line, which must be of the
+  /// usual shape: every line with this head and hex data then reads as this id on this interface. (An interface
+  /// with '#' in it gives a shorter head, but no line with it is taken: a space follows that '#', and the data
+  /// must be hex digits.)
+  bool learn(Head& head, std::string_view line, const std::uint64_t (&key)[kHeadWords], std::size_t length) {
+    CanFrame f;
+    std::string_view interface;
+    if (!parse_candump_usual(line, f, interface)) return false;
+    std::memcpy(head.key, key, sizeof head.key);
+    head.length = static_cast<std::uint8_t>(length);
+    head.interface_length = static_cast<std::uint8_t>(interface.size());  // the interface starts the head
+    head.extended = f.extended;
+    head.id = f.id;
+    head.timeout_ns = timeout_of({f.extended, f.id});
+    for (std::uint8_t dlc = 0; dlc <= CanFrame::kMaxDlc; ++dlc) {
+      f.dlc = dlc;
+      const BusStats::Content c = BusStats::content_of(f, {});
+      head.bits_none[dlc] = c.bits_none;
+      head.bits_worst[dlc] = c.bits_worst;
+    }
+    head.known = {};
+    if (++serial_ == kSerials) {  // so many heads learnt: the contents' table forgets them all
+      std::fill(contents_.begin(), contents_.end(), Content{});
+      serial_ = 1;
+    }
+    head.serial = serial_;
+    return true;
+  }
+  /// A content not in the table (`dlc` bytes as hex digits at `data_text`, the key `text`): its stuff bits and
+  /// decode, worked out; false when the digits are not hex.
+  bool learn(Content& content, const Head& head, std::uint8_t dlc, const char* data_text,
+             const std::uint64_t (&text)[2]) {
+    std::uint64_t data = 0;
+    if (!hex_bytes(data_text, 2U * dlc, data)) return false;
+    CanFrame f;
+    f.id = head.id;
+    f.extended = head.extended;
+    f.dlc = dlc;
+    std::memcpy(f.data.data(), &data, f.data.size());  // little-endian: the first byte is the lowest
+    const FrameFacts facts = facts_of(f);
+    std::memcpy(content.text, text, sizeof content.text);
+    content.tag = tag_of(head, dlc);
+    content.stuff = static_cast<std::uint8_t>(facts.stuff);
+    content.reason = facts.reason;
+    std::size_t i = 0;  // message names are a few dozen static strings
+    while (i < names_count_ && names_[i] != facts.name) ++i;
+    if (i == names_.size()) return false;  // more names than a byte counts: cannot happen, read the usual way
+    if (i == names_count_) names_[names_count_++] = facts.name;
+    content.name = static_cast<std::uint8_t>(i);
+    return true;
+  }
+
+  static constexpr std::uint32_t kSerials = std::uint32_t{1} << 24;
+  static std::uint32_t tag_of(const Head& head, std::uint8_t dlc) { return head.serial << 8 | dlc; }
+  static constexpr unsigned kHeadBits = 8;
+  static constexpr std::size_t kHeads = std::size_t{1} << kHeadBits;
+  static constexpr unsigned kContentBits = 14;
+  static constexpr std::size_t kContents = std::size_t{1} << kContentBits;  // 384 KiB
+  std::vector<Head> heads_;
+  std::vector<Content> contents_;
+  std::array<const char*, 256> names_{};  // names_[0] is nullptr (a frame that did not decode)
+  std::size_t names_count_ = 1;
+  std::uint32_t serial_ = 0;
   BusStats* stats_ = nullptr;
   std::uint64_t taken_ = 0;
 };

@@ -55,6 +55,17 @@ inline constexpr std::size_t kCandumpLineSlack = 64;
 class CandumpLineTaker {
  public:
   virtual bool take(std::string_view line) = 0;
+  /// The same for a run of whole lines: takes the lines at the start of [begin, end) that end in '\n' before
+  /// `end`, in order, up to the first it does not take (any line may be refused here: the scanner then reads it
+  /// the usual way, take() included). Returns how many it took and sets `used` to the bytes they span, newlines
+  /// included. kCandumpLineSlack bytes follow `end`. Why: a call per line and the scanner's checks cost as much as
+  /// stats' own work on a line it knows. The default takes none.
+  virtual std::size_t take_run(const char* begin, const char* end, std::size_t& used) {
+    (void)begin;
+    (void)end;
+    used = 0;
+    return 0;
+  }
 
  protected:
   ~CandumpLineTaker() = default;

@@ -87,7 +87,20 @@ struct Cadence {
   [[nodiscard]] double jitter_ns() const;      ///< standard deviation of the gaps (population)
 
  private:
-  void gap_to(std::uint64_t ns, std::uint64_t timeout_ns);
+  // Inline: stats adds every timed frame through it.
+  void gap_to(std::uint64_t ns, std::uint64_t timeout_ns) {
+    const std::uint64_t gap = ns >= *last_ns ? ns - *last_ns : 0;
+    ++gaps;
+    if (gap > max_gap_ns || gaps == 1) {
+      max_gap_ns = gap;
+      max_gap_start_ns = *last_ns;
+    }
+    if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
+    gap_sum_ns += gap;
+    const Sum square = Sum{gap} * gap;
+    // A square reaches 2^128 only for gaps of centuries (hostile timestamps): hold the sum there, never wrap.
+    if (__builtin_add_overflow(gap_square_sum, square, &gap_square_sum)) gap_square_sum = ~Sum{0};
+  }
 };
 
 struct BusStatsOptions {
@@ -187,10 +200,25 @@ class BusStats {
     Load* load = nullptr;
     IdStats* id = nullptr;
   };
-  /// add(frame, interface, facts) of a frame at time `ns` (not an error frame; its own timestamp is not looked at),
-  /// through `known`. Cost: a few additions, the lookups only when `known` is stale.
-  void add_known(const CanFrame& frame, std::string_view interface, const FrameFacts& facts, std::uint64_t ns,
-                 Known& known);
+  /// All that add() works out of a data or remote frame's content (its id, flags, DLC and data), kept by stats'
+  /// candump line memo with the line's text so that a line seen again costs a few additions.
+  struct Content {
+    std::uint32_t id = 0;
+    bool extended = false;
+    bool remote = false;
+    std::uint8_t dlc = 0;
+    Reason reason = Reason::ok;  ///< FrameFacts::reason
+    std::uint16_t bits_none = 0;   ///< can_frame_bits(frame, StuffBits::none)
+    std::uint16_t bits_worst = 0;  ///< ... worst_case
+    std::uint16_t bits_exact = 0;  ///< ... exact
+    const char* name = nullptr;    ///< FrameFacts::name
+    std::uint64_t timeout_ns = 0;  ///< the gap that counts as a silence of this id (0x300: kOrinTimeoutNs), else 0
+  };
+  /// The Content of a data or remote frame whose FrameFacts are `facts`.
+  static Content content_of(const CanFrame& frame, const FrameFacts& facts);
+  /// add(frame, interface, facts) of a data or remote frame at time `ns` whose content_of() is `content`, through
+  /// `known`. Cost: a few additions, the lookups only when `known` is stale.
+  void add_known(const Content& content, std::string_view interface, std::uint64_t ns, Known& known);
 
   [[nodiscard]] std::uint64_t frames() const { return frames_; }
   [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
@@ -224,7 +252,9 @@ class BusStats {
   void note_time(std::uint64_t ns);
   /// What a data or remote frame (at `ns` when `timed`) adds to its interface's load and its id's statistics
   /// (`where`), after add()/add_known() counted it and its time.
-  void count(const CanFrame& frame, bool timed, std::uint64_t ns, const FrameFacts& facts, const Known& where);
+  void count(const Content& content, bool timed, std::uint64_t ns, const Known& where);
+  /// count()'s rarer half: a frame that did not decode.
+  void count_failure(IdStats& id, Reason reason);
 
   BusStatsOptions options_;
   bool block_ = false;  // BusStats(options, Block): windows left to append()
