@@ -1,21 +1,12 @@
 #include "saulproto/core/dispatch.hpp"
 
 namespace saul {
-namespace {
-
-template <class Variant>
-Result<BusMessage> widen(const Result<Variant>& r) noexcept {
-  if (!r) return r.reason();
-  return std::visit([](const auto& m) { return Result<BusMessage>(BusMessage{m}); }, r.value());
-}
-
-}  // namespace
 
 Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept {
   if (frame.error) return Reason::error_frame;
   if (!frame.valid()) return Reason::invalid_frame;
-  if (!frame.extended) return widen(saulcan::decode(frame));
-  return widen(vesc::decode(frame));
+  if (!frame.extended) return saulcan::decode_as<BusMessage>(frame);
+  return vesc::decode_as<BusMessage>(frame);
 }
 
 const char* name_of(const BusMessage& message) noexcept {

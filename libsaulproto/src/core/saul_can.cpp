@@ -176,26 +176,6 @@ Result<CommandAck> decode_command_ack(const CanFrame& f) noexcept {
   return CommandAck{f.data[0], f.data[1], static_cast<AckResult>(f.data[2])};
 }
 
-namespace {
-template <class T>
-Result<Message> widen(const Result<T>& r) noexcept {
-  if (!r) return r.reason();
-  return Message{r.value()};
-}
-}  // namespace
-
-Result<Message> decode(const CanFrame& f) noexcept {
-  if (f.error) return Reason::error_frame;
-  switch (f.id) {
-    case kVelocityCmdId: return widen(decode_velocity_cmd(f));
-    case kPidGainId: return widen(decode_pid_gain(f));
-    case kModeCmdId: return widen(decode_mode_cmd(f));
-    case kConfigCmdId: return widen(decode_config_cmd(f));
-    case kTelemetryAId: return widen(decode_telemetry_a(f));
-    case kTelemetryBId: return widen(decode_telemetry_b(f));
-    case kCommandAckId: return widen(decode_command_ack(f));
-    default: return Reason::unknown_id;
-  }
-}
+Result<Message> decode(const CanFrame& f) noexcept { return decode_as<Message>(f); }
 
 }  // namespace saul::saulcan

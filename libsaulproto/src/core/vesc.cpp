@@ -230,36 +230,6 @@ Result<Pong> decode_pong(const CanFrame& f) noexcept {
   return Pong{controller_of(f.id), f.data[0], f.data[1]};
 }
 
-namespace {
-template <class T>
-Result<Message> widen(const Result<T>& r) noexcept {
-  if (!r) return r.reason();
-  return Message{r.value()};
-}
-}  // namespace
-
-Result<Message> decode(const CanFrame& f) noexcept {
-  if (f.error) return Reason::error_frame;
-  if (!f.extended) return Reason::standard_id;
-  const std::uint32_t command = command_of(f.id);
-  if (command > 0xFF) return Reason::unknown_id;  // bits 28..16 set: not a VESC id
-  switch (static_cast<Command>(command)) {
-    case Command::set_duty: return widen(decode_set_duty(f));
-    case Command::set_current: return widen(decode_set_current(f));
-    case Command::set_current_brake: return widen(decode_set_current_brake(f));
-    case Command::set_rpm: return widen(decode_set_rpm(f));
-    case Command::set_pos: return widen(decode_set_pos(f));
-    case Command::set_current_rel: return widen(decode_set_current_rel(f));
-    case Command::status_1: return widen(decode_status_1(f));
-    case Command::status_2: return widen(decode_status_2(f));
-    case Command::status_3: return widen(decode_status_3(f));
-    case Command::status_4: return widen(decode_status_4(f));
-    case Command::status_5: return widen(decode_status_5(f));
-    case Command::status_6: return widen(decode_status_6(f));
-    case Command::ping: return widen(decode_ping(f));
-    case Command::pong: return widen(decode_pong(f));
-  }
-  return Reason::unknown_id;
-}
+Result<Message> decode(const CanFrame& f) noexcept { return decode_as<Message>(f); }
 
 }  // namespace saul::vesc

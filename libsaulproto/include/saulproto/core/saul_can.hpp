@@ -175,6 +175,26 @@ Result<CommandAck> decode_command_ack(const CanFrame& f) noexcept;
 
 /// Any SAUL frame by its id; unknown_id when the id is not one of 0x300..0x303, 0x400..0x402.
 Result<Message> decode(const CanFrame& f) noexcept;
+/// decode() into any variant that holds the SAUL messages (decode_bus_frame()'s BusMessage): the message is built
+/// once, in the variant it is wanted in, rather than in Message and then copied over.
+template <class Variant>
+Result<Variant> decode_as(const CanFrame& f) noexcept {
+  auto as = [](const auto& r) -> Result<Variant> {
+    if (!r) return r.reason();
+    return Variant{r.value()};
+  };
+  if (f.error) return Reason::error_frame;
+  switch (f.id) {
+    case kVelocityCmdId: return as(decode_velocity_cmd(f));
+    case kPidGainId: return as(decode_pid_gain(f));
+    case kModeCmdId: return as(decode_mode_cmd(f));
+    case kConfigCmdId: return as(decode_config_cmd(f));
+    case kTelemetryAId: return as(decode_telemetry_a(f));
+    case kTelemetryBId: return as(decode_telemetry_b(f));
+    case kCommandAckId: return as(decode_command_ack(f));
+    default: return Reason::unknown_id;
+  }
+}
 
 /// True when id is one of the SAUL ids (whatever the frame's shape).
 constexpr bool is_saul_id(std::uint32_t id) noexcept {
