@@ -62,4 +62,11 @@ class [[nodiscard]] Result {
   Reason reason_;
 };
 
+/// The Result of one message type as the Result of a variant that holds that type (the codecs' decode_as()).
+template <class Variant, class T>
+constexpr Result<Variant> widen_to(const Result<T>& r) noexcept {
+  if (!r) return r.reason();
+  return Variant{r.value()};
+}
+
 }  // namespace saul

@@ -179,19 +179,15 @@ Result<Message> decode(const CanFrame& f) noexcept;
 /// once, in the variant it is wanted in, rather than in Message and then copied over.
 template <class Variant>
 Result<Variant> decode_as(const CanFrame& f) noexcept {
-  auto as = [](const auto& r) -> Result<Variant> {
-    if (!r) return r.reason();
-    return Variant{r.value()};
-  };
   if (f.error) return Reason::error_frame;
   switch (f.id) {
-    case kVelocityCmdId: return as(decode_velocity_cmd(f));
-    case kPidGainId: return as(decode_pid_gain(f));
-    case kModeCmdId: return as(decode_mode_cmd(f));
-    case kConfigCmdId: return as(decode_config_cmd(f));
-    case kTelemetryAId: return as(decode_telemetry_a(f));
-    case kTelemetryBId: return as(decode_telemetry_b(f));
-    case kCommandAckId: return as(decode_command_ack(f));
+    case kVelocityCmdId: return widen_to<Variant>(decode_velocity_cmd(f));
+    case kPidGainId: return widen_to<Variant>(decode_pid_gain(f));
+    case kModeCmdId: return widen_to<Variant>(decode_mode_cmd(f));
+    case kConfigCmdId: return widen_to<Variant>(decode_config_cmd(f));
+    case kTelemetryAId: return widen_to<Variant>(decode_telemetry_a(f));
+    case kTelemetryBId: return widen_to<Variant>(decode_telemetry_b(f));
+    case kCommandAckId: return widen_to<Variant>(decode_command_ack(f));
     default: return Reason::unknown_id;
   }
 }

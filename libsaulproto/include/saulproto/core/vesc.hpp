@@ -420,29 +420,25 @@ Result<Message> decode(const CanFrame& f) noexcept;
 /// once, in the variant it is wanted in.
 template <class Variant>
 Result<Variant> decode_as(const CanFrame& f) noexcept {
-  auto as = [](const auto& r) -> Result<Variant> {
-    if (!r) return r.reason();
-    return Variant{r.value()};
-  };
   if (f.error) return Reason::error_frame;
   if (!f.extended) return Reason::standard_id;
   const std::uint32_t command = command_of(f.id);
   if (command > 0xFF) return Reason::unknown_id;  // bits 28..16 set: not a VESC id
   switch (static_cast<Command>(command)) {
-    case Command::set_duty: return as(decode_set_duty(f));
-    case Command::set_current: return as(decode_set_current(f));
-    case Command::set_current_brake: return as(decode_set_current_brake(f));
-    case Command::set_rpm: return as(decode_set_rpm(f));
-    case Command::set_pos: return as(decode_set_pos(f));
-    case Command::set_current_rel: return as(decode_set_current_rel(f));
-    case Command::status_1: return as(decode_status_1(f));
-    case Command::status_2: return as(decode_status_2(f));
-    case Command::status_3: return as(decode_status_3(f));
-    case Command::status_4: return as(decode_status_4(f));
-    case Command::status_5: return as(decode_status_5(f));
-    case Command::status_6: return as(decode_status_6(f));
-    case Command::ping: return as(decode_ping(f));
-    case Command::pong: return as(decode_pong(f));
+    case Command::set_duty: return widen_to<Variant>(decode_set_duty(f));
+    case Command::set_current: return widen_to<Variant>(decode_set_current(f));
+    case Command::set_current_brake: return widen_to<Variant>(decode_set_current_brake(f));
+    case Command::set_rpm: return widen_to<Variant>(decode_set_rpm(f));
+    case Command::set_pos: return widen_to<Variant>(decode_set_pos(f));
+    case Command::set_current_rel: return widen_to<Variant>(decode_set_current_rel(f));
+    case Command::status_1: return widen_to<Variant>(decode_status_1(f));
+    case Command::status_2: return widen_to<Variant>(decode_status_2(f));
+    case Command::status_3: return widen_to<Variant>(decode_status_3(f));
+    case Command::status_4: return widen_to<Variant>(decode_status_4(f));
+    case Command::status_5: return widen_to<Variant>(decode_status_5(f));
+    case Command::status_6: return widen_to<Variant>(decode_status_6(f));
+    case Command::ping: return widen_to<Variant>(decode_ping(f));
+    case Command::pong: return widen_to<Variant>(decode_pong(f));
   }
   return Reason::unknown_id;
 }
