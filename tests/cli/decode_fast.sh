@@ -45,6 +45,15 @@ check "a 200 MB line: stats reports it too" grep -q "long.log:2:1: line longer t
 # held.
 gzip -1 "$out/long.log"
 decode_long "a 200 MB line, gzipped" "$out/long.log.gz"
+if [[ -x /usr/bin/time ]]; then
+  /usr/bin/time -f "%M" -o "$out/rss" "$saulctl" stats "$out/long.log.gz" >"$out/stats.txt" 2>"$out/stats.err"
+  echo "     stats: peak RSS $(tail -1 "$out/rss") KiB"
+  check "a 200 MB line, gzipped: stats' peak RSS below 150 MiB" test "$(tail -1 "$out/rss")" -lt 153600
+else
+  "$saulctl" stats "$out/long.log.gz" >"$out/stats.txt" 2>"$out/stats.err"
+fi
+check "a 200 MB line, gzipped: stats reports it at its line" grep -q "long.log.gz:2:1: line longer than" "$out/stats.err"
+check "a 200 MB line, gzipped: stats counts the three other frames" grep -q ": 3 frames from" "$out/stats.txt"
 rm -f "$out/long.log" "$out/long.log.gz"
 
 python3 "$2/bench/make_bus.py" 60000 "$out/bus.log" 2>/dev/null
@@ -68,6 +77,13 @@ for packed in "$out"/bus.log.gz "$out"/bus.log.zst; do
   "$saulctl" decode "$packed" >"$out/packed.text" 2>"$out/packed.err"
   check "${packed##*.}: in blocks as it inflates, the bytes of the plain file" cmp -s "$out/file.text" "$out/packed.text"
   check "${packed##*.}: the corrupt line at its line" grep -q "${packed##*/}:$((frames + 1)):" "$out/packed.err"
+  for json in "" --json; do  # stats counts it in blocks as it inflates too: the plain file's report but the name
+    "$saulctl" stats $json "$out/bus.log" 2>"$out/plain.err" | sed "s|bus\.log|NAME|g" >"$out/plain$json.stats"
+    "$saulctl" stats $json "$packed" 2>"$out/packed.err" | sed "s|${packed##*/}|NAME|g" >"$out/packed$json.stats"
+    check "${packed##*.}: stats$json gives the plain file's report" cmp -s "$out/plain$json.stats" "$out/packed$json.stats"
+    check "${packed##*.}: stats$json reports the corrupt line at its line" \
+      grep -q "${packed##*/}:$((frames + 1)):" "$out/packed.err"
+  done
 done
 "$saulctl" decode --format csv "$out/bus.pcap" >"$out/pcap.csv" 2>/dev/null
 check "csv: the pcap of the log decodes to the same lines but the interface" \

@@ -447,20 +447,33 @@ namespace {
 /// stats of the file at `path` counted in blocks of `block_bytes` on two threads (add_capture_blocks) against stats
 /// of `reader` (the same file) frame by frame: the same report, the same corrupt records in the same order, and
 /// progress up to the file's size.
-void check_stats_in_blocks(const std::string& path, CaptureReader& reader, std::uint64_t block_bytes,
-                           std::uint64_t size) {
+/// A capture's statistics as stats counted them before blocks: its reader's records one at a time.
+struct CountedByReader {
+  std::string text;
+  std::string json;
+  std::vector<std::string> corrupt;  // format_capture_error("f", ...)
+};
+CountedByReader count_by_reader(CaptureReader& reader) {
   BusStats one;
-  std::vector<std::string> one_corrupt;
+  CountedByReader r;
   for (;;) {
     const auto st = reader.next();
     if (st == CaptureReader::Status::end) break;
     if (st == CaptureReader::Status::corrupt) {
       one.add_corrupt();
-      one_corrupt.push_back(format_capture_error("f", reader.error()));
+      r.corrupt.push_back(format_capture_error("f", reader.error()));
       continue;
     }
     one.add(reader.frame(), reader.interface());
   }
+  r.text = one.text("f");
+  r.json = one.json("f").dump();
+  return r;
+}
+
+void check_stats_in_blocks(const std::string& path, CaptureReader& reader, std::uint64_t block_bytes,
+                           std::uint64_t size) {
+  const CountedByReader one = count_by_reader(reader);
   const auto blocks = CaptureBlocks::open(path, block_bytes);
   REQUIRE(blocks);
   CHECK(blocks->count() > 10);
@@ -470,11 +483,47 @@ void check_stats_in_blocks(const std::string& path, CaptureReader& reader, std::
   add_capture_blocks(
       two, *blocks, [&](const CaptureError& e) { two_corrupt.push_back(format_capture_error("f", e)); },
       [&](std::uint64_t, std::uint64_t bytes) { progress = bytes; });
-  CHECK(two.text("f") == one.text("f"));
-  CHECK(two.json("f").dump() == one.json("f").dump());
-  CHECK(two_corrupt == one_corrupt);
-  CHECK(one_corrupt.size() > 10);
+  CHECK(two.text("f") == one.text);
+  CHECK(two.json("f").dump() == one.json);
+  CHECK(two_corrupt == one.corrupt);
+  CHECK(one.corrupt.size() > 10);
   CHECK(progress == size);
+}
+
+/// The statistics of an uncompressed candump file as stats counts it on one thread (add_candump_file).
+CountedByReader count_candump_file(const std::string& path) {
+  const auto file = CandumpFile::open(path);
+  REQUIRE(file);
+  BusStats one;
+  CountedByReader r;
+  add_candump_file(
+      one, file->fd(), file->size(), false,
+      [&](const CaptureError& e) { r.corrupt.push_back(format_capture_error("f", e)); }, {});
+  r.text = one.text("f");
+  r.json = one.json("f").dump();
+  return r;
+}
+
+/// stats of the compressed candump log at `path` in blocks of 4 KiB cut as it inflates (add_capture_text) against
+/// `one`: the figures, the corrupt records' reports, the records counted and progress to the compressed size.
+void check_stats_of_text(const std::string& path, const CountedByReader& one) {
+  const auto text = open_capture_text(path);
+  REQUIRE(text->compressed());
+  BusStats two;
+  std::vector<std::string> two_corrupt;
+  std::uint64_t records = 0, progress = 0;
+  add_capture_text(
+      two, *text, [&](const CaptureError& e) { two_corrupt.push_back(format_capture_error("f", e)); },
+      [&](std::uint64_t n, std::uint64_t bytes) {
+        records += n;
+        progress = bytes;
+      },
+      4096);
+  CHECK(two.text("f") == one.text);
+  CHECK(two.json("f").dump() == one.json);
+  CHECK(two_corrupt == one.corrupt);
+  CHECK(records == two.frames() + two.corrupt());
+  CHECK(progress == std::filesystem::file_size(path));
 }
 
 }  // namespace
@@ -656,7 +705,7 @@ Decoded run_text(const std::string& path, const CandumpDecodeOptions& o) {
 
 }  // namespace
 
-TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates gives the uncompressed file's decode") {
+TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates gives the uncompressed file's decode and stats") {
   // random_log has corrupt lines, CRLF, blank lines, a line longer than kMaxCandumpLine, a last line without
   // newline; here also a comment longer than that. decode_candump_text over the gzip and zstd forms, in blocks of
   // 4 KiB on two threads, must give what decode_candump_file gives for the plain text on one thread: the same bytes,
@@ -693,6 +742,10 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
       CHECK(two.result.counts.decoded == one.result.counts.decoded);
       CHECK(two.progress_bytes == std::filesystem::file_size(packed));
     }
+    // stats: the plain file's figures and reports (an over-long line too: as the scanner reports it)
+    const CountedByReader plain_stats = count_candump_file(plain.path);
+    CHECK(plain_stats.corrupt.size() == expected.corrupt.size());
+    check_stats_of_text(packed, plain_stats);
     o.format = DecodeFormat::text;
     o.time = TimeMode::relative;  // needs the first frame's time before the blocks: the reader's path
     const auto text = open_capture_text(packed);
@@ -723,5 +776,9 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     CHECK(two.out == by_reader.out);
     CHECK(two.corrupt == by_reader.corrupt);
     CHECK(two.result.records == by_reader.result.records);
+    auto again = open_capture_reader(cut.path);
+    const CountedByReader reader_stats = count_by_reader(*again);
+    CHECK(reader_stats.corrupt.back().find("gzip") != std::string::npos);  // the decompression error, last
+    check_stats_of_text(cut.path, reader_stats);
   }
 }

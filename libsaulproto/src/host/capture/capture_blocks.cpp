@@ -179,4 +179,62 @@ std::optional<std::uint64_t> CaptureBlocks::first_time(const std::function<bool(
   return first;
 }
 
+// ---- compressed candump text in blocks ----------------------------------------------------------------------------
+
+bool CaptureTextBlocks::take(std::size_t k, std::string& out, std::uint64_t& bytes_read) {
+  std::unique_lock lock(mutex_);
+  turn_.wait(lock, [&] { return next_ == k; });
+  struct Next {  // the next block's turn, whatever happens here
+    CaptureTextBlocks& t;
+    ~Next() {
+      ++t.next_;
+      t.turn_.notify_all();
+    }
+  } next{*this};
+  out.clear();
+  out.swap(carry_);
+  for (;;) {
+    const std::size_t nl = out.rfind('\n');
+    if (nl != std::string::npos && (out.size() >= block_ || end_)) {  // whole lines, the rest for the next block
+      carry_.assign(out, nl + 1);
+      out.resize(nl + 1);
+      break;
+    }
+    if (end_) break;  // what is left: the last line, without its newline
+    const std::size_t line = nl == std::string::npos ? 0 : nl + 1;
+    if (out.size() - line > kMaxCandumpLine + 1) {
+      out.resize(line + kMaxCandumpLine + 1);
+      drop_rest_of_line(out);
+      continue;
+    }
+    read_more(out);
+  }
+  bytes_read = text_.bytes_read() - counted_;
+  counted_ += bytes_read;
+  return !out.empty();
+}
+
+void CaptureTextBlocks::read_more(std::string& out) {
+  const std::size_t at = out.size();
+  out.resize(at + block_);
+  const std::size_t got = text_.read(out.data() + at, block_);
+  out.resize(at + got);
+  if (got == 0) end_ = true;
+}
+
+/// Reads past the current line's newline, which ends `out`'s line; what follows it goes on `out`.
+void CaptureTextBlocks::drop_rest_of_line(std::string& out) {
+  std::string rest;
+  for (;;) {
+    read_more(rest);
+    const std::size_t nl = rest.find('\n');
+    if (nl != std::string::npos) {
+      out.append(rest, nl, std::string::npos);
+      return;
+    }
+    rest.clear();
+    if (end_) return;
+  }
+}
+
 }  // namespace saul::host

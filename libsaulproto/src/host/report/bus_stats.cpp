@@ -758,33 +758,40 @@ class LineMemo final : public CandumpLineTaker {
 
 }  // namespace
 
-void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
-                        const std::function<void(const CaptureError&)>& on_corrupt,
-                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
+namespace {
+
+/// What a thread counting blocks keeps from block to block.
+struct BlockWorker {
+  FrameFactsCache facts;  // the bus repeats its frames
+  LineMemo lines;
+  CaptureBlocks::Scratch scratch;
+  std::string text;  // add_capture_text: the block's lines
+};
+
+/// Blocks counted on two threads and appended to `stats` in file order (add_capture_blocks, add_capture_text):
+/// read_block(k, worker, each) reads block k (nullopt: there is none), handing its lines to worker.lines and its
+/// other records to each(batch) in batches, and returns what CaptureBlocks::read() would.
+template <class ReadBlock>
+void count_blocks(BusStats& stats, const std::function<void(const CaptureError&)>& on_corrupt,
+                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                  ReadBlock&& read_block) {
   struct Counted {
     BusStats stats{BusStatsOptions{}, BusStats::Block{}};  // restart_block() gives it the options
     std::vector<CaptureError> corrupt;  // positions: candump lines counted from the block's start
     std::uint64_t records = 0;
     CaptureBlocks::Read read;
   };
-  struct Worker {
-    FrameFactsCache facts;  // kept from block to block: the bus repeats its frames
-    LineMemo lines;
-    CaptureBlocks::Scratch scratch;
-  };
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Counted>(
-      detail::kBlocksUntilNone, 2, [] { return Worker{}; },
-      [&](std::size_t k, Worker& w, Counted& block) {
-        if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
+      detail::kBlocksUntilNone, 2, [] { return BlockWorker{}; },
+      [&](std::size_t k, BlockWorker& w, Counted& block) {
         block.stats.restart_block(stats.options());
         block.corrupt.clear();
         block.records = 0;
         w.lines.start(block.stats);
-        block.read = blocks.read(
-            k, w.scratch,
-            [&](const CandumpBatch& batch) {
+        const std::optional<CaptureBlocks::Read> read =
+            read_block(k, w, [&](const CandumpBatch& batch) {
               for (const auto& c : batch.corrupt) {
                 block.stats.add_corrupt();
                 block.corrupt.push_back(c.error);
@@ -796,8 +803,9 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
               }
               block.records += n + batch.corrupt.size();
               return true;
-            },
-            &w.lines);
+            });
+        if (!read) return false;
+        block.read = *read;
         block.records += w.lines.taken();
         return true;
       },
@@ -811,6 +819,41 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
         stats.append(block.stats);
         if (on_progress) on_progress(block.records, bytes);
       });
+}
+
+}  // namespace
+
+void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
+                        const std::function<void(const CaptureError&)>& on_corrupt,
+                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
+  count_blocks(stats, on_corrupt, on_progress,
+               [&](std::size_t k, BlockWorker& w,
+                   const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
+                 if (!blocks.has(k)) return std::nullopt;  // a pcap or pcapng file is cut as its blocks are read
+                 return blocks.read(k, w.scratch, each, &w.lines);
+               });
+}
+
+void add_capture_text(BusStats& stats, CaptureText& text, const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                      std::size_t block_bytes) {
+  CaptureTextBlocks blocks(text, block_bytes);
+  count_blocks(stats, on_corrupt, on_progress,
+               [&](std::size_t k, BlockWorker& w,
+                   const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
+                 CaptureBlocks::Read read;
+                 if (!blocks.take(k, w.text, read.bytes)) return std::nullopt;
+                 CandumpScanner scanner(std::string_view(w.text), block_bytes);
+                 while (scanner.next_batch(w.scratch.batch, &w.lines))
+                   if (!each(w.scratch.batch)) break;
+                 read.lines = scanner.lines();
+                 return read;
+               });
+  if (const auto e = text.end_error()) {  // the decompressor stopped: what the reader reports at its end
+    stats.add_corrupt();
+    if (on_corrupt) on_corrupt(*e);
+    if (on_progress) on_progress(1, text.bytes_read());
+  }
 }
 
 void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,

@@ -198,87 +198,12 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
   });
 }
 
-/// Candump text read from a stream and cut into blocks of whole lines, by whichever thread takes the next block,
-/// one at a time and in order. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the
-/// scanner reports it as too long, at its line) and the rest of it is dropped as it is read: a block holds at most
-/// about twice the block size plus one such line.
-class TextBlocks {
- public:
-  TextBlocks(CaptureText& text, std::size_t block) : text_(text), block_(block == 0 ? 1 : block) {}
-  /// Block k's lines into `out`, once blocks 0 .. k - 1 were taken, and the bytes of the file read for them;
-  /// false when the text ended before it.
-  bool take(std::size_t k, std::string& out, std::uint64_t& bytes_read) {
-    std::unique_lock lock(mutex_);
-    turn_.wait(lock, [&] { return next_ == k; });
-    struct Next {  // the next block's turn, whatever happens here
-      TextBlocks& t;
-      ~Next() {
-        ++t.next_;
-        t.turn_.notify_all();
-      }
-    } next{*this};
-    out.clear();
-    out.swap(carry_);
-    for (;;) {
-      const std::size_t nl = out.rfind('\n');
-      if (nl != std::string::npos && (out.size() >= block_ || end_)) {  // whole lines, the rest for the next block
-        carry_.assign(out, nl + 1);
-        out.resize(nl + 1);
-        break;
-      }
-      if (end_) break;  // what is left: the last line, without its newline
-      const std::size_t line = nl == std::string::npos ? 0 : nl + 1;
-      if (out.size() - line > kMaxCandumpLine + 1) {
-        out.resize(line + kMaxCandumpLine + 1);
-        drop_rest_of_line(out);
-        continue;
-      }
-      read_more(out);
-    }
-    bytes_read = text_.bytes_read() - counted_;
-    counted_ += bytes_read;
-    return !out.empty();
-  }
-
- private:
-  void read_more(std::string& out) {
-    const std::size_t at = out.size();
-    out.resize(at + block_);
-    const std::size_t got = text_.read(out.data() + at, block_);
-    out.resize(at + got);
-    if (got == 0) end_ = true;
-  }
-  /// Reads past the current line's newline, which ends `out`'s line; what follows it goes on `out`.
-  void drop_rest_of_line(std::string& out) {
-    std::string rest;
-    for (;;) {
-      read_more(rest);
-      const std::size_t nl = rest.find('\n');
-      if (nl != std::string::npos) {
-        out.append(rest, nl, std::string::npos);
-        return;
-      }
-      rest.clear();
-      if (end_) return;
-    }
-  }
-
-  CaptureText& text_;
-  std::size_t block_;
-  std::mutex mutex_;
-  std::condition_variable turn_;
-  std::size_t next_ = 0;  // the block whose turn it is
-  std::string carry_;     // text read after the last block's last newline
-  bool end_ = false;
-  std::uint64_t counted_ = 0;  // file bytes given to blocks so far
-};
-
 }  // namespace
 
 std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const CandumpDecodeOptions& options,
                                                        const CandumpDecodeSinks& sinks) {
   if (options.threads < 2 || options.time != TimeMode::absolute) return std::nullopt;
-  TextBlocks blocks(text, options.block);
+  CaptureTextBlocks blocks(text, options.block);
   CandumpDecodeResult result = in_blocks(options, sinks, std::nullopt, [&](std::size_t k, Worker& w, Piece& piece) {
     if (!blocks.take(k, w.text, piece.bytes)) return false;
     CandumpScanner scanner(std::string_view(w.text), options.block);

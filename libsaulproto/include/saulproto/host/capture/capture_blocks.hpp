@@ -5,10 +5,13 @@
 // (candump: reads near each nominal cut, up front; pcap and pcapng: a walk over the record headers, as far as the
 // blocks asked for so far, so that the first blocks are read while the rest is still being cut).
 //
+// A compressed candump log cannot be cut up front: CaptureTextBlocks cuts its text as it inflates, a block at a time.
+//
 // A corrupt file reads as it does in one piece: where a cut could not be made safely (an implausible pcap record, a
 // pcapng section or interface block after the first packet) the rest of the file is one block.
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -86,6 +89,34 @@ class CaptureBlocks {
   mutable std::vector<std::uint64_t> starts_;  // block k is [starts_[k], starts_[k + 1])
   mutable std::unique_ptr<detail::BlockCutter> cutter_;  // the starts still to find (null: all known)
   mutable std::uint64_t prefix_end_ = 0;
+};
+
+/// A candump log read from a stream (CaptureText: a compressed one, as it inflates) and cut into blocks of whole
+/// lines, each taken by whichever thread asks for the next one, in turn: decode's and stats' two-core paths over
+/// compressed logs. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the scanner
+/// reports it as too long, at its line) and the rest of it is dropped as it is read: a block holds at most about
+/// twice the block size plus one such line.
+class CaptureTextBlocks {
+ public:
+  CaptureTextBlocks(CaptureText& text, std::size_t block_bytes)
+      : text_(text), block_(block_bytes == 0 ? 1 : block_bytes) {}
+  /// Block k's lines into `out`, once blocks 0 .. k - 1 were taken (a thread asking for k waits for that), and the
+  /// bytes of the file read for them; false when the text ended before it. Read a block with
+  /// CandumpScanner(out, ...).
+  bool take(std::size_t k, std::string& out, std::uint64_t& bytes_read);
+
+ private:
+  void read_more(std::string& out);
+  void drop_rest_of_line(std::string& out);
+
+  CaptureText& text_;
+  std::size_t block_;
+  std::mutex mutex_;
+  std::condition_variable turn_;
+  std::size_t next_ = 0;  // the block whose turn it is
+  std::string carry_;     // text read after the last block's last newline
+  bool end_ = false;
+  std::uint64_t counted_ = 0;  // file bytes given to blocks so far
 };
 
 }  // namespace saul::host

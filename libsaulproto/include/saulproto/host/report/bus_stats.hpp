@@ -300,6 +300,14 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
                         const std::function<void(const CaptureError&)>& on_corrupt,
                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress);
 
+/// Adds every line of a candump log read as text (open_capture_text: a gzip or zstd log, as it inflates) to `stats`
+/// as add_capture_blocks() does: blocks of about `block_bytes` cut at line ends as the text is read
+/// (CaptureTextBlocks) and counted on two threads, appended in file order; then the decompressor's error, if it
+/// stopped early, as one corrupt record (what the file's CaptureReader reports at its end).
+void add_capture_text(BusStats& stats, CaptureText& text, const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                      std::size_t block_bytes = std::size_t{1} << 20);
+
 /// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
 class SerialStats {
  public:
