@@ -517,11 +517,6 @@ nlohmann::json BusStats::json(std::string_view name) const {
 
 namespace {
 
-/// stats' reading of the usual candump lines: what a line says besides its time (frame, interface, facts) is
-/// remembered by the line's text after the time, so a line seen before costs a time parse, a copy and a compare
-/// instead of a hex parse and a facts lookup (a robot bus repeats most of its lines word for word after the time).
-/// Direct-mapped: a line missing here is parsed and takes its slot. Lines of another shape, and those the usual
-/// parse refuses, go back to the scanner (then to BusStats::add through the batch, in file order).
 // stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. A line is cut at
 // its '#': the head, "IFACE ID", is looked up in a small table of the heads seen (a bus has a few dozen), which keeps
 // where its frames count (BusStats::Known); the data's hex digits are read as bytes in a few word operations and,
@@ -697,6 +692,11 @@ class LineMemo final : public CandumpLineTaker {
     CanFrame f;
     std::string_view interface;
     if (!parse_candump_usual(line, f, interface)) return false;
+    if (serial_ + 1 == kSerials) {  // so many heads learnt: both tables forget them all, so no serial has two heads
+      std::fill(heads_.begin(), heads_.end(), Head{});  // `head` among them
+      std::fill(contents_.begin(), contents_.end(), Content{});
+      serial_ = 0;
+    }
     std::memcpy(head.key, key, sizeof head.key);
     head.length = static_cast<std::uint8_t>(length);
     head.interface_length = static_cast<std::uint8_t>(interface.size());  // the interface starts the head
@@ -710,11 +710,7 @@ class LineMemo final : public CandumpLineTaker {
       head.bits_worst[dlc] = c.bits_worst;
     }
     head.known = {};
-    if (++serial_ == kSerials) {  // so many heads learnt: the contents' table forgets them all
-      std::fill(contents_.begin(), contents_.end(), Content{});
-      serial_ = 1;
-    }
-    head.serial = serial_;
+    head.serial = ++serial_;
     return true;
   }
   /// A content not in the table (`dlc` bytes as hex digits at `data_text`, the key `text`): its stuff bits and
