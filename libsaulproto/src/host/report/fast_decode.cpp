@@ -7,9 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <condition_variable>
 #include <functional>
-#include <mutex>
 #include <string>
 #include <system_error>
 #include <vector>
