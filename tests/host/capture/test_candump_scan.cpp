@@ -5,7 +5,9 @@
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <sstream>
 #include <string>
@@ -330,4 +332,53 @@ TEST_CASE("candump scanner: a line taker's lines and the batches give CandumpRea
     CHECK(got.errors == expected.errors);
     CHECK(scanner.bytes_read() == log.size());
   }
+}
+
+// The word-at-a-time readers of stats' line tables, against the byte-at-a-time definition.
+TEST_CASE("candump text a word at a time: hex digits and byte search agree with reading byte by byte") {
+  auto scalar_hex = [](unsigned char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    return -1;
+  };
+  auto word_of = [](const char (&text)[8]) {
+    std::uint64_t w;
+    std::memcpy(&w, text, 8);
+    return w;
+  };
+  // hand-written: "0123abCD" is the bytes 01 23 AB CD, the first the lowest
+  std::uint32_t bytes = 0;
+  REQUIRE(detail::hex_word(word_of({'0', '1', '2', '3', 'a', 'b', 'C', 'D'}), bytes));
+  CHECK(bytes == 0xCDAB2301U);
+  std::uint64_t data = 0;
+  REQUIRE(detail::hex_bytes("00FF10e5a0b1c2d3", 16, data));
+  CHECK(data == 0xD3C2B1A0E510FF00ULL);
+  REQUIRE(detail::hex_bytes("7Fzzzzzzzzzzzzzz", 2, data));  // digits past the count are not looked at
+  CHECK(data == 0x7F);
+  // every byte value at every place of a word of digits
+  for (unsigned place = 0; place < 8; ++place)
+    for (unsigned b = 0; b < 256; ++b) {
+      char text[8] = {'9', 'f', 'A', '0', '5', 'c', 'E', '1'};
+      text[place] = static_cast<char>(b);
+      INFO("byte " << b << " at " << place);
+      const bool ok = detail::hex_word(word_of(text), bytes);
+      REQUIRE(ok == (scalar_hex(static_cast<unsigned char>(b)) >= 0));
+      if (ok)
+        for (unsigned k = 0; k < 4; ++k)
+          REQUIRE(((bytes >> (8 * k)) & 0xFF) ==
+                  static_cast<unsigned>(scalar_hex(static_cast<unsigned char>(text[2 * k])) << 4 |
+                                        scalar_hex(static_cast<unsigned char>(text[2 * k + 1]))));
+    }
+  // the first place of each byte value in words of other bytes
+  std::uint64_t words[5];
+  for (unsigned b = 0; b < 256; ++b)
+    for (unsigned at = 0; at <= 40; ++at) {
+      unsigned char text[40];
+      std::memset(text, b == 'x' ? 'y' : 'x', sizeof text);
+      if (at < 40) text[at] = static_cast<unsigned char>(b);
+      if (at + 3 < 40) text[at + 3] = static_cast<unsigned char>(b);  // a later one does not count
+      std::memcpy(words, text, sizeof words);
+      REQUIRE(detail::first_byte(words, static_cast<char>(b)) == at);
+    }
 }

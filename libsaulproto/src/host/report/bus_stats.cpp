@@ -551,7 +551,7 @@ class LineMemo final : public CandumpLineTaker {
     while (end - p > static_cast<std::ptrdiff_t>(kCandumpFixedTimeLength) && *p == '(') {
       Words words;
       std::memcpy(words, p + kCandumpFixedTimeLength, sizeof words);  // kCandumpLineSlack bytes follow `end`
-      const std::size_t length = first_byte(words, '\n');  // of the text after the time
+      const std::size_t length = detail::first_byte(words, '\n');  // of the text after the time
       if (length >= sizeof words || length >= static_cast<std::size_t>(end - p) - kCandumpFixedTimeLength) break;
       const std::string_view line(p, kCandumpFixedTimeLength + length);
       std::uint64_t ns = 0;
@@ -567,54 +567,7 @@ class LineMemo final : public CandumpLineTaker {
  private:
   static constexpr std::size_t kWords = 5;      // the text after the time: 40 bytes at most
   static constexpr std::size_t kHeadWords = 3;  // "IFACE ID": 24 bytes at most
-  using Words = std::uint64_t[kWords];
-  static constexpr std::uint64_t kOnes = 0x0101010101010101ULL, kHighs = 0x8080808080808080ULL;
-
-  /// Where the first byte `c` is in `words` (the bytes in memory order on a little-endian machine, which
-  /// candump_fixed_time() requires), or 8 * kWords.
-  static std::size_t first_byte(const Words& words, char c) {
-    for (std::size_t i = 0; i < kWords; ++i) {
-      const std::uint64_t x = words[i] ^ (kOnes * static_cast<unsigned char>(c));
-      // a zero byte of x sets its high bit here; a byte above a zero byte may too, but never one below it
-      const std::uint64_t zero = (x - kOnes) & ~x & kHighs;
-      if (zero != 0) return 8 * i + static_cast<std::size_t>(std::countr_zero(zero)) / 8;
-    }
-    return 8 * kWords;
-  }
-  /// The word's first `n` bytes (n <= 8), zeros after them.
-  static std::uint64_t first_bytes(std::uint64_t word, std::size_t n) {
-    return n >= 8 ? word : word & ((std::uint64_t{1} << (8 * n)) - 1);
-  }
-  /// Eight hex digits (either case) in a word read from memory as four bytes, the first two digits the lowest
-  /// byte; false when one of them is not a hex digit. Each test adds to every byte at once: the bytes are below
-  /// 0x80, so no sum carries into the next byte.
-  static bool hex_word(std::uint64_t v, std::uint32_t& bytes) {
-    if ((v & kHighs) != 0) return false;
-    auto at_least = [v](unsigned c) { return (v + kOnes * (0x80 - c)) & kHighs; };  // bytes >= c
-    const std::uint64_t digit = at_least('0') & ~at_least('9' + 1);
-    const std::uint64_t letter = (at_least('A') & ~at_least('F' + 1)) | (at_least('a') & ~at_least('f' + 1));
-    if ((digit | letter) != kHighs) return false;
-    const std::uint64_t nibbles = (v & (kOnes * 0x0F)) + (letter >> 7) * 9;  // 'A' and 'a' are 0x?1: 1 + 9
-    std::uint64_t t = ((nibbles << 4) | (nibbles >> 8)) & 0x00FF00FF00FF00FFULL;  // a byte per digit pair
-    t = (t | (t >> 8)) & 0x0000FFFF0000FFFFULL;
-    t = (t | (t >> 16)) & 0xFFFFFFFFULL;
-    bytes = static_cast<std::uint32_t>(t);
-    return true;
-  }
-  /// `digits` (even, <= 16) hex digits at `p` (16 bytes may be read) as bytes, the first the lowest byte.
-  static bool hex_bytes(const char* p, std::size_t digits, std::uint64_t& data) {
-    std::uint64_t w[2];
-    std::memcpy(w, p, sizeof w);
-    std::uint32_t low = 0, high = 0;
-    for (std::size_t i = 0; i < 2; ++i) {  // digits past the last become '0'
-      const std::size_t valid = digits > 8 * i ? digits - 8 * i : 0;
-      const std::uint64_t keep = valid >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * valid)) - 1;
-      w[i] = (w[i] & keep) | (kOnes * '0' & ~keep);
-    }
-    if (!hex_word(w[0], low) || !hex_word(w[1], high)) return false;
-    data = std::uint64_t{high} << 32 | low;
-    return true;
-  }
+  using Words = std::uint64_t[kWords];  // detail::first_byte() looks in all of them
 
   struct Head {
     std::uint64_t key[kHeadWords]{};  // the text before '#', zeros after it
@@ -640,13 +593,13 @@ class LineMemo final : public CandumpLineTaker {
   /// from the tables, filling in what they lack; false for a line of another shape, which then is read the usual way.
   bool count(std::string_view line, const Words& words, std::uint64_t ns) {
     const std::size_t length = line.size() - kCandumpFixedTimeLength;
-    const std::size_t hash = first_byte(words, '#');
+    const std::size_t hash = detail::first_byte(words, '#');
     if (hash > 8 * kHeadWords || hash >= length) return false;
     const std::size_t digits = length - hash - 1;
     if (digits > 16 || digits % 2 != 0) return false;
 
     std::uint64_t key[kHeadWords];
-    for (std::size_t i = 0; i < kHeadWords; ++i) key[i] = first_bytes(words[i], hash > 8 * i ? hash - 8 * i : 0);
+    for (std::size_t i = 0; i < kHeadWords; ++i) key[i] = detail::first_bytes(words[i], hash > 8 * i ? hash - 8 * i : 0);
     const std::uint64_t h = key[0] * 0x9E3779B97F4A7C15ULL + key[1] * 0xC2B2AE3D27D4EB4FULL +
                             key[2] * 0x165667B19E3779F9ULL;
     Head& head = heads_[h >> (64 - kHeadBits)];  // a product's top bits depend on all of the factor's bits
@@ -658,8 +611,8 @@ class LineMemo final : public CandumpLineTaker {
     const char* const data_text = line.data() + kCandumpFixedTimeLength + hash + 1;
     std::uint64_t text[2];
     std::memcpy(text, data_text, sizeof text);  // kCandumpLineSlack bytes follow the line
-    text[0] = first_bytes(text[0], digits);
-    text[1] = first_bytes(text[1], digits > 8 ? digits - 8 : 0);
+    text[0] = detail::first_bytes(text[0], digits);
+    text[1] = detail::first_bytes(text[1], digits > 8 ? digits - 8 : 0);
     const auto dlc = static_cast<std::uint8_t>(digits / 2);
     const std::uint64_t c = text[0] * 0x9E3779B97F4A7C15ULL + text[1] * 0xC2B2AE3D27D4EB4FULL +
                             std::uint64_t{tag_of(head, dlc)} * 0xD6E8FEB86659FD93ULL;
@@ -718,7 +671,7 @@ class LineMemo final : public CandumpLineTaker {
   bool learn(Content& content, const Head& head, std::uint8_t dlc, const char* data_text,
              const std::uint64_t (&text)[2]) {
     std::uint64_t data = 0;
-    if (!hex_bytes(data_text, 2U * dlc, data)) return false;
+    if (!detail::hex_bytes(data_text, 2U * dlc, data)) return false;
     CanFrame f;
     f.id = head.id;
     f.extended = head.extended;

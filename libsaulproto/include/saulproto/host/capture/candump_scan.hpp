@@ -77,6 +77,54 @@ class CandumpLineTaker {
 /// reads; for the lines it accepts both give the same frame.
 bool parse_candump_usual(std::string_view line, CanFrame& frame, std::string_view& interface) noexcept;
 namespace detail {
+// A candump line's text read a word at a time (stats' line tables): words loaded from memory on a little-endian
+// machine, the first byte the lowest, as eight_digits() below.
+inline constexpr std::uint64_t kByteOnes = 0x0101010101010101ULL, kByteHighs = 0x8080808080808080ULL;
+/// Where the first byte `c` is in `words`, or 8 * N.
+template <std::size_t N>
+std::size_t first_byte(const std::uint64_t (&words)[N], char c) noexcept {
+  for (std::size_t i = 0; i < N; ++i) {
+    const std::uint64_t x = words[i] ^ (kByteOnes * static_cast<unsigned char>(c));
+    // a zero byte of x sets its high bit here; a byte above a zero byte may too, but never one below it
+    const std::uint64_t zero = (x - kByteOnes) & ~x & kByteHighs;
+    if (zero != 0) return 8 * i + static_cast<std::size_t>(std::countr_zero(zero)) / 8;
+  }
+  return 8 * N;
+}
+/// The word's first `n` bytes (n <= 8), zeros after them.
+inline std::uint64_t first_bytes(std::uint64_t word, std::size_t n) noexcept {
+  return n >= 8 ? word : word & ((std::uint64_t{1} << (8 * n)) - 1);
+}
+/// Eight hex digits (either case) in a word as four bytes, the first two digits the lowest byte; false when one of
+/// them is not a hex digit. Each test adds to every byte at once: the bytes are below 0x80, so no sum carries into
+/// the next byte.
+inline bool hex_word(std::uint64_t v, std::uint32_t& bytes) noexcept {
+  if ((v & kByteHighs) != 0) return false;  // (the ranges below refuse such bytes too, but only with carries)
+  auto at_least = [v](unsigned c) { return (v + kByteOnes * (0x80 - c)) & kByteHighs; };  // bytes >= c
+  const std::uint64_t digit = at_least('0') & ~at_least('9' + 1);
+  const std::uint64_t letter = (at_least('A') & ~at_least('F' + 1)) | (at_least('a') & ~at_least('f' + 1));
+  if ((digit | letter) != kByteHighs) return false;
+  const std::uint64_t nibbles = (v & (kByteOnes * 0x0F)) + (letter >> 7) * 9;  // 'A' and 'a' are 0x?1: 1 + 9
+  std::uint64_t t = ((nibbles << 4) | (nibbles >> 8)) & 0x00FF00FF00FF00FFULL;  // a byte per digit pair
+  t = (t | (t >> 8)) & 0x0000FFFF0000FFFFULL;
+  t = (t | (t >> 16)) & 0xFFFFFFFFULL;
+  bytes = static_cast<std::uint32_t>(t);
+  return true;
+}
+/// `digits` (even, <= 16) hex digits at `p` (16 bytes may be read) as bytes, the first the lowest byte; false when
+/// one is not a hex digit.
+inline bool hex_bytes(const char* p, std::size_t digits, std::uint64_t& data) noexcept {
+  std::uint64_t w[2];
+  std::memcpy(w, p, sizeof w);
+  std::uint32_t low = 0, high = 0;
+  for (std::size_t i = 0; i < 2; ++i) {  // digits past the last become '0'
+    const std::uint64_t keep = first_bytes(~std::uint64_t{0}, digits > 8 * i ? digits - 8 * i : 0);
+    w[i] = (w[i] & keep) | (kByteOnes * '0' & ~keep);
+  }
+  if (!hex_word(w[0], low) || !hex_word(w[1], high)) return false;
+  data = std::uint64_t{high} << 32 | low;
+  return true;
+}
 /// Eight ASCII digits in a word read from memory on a little-endian machine (the first digit the lowest byte) as a
 /// number, in a few word operations; false when one of them is not a digit.
 inline bool eight_digits(std::uint64_t v, std::uint64_t& value) noexcept {
