@@ -179,9 +179,11 @@ double Cadence::jitter_ns() const {
   return variance > 0 ? static_cast<double>(std::sqrt(variance)) : 0;
 }
 
-FrameFacts facts_of(const CanFrame& f) {
+FrameFacts facts_of(const CanFrame& f) { return facts_of(f, f.error ? 0 : can_stuff_bits(f)); }
+
+FrameFacts facts_of(const CanFrame& f, unsigned stuff) {
   FrameFacts facts;
-  facts.stuff = f.error ? 0 : can_stuff_bits(f);
+  facts.stuff = stuff;
   const auto r = decode_bus_frame(f);
   facts.reason = r ? Reason::ok : r.reason();
   facts.name = r ? saul::name_of(r.value()) : nullptr;
@@ -569,6 +571,13 @@ class LineMemo final : public CandumpLineTaker {
   static constexpr std::size_t kHeadWords = 3;  // "IFACE ID": 24 bytes at most
   using Words = std::uint64_t[kWords];  // detail::first_byte() looks in all of them
 
+  struct Content {  // 24 bytes
+    std::uint64_t text[2]{};  // the data's hex digits, zeros after them
+    std::uint32_t tag = 0;    // tag_of(Head::serial, DLC); 0: empty
+    std::uint8_t stuff = 0;
+    Reason reason = Reason::ok;
+    std::uint8_t name = 0;  // in names_
+  };
   struct Head {
     std::uint64_t key[kHeadWords]{};  // the text before '#', zeros after it
     std::uint8_t length = 0xFF;       // no head is this long: the slot is empty
@@ -579,15 +588,14 @@ class LineMemo final : public CandumpLineTaker {
     std::uint64_t timeout_ns = 0;
     std::array<std::uint16_t, 9> bits_none{};  // can_frame_bits() by DLC
     std::array<std::uint16_t, 9> bits_worst{};
+    std::array<CanStuffStart, 9> stuff_start{};  // by DLC: a new content's stuff bits cost its data bytes only
     BusStats::Known known;
+    Content last;  // of this head's last line: most lines repeat their id's last data (no table lookup then)
+    std::uint16_t table_probes = 0;  // lookups in the contents' table since it was last judged
+    std::uint16_t table_hits = 0;    // ... that found the content there
+    std::uint16_t skip_table = 0;    // lines with new data still to be worked out without the table
   };
-  struct Content {  // 24 bytes
-    std::uint64_t text[2]{};  // the data's hex digits, zeros after them
-    std::uint32_t tag = 0;    // tag_of(Head::serial, DLC); 0: empty
-    std::uint8_t stuff = 0;
-    Reason reason = Reason::ok;
-    std::uint8_t name = 0;  // in names_
-  };
+  static constexpr std::uint16_t kProbesJudged = 256, kSkipped = 4096;
 
   /// Counts the line (time `ns`; `words` from the text after the time, which ends at a newline or the line's end)
   /// from the tables, filling in what they lack; false for a line of another shape, which then is read the usual way.
@@ -614,13 +622,32 @@ class LineMemo final : public CandumpLineTaker {
     text[0] = detail::first_bytes(text[0], digits);
     text[1] = detail::first_bytes(text[1], digits > 8 ? digits - 8 : 0);
     const auto dlc = static_cast<std::uint8_t>(digits / 2);
-    const std::uint64_t c = text[0] * 0x9E3779B97F4A7C15ULL + text[1] * 0xC2B2AE3D27D4EB4FULL +
-                            std::uint64_t{tag_of(head, dlc)} * 0xD6E8FEB86659FD93ULL;
-    Content& content = contents_[c >> (64 - kContentBits)];
     // the DLC with the text: "AA" and "AA" and two NULs (a corrupt line, to be refused) are the same text here
-    if ((content.tag != tag_of(head, dlc) || ((content.text[0] ^ text[0]) | (content.text[1] ^ text[1])) != 0) &&
-        !learn(content, head, dlc, data_text, text))
-      return false;
+    const std::uint32_t tag = tag_of(head, dlc);
+    auto same = [&](const Content& c) { return c.tag == tag && ((c.text[0] ^ text[0]) | (c.text[1] ^ text[1])) == 0; };
+    if (!same(head.last)) {
+      if (head.skip_table > 0) {
+        // this id's data rarely repeat (a counter, a timestamp): the table would only be probed in vain and
+        // filled with contents that push out those that do repeat
+        --head.skip_table;
+        if (!learn(head.last, head, dlc, data_text, text)) return false;
+      } else {
+        const std::uint64_t c = text[0] * 0x9E3779B97F4A7C15ULL + text[1] * 0xC2B2AE3D27D4EB4FULL +
+                                std::uint64_t{tag} * 0xD6E8FEB86659FD93ULL;
+        Content& slot = contents_[c >> (64 - kContentBits)];
+        if (same(slot)) {
+          ++head.table_hits;
+        } else if (!learn(slot, head, dlc, data_text, text)) {
+          return false;
+        }
+        head.last = slot;
+        if (++head.table_probes == kProbesJudged) {  // too few hits: skip the table for a while, then look again
+          if (head.table_hits < kProbesJudged / 16) head.skip_table = kSkipped;
+          head.table_probes = head.table_hits = 0;
+        }
+      }
+    }
+    const Content& content = head.last;
 
     BusStats::Content known;
     known.id = head.id;
@@ -661,8 +688,11 @@ class LineMemo final : public CandumpLineTaker {
       const BusStats::Content c = BusStats::content_of(f, {});
       head.bits_none[dlc] = c.bits_none;
       head.bits_worst[dlc] = c.bits_worst;
+      head.stuff_start[dlc] = can_stuff_start(f.id, f.extended, f.remote, dlc);
     }
     head.known = {};
+    head.last = {};
+    head.table_probes = head.table_hits = head.skip_table = 0;
     head.serial = ++serial_;
     return true;
   }
@@ -677,15 +707,16 @@ class LineMemo final : public CandumpLineTaker {
     f.extended = head.extended;
     f.dlc = dlc;
     std::memcpy(f.data.data(), &data, f.data.size());  // little-endian: the first byte is the lowest
-    const FrameFacts facts = facts_of(f);
-    std::memcpy(content.text, text, sizeof content.text);
-    content.tag = tag_of(head, dlc);
-    content.stuff = static_cast<std::uint8_t>(facts.stuff);
-    content.reason = facts.reason;
+    const FrameFacts facts = facts_of(f, can_stuff_bits(head.stuff_start[dlc], f.data.data()));
     std::size_t i = 0;  // message names are a few dozen static strings
     while (i < names_count_ && names_[i] != facts.name) ++i;
     if (i == names_.size()) return false;  // more names than a byte counts: cannot happen, read the usual way
     if (i == names_count_) names_[names_count_++] = facts.name;
+    // the slot changes only now: a refused line leaves it as it was
+    std::memcpy(content.text, text, sizeof content.text);
+    content.tag = tag_of(head, dlc);
+    content.stuff = static_cast<std::uint8_t>(facts.stuff);
+    content.reason = facts.reason;
     content.name = static_cast<std::uint8_t>(i);
     return true;
   }

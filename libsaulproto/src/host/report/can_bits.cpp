@@ -1,10 +1,12 @@
 // The exact stuff-bit count of a classic CAN frame, table-driven: the frame's header (SOF to the DLC) padded at the
-// front to whole bytes so that the data bytes follow unshifted, its CRC-15 a byte at a time from a 256-entry table,
-// and the bit stuffing as a state machine over (last bit, run length) stepped a byte at a time from a table of 9
-// states x 256 bytes, alongside (the two chains of lookups overlap), then over the CRC's 8 + 7 bits. Exactly the bit-by-bit
+// front to whole bytes so that the data bytes follow unshifted, its CRC-15 a byte at a time from a 256-entry table
+// (the data's share a lookup per byte, independent of each other), and the bit stuffing as a state machine over
+// (last bit, run length) stepped a byte at a time from a table of 9 states x 256 bytes, then over the CRC's 8 + 7
+// bits. What the header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. Exactly the bit-by-bit
 // rule (after five equal bits the opposite bit is inserted, and it starts the next run), checked against the
 // bit-by-bit model on random frames and the Python model's vectors in tests/host/report/test_bus_stats.cpp.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "saulproto/host/report/bus_stats.hpp"
@@ -77,55 +79,81 @@ constexpr std::array<std::array<Step, 1U << Bits>, 9> stuff_table() {
 constexpr auto kStuffTable = stuff_table<8>();   // a byte
 constexpr auto kStuffTable7 = stuff_table<7>();  // the CRC's last 7 bits (15 = 8 + 7)
 
+constexpr std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t byte) noexcept {
+  return static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]);
+}
+
+// The CRC is linear: the register after the header and the data is the register after the header and as many zero
+// bytes (CanStuffStart::crc, once per id and DLC), XORed with each data byte's own share. kCrcAfter[k][b] is the
+// register after byte b and then k zero bytes, from a zero register: the data's CRC is 8 independent lookups
+// instead of a chain of 8 dependent ones.
+constexpr std::array<std::array<std::uint16_t, 256>, CanFrame::kMaxDlc> kCrcAfter = [] {
+  std::array<std::array<std::uint16_t, 256>, CanFrame::kMaxDlc> t{};
+  for (unsigned b = 0; b < 256; ++b) {
+    std::uint16_t crc = crc_byte(0, static_cast<std::uint8_t>(b));
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      t[k][b] = crc;
+      crc = crc_byte(crc, 0);
+    }
+  }
+  return t;
+}();
+
 }  // namespace
 
-unsigned can_stuff_bits(const CanFrame& f) noexcept {
+CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std::uint8_t dlc) noexcept {
   // The header (SOF, arbitration, control: 19 bits, or 39 with a 29-bit id) padded at the front to whole bytes,
   // so that the data bytes follow as they are: 3 or 5 header bytes, most significant first.
   std::uint64_t header;
   unsigned header_bytes;
-  const std::uint64_t dlc = f.dlc > 8 ? 8 : f.dlc;
-  const std::uint64_t rtr = f.remote ? 1 : 0;
-  if (f.extended) {
+  const std::uint64_t code = dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : dlc;
+  const std::uint64_t rtr = remote ? 1 : 0;
+  if (extended) {
     // SOF 0, base id 11, SRR 1, IDE 1, id extension 18, RTR, r1 r0, DLC 4
-    header = (std::uint64_t{f.id >> 18 & 0x7FF} << 27) | (std::uint64_t{3} << 25) |
-             (std::uint64_t{f.id & 0x3FFFF} << 7) | (rtr << 6) | dlc;
+    header = (std::uint64_t{id >> 18 & 0x7FF} << 27) | (std::uint64_t{3} << 25) | (std::uint64_t{id & 0x3FFFF} << 7) |
+             (rtr << 6) | code;
     header_bytes = 5;  // 39 bits + 1 pad bit
   } else {
     // SOF 0, id 11, RTR, IDE 0, r0 0, DLC 4
-    header = (std::uint64_t{f.id & 0x7FF} << 7) | (rtr << 6) | dlc;
+    header = (std::uint64_t{id & 0x7FF} << 7) | (rtr << 6) | code;
     header_bytes = 3;  // 19 bits + 5 pad bits
   }
-  const unsigned pad = header_bytes * 8 - (f.extended ? 39U : 19U);
-  const auto payload = f.payload();
-
-  // CRC over the bits a byte at a time: zeros in front leave a zero register zero, so the padding is zeros here.
-  std::uint16_t crc = 0;
-  auto crc_byte = [&crc](std::uint8_t byte) {
-    crc = static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]);
-  };
+  const unsigned pad = header_bytes * 8 - (extended ? 39U : 19U);
   // Stuffing a byte at a time: padded at the front with alternating bits ending in 1, which never make a run of
-  // five and after which SOF (0) starts a run of one, as it does first on the bus.
-  const std::uint64_t stuffed_header = header | ((std::uint64_t{0x55} & ((std::uint64_t{1} << pad) - 1)) << (header_bytes * 8 - pad));
-  unsigned stuff = 0;
-  std::uint8_t state = 0;
-  auto stuff_byte = [&](std::uint8_t byte) {
-    const Step st = kStuffTable[state][byte];
+  // five and after which SOF (0) starts a run of one, as it does first on the bus. For the CRC the padding is
+  // zeros: zeros in front leave a zero register zero.
+  const std::uint64_t stuffed_header =
+      header | ((std::uint64_t{0x55} & ((std::uint64_t{1} << pad) - 1)) << (header_bytes * 8 - pad));
+  CanStuffStart start;
+  start.bytes = static_cast<std::uint8_t>(remote ? 0 : code);
+  for (unsigned k = header_bytes; k-- > 0;) {
+    start.crc = crc_byte(start.crc, static_cast<std::uint8_t>(header >> (8 * k)));
+    const Step st = kStuffTable[start.state][static_cast<std::uint8_t>(stuffed_header >> (8 * k))];
+    start.state = st.state;
+    start.stuff = static_cast<std::uint8_t>(start.stuff + st.stuff);
+  }
+  for (unsigned i = 0; i < start.bytes; ++i) start.crc = crc_byte(start.crc, 0);
+  return start;
+}
+
+unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept {
+  const unsigned n = start.bytes;
+  std::uint16_t crc = start.crc;
+  unsigned stuff = start.stuff;
+  std::uint8_t state = start.state;
+  for (unsigned i = 0; i < n; ++i) {
+    crc = static_cast<std::uint16_t>(crc ^ kCrcAfter[n - 1 - i][data[i]]);
+    const Step st = kStuffTable[state][data[i]];
     state = st.state;
     stuff += st.stuff;
-  };
-  for (unsigned k = header_bytes; k-- > 0;) {
-    crc_byte(static_cast<std::uint8_t>(header >> (8 * k)));
-    stuff_byte(static_cast<std::uint8_t>(stuffed_header >> (8 * k)));
-  }
-  for (std::uint8_t byte : payload) {
-    crc_byte(byte);
-    stuff_byte(byte);
   }
   // then the CRC's 15 bits, the last to be stuffed
-  stuff_byte(static_cast<std::uint8_t>(crc >> 7));
-  const Step last = kStuffTable7[state][crc & 0x7F];
-  return stuff + last.stuff;
+  const Step high = kStuffTable[state][static_cast<std::uint8_t>(crc >> 7)];
+  return stuff + high.stuff + kStuffTable7[high.state][crc & 0x7F].stuff;
+}
+
+unsigned can_stuff_bits(const CanFrame& f) noexcept {
+  return can_stuff_bits(can_stuff_start(f.id, f.extended, f.remote, f.dlc), f.data.data());
 }
 
 }  // namespace saul::host

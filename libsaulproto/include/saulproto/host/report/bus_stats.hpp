@@ -45,6 +45,18 @@ unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept;
 /// The stuff bits the transmitter inserts in a data or remote frame, from SOF to the end of the CRC (its own bits
 /// and CRC-15), counted a byte at a time from tables (can_bits.cpp).
 unsigned can_stuff_bits(const CanFrame& frame) noexcept;
+/// What a frame's id, flags and DLC decide of its stuff bits: its header (SOF to the DLC) stuffed and put through
+/// the CRC. A caller that sees the same ids again (stats' line tables) keeps it per id and DLC.
+struct CanStuffStart {
+  std::uint16_t crc = 0;    ///< the CRC-15 register after the header and then `bytes` zero bytes
+  std::uint8_t state = 0;   ///< the stuffing machine after the header: no bit yet (0), else run length and last bit
+  std::uint8_t stuff = 0;   ///< stuff bits in the header
+  std::uint8_t bytes = 0;   ///< data bytes that follow (0 for a remote frame)
+};
+CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std::uint8_t dlc) noexcept;
+/// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`: a
+/// table lookup per data byte for the CRC and one for the stuffing, then two for the CRC's bits.
+unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept;
 /// The CAN CRC-15 (polynomial 0x4599) of the frame's bits from SOF to the end of the data, as sent.
 std::uint16_t can_crc15(const CanFrame& frame) noexcept;
 
@@ -118,6 +130,8 @@ struct FrameFacts {
 
 /// A frame's FrameFacts, worked out (its stuff bits and its decode).
 FrameFacts facts_of(const CanFrame& frame);
+/// The same with its stuff bits already counted (`stuff`: can_stuff_bits(), 0 for an error frame).
+FrameFacts facts_of(const CanFrame& frame, unsigned stuff);
 
 /// FrameFacts of frames, remembered in a direct-mapped table: a repeated frame (most of a robot bus) costs a
 /// lookup. One per thread.
