@@ -9,6 +9,13 @@ Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept {
   return vesc::decode_as<BusMessage>(frame);
 }
 
+Result<DecodedName> decode_bus_name(const CanFrame& frame) noexcept {
+  if (frame.error) return Reason::error_frame;
+  if (!frame.valid()) return Reason::invalid_frame;
+  if (!frame.extended) return saulcan::decode_as<DecodedName>(frame);
+  return vesc::decode_as<DecodedName>(frame);
+}
+
 const char* name_of(const BusMessage& message) noexcept {
   return std::visit([](const auto& m) { return std::decay_t<decltype(m)>::kName; }, message);
 }

@@ -184,9 +184,9 @@ FrameFacts facts_of(const CanFrame& f) { return facts_of(f, f.error ? 0 : can_st
 FrameFacts facts_of(const CanFrame& f, unsigned stuff) {
   FrameFacts facts;
   facts.stuff = stuff;
-  const auto r = decode_bus_frame(f);
+  const auto r = decode_bus_name(f);
   facts.reason = r ? Reason::ok : r.reason();
-  facts.name = r ? saul::name_of(r.value()) : nullptr;
+  facts.name = r ? r.value().name : nullptr;
   return facts;
 }
 
@@ -230,10 +230,12 @@ inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, cons
   load.bits_exact += c.bits_exact;
   IdStats& s = *where.id;
   if (timed) {
-    if (block_)
-      load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
-    else
+    if (!block_)
       add_timed(load, ns, c.bits_worst);
+    else if (load.by_runs)
+      add_run(load, ns, c.bits_worst);
+    else
+      load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
     s.cadence.add_at(ns, c.timeout_ns);
   } else {
     ++s.cadence.count;
@@ -285,7 +287,10 @@ BusStats::Load& BusStats::load_of(std::string_view interface) {
     auto it = interfaces_.find(interface);
     if (it == interfaces_.end()) {
       it = interfaces_.emplace(std::string(interface), Load{}).first;
-      if (!spare_timed_.empty()) {  // restart_block() kept it
+      if (first_ && interface == first_->interface) {
+        it->second.by_runs = true;
+        it->second.window_end_ns = first_->ns;  // a frame there or later opens a run
+      } else if (!spare_timed_.empty()) {  // restart_block() kept it
         it->second.timed = std::move(spare_timed_.back());
         spare_timed_.pop_back();
       }
@@ -330,6 +335,46 @@ void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) cons
   }
 }
 
+void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const {
+  // add_timed()'s rule with the windows counted from FirstTimed::ns: which window the blocks before ended in is not
+  // known here, so a run's window is the largest of its frames' so far in this block; append() takes the larger
+  // of that and its own.
+  // A frame before FirstTimed::ns counts in window 0 here: append() puts window 0 in the window the blocks before
+  // ended in, as add_timed() does with a frame whose window is before the current one.
+  if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
+  if (ns >= load.window_end_ns || load.runs.empty()) {
+    const std::uint64_t index = ns >= first_->ns ? (ns - first_->ns) / options_.window_ns : 0;
+    if (load.runs.empty() || index > load.runs.back().window) {
+      load.runs.push_back({index, 0});
+      load.window_end_ns = saturating_add(first_->ns, saturating_mul(index + 1, options_.window_ns));
+    }
+  }
+  load.runs.back().bits += worst;
+}
+
+void BusStats::append_runs(Load& load, const Load& later, std::uint64_t first_ns) const {
+  if (later.last_ns && (!load.last_ns || *later.last_ns > *load.last_ns)) load.last_ns = later.last_ns;
+  auto count = [&](std::uint64_t bits) {
+    load.window_bits += bits;
+    if (load.window_bits > load.peak_bits) {
+      load.peak_bits = load.window_bits;
+      load.peak_index = load.window_index;
+    }
+  };
+  for (const Load::Run& run : later.runs) {
+    if (!load.first_ns) {  // the interface's first timed frame, at first_ns: window 0 (add_timed)
+      load.first_ns = first_ns;
+      load.window_end_ns = saturating_add(first_ns, options_.window_ns);
+    }
+    if (run.window > load.window_index) {
+      load.window_index = run.window;
+      load.window_bits = 0;
+      load.window_end_ns = saturating_add(first_ns, saturating_mul(run.window + 1, options_.window_ns));
+    }
+    count(run.bits);
+  }
+}
+
 void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns) {
   to.cadence.append(later.cadence, timeout_ns);
   to.remote += later.remote;
@@ -340,14 +385,15 @@ void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeou
   if (to.type.empty() || (to.type[0] == '!' && !later.type.empty() && later.type[0] != '!')) to.type = later.type;
 }
 
-void BusStats::restart_block(BusStatsOptions options) {
+void BusStats::restart_block(BusStatsOptions options, const std::optional<FirstTimed>& first) {
   assert(block_);
   std::vector<std::vector<Load::Timed>> spare = std::move(spare_timed_);
   for (auto& [name, load] : interfaces_) {
+    if (load.by_runs) continue;
     load.timed.clear();
     spare.push_back(std::move(load.timed));
   }
-  *this = BusStats(options, Block{});
+  *this = BusStats(options, Block{}, first);
   spare_timed_ = std::move(spare);
 }
 
@@ -368,10 +414,26 @@ void BusStats::append(const BusStats& later) {
     load.bits_none += from.bits_none;
     load.bits_worst += from.bits_worst;
     load.bits_exact += from.bits_exact;
-    if (block_)
+    if (from.by_runs) {
+      // blocks of one file are told the same FirstTimed; a block appended to a block keeps the runs as they are
+      assert(later.first_ && (!block_ || (first_ && first_->interface == later.first_->interface &&
+                                          first_->ns == later.first_->ns)));
+      if (block_) {
+        load.by_runs = true;
+        if (!load.last_ns || (from.last_ns && *from.last_ns > *load.last_ns)) load.last_ns = from.last_ns;
+        load.runs.insert(load.runs.end(), from.runs.begin(), from.runs.end());
+        // as add_run() leaves it: a frame added here next goes on in the last run unless its window is later
+        load.window_end_ns = load.runs.empty() ? first_->ns
+                                               : saturating_add(first_->ns, saturating_mul(load.runs.back().window + 1,
+                                                                                           options_.window_ns));
+      } else {
+        append_runs(load, from, later.first_->ns);
+      }
+    } else if (block_) {
       load.timed.insert(load.timed.end(), from.timed.begin(), from.timed.end());
-    else
+    } else {
       for (const Load::Timed& t : from.timed) add_timed(load, t.ns, t.bits);
+    }
   }
   for (const auto& [key, from] : later.ids_) {
     auto [it, added] = ids_.try_emplace(key);
@@ -752,7 +814,8 @@ struct BlockWorker {
 /// read_block(k, worker, each) reads block k (nullopt: there is none), handing its lines to worker.lines and its
 /// other records to each(batch) in batches, and returns what CaptureBlocks::read() would.
 template <class ReadBlock>
-void count_blocks(BusStats& stats, const std::function<void(const CaptureError&)>& on_corrupt,
+void count_blocks(BusStats& stats, const std::optional<BusStats::FirstTimed>& first,
+                  const std::function<void(const CaptureError&)>& on_corrupt,
                   const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
                   ReadBlock&& read_block) {
   struct Counted {
@@ -766,7 +829,7 @@ void count_blocks(BusStats& stats, const std::function<void(const CaptureError&)
   detail::run_blocks_in_order<Counted>(
       detail::kBlocksUntilNone, 2, [] { return BlockWorker{}; },
       [&](std::size_t k, BlockWorker& w, Counted& block) {
-        block.stats.restart_block(stats.options());
+        block.stats.restart_block(stats.options(), first);
         block.corrupt.clear();
         block.records = 0;
         w.lines.start(block.stats);
@@ -806,7 +869,11 @@ void count_blocks(BusStats& stats, const std::function<void(const CaptureError&)
 void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
                         const std::function<void(const CaptureError&)>& on_corrupt,
                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
-  count_blocks(stats, on_corrupt, on_progress,
+  // the file's first line, read before the blocks: its interface's windows are then worked out in the blocks
+  std::optional<BusStats::FirstTimed> first;
+  if (const auto record = blocks.first_record(); record && record->frame.timestamp_ns)
+    first = BusStats::FirstTimed{record->interface, *record->frame.timestamp_ns};
+  count_blocks(stats, first, on_corrupt, on_progress,
                [&](std::size_t k, BlockWorker& w,
                    const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
                  if (!blocks.has(k)) return std::nullopt;  // a pcap or pcapng file is cut as its blocks are read
@@ -818,7 +885,7 @@ void add_capture_text(BusStats& stats, CaptureText& text, const std::function<vo
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
                       std::size_t block_bytes) {
   CaptureTextBlocks blocks(text, block_bytes);
-  count_blocks(stats, on_corrupt, on_progress,
+  count_blocks(stats, std::nullopt, on_corrupt, on_progress,
                [&](std::size_t k, BlockWorker& w,
                    const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
                  CaptureBlocks::Read read;
