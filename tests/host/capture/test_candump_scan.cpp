@@ -381,4 +381,18 @@ TEST_CASE("candump text a word at a time: hex digits and byte search agree with 
       std::memcpy(words, text, sizeof words);
       REQUIRE(detail::first_byte(words, static_cast<char>(b)) == at);
     }
+  // two bytes at once, in 40 bytes of text followed by bytes that do not count (48 are read)
+  std::mt19937_64 rng(40);
+  for (int round = 0; round < 20000; ++round) {
+    char text[48];
+    for (char& c : text) c = "(0123456789.# \nABcan_x"[rng() % 23];
+    const char a = static_cast<char>(rng() % 3 == 0 ? rng() % 256 : '\n');
+    const char b = static_cast<char>(rng() % 3 == 0 ? rng() % 256 : '#');
+    if (rng() % 4 == 0) text[rng() % 48] = a;  // sometimes only after the 40 bytes
+    std::uint64_t w[5];
+    std::memcpy(w, text, sizeof w);
+    const auto two = detail::first_two(text, a, b);
+    REQUIRE(two.a == detail::first_byte(w, a));
+    REQUIRE(two.b == detail::first_byte(w, b));
+  }
 }

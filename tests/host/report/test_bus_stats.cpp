@@ -370,7 +370,9 @@ TEST_CASE("busiest windows worked out in blocks told the first frame equal one p
       e.frame.dlc = static_cast<std::uint8_t>(rng() % 9);
       if (i > 0) {
         switch (rng() % 4) {
-          case 0: t -= std::min<std::uint64_t>(t, rng() % (4 * options.window_ns + 60)); break;  // back, maybe before the first
+          case 0:  // back, maybe before the first frame
+            t -= std::min<std::uint64_t>(t, rng() % (4 * options.window_ns + 60));
+            break;
           case 1: t += rng() % (6 * options.window_ns); break;
           default: t += rng() % 2; break;
         }
@@ -423,7 +425,8 @@ TEST_CASE("a candump file's first record, as stats' blocks are told it: only a f
   CHECK_FALSE(first_of("# recorded on the bench\n(1763800000.000100) can0 300#00006400\n"));
   CHECK_FALSE(first_of("(1763800000.000100) can0 300#R\n(1763800000.000200) can0 301#00\n"));
   CHECK_FALSE(first_of("(1763800000.000100) can0 300#ZZ\n(1763800000.000200) can0 301#00\n"));
-  CHECK_FALSE(first_of("(1763800000.000100) can0 300#" + std::string(5000, '0') + "\n(1763800000.000200) can0 301#00\n"));
+  CHECK_FALSE(
+      first_of("(1763800000.000100) can0 300#" + std::string(5000, '0') + "\n(1763800000.000200) can0 301#00\n"));
 }
 
 TEST_CASE("cadences of consecutive parts appended equal one cadence over the whole") {

@@ -601,9 +601,10 @@ class LineMemo final : public CandumpLineTaker {
     if (line.size() > kCandumpFixedTimeLength + sizeof(Words)) return false;
     std::uint64_t ns = 0;
     if (!candump_fixed_time(line, ns)) return false;
+    const char* const text = line.data() + kCandumpFixedTimeLength;
     Words words;
-    std::memcpy(words, line.data() + kCandumpFixedTimeLength, sizeof words);  // kCandumpLineSlack bytes follow
-    if (!count(line, words, ns)) return false;
+    std::memcpy(words, text, sizeof words);  // kCandumpLineSlack bytes follow
+    if (!count(line, words, detail::first_two(text, '\n', '#').b, ns)) return false;
     ++taken_;
     return true;
   }
@@ -615,11 +616,11 @@ class LineMemo final : public CandumpLineTaker {
     while (end - p > static_cast<std::ptrdiff_t>(kCandumpFixedTimeLength) && *p == '(') {
       Words words;
       std::memcpy(words, p + kCandumpFixedTimeLength, sizeof words);  // kCandumpLineSlack bytes follow `end`
-      const std::size_t length = detail::first_byte(words, '\n');  // of the text after the time
+      const auto [length, hash] = detail::first_two(p + kCandumpFixedTimeLength, '\n', '#');  // after the time
       if (length >= sizeof words || length >= static_cast<std::size_t>(end - p) - kCandumpFixedTimeLength) break;
       const std::string_view line(p, kCandumpFixedTimeLength + length);
       std::uint64_t ns = 0;
-      if (!candump_fixed_time(line, ns) || !count(line, words, ns)) break;
+      if (!candump_fixed_time(line, ns) || !count(line, words, hash, ns)) break;
       ++n;
       p += line.size() + 1;
     }
@@ -659,11 +660,11 @@ class LineMemo final : public CandumpLineTaker {
   };
   static constexpr std::uint16_t kProbesJudged = 256, kSkipped = 4096;
 
-  /// Counts the line (time `ns`; `words` from the text after the time, which ends at a newline or the line's end)
-  /// from the tables, filling in what they lack; false for a line of another shape, which then is read the usual way.
-  bool count(std::string_view line, const Words& words, std::uint64_t ns) {
+  /// Counts the line (time `ns`; `words` from the text after the time, which ends at a newline or the line's end;
+  /// its first '#' at `hash`, 40 when none) from the tables, filling in what they lack; false for a line of another
+  /// shape, which then is read the usual way.
+  bool count(std::string_view line, const Words& words, std::size_t hash, std::uint64_t ns) {
     const std::size_t length = line.size() - kCandumpFixedTimeLength;
-    const std::size_t hash = detail::first_byte(words, '#');
     if (hash > 8 * kHeadWords || hash >= length) return false;
     const std::size_t digits = length - hash - 1;
     if (digits > 16 || digits % 2 != 0) return false;

@@ -2,8 +2,8 @@
 // front to whole bytes so that the data bytes follow unshifted, its CRC-15 a byte at a time from a 256-entry table
 // (the data's share a lookup per byte, independent of each other), and the bit stuffing as a state machine over
 // (last bit, run length) stepped a byte at a time from a table of 9 states x 256 bytes, then over the CRC's 8 + 7
-// bits. What the header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. Exactly the bit-by-bit
-// rule (after five equal bits the opposite bit is inserted, and it starts the next run), checked against the
+// bits. What the header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. Exactly the
+// bit-by-bit rule (after five equal bits the opposite bit is inserted, and it starts the next run), checked against the
 // bit-by-bit model on random frames and the Python model's vectors in tests/host/report/test_bus_stats.cpp.
 #include <array>
 #include <cstddef>

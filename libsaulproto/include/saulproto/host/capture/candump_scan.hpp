@@ -21,6 +21,10 @@
 #include <string_view>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
 
@@ -90,6 +94,33 @@ std::size_t first_byte(const std::uint64_t (&words)[N], char c) noexcept {
     if (zero != 0) return 8 * i + static_cast<std::size_t>(std::countr_zero(zero)) / 8;
   }
   return 8 * N;
+}
+/// Where the first `a` and the first `b` are in the 40 bytes at `p` (40 for one not there), as first_byte() on those
+/// bytes as words: with SSE2 (every x86-64) three 16-byte compares, no loop; 48 bytes are read. stats finds a
+/// candump line's end and its '#' with it.
+struct TwoPlaces {
+  std::size_t a, b;
+};
+inline TwoPlaces first_two(const char* p, char a, char b) noexcept {
+#if defined(__SSE2__)
+  const __m128i x0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  const __m128i x1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 16));
+  const __m128i x2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 32));
+  auto places = [&](char c) {
+    const __m128i cs = _mm_set1_epi8(c);
+    const std::uint64_t found =
+        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x0, cs)))) |
+        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x1, cs)))) << 16 |
+        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x2, cs)))) << 32 |
+        std::uint64_t{1} << 40;  // not in the 40 bytes: 40
+    return static_cast<std::size_t>(std::countr_zero(found));
+  };
+  return {places(a), places(b)};
+#else
+  std::uint64_t words[5];
+  std::memcpy(words, p, sizeof words);
+  return {first_byte(words, a), first_byte(words, b)};
+#endif
 }
 /// The word's first `n` bytes (n <= 8), zeros after them.
 inline std::uint64_t first_bytes(std::uint64_t word, std::size_t n) noexcept {
