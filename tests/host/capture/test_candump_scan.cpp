@@ -3,12 +3,14 @@
 // pipe on the fly) is reported at its line and skipped without being held, and the lines after it still read;
 // split_candump_blocks cuts at line starts only.
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <random>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -335,6 +337,28 @@ TEST_CASE("candump scanner: a line taker's lines and the batches give CandumpRea
 }
 
 // The word-at-a-time readers of stats' line tables, against the byte-at-a-time definition.
+// stats reads each line's time with the seconds remembered by their text: lines that share the seconds' text, that
+// change one byte of it (a digit, the '(' or the '.'), or whose fraction is not digits must read as the line alone.
+TEST_CASE("candump times read in file order with the seconds remembered equal each line read alone") {
+  std::mt19937_64 rng(1234);
+  CandumpFixedTimes times;
+  std::string line = "(1763800000.000100) can0 300#00";
+  for (int i = 0; i < 200000; ++i) {
+    switch (rng() % 8) {
+      case 0: line[rng() % 20] = "0123456789.() x\x80"[rng() % 16]; break;  // any byte of the time
+      case 1: line[12 + rng() % 6] = static_cast<char>('0' + rng() % 10); break;  // another fraction
+      case 2: line = fmt::format("({:010}.{:06}) can0 300#00", rng() % 10'000'000'000ULL, rng() % 1'000'000); break;
+      case 3: line = line.substr(0, 20 + rng() % 8); break;  // shorter, down to too short for a time
+      default: line = fmt::format("({}.{:06}) can0 300#00", line.substr(1, 10), rng() % 1'000'000); break;
+    }
+    INFO(line);
+    std::uint64_t alone = 0, remembered = 0;
+    const bool ok = candump_fixed_time(line, alone);
+    REQUIRE(times.read(line, remembered) == ok);
+    if (ok) REQUIRE(remembered == alone);
+  }
+}
+
 TEST_CASE("candump text a word at a time: hex digits and byte search agree with reading byte by byte") {
   auto scalar_hex = [](unsigned char c) -> int {
     if (c >= '0' && c <= '9') return c - '0';

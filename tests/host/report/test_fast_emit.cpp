@@ -30,6 +30,7 @@
 #include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap.hpp"
+#include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
@@ -686,6 +687,105 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
     std::istringstream in(png.str());
     PcapngReader reader(in);
     check_stats_in_blocks(file.path, reader, 4096, png.str().size());
+  }
+}
+
+namespace {
+
+std::uint32_t get_u32(const std::string& s, std::uint64_t at) {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = v << 8 | static_cast<unsigned char>(s[at + static_cast<std::uint64_t>(i)]);
+  return v;
+}
+
+/// Where a little-endian pcap file is cut into blocks of about `block` bytes, written out plainly: record by record
+/// from the first, a start at the first record at least `block` bytes after the last start, until a record that is
+/// implausible (longer than 256 KiB) or reaches the end; then the size.
+std::vector<std::uint64_t> pcap_starts_model(const std::string& file, std::uint64_t block) {
+  std::vector<std::uint64_t> starts{24};
+  std::uint64_t pos = 24, last = 24;
+  while (pos + 16 <= file.size()) {
+    const std::uint32_t incl = get_u32(file, pos + 8);
+    if (incl > 256 * 1024) break;
+    const std::uint64_t next = pos + 16 + incl;
+    if (next >= file.size()) break;
+    pos = next;
+    if (next - last >= block) starts.push_back(last = next);
+  }
+  starts.push_back(file.size());
+  return starts;
+}
+
+/// The same for a little-endian pcapng file: packet blocks (enhanced, simple) after the header blocks, a start at
+/// the first packet at least `block` bytes after the last start; the walk stops at a block of a bad length, a second
+/// section, or any other block among the packets.
+PcapngBlocks pcapng_starts_model(const std::string& file, std::uint64_t block) {
+  PcapngBlocks out;
+  out.starts = {0};
+  std::uint64_t pos = 0, last = 0;
+  bool packets = false;
+  while (pos + 12 <= file.size()) {
+    const std::uint32_t type = get_u32(file, pos);
+    if (type == 0x0A0D0D0A && pos != 0) break;
+    const std::uint32_t length = get_u32(file, pos + 4);
+    if (length < 12 || length % 4 != 0 || pos + length > file.size()) break;
+    const bool packet = type == 6 || type == 3;
+    if (!packets && packet) {
+      packets = true;
+      out.prefix_end = pos;
+    } else if (packets && !packet) {
+      break;
+    }
+    const std::uint64_t at = pos;
+    pos += length;
+    if (packet && at - last >= block && at > out.prefix_end) out.starts.push_back(last = at);
+  }
+  out.starts.push_back(file.size());
+  return out;
+}
+
+}  // namespace
+
+// The cutters step over runs of records of one length eight at a time: runs of every length up to past eight, of
+// other lengths, around every block size, must cut where the record-by-record walk cuts.
+TEST_CASE("pcap and pcapng files are cut where a record-by-record walk cuts them") {
+  std::mt19937_64 rng(8);
+  for (int round = 0; round < 60; ++round) {
+    INFO("round " << round);
+    std::string pcap;  // little-endian, microseconds, version 2.4, LINKTYPE_CAN_SOCKETCAN
+    put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
+        put_u32(pcap, 227);
+    std::string png;  // a section header (little-endian, version 1.0, no section length) and interface 0
+    put_u32(png, 0x0A0D0D0A), put_u32(png, 28), put_u32(png, 0x1A2B3C4D), put_u32(png, 1), put_u32(png, 0xFFFFFFFF),
+        put_u32(png, 0xFFFFFFFF), put_u32(png, 28);
+    put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
+    for (int run = 0, runs = 5 + static_cast<int>(rng() % 60); run < runs; ++run) {
+      const std::uint32_t payload = std::array<std::uint32_t, 6>{16, 16, 16, 72, 20, 0}[rng() % 6];
+      const std::size_t n = rng() % 3 == 0 ? rng() % 10 : rng() % 40;  // runs shorter and longer than eight
+      const bool simple = rng() % 4 == 0;  // simple packet blocks: another type, another length
+      for (std::size_t k = 0; k < n; ++k) {
+        pcap += raw_pcap_record(1763800000, static_cast<std::uint32_t>(k), payload);
+        const std::uint32_t length = (simple ? 16 : 32) + payload;
+        put_u32(png, simple ? 3 : 6), put_u32(png, length);
+        if (!simple) put_u32(png, 0), put_u32(png, 0), put_u32(png, static_cast<std::uint32_t>(k));  // iface, time
+        put_u32(png, payload);
+        if (!simple) put_u32(png, payload);
+        png.append(payload, '\0');
+        put_u32(png, length);
+      }
+    }
+    if (rng() % 3 == 0) pcap += raw_pcap_record(1763800000, 0, 300 * 1024).substr(0, 40);  // implausible: stops
+    if (rng() % 3 == 0) png += raw_unknown_block();  // among the packets: stops the cutting
+    for (const std::uint64_t block : {1, 31, 32, 48, 100, 255, 256, 257, 1000, 4096, 1 << 30}) {
+      INFO("block " << block);
+      TempFile a(pcap), b(png);
+      const int fa = ::open(a.path.c_str(), O_RDONLY), fb = ::open(b.path.c_str(), O_RDONLY);
+      CHECK(PcapScanner(fa, pcap.size()).block_starts(block) == pcap_starts_model(pcap, block));
+      const PcapngBlocks cut = pcapng_block_starts(fb, png.size(), block), model = pcapng_starts_model(png, block);
+      CHECK(cut.starts == model.starts);
+      CHECK(cut.prefix_end == model.prefix_end);
+      ::close(fa), ::close(fb);
+    }
   }
 }
 

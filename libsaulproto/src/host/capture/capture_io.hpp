@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <array>
+#include <bit>
 #include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <istream>
 #include <limits>
@@ -47,14 +49,18 @@ inline void flush_checked(std::ostream& out, std::string_view format) {
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
 inline constexpr std::uint32_t kSnaplen = 0xFFFF;
 
+// One load and at most one byte swap (the byte-by-byte form was not always inlined: a call per field of every
+// pcapng packet).
 inline std::uint16_t load_u16(const std::uint8_t* p, bool big) noexcept {
-  return big ? static_cast<std::uint16_t>(p[0] << 8 | p[1]) : static_cast<std::uint16_t>(p[1] << 8 | p[0]);
+  std::uint16_t v;
+  std::memcpy(&v, p, sizeof v);
+  return big == (std::endian::native == std::endian::big) ? v : __builtin_bswap16(v);
 }
 
 inline std::uint32_t load_u32(const std::uint8_t* p, bool big) noexcept {
-  if (big)
-    return std::uint32_t{p[0]} << 24 | std::uint32_t{p[1]} << 16 | std::uint32_t{p[2]} << 8 | std::uint32_t{p[3]};
-  return std::uint32_t{p[3]} << 24 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[1]} << 8 | std::uint32_t{p[0]};
+  std::uint32_t v;
+  std::memcpy(&v, p, sizeof v);
+  return big == (std::endian::native == std::endian::big) ? v : __builtin_bswap32(v);
 }
 
 inline std::uint64_t load_u64(const std::uint8_t* p, bool big) noexcept {

@@ -600,7 +600,7 @@ class LineMemo final : public CandumpLineTaker {
   bool take(std::string_view line) override {
     if (line.size() > kCandumpFixedTimeLength + sizeof(Words)) return false;
     std::uint64_t ns = 0;
-    if (!candump_fixed_time(line, ns)) return false;
+    if (!times_.read(line, ns)) return false;
     const char* const text = line.data() + kCandumpFixedTimeLength;
     Words words;
     std::memcpy(words, text, sizeof words);  // kCandumpLineSlack bytes follow
@@ -620,7 +620,7 @@ class LineMemo final : public CandumpLineTaker {
       if (length >= sizeof words || length >= static_cast<std::size_t>(end - p) - kCandumpFixedTimeLength) break;
       const std::string_view line(p, kCandumpFixedTimeLength + length);
       std::uint64_t ns = 0;
-      if (!candump_fixed_time(line, ns) || !count(line, words, hash, ns)) break;
+      if (!times_.read(line, ns) || !count(line, words, hash, ns)) break;
       ++n;
       p += line.size() + 1;
     }
@@ -792,6 +792,7 @@ class LineMemo final : public CandumpLineTaker {
   static constexpr std::size_t kContents = std::size_t{1} << kContentBits;  // 384 KiB
   std::vector<Head> heads_;
   std::vector<Content> contents_;
+  CandumpFixedTimes times_;
   std::array<const char*, 256> names_{};  // names_[0] is nullptr (a frame that did not decode)
   std::size_t names_count_ = 1;
   std::uint32_t serial_ = 0;

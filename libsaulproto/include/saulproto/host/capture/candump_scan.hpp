@@ -174,22 +174,58 @@ inline bool eight_digits(std::uint64_t v, std::uint64_t& value) noexcept {
 
 /// Where the text after the time starts in a line of candump_fixed_time's shape.
 inline constexpr std::size_t kCandumpFixedTimeLength = 20;
+/// The fraction of a line of candump_fixed_time's shape, its 6 digits then ") " at line[12..19], in ns; false when
+/// it is not of that shape.
+inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept {
+  if (line[18] != ')' || line[19] != ' ') return false;
+  std::uint64_t fraction;
+  std::memcpy(&fraction, line + 12, 8);  // 6 digits and ") ", which become "00": the fraction times 100
+  fraction = (fraction & 0x0000FFFFFFFFFFFFULL) | 0x3030000000000000ULL;
+  if (!detail::eight_digits(fraction, fraction)) return false;
+  ns = fraction * 10;
+  return true;
+}
 /// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") " (so what follows starts at line[20]), in
 /// ns; false for any other shape. Inline: stats reads it for every line.
 inline bool candump_fixed_time(std::string_view line, std::uint64_t& ns) noexcept {
   if constexpr (std::endian::native != std::endian::little) return false;  // read digit by digit then
   const char* p = line.data();
-  if (line.size() < 24 || p[11] != '.' || p[18] != ')' || p[19] != ' ') return false;
+  if (line.size() < 24 || p[11] != '.') return false;
   const unsigned d9 = static_cast<unsigned>(p[9] - '0'), d10 = static_cast<unsigned>(p[10] - '0');
   std::uint64_t high, fraction;
   std::memcpy(&high, p + 1, 8);
-  std::memcpy(&fraction, p + 12, 8);  // 6 digits and ") ", which become "00": the fraction times 100
-  fraction = (fraction & 0x0000FFFFFFFFFFFFULL) | 0x3030000000000000ULL;
-  if (d9 >= 10 || d10 >= 10 || !detail::eight_digits(high, high) || !detail::eight_digits(fraction, fraction))
-    return false;
-  ns = (high * 100 + d9 * 10 + d10) * 1'000'000'000ULL + fraction * 10;
+  if (d9 >= 10 || d10 >= 10 || !detail::eight_digits(high, high) || !candump_fixed_fraction(p, fraction)) return false;
+  ns = (high * 100 + d9 * 10 + d10) * 1'000'000'000ULL + fraction;
   return true;
 }
+/// candump_fixed_time() of lines in file order, the seconds remembered by their text: a log's lines share them for
+/// a second's worth of lines, so that most lines cost their fraction's digits alone (stats reads every line's time).
+class CandumpFixedTimes {
+ public:
+  bool read(std::string_view line, std::uint64_t& ns) noexcept {
+    if (line.size() < 24) return false;
+    std::uint64_t head;   // "(" and the first 7 digits
+    std::uint32_t tail;   // the last 3 digits and "."
+    std::memcpy(&head, line.data(), sizeof head);
+    std::memcpy(&tail, line.data() + 8, sizeof tail);
+    if (head == head_ && tail == tail_) {
+      std::uint64_t fraction;
+      if (!candump_fixed_fraction(line.data(), fraction)) return false;
+      ns = seconds_ns_ + fraction;
+      return true;
+    }
+    if (!candump_fixed_time(line, ns)) return false;
+    head_ = head;  // only a text that read as seconds: the same text again reads the same
+    tail_ = tail;
+    seconds_ns_ = ns - ns % 1'000'000'000ULL;
+    return true;
+  }
+
+ private:
+  std::uint64_t head_ = 0;  // no line's: a line starts with '('
+  std::uint32_t tail_ = 0;
+  std::uint64_t seconds_ns_ = 0;
+};
 
 class CandumpScanner {
  public:
