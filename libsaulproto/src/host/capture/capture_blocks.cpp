@@ -60,9 +60,8 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
 CaptureBlocks::CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format)
     : fd_(fd), size_(size), format_(format) {}
 
-std::optional<CaptureBlocks::Range> CaptureBlocks::range(std::size_t k) const {
-  std::lock_guard lock(mutex_);
-  while (cutter_ && starts_.size() < k + 2) {
+void CaptureBlocks::cut(std::size_t starts, std::vector<std::uint8_t>* lend, Range& r) const {
+  while (cutter_ && starts_.size() < starts) {
     std::uint64_t start = 0;
     if (!cutter_->next(start)) {
       cutter_.reset();
@@ -70,13 +69,35 @@ std::optional<CaptureBlocks::Range> CaptureBlocks::range(std::size_t k) const {
     }
     starts_.push_back(start);
     prefix_end_ = cutter_->prefix_end();
+    // the walk that found block k's end read its bytes: its reader takes them instead of reading them again
+    if (lend != nullptr && starts_.size() == starts)
+      r.lent = cutter_->lend(starts_[starts - 2], start, *lend, r.offset);
     if (start >= size_) cutter_.reset();  // the size comes last
   }
-  if (starts_.size() < k + 2) return std::nullopt;
-  return Range{starts_[k], starts_[k + 1], prefix_end_};
 }
 
-bool CaptureBlocks::has(std::size_t k) const { return range(k).has_value(); }
+std::optional<CaptureBlocks::Range> CaptureBlocks::range(std::size_t k, std::vector<std::uint8_t>* lend) const {
+  std::lock_guard lock(mutex_);
+  Range r;
+  cut(k + 2, lend, r);
+  if (starts_.size() < k + 2) return std::nullopt;
+  r.begin = starts_[k];
+  r.end = starts_[k + 1];
+  r.prefix_end = prefix_end_;
+  return r;
+}
+
+bool CaptureBlocks::has(std::size_t k) const {
+  {
+    // A block that starts before the end is there: its end is cut when it is read, so that the bytes the cut reads
+    // go to its reader (range(k, lend)).
+    std::lock_guard lock(mutex_);
+    Range unused;
+    cut(k + 1, nullptr, unused);
+    if (starts_.size() > k && starts_[k] < size_) return true;
+  }
+  return range(k).has_value();
+}
 
 std::size_t CaptureBlocks::count() const {
   std::size_t k = 0;
@@ -120,11 +141,12 @@ CaptureBlocks::~CaptureBlocks() {
 CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
                                         const std::function<bool(const CandumpBatch&)>& each,
                                         CandumpLineTaker* taker) const {
-  const auto r = range(k);
+  const auto r = range(k, format_ == CaptureFormat::candump ? nullptr : &scratch.bytes);
   Read read;
   if (!r) return read;
   const std::uint64_t begin = r->begin, end = r->end, prefix_end = r->prefix_end;
   CandumpBatch& batch = scratch.batch;
+  const std::uint8_t* const lent = r->lent ? scratch.bytes.data() + r->offset : nullptr;
   switch (format_) {
     case CaptureFormat::candump: {
       CandumpScanner scanner(fd_, begin, end, std::size_t{256} << 10);
@@ -135,17 +157,34 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
       break;
     }
     case CaptureFormat::pcap: {
-      PcapScanner scanner(fd_, size_, begin, end, std::size_t{256} << 10);
-      while (scanner.next_batch(batch) && each(batch)) {
+      std::optional<PcapScanner> scanner;
+      if (lent != nullptr)
+        scanner.emplace(fd_, size_, begin, end, std::span<const std::uint8_t>(lent, end - begin));
+      else
+        scanner.emplace(fd_, size_, begin, end, std::size_t{256} << 10);
+      while (scanner->next_batch(batch) && each(batch)) {
       }
       read.bytes = end - (k == 0 ? 0 : begin);  // block 0 counts the file header too
       break;
     }
     case CaptureFormat::pcapng: {
-      // Block k > 0 is read after the header blocks; what its reader says of them is block 0's to say.
-      const std::size_t prefix = k > 0 ? append_range(fd_, 0, prefix_end, scratch.bytes, 0) : 0;
-      const std::size_t used = append_range(fd_, begin, end - begin, scratch.bytes, prefix);
-      PcapngReader reader(std::span<const std::uint8_t>(scratch.bytes.data(), used));
+      // Block k > 0 is read after the header blocks; what its reader says of them is block 0's to say. The block's
+      // bytes lent by the cutter have room for them in front.
+      std::span<const std::uint8_t> bytes;
+      std::size_t prefix = 0;
+      std::size_t from = r->offset;
+      if (lent != nullptr && k > 0 && prefix_end <= from) {
+        from -= static_cast<std::size_t>(prefix_end);
+        prefix = append_range(fd_, 0, prefix_end, scratch.bytes, from) - from;
+      }
+      if (lent != nullptr && prefix == (k > 0 ? prefix_end : 0)) {
+        bytes = std::span<const std::uint8_t>(scratch.bytes.data() + from, prefix + (end - begin));
+      } else {
+        prefix = k > 0 ? append_range(fd_, 0, prefix_end, scratch.bytes, 0) : 0;
+        const std::size_t used = append_range(fd_, begin, end - begin, scratch.bytes, prefix);
+        bytes = std::span<const std::uint8_t>(scratch.bytes.data(), used);
+      }
+      PcapngReader reader(bytes);
       while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
         for (auto& c : batch.corrupt) c.error.position += begin - prefix;
         if (k > 0) {

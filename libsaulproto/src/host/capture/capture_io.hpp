@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cerrno>
@@ -84,32 +85,48 @@ inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n)
 }
 
 /// A window of a regular file for walking record or block headers with large reads: at(pos, n) gives the n bytes
-/// at file offset pos (reading the next MiB from pos when they are not in the window), nullptr past the end or on
-/// a read error. Used to cut files into blocks for several threads.
+/// at file offset pos (reading the next `window` bytes from pos when they are not in the window), nullptr past the
+/// end or on a read error. Used to cut files into blocks for several threads; the block just walked can be lent to
+/// the thread that is to read it, so that its bytes are read from the file once.
 class HeaderWindow {
  public:
-  HeaderWindow(int fd, std::uint64_t size) : fd_(fd), size_(size), buf_(std::size_t{1} << 20) {}
+  /// Room kept in front of the bytes read, for a caller of lend() to put a few bytes before them (pcapng: the
+  /// file's section and interface blocks, which every block is read after).
+  static constexpr std::size_t kFront = 4096;
+  HeaderWindow(int fd, std::uint64_t size, std::size_t window = std::size_t{1} << 20)
+      : fd_(fd), size_(size), window_(window), buf_(kFront + window) {}
   const std::uint8_t* at(std::uint64_t pos, std::size_t n) {
     if (pos + n > size_) return nullptr;
     if (pos < from_ || pos + n > to_) {
-      std::size_t want = buf_.size();
+      std::size_t want = window_ > n ? window_ : n;
       if (want > size_ - pos) want = static_cast<std::size_t>(size_ - pos);
+      if (buf_.size() < kFront + want) buf_.resize(kFront + want);
       ssize_t got;
       do {
-        got = ::pread(fd_, buf_.data(), want, static_cast<off_t>(pos));
+        got = ::pread(fd_, buf_.data() + kFront, want, static_cast<off_t>(pos));
       } while (got < 0 && errno == EINTR);
       if (got < static_cast<ssize_t>(n)) return nullptr;
       from_ = pos;
       to_ = pos + static_cast<std::uint64_t>(got);
     }
-    return buf_.data() + (pos - from_);
+    return buf_.data() + kFront + (pos - from_);
+  }
+  /// When the window holds the file's bytes [from, to): swaps its buffer with `into`, which then holds them from
+  /// into[offset] on (offset >= kFront), and forgets them (the next at() reads again); false otherwise.
+  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
+    if (from < from_ || to > to_ || from_ == to_) return false;
+    offset = kFront + static_cast<std::size_t>(from - from_);
+    into.swap(buf_);
+    from_ = to_ = 0;
+    return true;
   }
 
  private:
   int fd_;
   std::uint64_t size_;
+  std::size_t window_;
   std::vector<std::uint8_t> buf_;
-  std::uint64_t from_ = 0, to_ = 0;  // the file bytes in buf_
+  std::uint64_t from_ = 0, to_ = 0;  // the file bytes in buf_ from buf_[kFront] on
 };
 
 /// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end).
@@ -164,6 +181,11 @@ class BlockCutter {
   }
   /// pcapng: where the header blocks end (the first packet block), known once a start after the first was given.
   [[nodiscard]] virtual std::uint64_t prefix_end() const { return 0; }
+  /// The bytes [from, to) just walked, when the walk still holds them all: HeaderWindow::lend().
+  virtual bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
+    (void)from, (void)to, (void)into, (void)offset;
+    return false;
+  }
 
  protected:
   BlockCutter(std::uint64_t first, std::uint64_t size) : first_(first), size_(size) {}
@@ -176,6 +198,11 @@ class BlockCutter {
   std::uint64_t first_;
   std::uint64_t size_;
 };
+/// The window a cutter walks a file with: a block and some (so that the block it walks is read once and can be
+/// lent to its reader whole), at least 64 KiB.
+inline std::size_t window_bytes(std::uint64_t block) {
+  return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{64} << 10);
+}
 /// PcapScanner::block_starts one at a time (`big`: the file's byte order).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);
 /// pcapng_block_starts one at a time.

@@ -24,6 +24,22 @@ constexpr std::uint32_t kMaxRecord = 256 * 1024;  // as PcapReader: a longer len
 PcapScanner::PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes)
     : fd_(fd), size_(size), cap_(block_bytes + pcap_scan::kMaxRecord + 16), block_(block_bytes) {
   buf_.reset(new std::uint8_t[cap_]);
+  data_ = buf_.get();
+  read_header();
+}
+
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+                         std::span<const std::uint8_t> bytes)
+    : fd_(fd), size_(size), cap_(0), block_(0) {
+  read_header();
+  data_ = bytes.data();
+  tail_ = bytes.size();
+  offset_ = begin < 24 ? 24 : begin;
+  read_to_ = offset_ + bytes.size();
+  size_ = end < size ? end : size;
+}
+
+void PcapScanner::read_header() {
   std::uint8_t h[4];
   if (size_ < 24 || ::pread(fd_, h, 4, 0) != 4) throw CaptureOpenError("not a pcap file");
   const std::uint32_t magic = detail::load_u32(h, false);
@@ -50,7 +66,11 @@ namespace {
 class PcapCutter final : public detail::BlockCutter {
  public:
   PcapCutter(int fd, std::uint64_t size, bool big, std::uint64_t block)
-      : BlockCutter(24, size), window_(fd, size), size_(size), block_(block == 0 ? 1 : block), big_(big) {}
+      : BlockCutter(24, size), window_(fd, size, detail::window_bytes(block)), size_(size), block_(block == 0 ? 1 : block),
+        big_(big) {}
+  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) override {
+    return window_.lend(from, to, into, offset);
+  }
 
  private:
   bool walk(std::uint64_t& start) override {
@@ -110,7 +130,7 @@ std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const 
 std::size_t PcapScanner::ensure(std::size_t n) {
   if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;
   if (head_ > 0) {
-    std::memmove(buf_.get(), buf_.get() + head_, tail_ - head_);
+    std::memmove(buf_.get(), buf_.get() + head_, tail_ - head_);  // (bytes in memory: all there, never here)
     tail_ -= head_;
     head_ = 0;
   }
@@ -156,7 +176,7 @@ bool PcapScanner::next_batch(CandumpBatch& batch) {
               fmt::format("file ends inside a record header ({} of 16 bytes)", have_header));
       break;
     }
-    const std::uint8_t* h = buf_.get() + head_;
+    const std::uint8_t* h = data_ + head_;
     const std::uint32_t sec = detail::load_u32(h, big_);
     const std::uint32_t frac = detail::load_u32(h + 4, big_);
     const std::uint32_t incl = detail::load_u32(h + 8, big_);
@@ -169,7 +189,7 @@ bool PcapScanner::next_batch(CandumpBatch& batch) {
       corrupt(batch, start, Recovery::stop, fmt::format("file ends inside a record ({} of {} bytes)", have, incl));
       break;
     }
-    const std::uint8_t* packet = buf_.get() + head_ + 16;
+    const std::uint8_t* packet = data_ + head_ + 16;
     head_ += 16 + std::size_t{incl};
     offset_ += 16 + std::uint64_t{incl};
     if (frac >= (nano_ ? 1'000'000'000U : 1'000'000U)) {

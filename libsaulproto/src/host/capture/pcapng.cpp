@@ -109,8 +109,12 @@ namespace {
 class PcapngCutter final : public detail::BlockCutter {
  public:
   PcapngCutter(int fd, std::uint64_t size, std::uint64_t block)
-      : BlockCutter(0, size), window_(fd, size), size_(size), block_(block == 0 ? 1 : block) {}
+      : BlockCutter(0, size), window_(fd, size, detail::window_bytes(block)), size_(size),
+        block_(block == 0 ? 1 : block) {}
   [[nodiscard]] std::uint64_t prefix_end() const override { return prefix_end_; }
+  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) override {
+    return window_.lend(from, to, into, offset);
+  }
 
  private:
   bool walk(std::uint64_t& start) override {
@@ -152,12 +156,11 @@ class PcapngCutter final : public detail::BlockCutter {
       } else if (packets_ && !packet) {
         break;
       }
-      const std::uint64_t at = pos_;
-      pos_ += length;
-      if (packet && at - last_ >= block_ && at > prefix_end_) {
-        start = last_ = at;
+      if (packet && pos_ - last_ >= block_ && pos_ > prefix_end_) {
+        start = last_ = pos_;  // a block starts here; the next walk goes on over this packet
         return true;
       }
+      pos_ += length;
     }
     return false;
   }

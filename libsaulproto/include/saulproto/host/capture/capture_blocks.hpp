@@ -43,8 +43,9 @@ class CaptureBlocks {
 
   [[nodiscard]] CaptureFormat format() const noexcept { return format_; }
   /// Whether there is a block k. A pcap or pcapng file is cut as it is read: this walks its record headers up to
-  /// block k's end when that is not known yet (the walk is serial, behind a lock; threads reading other blocks go
-  /// on meanwhile). Thread-safe; every block before an existing one exists.
+  /// block k's start when that is not known yet (the walk is serial, behind a lock; threads reading other blocks go
+  /// on meanwhile), and read(k) walks on to its end, handing the bytes the walk read to its reader. Thread-safe;
+  /// every block before an existing one exists.
   [[nodiscard]] bool has(std::size_t k) const;
   /// The number of blocks (cuts the whole file first).
   [[nodiscard]] std::size_t count() const;
@@ -86,9 +87,15 @@ class CaptureBlocks {
   struct Range {
     std::uint64_t begin = 0, end = 0;
     std::uint64_t prefix_end = 0;  // pcapng: the header blocks that every block is read after
+    bool lent = false;             // the bytes [begin, end) are in `lend` from lend[offset] on (range())
+    std::size_t offset = 0;
   };
-  /// Block k's bytes, cutting the file that far when needed; nullopt when there is no block k.
-  [[nodiscard]] std::optional<Range> range(std::size_t k) const;
+  /// Block k's bytes, cutting the file that far when needed; nullopt when there is no block k. When it is this call
+  /// that cuts block k's end and the cutter still holds the block's bytes, they are swapped into `lend`.
+  [[nodiscard]] std::optional<Range> range(std::size_t k, std::vector<std::uint8_t>* lend = nullptr) const;
+  /// Cuts until `starts` starts are known (or the cut ends), lending the bytes of the block whose end is found last to
+  /// `lend` (r.lent, r.offset). mutex_ held.
+  void cut(std::size_t starts, std::vector<std::uint8_t>* lend, Range& r) const;
   int fd_;
   bool owned_ = false;  // open() opened fd_: closed with this
   std::uint64_t size_;

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "saulproto/host/capture/candump_scan.hpp"
@@ -20,6 +21,9 @@ class PcapScanner {
   /// Reads only the records from byte `begin` (a record's start, e.g. from block_starts()) to `end`.
   PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
               std::size_t block_bytes = std::size_t{1} << 20);
+  /// The same with the file's bytes [begin, end) already in memory (`bytes`, kept alive by the caller): nothing is
+  /// read but the header's magic.
+  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::span<const std::uint8_t> bytes);
   PcapScanner(const PcapScanner&) = delete;
   PcapScanner& operator=(const PcapScanner&) = delete;
   ~PcapScanner();
@@ -36,12 +40,14 @@ class PcapScanner {
   [[nodiscard]] bool big_endian() const noexcept { return big_; }
 
  private:
+  void read_header();
   std::size_t ensure(std::size_t n);
   void corrupt(CandumpBatch& batch, std::uint64_t at, Recovery recovery, std::string message);
 
   int fd_;
   std::uint64_t size_;
   std::unique_ptr<std::uint8_t[]> buf_;
+  const std::uint8_t* data_ = nullptr;  // buf_, or the bytes given
   std::size_t cap_;
   std::size_t block_;
   std::size_t head_ = 0, tail_ = 0;
