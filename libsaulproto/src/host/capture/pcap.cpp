@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <bit>
+#include <cstring>
 #include <stdexcept>
 
 #include "capture_io.hpp"
@@ -31,26 +33,32 @@ std::string_view decode_socketcan_packet(std::span<const std::uint8_t> packet, C
   if ((packet[5] & kCanFdFdf) != 0 || packet.size() == kCanFdMtu)
     return "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
   if (length > CanFrame::kMaxDlc) return "payload_length above 8";
-  CanFrame f;
   const std::uint32_t id = id_flags & CanFrame::kMaxExtendedId;
-  if (id_flags & kErrFlag) {
-    f.error = true;
-  } else if (id_flags & kEffFlag) {
-    f.extended = true;
-  } else if (id > CanFrame::kMaxStandardId) {
-    return "11-bit id above 7FF (EFF flag not set)";
-  }
-  f.id = id;
-  f.dlc = length;
-  if (id_flags & kRtrFlag) {
-    if (f.error) return "an error frame cannot be a remote frame";
-    f.remote = true;
+  const bool error = (id_flags & kErrFlag) != 0;
+  const bool extended = !error && (id_flags & kEffFlag) != 0;
+  if (!error && !extended && id > CanFrame::kMaxStandardId) return "11-bit id above 7FF (EFF flag not set)";
+  const bool remote = (id_flags & kRtrFlag) != 0;
+  std::uint64_t data = 0;  // the payload's bytes, the first the lowest (as in memory), zeros after them
+  if (remote) {
+    if (error) return "an error frame cannot be a remote frame";
   } else {
     if (packet.size() - 8 < length) return "packet holds fewer data bytes than its payload_length";
-    for (std::size_t i = 0; i < length; ++i) f.data[i] = packet[8 + i];
+    if (packet.size() >= 16 && std::endian::native == std::endian::little) {  // the usual 16-byte packet: one load
+      std::memcpy(&data, packet.data() + 8, sizeof data);
+      if (length < 8) data &= (std::uint64_t{1} << (8 * length)) - 1;
+    } else {
+      std::uint8_t bytes[8] = {};
+      for (std::size_t i = 0; i < length; ++i) bytes[i] = packet[8 + i];
+      std::memcpy(&data, bytes, sizeof data);
+    }
   }
-  f.timestamp_ns = out.timestamp_ns;
-  out = f;
+  // Every field but the time, which the caller set (nothing changes when the packet is refused above).
+  out.id = id;
+  out.extended = extended;
+  out.remote = remote;
+  out.error = error;
+  out.dlc = length;
+  std::memcpy(out.data.data(), &data, sizeof data);
   return {};
 }
 
