@@ -93,7 +93,7 @@ class HeaderWindow {
   /// Room kept in front of the bytes read, for a caller of lend() to put a few bytes before them (pcapng: the
   /// file's section and interface blocks, which every block is read after).
   static constexpr std::size_t kFront = 4096;
-  HeaderWindow(int fd, std::uint64_t size, std::size_t window = std::size_t{1} << 20)
+  HeaderWindow(int fd, std::uint64_t size, std::size_t window)
       : fd_(fd), size_(size), window_(window), buf_(kFront + window) {}
   const std::uint8_t* at(std::uint64_t pos, std::size_t n) {
     if (pos + n > size_) return nullptr;
