@@ -585,8 +585,10 @@ namespace {
 // its '#': the head, "IFACE ID", is looked up in a small table of the heads seen (a bus has a few dozen), which keeps
 // where its frames count (BusStats::Known); the data's hex digits are read as bytes in a few word operations and,
 // with the head, looked up in a table of the contents seen, which keeps the frame's exact stuff bits and decode.
-// So a line costs its time, two lookups and a few additions; a content not seen before (a changed telemetry value)
-// also costs its stuff bits and decode. A line of any other shape is refused and read the usual way.
+// The data is first compared with the head's last data (most lines repeat it), and a head whose data seldom repeat
+// skips the contents' table for a while. So a line costs its time, a lookup or two and a few additions; a content
+// not seen before (a changed telemetry value) also costs its stuff bits and decode. A line of any other shape is
+// refused and read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}
@@ -632,7 +634,7 @@ class LineMemo final : public CandumpLineTaker {
  private:
   static constexpr std::size_t kWords = 5;      // the text after the time: 40 bytes at most
   static constexpr std::size_t kHeadWords = 3;  // "IFACE ID": 24 bytes at most
-  using Words = std::uint64_t[kWords];  // detail::first_byte() looks in all of them
+  using Words = std::uint64_t[kWords];  // detail::first_two() looks in all of them
 
   struct Content {  // 24 bytes
     std::uint64_t text[2]{};  // the data's hex digits, zeros after them
