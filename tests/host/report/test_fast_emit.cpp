@@ -690,6 +690,47 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
   }
 }
 
+// The cutter lends a block's bytes to its reader when it still holds them, and room for the pcapng header blocks is
+// kept in front of them: a section header too large for that room, and a pcap file whose cutting stops at an
+// implausible record (the rest, larger than the cutter's window, is one block), are read from the file as before.
+TEST_CASE("fast decode: pcap/pcapng blocks the cutter cannot lend are read from the file as the readers read them") {
+  // pcapng: a section header with a 5000-byte comment (more than the 4 KiB kept in front), interface 0, packets
+  std::string png;
+  put_u32(png, 0x0A0D0D0A), put_u32(png, 5036), put_u32(png, 0x1A2B3C4D), put_u32(png, 1), put_u32(png, 0xFFFFFFFF),
+      put_u32(png, 0xFFFFFFFF);
+  put_u32(png, 5000u << 16 | 1);  // opt_comment (code 1, little-endian: the code first) of 5000 bytes
+  png.append(5000, 'x');
+  put_u32(png, 0), put_u32(png, 5036);  // opt_endofopt, the block's length again
+  put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
+  for (int i = 0; i < 3000; ++i) png += raw_epb(0);
+  // pcap: packets, a record of an implausible length (the reader stops there), 200 KB more
+  std::string pcap;
+  put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
+      put_u32(pcap, 227);
+  for (int i = 0; i < 3000; ++i)  // 0x300 with 4 bytes
+    pcap += raw_pcap_record(1763800000, static_cast<std::uint32_t>(i), 16)
+                .replace(16, 8, std::string("\x00\x00\x03\x00\x04\x00\x00\x00", 8));
+  pcap += raw_pcap_record(1763800001, 0, 300 * 1024).substr(0, 16);
+  pcap.append(200 * 1024, '\0');
+  TempFile png_file(png), pcap_file(pcap);
+  CandumpDecodeOptions o;
+  o.threads = 2;
+  o.parallel_from = 0;
+  o.block = 4096;
+  auto check = [&](const Decoded& two, CaptureReader& reader, std::size_t corrupt_records) {
+    const auto [expected, corrupt] = expected_from(reader, o.format, o.time);
+    CHECK(two.result.records == 3000);
+    CHECK(two.out == expected);
+    CHECK(two.corrupt == corrupt);
+    CHECK(corrupt.size() == corrupt_records);
+  };
+  std::istringstream png_in(png), pcap_in(pcap);
+  PcapngReader png_reader(png_in);
+  PcapReader pcap_reader(pcap_in);
+  check(run_pcapng(png_file.path, o), png_reader, 0);
+  check(run_pcap(pcap_file.path, o), pcap_reader, 1);  // the record it stopped at
+}
+
 namespace {
 
 std::uint32_t get_u32(const std::string& s, std::uint64_t at) {
