@@ -37,6 +37,7 @@
 #include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
+#include "host/read_count.hpp"
 #include "host/temp_file.hpp"
 
 using saul::CanFrame;
@@ -687,6 +688,52 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
     std::istringstream in(png.str());
     PcapngReader reader(in);
     check_stats_in_blocks(file.path, reader, 4096, png.str().size());
+  }
+}
+
+// A block whose end another thread's has(k + 1) found first (no reader to lend to then) is still lent when its
+// reader asks: every block's bytes are read from the file once, and they are the block's.
+TEST_CASE("pcap and pcapng blocks cut ahead of their readers are lent late, read once, and read right") {
+  std::string png;  // a section header and interface 0, then 20 000 packets
+  put_u32(png, 0x0A0D0D0A), put_u32(png, 28), put_u32(png, 0x1A2B3C4D), put_u32(png, 1), put_u32(png, 0xFFFFFFFF),
+      put_u32(png, 0xFFFFFFFF), put_u32(png, 28);
+  put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
+  std::string pcap;
+  put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
+      put_u32(pcap, 227);
+  for (int i = 0; i < 20000; ++i) {
+    png += raw_epb(0);
+    pcap += raw_pcap_record(1763800000, static_cast<std::uint32_t>(i), 16);
+  }
+  for (const auto& [bytes, format] : {std::pair{png, CaptureFormat::pcapng}, std::pair{pcap, CaptureFormat::pcap}}) {
+    INFO(to_string(format));
+    TempFile file(bytes);
+    std::istringstream in(bytes);
+    const auto reader = format == CaptureFormat::pcap ? std::unique_ptr<CaptureReader>(new PcapReader(in))
+                                                      : std::unique_ptr<CaptureReader>(new PcapngReader(in));
+    std::vector<CanFrame> expected;
+    while (reader->next() == CaptureReader::Status::frame) expected.push_back(reader->frame());
+    REQUIRE(expected.size() == 20000);
+    const int fd = ::open(file.path.c_str(), O_RDONLY);
+    REQUIRE(fd >= 0);
+    const std::uint64_t cost = read_count_cost();
+    const std::uint64_t before = bytes_read_so_far();
+    const auto blocks = CaptureBlocks::of(fd, bytes.size(), format, 64 * 1024);
+    REQUIRE(blocks);
+    CaptureBlocks::Scratch scratch;
+    std::vector<CanFrame> got;
+    for (std::size_t k = 0; blocks->has(k); ++k) {
+      (void)blocks->has(k + 1);  // the walk finds block k's end before block k's reader asks for it
+      blocks->read(k, scratch, [&](const CandumpBatch& batch) {
+        got.insert(got.end(), batch.frames.begin(), batch.frames.end());
+        return true;
+      });
+    }
+    const std::uint64_t read = bytes_read_so_far() - before;
+    CHECK(got == expected);
+    // the file once, and its first 4 KiB (the header, read to open it), and the pcapng header blocks once more
+    CHECK(read <= bytes.size() + 4096 + 64 + cost);
+    ::close(fd);
   }
 }
 

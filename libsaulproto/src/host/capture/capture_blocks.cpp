@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstring>
 #include <cerrno>
 #include <span>
 #include <system_error>
@@ -61,10 +62,10 @@ CaptureBlocks::CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format)
     : fd_(fd), size_(size), format_(format) {}
 
 void CaptureBlocks::cut(std::size_t starts, std::vector<std::uint8_t>* lend, Range& r) const {
-  while (cutter_ && starts_.size() < starts) {
+  while (cutter_ && !cut_all_ && starts_.size() < starts) {
     std::uint64_t start = 0;
     if (!cutter_->next(start)) {
-      cutter_.reset();
+      cut_all_ = true;
       break;
     }
     starts_.push_back(start);
@@ -72,7 +73,8 @@ void CaptureBlocks::cut(std::size_t starts, std::vector<std::uint8_t>* lend, Ran
     // the walk that found block k's end read its bytes: its reader takes them instead of reading them again
     if (lend != nullptr && starts_.size() == starts)
       r.lent = cutter_->lend(starts_[starts - 2], start, *lend, r.offset);
-    if (start >= size_) cutter_.reset();  // the size comes last
+    // The size comes last. The cutter stays: the last block's bytes may still be in its window for range().
+    if (start >= size_) cut_all_ = true;
   }
 }
 
@@ -84,6 +86,11 @@ std::optional<CaptureBlocks::Range> CaptureBlocks::range(std::size_t k, std::vec
   r.begin = starts_[k];
   r.end = starts_[k + 1];
   r.prefix_end = prefix_end_;
+  // Block k's end was found by a walk that had no reader to lend to (has(k + 1) on another thread got there first):
+  // the window may hold its bytes still.
+  if (lend != nullptr && !r.lent && cutter_) r.lent = cutter_->lend(r.begin, r.end, *lend, r.offset);
+  if (format_ == CaptureFormat::pcapng && k > 0 && prefix_.size() != prefix_end_)  // read once, copied per block
+    prefix_.resize(append_range(fd_, 0, prefix_end_, prefix_, 0));
   return r;
 }
 
@@ -173,9 +180,10 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
       std::span<const std::uint8_t> bytes;
       std::size_t prefix = 0;
       std::size_t from = r->offset;
-      if (lent != nullptr && k > 0 && prefix_end <= from) {
+      if (lent != nullptr && k > 0 && prefix_end <= from && prefix_.size() == prefix_end) {
         from -= static_cast<std::size_t>(prefix_end);
-        prefix = append_range(fd_, 0, prefix_end, scratch.bytes, from) - from;
+        std::memcpy(scratch.bytes.data() + from, prefix_.data(), prefix_.size());  // prefix_ is set before range() returns
+        prefix = prefix_.size();
       }
       if (lent != nullptr && prefix == (k > 0 ? prefix_end : 0)) {
         bytes = std::span<const std::uint8_t>(scratch.bytes.data() + from, prefix + (end - begin));

@@ -85,9 +85,13 @@ inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n)
 }
 
 /// A window of a regular file for walking record or block headers with large reads: at(pos, n) gives the n bytes
-/// at file offset pos (reading the next `window` bytes from pos when they are not in the window), nullptr past the
-/// end or on a read error. Used to cut files into blocks for several threads; the block just walked can be lent to
-/// the thread that is to read it, so that its bytes are read from the file once.
+/// at file offset pos, nullptr past the end or on a read error. Used to cut files into blocks for several threads;
+/// the block just walked can be lent to the thread that is to read it, so that its bytes are read from the file once.
+///
+/// A walk goes forward: where it runs past the bytes read, the next read starts where the last one ended (and the
+/// bytes from the window's start are kept, so that the block being walked stays whole for lend()); it never reads the
+/// same bytes twice. What follows a lent block (the next block's first bytes) is copied over to the new buffer, not
+/// read again. Without lend() the window keeps at most about two windows' bytes before it lets go of its start.
 class HeaderWindow {
  public:
   /// Room kept in front of the bytes read, for a caller of lend() to put a few bytes before them (pcapng: the
@@ -98,26 +102,43 @@ class HeaderWindow {
   const std::uint8_t* at(std::uint64_t pos, std::size_t n) {
     if (pos + n > size_) return nullptr;
     if (pos < from_ || pos + n > to_) {
-      std::size_t want = window_ > n ? window_ : n;
-      if (want > size_ - pos) want = static_cast<std::size_t>(size_ - pos);
-      if (buf_.size() < kFront + want) buf_.resize(kFront + want);
-      ssize_t got;
-      do {
-        got = ::pread(fd_, buf_.data() + kFront, want, static_cast<off_t>(pos));
-      } while (got < 0 && errno == EINTR);
-      if (got < static_cast<ssize_t>(n)) return nullptr;
-      from_ = pos;
-      to_ = pos + static_cast<std::uint64_t>(got);
+      if (pos < from_ || pos > to_) {
+        from_ = to_ = pos;  // elsewhere: start afresh
+      } else if (to_ - from_ > 2 * std::uint64_t{window_}) {
+        // walked long without a lend: keep from pos on only
+        std::memmove(buf_.data() + kFront, buf_.data() + kFront + (pos - from_), static_cast<std::size_t>(to_ - pos));
+        from_ = pos;
+      }
+      // read on from to_: up to a window from from_ (a block's walk: one read), at least to pos + n, and at least
+      // half a window (a walk past a window without a lend)
+      std::uint64_t want = std::max({from_ + window_, pos + n, to_ + window_ / 2}) - to_;
+      if (want > size_ - to_) want = size_ - to_;
+      const auto kept = static_cast<std::size_t>(to_ - from_);
+      if (buf_.size() < kFront + kept + want) buf_.resize(kFront + kept + static_cast<std::size_t>(want));
+      std::uint64_t done = 0;
+      while (done < want) {
+        const ssize_t got = ::pread(fd_, buf_.data() + kFront + kept + done, static_cast<std::size_t>(want - done),
+                                    static_cast<off_t>(to_ + done));
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) break;
+        done += static_cast<std::uint64_t>(got);
+      }
+      to_ += done;
+      if (pos + n > to_) return nullptr;  // a read error, or the file shrank
     }
     return buf_.data() + kFront + (pos - from_);
   }
   /// When the window holds the file's bytes [from, to): swaps its buffer with `into`, which then holds them from
-  /// into[offset] on (offset >= kFront), and forgets them (the next at() reads again); false otherwise.
+  /// into[offset] on (offset >= kFront); the window keeps what it read after `to` (copied into the buffer it got
+  /// from `into`), so a walk that goes on from `to` or after it reads nothing again. False otherwise.
   bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
-    if (from < from_ || to > to_ || from_ == to_) return false;
+    if (from < from_ || to > to_ || from > to || from_ == to_) return false;
     offset = kFront + static_cast<std::size_t>(from - from_);
     into.swap(buf_);
-    from_ = to_ = 0;
+    const auto tail = static_cast<std::size_t>(to_ - to);
+    if (buf_.size() < kFront + std::max<std::size_t>(tail, window_)) buf_.resize(kFront + std::max<std::size_t>(tail, window_));
+    std::memcpy(buf_.data() + kFront, into.data() + kFront + (to - from_), tail);
+    from_ = to;
     return true;
   }
 
@@ -198,10 +219,10 @@ class BlockCutter {
   std::uint64_t first_;
   std::uint64_t size_;
 };
-/// The window a cutter walks a file with: a block and some (so that the block it walks is read once and can be
-/// lent to its reader whole), at least 64 KiB.
+/// The window a cutter walks a file with: a block and some (so that a block's walk usually takes one read, and its
+/// bytes can be lent to its reader whole; the some is copied to the next window, not read again).
 inline std::size_t window_bytes(std::uint64_t block) {
-  return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{64} << 10);
+  return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{16} << 10);
 }
 /// PcapScanner::block_starts one at a time (`big`: the file's byte order).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);

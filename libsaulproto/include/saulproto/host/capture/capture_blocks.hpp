@@ -102,8 +102,10 @@ class CaptureBlocks {
   CaptureFormat format_;
   mutable std::mutex mutex_;  // guards what follows: the cut goes on as blocks are read
   mutable std::vector<std::uint64_t> starts_;  // block k is [starts_[k], starts_[k + 1])
-  mutable std::unique_ptr<detail::BlockCutter> cutter_;  // the starts still to find (null: all known)
+  mutable std::unique_ptr<detail::BlockCutter> cutter_;  // finds the starts (null: all known up front, candump)
+  mutable bool cut_all_ = false;                         // the cutter found the last start
   mutable std::uint64_t prefix_end_ = 0;
+  mutable std::vector<std::uint8_t> prefix_;  // pcapng: the file's bytes [0, prefix_end_), once a block k > 0 asked
 };
 
 /// A candump log read from a stream (CaptureText: a compressed one, as it inflates) and cut into blocks of whole
