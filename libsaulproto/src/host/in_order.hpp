@@ -15,13 +15,18 @@ namespace saul::host::detail {
 /// `blocks` for run_blocks_in_order when the blocks are found as they are read: work() says where they end.
 inline constexpr std::size_t kBlocksUntilNone = static_cast<std::size_t>(-1);
 
-/// Calls work(k, state, result) for every block k in [0, blocks) on `threads` threads, and take(k, result) on the
-/// caller's thread for k = 0, 1, 2... in that order. Each thread has its own `state`, made on it by make_state()
-/// (a prvalue: it need not be movable), kept from block to block. At most 2 x threads blocks are worked ahead of
-/// take(): memory is that many Results, whatever the number of blocks. Results are slots that are reused, so
-/// work() starts by resetting what it fills. What work() or take() throws stops every thread (the blocks under
-/// way finish first) and is rethrown here. A work() that returns bool says with false that there is no block k
-/// (nor any after it: blocks may then be kBlocksUntilNone); take() then ends with block k - 1.
+/// Calls work(k, state, result) for every block k in [0, blocks) on `threads` threads (the caller's and threads - 1
+/// more), and take(k, result) for k = 0, 1, 2... in that order, one call at a time, on whichever of them finished a
+/// block while no other was taking. Each thread has its own `state`, made on it by make_state() (a prvalue: it need
+/// not be movable), kept from block to block. At most 2 x threads blocks are worked ahead of take(): memory is that
+/// many Results, whatever the number of blocks. Results are slots that are reused, so work() starts by resetting
+/// what it fills. What work() or take() throws stops every thread (the blocks under way finish first) and is
+/// rethrown here. A work() that returns bool says with false that there is no block k (nor any after it: blocks may
+/// then be kBlocksUntilNone); take() then ends with block k - 1.
+///
+/// Why the caller works too, rather than waiting to take: with a thread per core and a third that wakes per block
+/// to take it, the kernel put both new threads on one core now and then and left the other idle for ~2 ms, and the
+/// taker woke in turn with the workers on their cores (a switch per block).
 template <class Result, class MakeState, class Work, class Take>
 void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_state, Work&& work, Take&& take) {
   if (threads == 0) threads = 1;
@@ -43,19 +48,41 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
   std::vector<Slot> slots(ring);
   std::mutex mutex;
   std::condition_variable changed;
-  std::size_t next_block = 0;  // the next block a worker takes
-  std::size_t taken = 0;       // blocks handed to take()
+  std::size_t next_block = 0;  // the next block a thread works on
+  std::size_t taken = 0;       // blocks handed to take(); only the taking thread changes it
+  bool taking = false;         // a thread is handing blocks to take()
   std::exception_ptr failure;
   bool stop = false;
-  auto fail = [&] {
-    std::lock_guard lock(mutex);
+  auto fail_locked = [&] {
     if (!failure) failure = std::current_exception();
     stop = true;
     changed.notify_all();
   };
+  // Hands the blocks that are ready to take(), in order, unless another thread is doing so (it will see them: it
+  // looks again under the lock before it stops). `lock` holds `mutex`.
+  auto take_ready = [&](std::unique_lock<std::mutex>& lock) {
+    if (taking) return;
+    taking = true;
+    while (!stop && taken < blocks) {
+      Slot& slot = slots[taken % ring];
+      if (!slot.ready || slot.block != taken) break;
+      lock.unlock();
+      try {
+        take(taken, slot.result);
+      } catch (...) {
+        lock.lock();
+        fail_locked();
+        break;
+      }
+      lock.lock();
+      slot.ready = false;
+      ++taken;
+      changed.notify_all();
+    }
+    taking = false;
+  };
 
-  auto worker = [&] {
-    auto state = make_state();
+  auto worker = [&](auto& state) {
     for (;;) {
       std::size_t k;
       {
@@ -69,48 +96,37 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
       try {
         there = work_on(k, state, slot.result);
       } catch (...) {
-        fail();
+        std::lock_guard lock(mutex);
+        fail_locked();
         return;
       }
-      std::lock_guard lock(mutex);
-      if (!there) {  // the blocks end before k: no worker takes another, take() stops at k
+      std::unique_lock lock(mutex);
+      if (!there) {  // the blocks end before k: no thread works on another, take() stops at k
         if (k < blocks) blocks = k;
         changed.notify_all();
         return;
       }
       slot.block = k;
       slot.ready = true;
+      take_ready(lock);
       changed.notify_all();
     }
   };
   std::vector<std::thread> pool;
   try {
-    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
-  } catch (...) {  // no thread to be had: the threads that started do all the work, or none did and it is done here
-    if (pool.empty()) {
-      auto state = make_state();
-      for (std::size_t k = 0; k < blocks && work_on(k, state, slots[0].result); ++k) take(k, slots[0].result);
-      return;
-    }
+    for (unsigned t = 1; t < threads; ++t)
+      pool.emplace_back([&] {
+        auto state = make_state();
+        worker(state);
+      });
+  } catch (...) {  // no more threads to be had: those there are do the work
   }
-
-  try {
-    for (;;) {
-      Slot& slot = slots[taken % ring];
-      {
-        std::unique_lock lock(mutex);
-        changed.wait(lock, [&] { return stop || taken >= blocks || (slot.ready && slot.block == taken); });
-        if (stop || taken >= blocks) break;
-      }
-      take(taken, slot.result);
-      std::lock_guard lock(mutex);
-      slot.ready = false;
-      ++taken;
-      changed.notify_all();
-    }
-  } catch (...) {
-    fail();
+  {
+    auto state = make_state();
+    worker(state);
   }
+  // Every block is worked on or done: a block still under way on a helper is taken by the helper (a thread that
+  // marks a block ready takes it unless another is taking, and a taker looks again before it stops).
   for (auto& t : pool) t.join();
   if (failure) std::rethrow_exception(failure);
 }
