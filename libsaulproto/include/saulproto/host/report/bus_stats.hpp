@@ -57,6 +57,13 @@ CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std:
 /// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`: a
 /// table lookup per data byte for the CRC and one for the stuffing, then two for the CRC's bits.
 unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept;
+namespace detail {
+/// The two ways can_stuff_bits(start, data) counts, for tests and benchmarks: a table step per data byte (any CPU),
+/// and the steps composed with SSSE3 byte shuffles (x86-64; only where can_stuff_ssse3() says the CPU has it).
+unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* data) noexcept;
+unsigned can_stuff_bits_ssse3(const CanStuffStart& start, const std::uint8_t* data) noexcept;
+bool can_stuff_ssse3() noexcept;
+}  // namespace detail
 /// The CAN CRC-15 (polynomial 0x4599) of the frame's bits from SOF to the end of the data, as sent.
 std::uint16_t can_crc15(const CanFrame& frame) noexcept;
 
