@@ -118,7 +118,10 @@ class PcapngCutter final : public detail::BlockCutter {
 
  private:
   bool walk(std::uint64_t& start) override {
-    while (const std::uint8_t* h = window_.at(pos_, 12)) {
+    while (const std::uint8_t* at = window_.at(pos_, 12)) {
+      // a copy: the run below may move the window's bytes (it reads on, and may grow its buffer)
+      std::uint8_t h[12];
+      std::memcpy(h, at, sizeof h);
       const std::uint32_t type = load_u32(h, big_);
       // Among the packets, eight blocks of this one's type and length in a row are stepped over at once, their
       // headers loaded side by side (one at a time, each length waits for the one before): only where the
