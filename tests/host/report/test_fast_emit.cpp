@@ -423,6 +423,24 @@ void put_u32(std::string& s, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) s += static_cast<char>((v >> (8 * i)) & 0xFF);
 }
 
+/// A little-endian pcap file header, written out by hand: microseconds, version 2.4, snaplen 65535,
+/// LINKTYPE_CAN_SOCKETCAN.
+std::string raw_pcap_header() {
+  std::string h;
+  put_u32(h, 0xA1B2C3D4), put_u32(h, 0x00040002), put_u32(h, 0), put_u32(h, 0), put_u32(h, 65535), put_u32(h, 227);
+  return h;
+}
+
+/// A little-endian pcapng section header (version 1.0, no section length, no options) and interface 0
+/// (LINKTYPE_CAN_SOCKETCAN, no options), written out by hand.
+std::string raw_pcapng_head() {
+  std::string h;
+  put_u32(h, 0x0A0D0D0A), put_u32(h, 28), put_u32(h, 0x1A2B3C4D), put_u32(h, 1), put_u32(h, 0xFFFFFFFF),
+      put_u32(h, 0xFFFFFFFF), put_u32(h, 28);
+  put_u32(h, 1), put_u32(h, 20), put_u32(h, 227), put_u32(h, 0), put_u32(h, 20);
+  return h;
+}
+
 /// A little-endian pcap record header and `payload_bytes` zero bytes, written out by hand.
 std::string raw_pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t payload_bytes) {
   std::string r;
@@ -694,13 +712,8 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
 // A block whose end another thread's has(k + 1) found first (no reader to lend to then) is still lent when its
 // reader asks: every block's bytes are read from the file once, and they are the block's.
 TEST_CASE("pcap and pcapng blocks cut ahead of their readers are lent late, read once, and read right") {
-  std::string png;  // a section header and interface 0, then 20 000 packets
-  put_u32(png, 0x0A0D0D0A), put_u32(png, 28), put_u32(png, 0x1A2B3C4D), put_u32(png, 1), put_u32(png, 0xFFFFFFFF),
-      put_u32(png, 0xFFFFFFFF), put_u32(png, 28);
-  put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
-  std::string pcap;
-  put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
-      put_u32(pcap, 227);
+  std::string png = raw_pcapng_head();  // then 20 000 packets
+  std::string pcap = raw_pcap_header();
   for (int i = 0; i < 20000; ++i) {
     png += raw_epb(0);
     pcap += raw_pcap_record(1763800000, static_cast<std::uint32_t>(i), 16);
@@ -751,9 +764,7 @@ TEST_CASE("fast decode: pcap/pcapng blocks the cutter cannot lend are read from 
   put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
   for (int i = 0; i < 3000; ++i) png += raw_epb(0);
   // pcap: packets, a record of an implausible length (the reader stops there), 200 KB more
-  std::string pcap;
-  put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
-      put_u32(pcap, 227);
+  std::string pcap = raw_pcap_header();
   for (int i = 0; i < 3000; ++i)  // 0x300 with 4 bytes
     pcap += raw_pcap_record(1763800000, static_cast<std::uint32_t>(i), 16)
                 .replace(16, 8, std::string("\x00\x00\x03\x00\x04\x00\x00\x00", 8));
@@ -840,13 +851,8 @@ TEST_CASE("pcap and pcapng files are cut where a record-by-record walk cuts them
   std::mt19937_64 rng(8);
   for (int round = 0; round < 60; ++round) {
     INFO("round " << round);
-    std::string pcap;  // little-endian, microseconds, version 2.4, LINKTYPE_CAN_SOCKETCAN
-    put_u32(pcap, 0xA1B2C3D4), put_u32(pcap, 0x00040002), put_u32(pcap, 0), put_u32(pcap, 0), put_u32(pcap, 65535),
-        put_u32(pcap, 227);
-    std::string png;  // a section header (little-endian, version 1.0, no section length) and interface 0
-    put_u32(png, 0x0A0D0D0A), put_u32(png, 28), put_u32(png, 0x1A2B3C4D), put_u32(png, 1), put_u32(png, 0xFFFFFFFF),
-        put_u32(png, 0xFFFFFFFF), put_u32(png, 28);
-    put_u32(png, 1), put_u32(png, 20), put_u32(png, 227), put_u32(png, 0), put_u32(png, 20);
+    std::string pcap = raw_pcap_header();
+    std::string png = raw_pcapng_head();
     for (int run = 0, runs = 5 + static_cast<int>(rng() % 60); run < runs; ++run) {
       const std::uint32_t payload = std::array<std::uint32_t, 6>{16, 16, 16, 72, 20, 0}[rng() % 6];
       const std::size_t n = rng() % 3 == 0 ? rng() % 10 : rng() % 40;  // runs shorter and longer than eight
