@@ -21,16 +21,10 @@ namespace {
 /// Reads [at, at + n) of fd into `out` from out[used] on (growing out when needed); returns the new `used`.
 std::size_t append_range(int fd, std::uint64_t at, std::uint64_t n, std::vector<std::uint8_t>& out, std::size_t used) {
   if (out.size() < used + n) out.resize(used + static_cast<std::size_t>(n));
-  std::uint64_t done = 0;
-  while (done < n) {
-    const ssize_t got = ::pread(fd, out.data() + used + done, static_cast<std::size_t>(n - done),
-                                static_cast<off_t>(at + done));
-    if (got < 0 && errno == EINTR) continue;
-    if (got < 0) throw std::system_error(errno, std::generic_category(), "reading the capture");
-    if (got == 0) break;  // the file shrank: what there is
-    done += static_cast<std::uint64_t>(got);
-  }
-  return used + static_cast<std::size_t>(done);
+  int error = 0;
+  const std::size_t done = detail::pread_full(fd, out.data() + used, static_cast<std::size_t>(n), at, &error);
+  if (error != 0) throw std::system_error(error, std::generic_category(), "reading the capture");
+  return used + done;  // fewer than n when the file shrank: what there is
 }
 
 }  // namespace
@@ -230,13 +224,8 @@ std::optional<CaptureBlocks::FirstRecord> CaptureBlocks::first_record() const {
   if (format_ != CaptureFormat::candump) return std::nullopt;
   char head[4096];
   const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(size_, sizeof head));
-  std::size_t got = 0;
-  while (got < want) {
-    const ssize_t n = ::pread(fd_, head + got, want - got, static_cast<off_t>(got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return std::nullopt;  // the blocks' reads report what went wrong
-    got += static_cast<std::size_t>(n);
-  }
+  const std::size_t got = detail::pread_full(fd_, head, want, 0);
+  if (got < want) return std::nullopt;  // the blocks' reads report what went wrong
   const std::string_view text(head, got);
   const std::size_t nl = text.find('\n');
   if (nl == std::string_view::npos && got < size_) return std::nullopt;  // a first line longer than this

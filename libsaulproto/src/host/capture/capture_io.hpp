@@ -84,6 +84,21 @@ inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n)
   out.write(reinterpret_cast<const char*>(p), static_cast<std::streamsize>(n));
 }
 
+/// Reads up to n bytes at file offset `at` into dst, retrying after short reads and EINTR; returns the count read,
+/// fewer than n at the end of the file or on a read error (its errno in *error when given, else 0 there).
+inline std::size_t pread_full(int fd, void* dst, std::size_t n, std::uint64_t at, int* error = nullptr) noexcept {
+  if (error != nullptr) *error = 0;
+  std::size_t done = 0;
+  while (done < n) {
+    const ssize_t got = ::pread(fd, static_cast<char*>(dst) + done, n - done, static_cast<off_t>(at + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0 && error != nullptr) *error = errno;
+    if (got <= 0) break;
+    done += static_cast<std::size_t>(got);
+  }
+  return done;
+}
+
 /// A window of a regular file for walking record or block headers with large reads: at(pos, n) gives the n bytes
 /// at file offset pos, nullptr past the end or on a read error. Used to cut files into blocks for several threads;
 /// the block just walked can be lent to the thread that is to read it, so that its bytes are read from the file once.
@@ -115,15 +130,7 @@ class HeaderWindow {
       if (want > size_ - to_) want = size_ - to_;
       const auto kept = static_cast<std::size_t>(to_ - from_);
       if (buf_.size() < kFront + kept + want) buf_.resize(kFront + kept + static_cast<std::size_t>(want));
-      std::uint64_t done = 0;
-      while (done < want) {
-        const ssize_t got = ::pread(fd_, buf_.data() + kFront + kept + done, static_cast<std::size_t>(want - done),
-                                    static_cast<off_t>(to_ + done));
-        if (got < 0 && errno == EINTR) continue;
-        if (got <= 0) break;
-        done += static_cast<std::uint64_t>(got);
-      }
-      to_ += done;
+      to_ += pread_full(fd_, buf_.data() + kFront + kept, static_cast<std::size_t>(want), to_);
       if (pos + n > to_) return nullptr;  // a read error, or the file shrank
     }
     return buf_.data() + kFront + (pos - from_);
