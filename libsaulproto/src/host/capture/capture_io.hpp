@@ -107,6 +107,7 @@ inline std::size_t pread_full(int fd, void* dst, std::size_t n, std::uint64_t at
 /// bytes from the window's start are kept, so that the block being walked stays whole for lend()); it never reads the
 /// same bytes twice. What follows a lent block (the next block's first bytes) is copied over to the new buffer, not
 /// read again. Without lend() the window keeps at most about two windows' bytes before it lets go of its start.
+/// A pointer at() returned is good until the next at() or lend(): either may move or replace the buffer.
 class HeaderWindow {
  public:
   /// Room kept in front of the bytes read, for a caller of lend() to put a few bytes before them (pcapng: the
