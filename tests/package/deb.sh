@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The .deb files packaging/build.sh made, checked as a bench laptop would meet them:
 #  - Depends (dpkg-shlibdeps through CPack) names only installed Debian packages, and covers every shared
-#    library saulctl and the Python module need (each NEEDED soname's package is in Depends);
+#    library saulctl and the Python module need (each NEEDED soname's package is in Depends), and saulctl needs
+#    only glibc's (its other libraries are linked in: SAUL_LEAN_LINK);
 #  - dpkg-deb -x into a temporary root: saulctl --version tells the package's version, man -l reads its page,
 #    saulctl decodes captures/robot_bus.log exactly as the golden says, the bash completion completes a verb,
 #    the Python module imports from the unpacked dist-packages, and the dev package's pkg-config file builds a
@@ -56,6 +57,11 @@ check_depends() {  # check_depends DEB ELF: Depends are Debian's packages and co
   ok "$(basename "$deb") Depends: $(dpkg-deb -f "$deb" Depends)"
 }
 check_depends "$saulctl_deb" "$root/usr/bin/saulctl"
+# saulctl links its libraries in (SAUL_LEAN_LINK) and loads only glibc's: each further shared library cost start-up
+# time that a command on a small file feels (bench/README.md).
+extra=$(readelf -d "$root/usr/bin/saulctl" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p' | grep -Evx 'libc\.so\.6|libm\.so\.6|ld-linux-x86-64\.so\.2' |
+        tr '\n' ' ' || true)
+[[ -z $extra ]] && ok "saulctl needs only glibc's libc, libm and ld.so" || fail "saulctl also needs: $extra(SAUL_LEAN_LINK)"
 check_depends "$py_deb" "$(compgen -G "$root/usr/lib/python3/dist-packages/saulproto/_saulproto*.so")"
 grep -q 'libserialport-dev' <<<"$(dpkg-deb -f "$dev_deb" Depends)" || fail "libsaulproto-dev does not depend on libserialport-dev"
 
