@@ -259,6 +259,15 @@ class BusStats {
   /// add(frame, interface, facts) of a data or remote frame at time `ns` whose content_of() is `content`, through
   /// `known`. Cost: a few additions, the lookups only when `known` is stale.
   void add_known(const Content& content, std::string_view interface, std::uint64_t ns, Known& known);
+  /// add_known() of a frame whose content (with `bits_worst` and `dlc`; `timeout_ns` its content_of()'s) is that of
+  /// the last frame counted through `known`, when `known` is good for this object: only what the frame's time
+  /// changes (first and last times, busiest window, its id's cadence) and its id's last bits and DLC. Its count and
+  /// bits follow, with those of the other frames like it, in add_repeats(). False, with nothing done, when `known` is
+  /// stale. Why: most lines of a bus repeat their id's last data, and these sums are the same for each of them.
+  bool add_known_again(std::uint64_t ns, std::uint16_t bits_worst, std::uint8_t dlc, std::uint64_t timeout_ns,
+                       const Known& known);
+  /// The count and bits of `n` frames of `content` that add_known_again() took through `known` (not yet stale).
+  void add_repeats(const Content& content, std::uint64_t n, const Known& known);
 
   [[nodiscard]] std::uint64_t frames() const { return frames_; }
   [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
