@@ -359,6 +359,38 @@ TEST_CASE("candump times read in file order with the seconds remembered equal ea
   }
 }
 
+// The fraction "dddddd) " of a candump time is checked and read in one SSE2 register (candump_fixed_fraction): every
+// byte of it drawn from digits and the bytes around their range and the ") " must read as the digits one by one do.
+TEST_CASE("a candump time's fraction read in a register equals its digits read one by one") {
+  std::mt19937_64 rng(77);
+  const std::vector<char> near = {'0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '/', ':', ')', '(', ' ', '!',
+                                  '\x7f', '\x80', '\xff', '\0', 'a'};  // digits, their neighbours, ") ", others
+  int accepted = 0;
+  for (int i = 0; i < 200000; ++i) {
+    std::string line = "(1763800000.123456) can0 300#00";
+    const int changes = static_cast<int>(rng() % 3);
+    for (int c = 0; c < changes; ++c) line[12 + rng() % 8] = near[rng() % near.size()];
+    bool want = line[18] == ')' && line[19] == ' ';
+    std::uint64_t us = 0;
+    for (std::size_t k = 12; k < 18; ++k) {
+      const auto ch = static_cast<unsigned char>(line[k]);
+      if (ch < '0' || ch > '9') want = false;
+      us = us * 10 + (ch - '0');
+    }
+    INFO(line);
+    std::uint64_t ns = 0;
+    REQUIRE(candump_fixed_fraction(line.data(), ns) == want);
+    std::uint64_t time_ns = 0;
+    REQUIRE(candump_fixed_time(line, time_ns) == want);
+    if (want) {
+      REQUIRE(ns == us * 1000);
+      REQUIRE(time_ns == 1'763'800'000'000'000'000ULL + us * 1000);
+      ++accepted;
+    }
+  }
+  CHECK(accepted > 50000);
+}
+
 TEST_CASE("candump text a word at a time: hex digits and byte search agree with reading byte by byte") {
   auto scalar_hex = [](unsigned char c) -> int {
     if (c >= '0' && c <= '9') return c - '0';

@@ -177,6 +177,22 @@ inline constexpr std::size_t kCandumpFixedTimeLength = 20;
 /// The fraction of a line of candump_fixed_time's shape, its 6 digits then ") " at line[12..19], in ns; false when
 /// it is not of that shape.
 inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept {
+#if defined(__SSE2__)
+  // The 8 bytes "dddddd) " checked and read in one register (stats reads every line's fraction: ~20 instructions
+  // where the word operations below take ~35): each byte minus what it must be ('0' for a digit) is at most 9 for a
+  // digit and 0 for ") "; then digit pairs, then pairs of pairs, by multiply-adds.
+  const __m128i v = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(line + 12));
+  const __m128i d = _mm_sub_epi8(v, _mm_setr_epi8('0', '0', '0', '0', '0', '0', ')', ' ', 0, 0, 0, 0, 0, 0, 0, 0));
+  const __m128i most = _mm_setr_epi8(9, 9, 9, 9, 9, 9, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0);
+  if ((_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, most), most)) & 0xFF) != 0xFF) return false;
+  const __m128i pairs = _mm_madd_epi16(_mm_unpacklo_epi8(d, _mm_setzero_si128()),
+                                       _mm_setr_epi16(10, 1, 10, 1, 10, 1, 0, 0));  // 32-bit: d0d1, d2d3, d4d5
+  const __m128i fours = _mm_madd_epi16(_mm_packs_epi32(pairs, pairs), _mm_setr_epi16(100, 1, 1, 0, 0, 0, 0, 0));
+  const auto high = static_cast<std::uint64_t>(_mm_cvtsi128_si32(fours));                         // d0..d3
+  const auto low = static_cast<std::uint64_t>(_mm_cvtsi128_si32(_mm_srli_si128(fours, 4)));       // d4d5
+  ns = (high * 100 + low) * 1000;
+  return true;
+#else
   if (line[18] != ')' || line[19] != ' ') return false;
   std::uint64_t fraction;
   std::memcpy(&fraction, line + 12, 8);  // 6 digits and ") ", which become "00": the fraction times 100
@@ -184,6 +200,7 @@ inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept
   if (!detail::eight_digits(fraction, fraction)) return false;
   ns = fraction * 10;
   return true;
+#endif
 }
 /// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") " (so what follows starts at line[20]), in
 /// ns; false for any other shape. Inline: stats reads it for every line.
