@@ -643,3 +643,49 @@ TEST_CASE("stats' line tables on random lines near their edges equal one thread'
     CHECK(blocks.second == one.second);
   }
 }
+
+// stats counts a line that repeats its id's last data by its time alone (BusStats::add_known_again) and adds its count
+// and bits later: times that go back, below the first of the block and of the file, and repeats across every block
+// edge must give what one pass over the parsed frames gives, and the first and last times written out by hand.
+TEST_CASE("stats of repeated lines whose times go back equal one pass over the parsed frames") {
+  std::mt19937_64 rng(4242);
+  std::string log;
+  std::uint64_t us = 1'763'800'100'000'000ULL;
+  std::uint64_t first_us = us, last_us = us;
+  for (int i = 0; i < 20000; ++i) {
+    if (rng() % 40 == 0)
+      us -= 300'000 + rng() % 50'000'000;  // back, now and then to before every time so far
+    else
+      us += 50 + rng() % 900;
+    first_us = std::min(first_us, us);
+    last_us = std::max(last_us, us);
+    const auto sec = us / 1'000'000, usec = us % 1'000'000;
+    switch (rng() % 5) {
+      case 0: log += fmt::format("({}.{:06}) can0 300#0000{:02X}00\n", sec, usec, rng() % 30 == 0 ? 0x64 : 0); break;
+      case 1: log += fmt::format("({}.{:06}) can1 300#00000000\n", sec, usec); break;  // the same id elsewhere
+      case 2: log += fmt::format("({}.{:06}) can0 300#0000\n", sec, usec); break;      // does not decode, repeated
+      default: log += fmt::format("({}.{:06}) can0 00000944#00000000000000{:02X}\n", sec, usec, rng() % 50 == 0);
+    }
+  }
+  // the earliest and the latest time of all on lines that repeat the line before them
+  for (const std::uint64_t at : {us, first_us - 1'000'000, last_us + 1'000'000}) {
+    log += fmt::format("({}.{:06}) can1 300#00000000\n", at / 1'000'000, at % 1'000'000);
+    first_us = std::min(first_us, at);
+    last_us = std::max(last_us, at);
+  }
+  TempFile file(log);
+  auto run = [&](bool ahead, std::uint64_t block) {
+    auto candump = CandumpFile::open(file.path);
+    REQUIRE(candump);
+    BusStats stats(BusStatsOptions{500'000, 20 * kMs});
+    add_candump_file(stats, candump->fd(), candump->size(), ahead, {}, {}, {}, block);
+    CHECK(stats.first_ns() == first_us * 1000);
+    CHECK(stats.last_ns() == last_us * 1000);
+    return stats.text("f") + stats.json("f").dump();
+  };
+  const std::string one = run(false, 0);
+  for (std::uint64_t block : {std::uint64_t{500}, std::uint64_t{1} << 14, std::uint64_t{1} << 30}) {
+    INFO("blocks of " << block << " bytes");
+    CHECK(run(true, block) == one);
+  }
+}

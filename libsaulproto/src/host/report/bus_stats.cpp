@@ -285,14 +285,19 @@ void BusStats::add_known(const Content& c, std::string_view interface, std::uint
 bool BusStats::add_known_again(std::uint64_t ns, std::uint16_t bits_worst, std::uint8_t dlc,
                                std::uint64_t timeout_ns, const Known& known) {
   if (known.owner != serial_) return false;
-  note_time(ns);
+  // add_known() counted a frame through `known` before, in this object: the first and last times are there
+  assert(first_ns_ && last_ns_);
+  if (ns < *first_ns_) *first_ns_ = ns;
+  if (ns > *last_ns_) *last_ns_ = ns;
   Load& load = *known.load;
   if (!block_)
     add_timed(load, ns, bits_worst);
-  else if (load.by_runs)
-    add_run(load, ns, bits_worst);
-  else
+  else if (load.by_runs) {
+    if (ns > *load.last_ns) *load.last_ns = ns;  // add_run() was there before: its last time is
+    add_to_runs(load, ns, bits_worst);
+  } else {
     load.timed.push_back({ns, bits_worst});
+  }
   IdStats& s = *known.id;
   s.cadence.add_at(ns, timeout_ns);
   s.bits_worst = bits_worst;
@@ -370,6 +375,10 @@ void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const 
   // A frame before FirstTimed::ns counts in window 0 here: append() puts window 0 in the window the blocks before
   // ended in, as add_timed() does with a frame whose window is before the current one.
   if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
+  add_to_runs(load, ns, worst);
+}
+
+void BusStats::add_to_runs(Load& load, std::uint64_t ns, std::uint64_t worst) const {
   if (ns >= load.window_end_ns || load.runs.empty()) {
     const std::uint64_t index = ns >= first_->ns ? (ns - first_->ns) / options_.window_ns : 0;
     if (load.runs.empty() || index > load.runs.back().window) {

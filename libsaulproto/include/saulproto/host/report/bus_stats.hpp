@@ -294,6 +294,8 @@ class BusStats {
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   /// The same in a block, for the FirstTimed interface (Load::runs).
   void add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const;
+  /// add_run() without the load's last time.
+  void add_to_runs(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   /// Adds the runs of a later block's FirstTimed interface (windows from `first_ns`) to the load's busiest window.
   void append_runs(Load& load, const Load& later, std::uint64_t first_ns) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
