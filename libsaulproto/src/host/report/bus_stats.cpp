@@ -840,10 +840,14 @@ class LineMemo final : public CandumpLineTaker {
     f.dlc = dlc;
     std::memcpy(f.data.data(), &data, f.data.size());  // little-endian: the first byte is the lowest
     const FrameFacts facts = facts_of(f, can_stuff_bits(head.stuff_start[dlc], f.data.data()));
-    std::size_t i = 0;  // message names are a few dozen static strings
-    while (i < names_count_ && names_[i] != facts.name) ++i;
-    if (i == names_.size()) return false;  // more names than a byte counts: cannot happen, read the usual way
-    if (i == names_count_) names_[names_count_++] = facts.name;
+    // message names are a few dozen static strings, looked for in names_ unless the head's last content had it
+    std::size_t i = head.last.name;
+    if (names_[i] != facts.name) {
+      i = 0;
+      while (i < names_count_ && names_[i] != facts.name) ++i;
+      if (i == names_.size()) return false;  // more names than a byte counts: cannot happen, read the usual way
+      if (i == names_count_) names_[names_count_++] = facts.name;
+    }
     // the slot changes only now: a refused line leaves it as it was
     std::memcpy(content.text, text, sizeof content.text);
     content.tag = tag_of(head, dlc);
