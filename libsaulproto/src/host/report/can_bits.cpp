@@ -8,10 +8,8 @@
 // CPUs with SSSE3 the data bytes' steps are composed with byte shuffles instead (can_stuff_bits_ssse3), the same
 // counts; tests check both.
 #include <array>
-#include <bit>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 
 #include "saulproto/host/report/bus_stats.hpp"
 
@@ -110,22 +108,6 @@ constexpr std::array<std::array<std::uint16_t, 256>, CanFrame::kMaxDlc> kCrcAfte
   return t;
 }();
 
-/// The data's share of the CRC register: data byte i of n adds kCrcAfter[n - 1 - i][data[i]]. The 8 bytes read with
-/// the n in the last places and zeros in front (a zero byte adds nothing) put byte k in row 7 - k whatever n is:
-/// eight independent lookups and no loop (the loop over n cost ~70 instructions a content).
-inline std::uint16_t data_crc(unsigned n, const std::uint8_t* data) noexcept {
-  std::uint64_t w = 0;  // a CanFrame's 8 bytes, data[0] the lowest
-  if constexpr (std::endian::native == std::endian::little) {
-    std::memcpy(&w, data, sizeof w);
-  } else {
-    for (unsigned i = 0; i < 8; ++i) w |= std::uint64_t{data[i]} << (8 * i);
-  }
-  w = n == 0 ? 0 : w << (8 * (8 - n));
-  std::uint16_t crc = 0;
-  for (unsigned k = 0; k < 8; ++k) crc = static_cast<std::uint16_t>(crc ^ kCrcAfter[7 - k][(w >> (8 * k)) & 0xFF]);
-  return crc;
-}
-
 /// The stuff bits of the CRC's 15 bits, the last to be stuffed, from the machine's state after the data.
 inline unsigned crc_stuff_bits(std::uint8_t state, std::uint16_t crc) noexcept {
   const Step high = kStuffTable[state][static_cast<std::uint8_t>(crc >> 7)];
@@ -213,14 +195,13 @@ CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std:
 
 namespace detail {
 
-// Not inlined: stats' line loop (flattened, in the same unity batch) calls it only on CPUs without SSSE3.
-[[gnu::noinline]] unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* data) noexcept {
+unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* data) noexcept {
   const unsigned n = start.bytes;
   std::uint16_t crc = start.crc;
   unsigned stuff = start.stuff;
   std::uint8_t state = start.state;
-  crc = static_cast<std::uint16_t>(crc ^ data_crc(n, data));
   for (unsigned i = 0; i < n; ++i) {
+    crc = static_cast<std::uint16_t>(crc ^ kCrcAfter[n - 1 - i][data[i]]);
     const Step st = kStuffTable[state][data[i]];
     state = st.state;
     stuff += st.stuff;
@@ -241,7 +222,7 @@ namespace detail {
   map_of(at(0), n0, s0), map_of(at(1), n1, s1), map_of(at(2), n2, s2), map_of(at(3), n3, s3);
   map_of(at(4), n4, s4), map_of(at(5), n5, s5), map_of(at(6), n6, s6), map_of(at(7), n7, s7);
   std::uint16_t crc = start.crc;
-  crc = static_cast<std::uint16_t>(crc ^ data_crc(n, data));
+  for (unsigned i = 0; i < n; ++i) crc = static_cast<std::uint16_t>(crc ^ kCrcAfter[n - 1 - i][data[i]]);
   // the CRC's 15 bits are two more maps: they wait for the CRC, not for the state after the data
   __m128i nh, sh, nl, sl;
   map_of(static_cast<std::uint8_t>(crc >> 7), nh, sh);

@@ -54,9 +54,8 @@ struct CanStuffStart {
   std::uint8_t bytes = 0;   ///< data bytes that follow (0 for a remote frame)
 };
 CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std::uint8_t dlc) noexcept;
-/// can_stuff_bits() of the frame whose header gave `start` and whose data is the first start.bytes of the 8 bytes at
-/// `data` (a CanFrame's data: all 8 are read): a table lookup per data byte for the CRC and one for the stuffing,
-/// then two for the CRC's bits.
+/// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`: a
+/// table lookup per data byte for the CRC and one for the stuffing, then two for the CRC's bits.
 unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept;
 namespace detail {
 /// The two ways can_stuff_bits(start, data) counts, for tests and benchmarks: a table step per data byte (any CPU),
