@@ -626,8 +626,8 @@ namespace {
 // skips the contents' table for a while. So a line costs its time, a lookup or two and a few additions; a content
 // not seen before (a changed telemetry value) also costs its stuff bits and decode. A line that repeats its head's
 // last data (70 % of a robot bus) adds only what its time changes (BusStats::add_known_again); its count and bits
-// wait in the head until the data change, the slot goes to another head or the block ends (flush, finish). A line of any other shape is
-// refused and read the usual way.
+// wait in the head until the data change, the slot goes to another head or the block ends (flush, finish). A line of
+// any other shape is refused and read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}

@@ -188,8 +188,8 @@ inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept
   const __m128i pairs = _mm_madd_epi16(_mm_unpacklo_epi8(d, _mm_setzero_si128()),
                                        _mm_setr_epi16(10, 1, 10, 1, 10, 1, 0, 0));  // 32-bit: d0d1, d2d3, d4d5
   const __m128i fours = _mm_madd_epi16(_mm_packs_epi32(pairs, pairs), _mm_setr_epi16(100, 1, 1, 0, 0, 0, 0, 0));
-  const auto high = static_cast<std::uint64_t>(_mm_cvtsi128_si32(fours));                         // d0..d3
-  const auto low = static_cast<std::uint64_t>(_mm_cvtsi128_si32(_mm_srli_si128(fours, 4)));       // d4d5
+  const auto high = static_cast<std::uint64_t>(_mm_cvtsi128_si32(fours));                    // d0d1d2d3
+  const auto low = static_cast<std::uint64_t>(_mm_cvtsi128_si32(_mm_srli_si128(fours, 4)));  // d4d5
   ns = (high * 100 + low) * 1000;
   return true;
 #else
