@@ -14,16 +14,7 @@
 namespace {
 
 using Adder = void (*)(CLI::App&, saulctl::Runner&);
-// Every verb, in the order saulctl --help lists them.
-constexpr Adder kAdders[] = {
-    saulctl::add_decode_command,  saulctl::add_convert_command, saulctl::add_stats_command,
-    saulctl::add_record_command,  saulctl::add_replay_command,  saulctl::add_plot_command,
-    saulctl::add_sniff_command,   saulctl::add_monitor_command, saulctl::add_command_commands,
-    saulctl::add_drive_command,   saulctl::add_ports_command,   saulctl::add_sim_command,
-    saulctl::add_test_command,    saulctl::add_flash_command,   saulctl::add_console_command,
-    saulctl::add_pride_command,   saulctl::add_doctor_command,  saulctl::add_completion_command,
-    saulctl::add_dbc_command,     saulctl::add_wireshark_command};
-// The verbs a command line may start with, and what adds each. completion is not among them: it walks all verbs.
+// Every verb and what adds it, in the order saulctl --help lists them (add_command_commands adds four).
 constexpr std::pair<std::string_view, Adder> kVerbs[] = {
     {"decode", saulctl::add_decode_command}, {"convert", saulctl::add_convert_command},
     {"stats", saulctl::add_stats_command},   {"record", saulctl::add_record_command},
@@ -35,6 +26,7 @@ constexpr std::pair<std::string_view, Adder> kVerbs[] = {
     {"sim", saulctl::add_sim_command},       {"test", saulctl::add_test_command},
     {"flash", saulctl::add_flash_command},   {"console", saulctl::add_console_command},
     {"pride", saulctl::add_pride_command},   {"doctor", saulctl::add_doctor_command},
+    {"completion", saulctl::add_completion_command},
     {"dbc", saulctl::add_dbc_command},       {"wireshark", saulctl::add_wireshark_command}};
 
 // Parses the command line with the verbs `only` adds (every verb when null) and runs the verb.
@@ -62,7 +54,11 @@ int run_saulctl(int argc, char** argv, Adder only) {
     if (app.get_subcommands([&](const CLI::App* s) { return s->check_name(argv[1]); }).empty())
       return run_saulctl(argc, argv, nullptr);  // kVerbs names a verb its adder does not add: build them all
   } else {
-    for (const Adder add : kAdders) add(app, run);
+    Adder last = nullptr;
+    for (const auto& [name, add] : kVerbs) {
+      if (add != last) add(app, run);  // once for the four of add_command_commands
+      last = add;
+    }
   }
 
   try {
@@ -110,7 +106,7 @@ int main(int argc, char** argv) {
   Adder only = nullptr;
   if (argc > 1) {
     for (const auto& [name, add] : kVerbs)
-      if (argv[1] == name) only = add;
+      if (argv[1] == name && name != "completion") only = add;  // completion walks every verb
   }
   return run_saulctl(argc, argv, only);
 }

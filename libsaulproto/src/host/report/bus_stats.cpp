@@ -221,6 +221,21 @@ BusStats::Content BusStats::content_of(const CanFrame& f, const FrameFacts& fact
   return c;
 }
 
+// What a timed frame of `worst` bits adds to its load's span and busiest window and to its id's cadence. Inline: every
+// timed frame stats counts goes through it (count(), add_known_again()).
+inline void BusStats::count_time(Load& load, IdStats& s, std::uint64_t ns, std::uint64_t worst,
+                                 std::uint64_t timeout_ns, bool again) {
+  if (!block_) {
+    add_timed(load, ns, worst);
+  } else if (load.by_runs) {
+    if (again && ns > *load.last_ns) *load.last_ns = ns;  // add_run() was there before: its last time is
+    add_run(load, ns, worst, !again);
+  } else {
+    load.timed.push_back({ns, worst});  // the windows are worked out by append(), in file order
+  }
+  s.cadence.add_at(ns, timeout_ns);
+}
+
 // Inline: the per-frame path of add() and add_known() (stats counts every line through one of them).
 inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, const Known& where) {
   Load& load = *where.load;
@@ -230,13 +245,7 @@ inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, cons
   load.bits_exact += c.bits_exact;
   IdStats& s = *where.id;
   if (timed) {
-    if (!block_)
-      add_timed(load, ns, c.bits_worst);
-    else if (load.by_runs)
-      add_run(load, ns, c.bits_worst);
-    else
-      load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
-    s.cadence.add_at(ns, c.timeout_ns);
+    count_time(load, s, ns, c.bits_worst, c.timeout_ns, false);
   } else {
     ++s.cadence.count;
   }
@@ -289,17 +298,8 @@ bool BusStats::add_known_again(std::uint64_t ns, std::uint16_t bits_worst, std::
   assert(first_ns_ && last_ns_);
   if (ns < *first_ns_) *first_ns_ = ns;
   if (ns > *last_ns_) *last_ns_ = ns;
-  Load& load = *known.load;
-  if (!block_)
-    add_timed(load, ns, bits_worst);
-  else if (load.by_runs) {
-    if (ns > *load.last_ns) *load.last_ns = ns;  // add_run() was there before: its last time is
-    add_to_runs(load, ns, bits_worst);
-  } else {
-    load.timed.push_back({ns, bits_worst});
-  }
   IdStats& s = *known.id;
-  s.cadence.add_at(ns, timeout_ns);
+  count_time(*known.load, s, ns, bits_worst, timeout_ns, true);
   s.bits_worst = bits_worst;
   s.dlc = dlc;
   return true;
@@ -368,17 +368,13 @@ void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) cons
   }
 }
 
-void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const {
+void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst, bool span) const {
   // add_timed()'s rule with the windows counted from FirstTimed::ns: which window the blocks before ended in is not
   // known here, so a run's window is the largest of its frames' so far in this block; append() takes the larger
   // of that and its own.
   // A frame before FirstTimed::ns counts in window 0 here: append() puts window 0 in the window the blocks before
   // ended in, as add_timed() does with a frame whose window is before the current one.
-  if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
-  add_to_runs(load, ns, worst);
-}
-
-void BusStats::add_to_runs(Load& load, std::uint64_t ns, std::uint64_t worst) const {
+  if (span && (!load.last_ns || ns > *load.last_ns)) load.last_ns = ns;
   if (ns >= load.window_end_ns || load.runs.empty()) {
     const std::uint64_t index = ns >= first_->ns ? (ns - first_->ns) / options_.window_ns : 0;
     if (load.runs.empty() || index > load.runs.back().window) {
@@ -767,30 +763,30 @@ class LineMemo final : public CandumpLineTaker {
     }
     const Content& content = head.last;
 
-    BusStats::Content known;
-    known.id = head.id;
-    known.extended = head.extended;
-    known.dlc = dlc;
-    known.reason = content.reason;
-    known.name = names_[content.name];
-    known.bits_none = head.bits_none[dlc];
-    known.bits_worst = head.bits_worst[dlc];
-    known.bits_exact = static_cast<std::uint16_t>(known.bits_none + content.stuff);
-    known.timeout_ns = head.timeout_ns;
     const std::string_view interface(reinterpret_cast<const char*>(head.key), head.interface_length);
-    stats_->add_known(known, interface, ns, head.known);
+    stats_->add_known(content_of(head, content, dlc), interface, ns, head.known);
     return true;
   }
 
+  /// What BusStats counts of a frame of `content` (with `dlc` data bytes) under `head`.
+  BusStats::Content content_of(const Head& head, const Content& content, std::uint8_t dlc) const {
+    BusStats::Content c;
+    c.id = head.id;
+    c.extended = head.extended;
+    c.dlc = dlc;
+    c.reason = content.reason;
+    c.name = names_[content.name];
+    c.bits_none = head.bits_none[dlc];
+    c.bits_worst = head.bits_worst[dlc];
+    c.bits_exact = static_cast<std::uint16_t>(c.bits_none + content.stuff);
+    c.timeout_ns = head.timeout_ns;
+    return c;
+  }
   /// The count and bits of the head's repeated lines (add_known_again()) to its stats.
   void flush(Head& head) {
     if (head.repeats == 0) return;
-    const auto dlc = static_cast<std::uint8_t>(head.last.tag & 0xFF);
-    BusStats::Content c;
-    c.bits_none = head.bits_none[dlc];
-    c.bits_worst = head.bits_worst[dlc];
-    c.bits_exact = static_cast<std::uint16_t>(c.bits_none + head.last.stuff);
-    stats_->add_repeats(c, head.repeats, head.known);
+    const auto dlc = static_cast<std::uint8_t>(head.last.tag & 0xFF);  // tag_of()
+    stats_->add_repeats(content_of(head, head.last, dlc), head.repeats, head.known);
     head.repeats = 0;
   }
 

@@ -292,9 +292,12 @@ class BusStats {
   /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   /// The same in a block, for the FirstTimed interface (Load::runs).
-  void add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const;
-  /// add_run() without the load's last time.
-  void add_to_runs(Load& load, std::uint64_t ns, std::uint64_t worst) const;
+  /// (`span`: also the load's last time; add_known_again() keeps it itself.)
+  void add_run(Load& load, std::uint64_t ns, std::uint64_t worst, bool span = true) const;
+  /// A timed frame's share of count(): the load's span and busiest window, the id's cadence; `again`: a frame counted
+  /// through the same lookups came before in this object, so the load's last time is there (add_known_again()).
+  void count_time(Load& load, IdStats& id, std::uint64_t ns, std::uint64_t worst, std::uint64_t timeout_ns,
+                  bool again);
   /// Adds the runs of a later block's FirstTimed interface (windows from `first_ns`) to the load's busiest window.
   void append_runs(Load& load, const Load& later, std::uint64_t first_ns) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
