@@ -2,6 +2,7 @@
 // small hand-made capture whose numbers are worked out by hand in the comments.
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <catch2/catch.hpp>
 
 #include <fmt/format.h>
@@ -453,8 +454,54 @@ TEST_CASE("cadences of consecutive parts appended equal one cadence over the who
     REQUIRE(first.max_gap_ns == one.max_gap_ns);
     REQUIRE(first.max_gap_start_ns == one.max_gap_start_ns);
     REQUIRE(first.gaps_over_timeout == one.gaps_over_timeout);
-    REQUIRE(first.gap_sum_ns == one.gap_sum_ns);
+    REQUIRE(first.gap_sum_ns() == one.gap_sum_ns());
+    REQUIRE(first.back_sum_ns == one.back_sum_ns);
     REQUIRE(first.gap_square_sum == one.gap_square_sum);
+  }
+}
+
+TEST_CASE("a cadence's gap sum, mean and jitter equal the gaps worked out one by one, steps back included") {
+  // Cadence sums only the steps back and gets the gaps' sum from its first and last times: checked here against
+  // every gap taken as max(0, t[i] - t[i-1]) in turn, on times that go back and forth, events without a time, and
+  // times at the ends of the 64-bit range.
+  std::mt19937_64 rng(15);
+  for (int round = 0; round < 3000; ++round) {
+    Cadence c;
+    std::optional<std::uint64_t> previous;
+    Cadence::Sum sum = 0;
+    std::uint64_t n = 0;
+    std::vector<std::uint64_t> gaps;
+    const bool extreme = round % 10 == 0;
+    std::uint64_t t = extreme ? ~std::uint64_t{0} - 5000 : 1'000'000;
+    for (std::size_t i = rng() % 30; i-- > 0;) {
+      std::optional<std::uint64_t> at;
+      switch (rng() % 8) {
+        case 0: break;  // no time
+        case 1: at = t - rng() % 3000; break;  // back
+        case 2: at = extreme ? rng() % 3 : t; break;  // far back (from near 2^64 to near 0), or the same time
+        default: t = extreme ? t + rng() % 2 : t + rng() % 1000; at = t;
+      }
+      c.add(at);
+      if (!at) continue;
+      if (previous) {
+        const std::uint64_t gap = *at >= *previous ? *at - *previous : 0;
+        sum += gap;
+        gaps.push_back(gap);
+        ++n;
+      }
+      previous = at;
+    }
+    INFO("round " << round);
+    REQUIRE(c.gaps == n);
+    REQUIRE(c.gap_sum_ns() == sum);
+    if (n == 0) continue;
+    CHECK(c.mean_gap_ns() == static_cast<double>(sum) / static_cast<double>(n));
+    if (n < 2 || extreme) continue;  // (extreme squares take jitter's long double branch: not exact)
+    long double mean = 0, spread = 0;
+    for (auto g : gaps) mean += static_cast<long double>(g);
+    mean /= static_cast<long double>(n);
+    for (auto g : gaps) spread += (static_cast<long double>(g) - mean) * (static_cast<long double>(g) - mean);
+    CHECK(c.jitter_ns() == Approx(static_cast<double>(std::sqrt(spread / static_cast<long double>(n)))).margin(1e-6));
   }
 }
 

@@ -147,7 +147,7 @@ void Cadence::append(const Cadence& later, std::uint64_t timeout_ns) {
     }
     gaps += later.gaps;
     gaps_over_timeout += later.gaps_over_timeout;
-    gap_sum_ns += later.gap_sum_ns;
+    back_sum_ns += later.back_sum_ns;
     if (__builtin_add_overflow(gap_square_sum, later.gap_square_sum, &gap_square_sum)) gap_square_sum = ~Sum{0};
   }
   if (!first_ns) first_ns = later.first_ns;
@@ -160,7 +160,7 @@ double Cadence::rate_hz() const {
 }
 
 double Cadence::mean_gap_ns() const {
-  return gaps > 0 ? static_cast<double>(gap_sum_ns) / static_cast<double>(gaps) : 0;
+  return gaps > 0 ? static_cast<double>(gap_sum_ns()) / static_cast<double>(gaps) : 0;
 }
 
 double Cadence::jitter_ns() const {
@@ -168,13 +168,14 @@ double Cadence::jitter_ns() const {
   // variance = (n * sum(g^2) - sum(g)^2) / n^2: exact in 128-bit integers for any real capture; in long double when
   // that would overflow.
   const Sum n = gaps;
+  const Sum gap_sum = gap_sum_ns();
   Sum n_squares = 0, sum_squared = 0;
   if (!__builtin_mul_overflow(n, gap_square_sum, &n_squares) &&
-      !__builtin_mul_overflow(gap_sum_ns, gap_sum_ns, &sum_squared)) {
+      !__builtin_mul_overflow(gap_sum, gap_sum, &sum_squared)) {
     const Sum spread = n_squares >= sum_squared ? n_squares - sum_squared : 0;
     return static_cast<double>(std::sqrt(static_cast<long double>(spread)) / static_cast<long double>(n));
   }
-  const long double mean = static_cast<long double>(gap_sum_ns) / static_cast<long double>(n);
+  const long double mean = static_cast<long double>(gap_sum) / static_cast<long double>(n);
   const long double variance = static_cast<long double>(gap_square_sum) / static_cast<long double>(n) - mean * mean;
   return variance > 0 ? static_cast<double>(std::sqrt(variance)) : 0;
 }

@@ -82,8 +82,14 @@ struct Cadence {
   std::uint64_t max_gap_ns = 0;      ///< the longest gap; of equal ones, the first
   std::uint64_t max_gap_start_ns = 0;  ///< when the longest gap began (the event before it)
   std::uint64_t gaps_over_timeout = 0;  ///< gaps longer than the timeout given to add()
-  Sum gap_sum_ns = 0;                ///< sum of the gaps
-  Sum gap_square_sum = 0;            ///< sum of their squares (ns^2; held at its maximum rather than wrapping)
+  Sum back_sum_ns = 0;               ///< how far the times went back, summed (such a step's gap counts as 0)
+  Sum gap_square_sum = 0;            ///< sum of the gaps' squares (ns^2; held at its maximum rather than wrapping)
+  /// The sum of the gaps. Each gap is max(0, t[i] - t[i-1]) = (t[i] - t[i-1]) + max(0, t[i-1] - t[i]): the first
+  /// terms add up to last - first, so only the steps back are summed as they come (one addition less per event on
+  /// stats' path, where it was ~4 % of the CPU).
+  [[nodiscard]] Sum gap_sum_ns() const noexcept {
+    return first_ns ? Sum{*last_ns} - Sum{*first_ns} + back_sum_ns : 0;  // >= 0: the wrap of Sum cancels
+  }
   /// One event at `ns` (or without a time): the gap from the event before counts when both have times.
   void add(std::optional<std::uint64_t> ns, std::uint64_t timeout_ns = 0) {
     if (ns)
@@ -108,14 +114,17 @@ struct Cadence {
  private:
   // Inline: stats adds every timed frame through it.
   void gap_to(std::uint64_t ns, std::uint64_t timeout_ns) {
-    const std::uint64_t gap = ns >= *last_ns ? ns - *last_ns : 0;
+    std::uint64_t gap = ns - *last_ns;
+    if (ns < *last_ns) {  // times went back: no gap (gap_sum_ns())
+      back_sum_ns += *last_ns - ns;
+      gap = 0;
+    }
     ++gaps;
     if (gap > max_gap_ns || gaps == 1) {
       max_gap_ns = gap;
       max_gap_start_ns = *last_ns;
     }
     if (timeout_ns > 0 && gap > timeout_ns) ++gaps_over_timeout;
-    gap_sum_ns += gap;
     const Sum square = Sum{gap} * gap;
     // A square reaches 2^128 only for gaps of centuries (hostile timestamps): hold the sum there, never wrap.
     if (__builtin_add_overflow(gap_square_sum, square, &gap_square_sum)) gap_square_sum = ~Sum{0};
