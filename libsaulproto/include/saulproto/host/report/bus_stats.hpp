@@ -100,8 +100,10 @@ struct Cadence {
   /// The same for an event with a time (stats' per-frame path: inline, and no std::optional passed through memory).
   void add_at(std::uint64_t ns, std::uint64_t timeout_ns = 0) {
     ++count;
-    if (last_ns) gap_to(ns, timeout_ns);
-    if (!first_ns) first_ns = ns;
+    if (last_ns)
+      gap_to(ns, timeout_ns);
+    else
+      first_ns = ns;  // the first timed event (first_ns and last_ns are set together)
     last_ns = ns;
   }
   /// The events that came right after these ones (the same timeout as their add() calls): afterwards this is
