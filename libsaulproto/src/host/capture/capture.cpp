@@ -62,7 +62,7 @@ class ReplayBuf final : public std::streambuf {
  private:
   std::streambuf& source_;
   std::string head_;
-  std::array<char, 64 * 1024> buffer_{};
+  std::array<char, 64 * 1024> buffer_;  // not zeroed (its pages are touched only when read into): see underflow()
   std::uint64_t delivered_ = 0;
 };
 
