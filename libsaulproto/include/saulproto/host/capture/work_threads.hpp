@@ -32,6 +32,8 @@ inline void start_beside(std::thread& helper, unsigned index = 0) noexcept {
     CPU_ZERO(&one);
     CPU_SET(cpu, &one);
     // The first call moves the thread to `cpu` and wakes that CPU; the second allows every CPU again, where it stays.
+    // (A helper that has already ended has no thread id left: glibc then applies both calls to the caller, whose
+    // mask ends as it was.)
     if (pthread_setaffinity_np(helper.native_handle(), sizeof one, &one) == 0)
       pthread_setaffinity_np(helper.native_handle(), sizeof allowed, &allowed);
     return;
