@@ -13,10 +13,12 @@ using saul::host::start_beside;
 
 namespace {
 
-cpu_set_t affinity_of(std::thread& t) {
+/// The thread's CPU mask; `ok` false when it could not be read (checked once the thread is joined: a REQUIRE that
+/// throws before would leave it running).
+cpu_set_t affinity_of(std::thread& t, bool& ok) {
   cpu_set_t set;
   CPU_ZERO(&set);
-  REQUIRE(pthread_getaffinity_np(t.native_handle(), sizeof set, &set) == 0);
+  ok = pthread_getaffinity_np(t.native_handle(), sizeof set, &set) == 0;
   return set;
 }
 
@@ -34,9 +36,11 @@ TEST_CASE("a helper started beside its creator may run on every CPU its creator 
       ran_on = sched_getcpu();
     });
     start_beside(helper, index);
-    const cpu_set_t after = affinity_of(helper);
+    bool read = false;
+    const cpu_set_t after = affinity_of(helper, read);
     go = true;
     helper.join();
+    REQUIRE(read);
     CHECK(CPU_EQUAL(&after, &mine));
     CHECK(ran_on.load() >= 0);
   }
@@ -55,14 +59,19 @@ TEST_CASE("start_beside leaves alone a helper whose creator may use one CPU, and
   CPU_ZERO(&one);
   CPU_SET(here, &one);
   REQUIRE(sched_setaffinity(0, sizeof one, &one) == 0);
+  struct Restore {  // whatever fails below, the tests after this one run on every CPU again
+    const cpu_set_t& mask;
+    ~Restore() { sched_setaffinity(0, sizeof mask, &mask); }
+  } restore{mine};
   std::atomic<bool> go{false};
   std::thread helper([&] {
     while (!go.load()) std::this_thread::yield();
   });
   start_beside(helper);
-  const cpu_set_t after = affinity_of(helper);
+  bool read = false;
+  const cpu_set_t after = affinity_of(helper, read);
   go = true;
   helper.join();
-  REQUIRE(sched_setaffinity(0, sizeof mine, &mine) == 0);
+  REQUIRE(read);
   CHECK(CPU_EQUAL(&after, &one));
 }
