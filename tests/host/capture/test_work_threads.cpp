@@ -13,13 +13,29 @@ using saul::host::start_beside;
 
 namespace {
 
-/// The thread's CPU mask; `ok` false when it could not be read (checked once the thread is joined: a REQUIRE that
-/// throws before would leave it running).
-cpu_set_t affinity_of(std::thread& t, bool& ok) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  ok = pthread_getaffinity_np(t.native_handle(), sizeof set, &set) == 0;
-  return set;
+/// A helper that waits to be let go, started beside this thread with start_beside(helper, index): its CPU mask
+/// right after (`read`: whether it could be read) and the CPU it ran on once let go. Joined here, so a failed check
+/// in the test cannot leave it running.
+struct Started {
+  cpu_set_t mask;
+  bool read = false;
+  int ran_on = -1;
+};
+Started start_one_beside(unsigned index) {
+  Started s;
+  CPU_ZERO(&s.mask);
+  std::atomic<bool> go{false};
+  std::atomic<int> ran_on{-1};
+  std::thread helper([&] {
+    while (!go.load()) std::this_thread::yield();
+    ran_on = sched_getcpu();
+  });
+  start_beside(helper, index);
+  s.read = pthread_getaffinity_np(helper.native_handle(), sizeof s.mask, &s.mask) == 0;
+  go = true;
+  helper.join();
+  s.ran_on = ran_on.load();
+  return s;
 }
 
 }  // namespace
@@ -29,20 +45,10 @@ TEST_CASE("a helper started beside its creator may run on every CPU its creator 
   CPU_ZERO(&mine);
   REQUIRE(sched_getaffinity(0, sizeof mine, &mine) == 0);
   for (unsigned index = 0; index < 3; ++index) {
-    std::atomic<bool> go{false};
-    std::atomic<int> ran_on{-1};
-    std::thread helper([&] {
-      while (!go.load()) std::this_thread::yield();
-      ran_on = sched_getcpu();
-    });
-    start_beside(helper, index);
-    bool read = false;
-    const cpu_set_t after = affinity_of(helper, read);
-    go = true;
-    helper.join();
-    REQUIRE(read);
-    CHECK(CPU_EQUAL(&after, &mine));
-    CHECK(ran_on.load() >= 0);
+    const Started s = start_one_beside(index);
+    REQUIRE(s.read);
+    CHECK(CPU_EQUAL(&s.mask, &mine));
+    CHECK(s.ran_on >= 0);
   }
 }
 
@@ -63,15 +69,8 @@ TEST_CASE("start_beside leaves alone a helper whose creator may use one CPU, and
     const cpu_set_t& mask;
     ~Restore() { sched_setaffinity(0, sizeof mask, &mask); }
   } restore{mine};
-  std::atomic<bool> go{false};
-  std::thread helper([&] {
-    while (!go.load()) std::this_thread::yield();
-  });
-  start_beside(helper);
-  bool read = false;
-  const cpu_set_t after = affinity_of(helper, read);
-  go = true;
-  helper.join();
-  REQUIRE(read);
-  CHECK(CPU_EQUAL(&after, &one));
+  const Started s = start_one_beside(0);
+  REQUIRE(s.read);
+  CHECK(CPU_EQUAL(&s.mask, &one));
+  CHECK(s.ran_on == here);
 }
