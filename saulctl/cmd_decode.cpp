@@ -231,10 +231,9 @@ int run_decode(const DecodeOptions& opt) {
         } else if (any.frames->format() == saul::host::CaptureFormat::candump) {
           fast_result = saul::host::decode_candump_file(path, fast, sinks);
           // A compressed log: its text cut into blocks on both cores as it inflates (whatever its size: a few MB
-          // of zstd hold 40 MB of text).
-          if (!fast_result) {
-            const auto text = saul::host::open_capture_text(path, serial_options.format);
-            if (text->compressed() && text->format() == saul::host::CaptureFormat::candump)
+          // of zstd hold 40 MB of text), taken from the file already open (a pipe is read once).
+          if (!fast_result && any.compressed && saul::host::decodes_candump_text(fast)) {
+            if (const auto text = saul::host::take_capture_text(any.frames))
               fast_result = saul::host::decode_candump_text(*text, fast, sinks);
           }
         } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {

@@ -99,12 +99,11 @@ int run_stats(const StatsOptions& opt) {
           [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also,
           kStatsBlock);
     }
-    // A compressed candump log (any size: a few MB of zstd hold 40 MB of text): its text cut into blocks as it
-    // inflates, counted on both cores.
+    // A compressed candump log (any size: a few MB of zstd hold 40 MB of text), or one from a pipe: its text cut
+    // into blocks as it comes, counted on both cores; taken from the file already open (a pipe is read once).
     bool counted = file || blocks;
     if (!counted && !opt.signals && format == CaptureFormat::candump) {
-      const auto text = open_capture_text(opt.file, format);
-      if (text->compressed()) {
+      if (const auto text = take_capture_text(opened.frames)) {
         add_capture_text(stats, *text, report_corrupt, [&](std::uint64_t records, std::uint64_t bytes) {
           progress.update_many(records, bytes, text->bytes_total());
         });

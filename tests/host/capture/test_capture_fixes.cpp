@@ -1,7 +1,8 @@
 // Bugs found with other tools' files (issue 16), one test each: candump's raw-DLC suffix, ASC's DLC 9..15 and
 // classic frames on CANFD lines (log2asc -f), pcapng Simple Packet Blocks, error frames in pcap, interface names with
 // white space, another tool's text log named .log; and content detection of the new formats, --input-format,
-// and a broken compressed file reported as a corrupt record.
+// and a broken compressed file reported as a corrupt record; a log through a pipe path (a process substitution)
+// read once, not opened again for its text.
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
@@ -9,7 +10,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "formats_test.hpp"
 #include "saulproto/host/capture/asc.hpp"
@@ -213,4 +217,88 @@ TEST_CASE("a broken compressed file ends with a corrupt record saying so") {
   REQUIRE(!got.errors.empty());
   CHECK(got.errors.back().message == "the gzip file ends before its end marker (truncated?)");
   CHECK(got.errors.back().recovery == Recovery::stop);
+}
+
+namespace {
+/// Reads `path` through a pipe opened by its /dev/fd name, as `saulctl decode <(cat path)` does: `use` gets that
+/// name while a thread writes the file's bytes into the pipe.
+template <class Use>
+void through_pipe(const std::string& path, Use&& use) {
+  int fds[2];
+  REQUIRE(::pipe(fds) == 0);
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::thread writer([&] {
+    for (std::size_t at = 0; at < bytes.size();) {
+      const ssize_t n = ::write(fds[1], bytes.data() + at, bytes.size() - at);
+      if (n <= 0) break;
+      at += static_cast<std::size_t>(n);
+    }
+    ::close(fds[1]);
+  });
+  use("/dev/fd/" + std::to_string(fds[0]));
+  ::close(fds[0]);  // a writer still blocked (the test read less) then fails and ends
+  writer.join();
+}
+std::string all_text(CaptureText& text) {
+  std::string got;
+  char buf[1000];  // small reads: the replayed head and the rest in many pieces
+  for (std::size_t n; (n = text.read(buf, sizeof buf)) > 0;) got.append(buf, n);
+  return got;
+}
+}  // namespace
+
+TEST_CASE("a candump log through a pipe path is read once: take_capture_text gives all of it, compressed or not") {
+  // decode and stats once opened the path again for the text, after the first look at it had taken its first bytes:
+  // a process substitution lost 8 KiB of lines, and a compressed one could not be read at all
+  TempDir dir("fixes");
+  std::string plain;
+  for (int i = 0; i < 2000; ++i)  // ~70 KB: far more than the first look reads
+    plain += fmt::format("(1700000000.{:06}) can0 300#{:08X}\n", i, i * 7919U);
+  const auto log = dir.write("run.log", plain);
+  const auto gz = (dir.path / "run.log.gz").string();
+  {
+    auto w = open_capture_writer(gz, CaptureFormat::candump);  // the same lines, gzipped
+    auto r = open_capture_reader(log);
+    copy_frames(*r, *w, {});
+    w->close();
+  }
+  for (const auto& path : {log, gz}) {
+    INFO(path);
+    through_pipe(path, [&](const std::string& name) {
+      OpenedCapture opened = open_capture(name);
+      CHECK(opened.compressed == (path == gz));
+      REQUIRE(opened.frames);
+      const auto text = take_capture_text(opened.frames);
+      REQUIRE(text);
+      CHECK(!opened.frames);  // given up for the text
+      CHECK(text->compressed() == (path == gz));
+      CHECK(all_text(*text) == plain);
+    });
+  }
+  SECTION("a reader something has read from is kept, and reads on") {
+    through_pipe(log, [&](const std::string& name) {
+      OpenedCapture opened = open_capture(name);
+      REQUIRE(opened.frames->next() == CaptureReader::Status::frame);
+      CHECK(take_capture_text(opened.frames) == nullptr);
+      REQUIRE(opened.frames);
+      CHECK(read_all(*opened.frames).frames.size() == 1999);
+    });
+  }
+  SECTION("a capture that is not candump text keeps its reader") {
+    const auto pcap = (dir.path / "run.pcap").string();
+    {
+      auto w = open_capture_writer(pcap);
+      auto r = open_capture_reader(log);
+      copy_frames(*r, *w, {});
+      w->close();
+    }
+    OpenedCapture opened = open_capture(pcap);
+    CHECK(take_capture_text(opened.frames) == nullptr);
+    REQUIRE(opened.frames);
+    CHECK(read_all(*opened.frames).frames.size() == 2000);
+  }
 }

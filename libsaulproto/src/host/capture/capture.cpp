@@ -100,9 +100,17 @@ class FileReader final : public CaptureReader {
       : source_(std::move(source)), inner_(std::move(inner)) {}
 
   Status next() override {
+    started_ = true;
     const Status st = inner_->next();
     own_error_ = st == Status::end && source_->take_error(error_);
     return own_error_ ? Status::corrupt : st;
+  }
+  /// The file, for take_capture_text(): only before the first next() (the format reader may buffer what it read).
+  /// This reader is not to be used afterwards.
+  std::unique_ptr<FileSource> release_source() {
+    if (started_) return nullptr;
+    inner_.reset();  // it refers to the source's stream
+    return std::move(source_);
   }
   [[nodiscard]] const CanFrame& frame() const override { return inner_->frame(); }
   [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
@@ -116,6 +124,7 @@ class FileReader final : public CaptureReader {
   std::unique_ptr<CaptureReader> inner_;
   CaptureError error_;
   bool own_error_ = false;
+  bool started_ = false;
 };
 
 /// A serial reader that owns its file.
@@ -641,6 +650,15 @@ std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::opt
   return std::make_unique<FileText>(std::move(source), *format);
 }
 
+std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& reader) {
+  auto* const file = dynamic_cast<FileReader*>(reader.get());  // only a reader these functions made owns its file
+  if (file == nullptr || file->format() != CaptureFormat::candump) return nullptr;
+  auto source = file->release_source();
+  if (!source) return nullptr;
+  reader.reset();
+  return std::make_unique<FileText>(std::move(source), CaptureFormat::candump);
+}
+
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
                                                                 const SerialReadOptions& options,
                                                                 std::optional<CaptureFormat> format) {
@@ -658,6 +676,7 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
   auto source = open_source(path, format);
   OpenedCapture opened;
   opened.format = *format;
+  opened.compressed = source->inflater != nullptr;
   if (holds_serial_bytes(*format)) {
     auto inner = make_serial_capture_reader(source->stream, *format, options);
     opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));

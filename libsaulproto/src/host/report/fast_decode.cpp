@@ -198,9 +198,13 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
 
 }  // namespace
 
+bool decodes_candump_text(const CandumpDecodeOptions& options) noexcept {
+  return options.threads >= 2 && options.time == TimeMode::absolute;
+}
+
 std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const CandumpDecodeOptions& options,
                                                        const CandumpDecodeSinks& sinks) {
-  if (options.threads < 2 || options.time != TimeMode::absolute) return std::nullopt;
+  if (!decodes_candump_text(options)) return std::nullopt;
   CaptureTextBlocks blocks(text, options.block);
   CandumpDecodeResult result = in_blocks(options, sinks, std::nullopt, [&](std::size_t k, Worker& w, Piece& piece) {
     if (!blocks.take(k, w.text, piece.bytes)) return false;

@@ -170,7 +170,14 @@ class CaptureText {
   [[nodiscard]] virtual bool compressed() const = 0;
 };
 /// Opens a file as open_capture_reader does (the same checks and errors, `format` forced when given), for its bytes.
+/// It opens the path again: for a file already opened (open_capture) that may be a pipe, take_capture_text().
 std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format = std::nullopt);
+/// The content of a candump capture that open_capture() or open_capture_reader() opened, as text from that same
+/// open file, for the callers that cut it into blocks (decode_candump_text, add_capture_text). A pipe or a process
+/// substitution can be read only once: opening its path again would find the bytes the first look took gone (and a
+/// compressed one unreadable). `reader` is given up for the text; nullptr (and `reader` kept) when it is not such a
+/// reader, not candump, or something has read from it already.
+std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& reader);
 /// What the first bytes of a file that is no capture look like, for the message that refuses it: "binary data of
 /// no format saulctl knows, starting 28 B1 ...", "candump's default output, ... record with 'candump -L ...'",
 /// "a BusMaster log", "a text file whose first line is '...'". open_capture_reader's refusals name it too.

@@ -163,6 +163,7 @@ struct OpenedCapture {
   CaptureFormat format = CaptureFormat::candump;
   std::unique_ptr<CaptureReader> frames;        ///< CAN formats
   std::unique_ptr<SerialCaptureReader> chunks;  ///< serial formats
+  bool compressed = false;                      ///< gzip or zstd (`format` is what it holds)
 };
 /// Opens any capture file (CAN or serial) with one look at its first bytes, so pipes work. Throws
 /// CaptureOpenError as open_capture_reader does.

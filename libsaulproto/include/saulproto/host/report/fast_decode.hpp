@@ -68,7 +68,10 @@ std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, c
 CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const CandumpDecodeOptions& options,
                                   const CandumpDecodeSinks& sinks);
 
-/// Candump text from a stream (a compressed log, open_capture_text) on options.threads threads: the text is cut
+/// Whether decode_candump_text() decodes with these options (else it returns nullopt and the frames are read one by
+/// one): ask before take_capture_text() gives the reader up for the text.
+bool decodes_candump_text(const CandumpDecodeOptions& options) noexcept;
+/// Candump text from a stream (a compressed log, take_capture_text) on options.threads threads: the text is cut
 /// into blocks of whole lines as it is read (one thread at a time, in order; a line longer than kMaxCandumpLine is
 /// cut short there and reported as too long, as decode_candump does, so no block holds it), each block decoded by
 /// whichever thread read it, the output in text order, and a decompression error at the end as CaptureReader
