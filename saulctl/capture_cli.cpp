@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 
 namespace saulctl {
 
@@ -39,6 +40,19 @@ void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
   cmd->add_option("--samplerate", options.samplerate,
                   "logic-analyser exports with sample numbers: the capture's sample rate (10M, 1MHz, 1000000), "
                   "to turn samples into time");
+}
+
+bool refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads) {
+  std::error_code error;
+  const auto status = std::filesystem::status(saul::host::capture_open_name(file), error);  // "-": standard input
+  if (error || !std::filesystem::exists(status) || std::filesystem::is_regular_file(status) ||
+      std::filesystem::is_directory(status))
+    return false;
+  fmt::print(stderr,
+             "saulctl {}: {}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; "
+             "save it to a file first (... > run.log)\n",
+             verb, file, verb, reads);
+  return true;
 }
 
 std::uint64_t parse_rate_hz(const std::string& text) {

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -34,6 +35,11 @@ void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options);
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options);
 /// The protocol for links whose capture names none, when --protocol was given.
 std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options);
+/// For a verb that reads its capture more than once (replay: what it will send, then each pass; plot: the time
+/// range and panels, then the points): prints why a file that can be read only once (a pipe, a process
+/// substitution, "-" on a pipe) will not do and returns true. A file that does not exist or a directory is left to
+/// open_capture() to name.
+bool refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads);
 /// "10M", "10MHz", "200k", "1000000", "1e6" -> Hz. Throws CLI::ValidationError.
 std::uint64_t parse_rate_hz(const std::string& text);
 

@@ -63,7 +63,7 @@ int run_convert(const ConvertOptions& opt) {
   progress.finish();
   writer->close();
   if (stats.frames == 0 && stats.corrupt > 0) {  // as decode: nothing could be read is a failure, not an empty file
-    std::remove(opt.out.c_str());
+    if (opt.out != "-") std::remove(opt.out.c_str());
     fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt records); {} not written\n", opt.in,
                stats.corrupt, opt.out);
     return kFailure;
@@ -92,10 +92,12 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "  saulctl convert run.pcap run.asc                       for CANalyzer/CANoe or python-can\n"
       "  saulctl convert canoe.blf run.log.zst                  a BLF as a compressed candump log\n"
       "  saulctl convert run.log run.csv --format gvret-csv     for SavvyCAN\n"
-      "  saulctl convert vector.asc run.log && canplayer -I run.log\n");
-  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too)")
+      "  saulctl convert vector.asc run.log && canplayer -I run.log\n"
+      "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
+      "                                                         '-': standard input, standard output\n");
+  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too; - = stdin)")
       ->required();
-  cmd->add_option("OUT", opt->out, "file to write (replaced if it exists)")->required();
+  cmd->add_option("OUT", opt->out, "file to write (replaced if it exists; - = stdout, with --format)")->required();
   cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv or gvret-csv")
       ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv"}));
   add_input_format_option(cmd, opt->input_format);

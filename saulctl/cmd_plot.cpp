@@ -51,6 +51,8 @@ std::string output_format(const PlotOptions& opt) {
 int run_plot(const PlotOptions& opt) {
   using namespace saul::host;
   const std::string format = output_format(opt);
+  if (refuse_read_once("plot", opt.file, "once for the time range and panels and again for the points"))
+    return kUsage;
   std::string output = opt.output;
   if (output.empty()) {
     std::string base = base_name(opt.file);
@@ -131,7 +133,7 @@ int run_plot(const PlotOptions& opt) {
 void add_plot_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<PlotOptions>();
   auto* cmd = app.add_subcommand("plot", "Plot a capture's telemetry over time, state and fault changes marked");
-  cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
+  cmd->add_option("FILE", opt->file, "capture file (any format decode reads; - = standard input)")->required();
   cmd->add_option("-o,--output", opt->output,
                   "run.html, run.svg, run.png, run.pdf or run.csv (by the extension), - for stdout; default: FILE's "
                   "name with the format's extension");

@@ -5,7 +5,6 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
-#include <filesystem>
 #include <iostream>
 #include <optional>
 
@@ -233,18 +232,8 @@ int run_replay(const ReplayCliOptions& opt) {
     options.max_gap_ns = static_cast<std::uint64_t>(parse_duration(opt.max_gap).count()) * 1'000'000ULL;
   if (opt.yes && opt.no_motion) throw CLI::ValidationError("--no-motion", "give --yes (--allow-motion) or --no-motion, not both");
 
-  // Replay reads the capture more than once (what it would send, told before anything is; then each pass), so a
-  // pipe or a process substitution, which can be read once, would replay nothing: refused before it is touched.
-  std::error_code file_error;
-  const auto file_status = std::filesystem::status(opt.file, file_error);
-  if (!file_error && std::filesystem::exists(file_status) && !std::filesystem::is_regular_file(file_status) &&
-      !std::filesystem::is_directory(file_status)) {  // (open_capture names a directory itself)
-    fmt::print(stderr,
-               "saulctl replay: {}: not a regular file (a pipe?): replay reads the capture once to show what it will "
-               "send and again for each pass; save it to a file first (e.g. ... > run.log)\n",
-               opt.file);
-    return kUsage;
-  }
+  // Replay reads the capture more than once, so a pipe would replay nothing: refused before it is touched.
+  if (refuse_read_once("replay", opt.file, "once to show what it will send and again for each pass")) return kUsage;
   OpenedCapture opened;
   try {
     opened = open_capture(opt.file, serial_read_options(opt.serial));

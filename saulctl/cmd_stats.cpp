@@ -170,8 +170,9 @@ void add_stats_command(CLI::App& app, Runner& run) {
       "  saulctl stats captures/robot_bus.log\n"
       "  saulctl stats --json run.pcapng | jq '.ids[] | select(.id_hex == \"300\") | .max_gap_s'\n"
       "  saulctl stats captures/interboard_uart.serial\n"
-      "  saulctl stats --signals --json run.log | jq '.signals[] | select(.signal == \"pitch\")'\n");
-  cmd->add_option("FILE", opt->file, "capture file (any format decode reads)")->required();
+      "  saulctl stats --signals --json run.log | jq '.signals[] | select(.signal == \"pitch\")'\n"
+      "  ssh robot cat run.log.zst | saulctl stats -              standard input, compressed or not\n");
+  cmd->add_option("FILE", opt->file, "capture file (any format decode reads; - = standard input)")->required();
   cmd->add_flag("--json", opt->json, "one JSON object instead of the text report");
   cmd->add_flag("--signals", opt->signals, "also count, mean, min and max of every signal, in physical units");
   cmd->add_option("--bitrate", opt->bitrate, "CAN bit rate for the load (500k, 1M, 250000)")->capture_default_str();

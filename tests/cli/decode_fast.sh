@@ -106,6 +106,29 @@ cat "$out/bus.log" >"$out/fifo" &
 "$saulctl" decode "$out/fifo" >"$out/fifo.text" 2>/dev/null
 wait
 check "a named pipe: decode gives the file's bytes" cmp -s "$out/file.text" "$out/fifo.text"
+# '-' is standard input for every verb that reads a capture (decode's own '-' above), and standard output for
+# convert's OUT (with --format; BLF still seeks back to its header when that is a file).
+for packed in "$out/bus.log" "$out/bus.log.gz"; do
+  "$saulctl" stats --json - <"$packed" 2>/dev/null | sed -E 's|"file":"[^"]*"|"file":"NAME"|' >"$out/stdin.stats"
+  check "stats - (${packed##*/} redirected): the file's report" cmp -s "$out/file.stats" "$out/stdin.stats"
+  cat "$packed" | "$saulctl" stats --json - 2>/dev/null | sed -E 's|"file":"[^"]*"|"file":"NAME"|' >"$out/stdin.stats"
+  check "stats - (${packed##*/} through a pipe): the file's report" cmp -s "$out/file.stats" "$out/stdin.stats"
+done
+cat "$out/bus.log" | "$saulctl" convert - - --format pcap 2>/dev/null >"$out/stdout.pcap"
+check "convert - - --format pcap: the bytes of convert to a file" cmp -s "$out/bus.pcap" "$out/stdout.pcap"
+"$saulctl" convert "$out/bus.log" "$out/file.blf" 2>/dev/null
+"$saulctl" convert "$out/bus.log" - --format blf 2>/dev/null >"$out/stdout.blf"
+check "convert to - --format blf redirected to a file: the bytes of convert to a file" \
+  cmp -s "$out/file.blf" "$out/stdout.blf"
+( cd "$out" && "$saulctl" convert bus.log - >/dev/null 2>"$out/convert.err" )
+check "convert to - without --format: exit 1" test $? -eq 1
+check "convert to - without --format: says to give it, and writes no file called -" \
+  bash -c "grep -q 'give the format' '$out/convert.err' && ! test -e '$out/-'"
+"$saulctl" plot - -o "$out/stdin.csv" <"$out/bus.log" 2>/dev/null
+check "plot - from a redirected file: writes the plot" test -s "$out/stdin.csv"
+"$saulctl" plot <(cat "$out/bus.log") -o "$out/piped.csv" >/dev/null 2>"$out/plot.err"
+check "plot of a pipe path: refused as usage (exit 2), nothing written" \
+  bash -c "test $? -eq 2 && ! test -e '$out/piped.csv' && grep -q 'save it to a file' '$out/plot.err'"
 "$saulctl" replay <(cat "$out/bus.log") --link slcan:/dev/null >/dev/null 2>"$out/replay.err"
 check "replay of a pipe path: refused as usage (exit 2), nothing opened" test $? -eq 2
 check "replay of a pipe path: says to save it to a file" grep -q "not a regular file (a pipe?).*save it to a file" \

@@ -13,6 +13,7 @@
 #include <system_error>
 
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/read_ahead.hpp"
 
@@ -338,7 +339,7 @@ std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std:
 }
 
 std::unique_ptr<CandumpFile> CandumpFile::open(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  const int fd = ::open(capture_open_name(path), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return nullptr;
   std::unique_ptr<CandumpFile> file(new CandumpFile(fd, 0));
   struct stat st {};

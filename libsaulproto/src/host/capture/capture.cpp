@@ -1,6 +1,7 @@
 #include "saulproto/host/capture/capture.hpp"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -290,11 +291,12 @@ bool has_candump_line(std::string_view head) {
 /// file is opened through a decompressor and its content decides.
 std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<CaptureFormat>& format) {
   auto source = std::make_unique<FileSource>();
+  const char* const name = capture_open_name(path);  // "-": standard input
   std::error_code dir_ec;
-  if (std::filesystem::is_directory(path, dir_ec))
+  if (std::filesystem::is_directory(name, dir_ec))
     throw CaptureOpenError(fmt::format("{}: is a directory, not a capture file (name the files in it, e.g. {}/*.log)",
                                        path, path));
-  if (!source->file.open(path, std::ios::in | std::ios::binary))
+  if (!source->file.open(name, std::ios::in | std::ios::binary))
     throw CaptureOpenError(fmt::format("cannot open '{}': {} (check the path)", path, std::strerror(errno)));
   std::string head = read_head(source->file);
   const Compression compression = detect_compression(head_bytes(head));
@@ -328,8 +330,8 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   source->replay = std::make_unique<ReplayBuf>(*content, std::move(head));
   source->stream.rdbuf(source->replay.get());
   std::error_code ec;
-  if (std::filesystem::is_regular_file(path, ec)) {
-    const auto size = std::filesystem::file_size(path, ec);
+  if (std::filesystem::is_regular_file(name, ec)) {
+    const auto size = std::filesystem::file_size(name, ec);
     if (!ec) source->size = size;
   }
   return source;
@@ -693,11 +695,20 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
 
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
   const Compression compression = compression_from_extension(path);
-  if (!format) format = capture_format_from_extension(strip_compression_extension(path));
+  const bool to_stdout = path == "-";
+  if (!format && !to_stdout) format = capture_format_from_extension(strip_compression_extension(path));
+  if (!format && to_stdout)
+    throw CaptureOpenError("cannot tell which format to write to standard output ('-'): give the format "
+                           "(--format pcap, candump, ...)");
   if (!format)
     throw CaptureOpenError(fmt::format("cannot tell which format to write to '{}': name it .log, .pcap, .pcapng, "
                                        ".asc, .blf, .trc or .csv (+ .gz or .zst to compress), or give the format",
                                        path));
+  if (to_stdout && ::isatty(STDOUT_FILENO) &&
+      (*format == CaptureFormat::pcap || *format == CaptureFormat::pcapng || *format == CaptureFormat::blf))
+    throw CaptureOpenError(fmt::format("standard output is a terminal and {} is binary: redirect it (> run.{}) or "
+                                       "pipe it (| wireshark -k -i -)",
+                                       to_string(*format), to_string(*format)));
   if (holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
                                        to_string(*format)));
@@ -707,7 +718,11 @@ std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std:
   auto buffer = std::make_unique<char[]>(kBuffer);
   auto file = std::make_unique<std::ofstream>();
   file->rdbuf()->pubsetbuf(buffer.get(), kBuffer);
-  file->open(path, std::ios::out | std::ios::binary | std::ios::trunc);
+  // Standard output is opened again by its name (/dev/stdout), so it is appended to: a pipe does not mind, and
+  // "convert ... - >> all.log" keeps what was there. Not for BLF, which seeks back to its header at the end: in
+  // append mode that header would be written at the end instead (a pipe cannot seek, and BLF then leaves it).
+  const bool append = to_stdout && *format != CaptureFormat::blf;
+  file->open(capture_write_name(path), std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc));
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
   return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression);
 }

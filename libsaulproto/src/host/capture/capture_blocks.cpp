@@ -10,6 +10,7 @@
 #include <span>
 #include <system_error>
 
+#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
@@ -107,7 +108,7 @@ std::size_t CaptureBlocks::count() const {
 }
 
 std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  const int fd = ::open(capture_open_name(path), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return nullptr;
   struct stat st {};
   std::uint8_t head[4096];

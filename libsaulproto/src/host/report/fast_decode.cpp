@@ -271,7 +271,7 @@ namespace {
 struct RegularFile {
   int fd = -1;
   std::uint64_t size = 0;
-  explicit RegularFile(const std::string& path) : fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+  explicit RegularFile(const std::string& path) : fd(::open(capture_open_name(path), O_RDONLY | O_CLOEXEC)) {
     struct stat st {};
     if (fd >= 0 && (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))) {
       ::close(fd);

@@ -143,8 +143,19 @@ class CaptureWriter {
   [[nodiscard]] virtual CaptureFormat format() const = 0;
 };
 
-/// Opens a capture file for reading. A gzip or zstd file is decompressed on the fly (told by content, whatever its
-/// name). The format is `format` when given, else detected from the (decompressed) content
+/// The name a capture path is opened by: "-" is standard input ("/dev/stdin"; a file called "-" is "./-"), any
+/// other path itself. Every function here that opens a path for reading goes through it, so every verb reads
+/// `-` as decode does.
+inline const char* capture_open_name(const std::string& path) noexcept {
+  return path == "-" ? "/dev/stdin" : path.c_str();
+}
+/// The name a capture path is written to: "-" is standard output ("/dev/stdout"), any other path itself.
+inline const char* capture_write_name(const std::string& path) noexcept {
+  return path == "-" ? "/dev/stdout" : path.c_str();
+}
+
+/// Opens a capture file for reading ("-": standard input). A gzip or zstd file is decompressed on the fly (told by
+/// content, whatever its name). The format is `format` when given, else detected from the (decompressed) content
 /// (detect_capture_format), else from the extension (without .gz/.zst). Throws CaptureOpenError when the file
 /// cannot be opened, its format cannot be told, or its header is not usable, or it holds serial bytes (see
 /// open_capture), or the extension says candump but no line of its first 4 KiB is one (another tool's text log).
