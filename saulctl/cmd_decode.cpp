@@ -62,34 +62,26 @@ class WatchedLines : public std::streambuf {
   std::string first_other_;
 };
 
-std::string time_text(const std::string& mode, std::uint64_t ns, std::optional<std::uint64_t>& first,
-                      std::optional<std::uint64_t>& previous) {
-  if (!first) first = ns;
-  std::uint64_t shown = ns;
-  if (mode == "rel") shown = ns - *first;
-  if (mode == "delta") shown = previous ? ns - *previous : 0;
-  previous = ns;
-  const std::uint64_t sec = shown / 1'000'000'000ULL;
-  const std::uint64_t usec = (shown % 1'000'000'000ULL) / 1000;
-  if (mode == "abs") return fmt::format("({:010}.{:06})", sec, usec);
-  return fmt::format("({:4}.{:06})", sec, usec);
-}
-
 using saul::host::csv_quote;
+
+saul::host::TimeMode time_mode(const std::string& time) {
+  using saul::host::TimeMode;
+  return time == "rel" ? TimeMode::relative : time == "delta" ? TimeMode::delta : TimeMode::absolute;
+}
 
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
                             saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt,
                             std::uint64_t& records, Progress& progress) {
   using namespace saul::host;
-  std::optional<std::uint64_t> first, previous;
+  TimeColumn time_column(time_mode(opt.time));
   std::uint64_t messages = 0;
   std::uint64_t untimed = 0;
   SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
   const SerialCaptureDecoder::Callback print = [&](const SerialChunk& chunk, SerialProtocol protocol,
                                                    const SerialMessage& m) {
     ++messages;
-    const std::string stamp = time_text(opt.time, chunk.timestamp_ns.value_or(0), first, previous);
+    const std::string stamp = time_column(chunk.timestamp_ns.value_or(0));
     const std::string bare = stamp.substr(1, stamp.size() - 2);
     if (format == "jsonl") {
       nlohmann::json j;
@@ -158,7 +150,7 @@ int run_decode(const DecodeOptions& opt) {
   using saul::host::TimeMode;
   saul::host::CandumpDecodeOptions fast;
   fast.format = format == "jsonl" ? DecodeFormat::jsonl : format == "csv" ? DecodeFormat::csv : DecodeFormat::text;
-  fast.time = opt.time == "rel" ? TimeMode::relative : opt.time == "delta" ? TimeMode::delta : TimeMode::absolute;
+  fast.time = time_mode(opt.time);
   if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
   // Tests force the two-thread path on small files (tests/cli/decode_fast.sh).
   if (const char* from = std::getenv("SAUL_DECODE_PARALLEL_FROM")) fast.parallel_from = std::strtoull(from, nullptr, 10);
@@ -271,7 +263,7 @@ int run_decode(const DecodeOptions& opt) {
     saul::host::FrameEmitter emitter(fast.format, fast.time);
     saul::host::DecodeCounts counts;
     fmt::memory_buffer out;
-    std::optional<std::uint64_t> first, previous;  // the long CSV's times
+    saul::host::TimeColumn time_column(fast.time);  // the long CSV's times
     for (;;) {
       const auto st = reader.next();
       if (st == saul::host::CaptureReader::Status::end) break;
@@ -287,7 +279,7 @@ int run_decode(const DecodeOptions& opt) {
       if (format == "long") {
         const auto result = saul::decode_bus_frame(f);
         counts.count(result);
-        const std::string stamp = time_text(opt.time, f.timestamp_ns.value_or(0), first, previous);
+        const std::string stamp = time_column(f.timestamp_ns.value_or(0));
         fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
                                                    f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
                                                    result ? saul::host::signal_values(result.value())
@@ -365,7 +357,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
   add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
                 "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
-  cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous)")
+  cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous); negative where the log's times go back")
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();
   add_id_option(cmd, opt->ids, "only these CAN ids");

@@ -45,19 +45,22 @@ using namespace saul::host;
 
 namespace {
 
-/// decode's time column, written out again here: "({:010}.{:06})" absolute, "({:4}.{:06})" otherwise, differences
-/// in unsigned arithmetic.
+/// decode's time column, written out again here: "({:010}.{:06})" absolute, "({:>4}.{:06})" otherwise, where a
+/// time before the first (relative) or the previous one (delta) is negative: in signed 128-bit arithmetic here.
 struct Clock {
   TimeMode mode;
   std::optional<std::uint64_t> first, previous;
   std::string operator()(std::uint64_t ns) {
     if (!first) first = ns;
-    std::uint64_t shown = ns;
-    if (mode == TimeMode::relative) shown = ns - *first;
-    if (mode == TimeMode::delta) shown = previous ? ns - *previous : 0;
+    __extension__ typedef __int128 Wide;
+    Wide shown = ns;
+    if (mode == TimeMode::relative) shown = Wide{ns} - Wide{*first};
+    if (mode == TimeMode::delta) shown = previous ? Wide{ns} - Wide{*previous} : 0;
     previous = ns;
-    if (mode == TimeMode::absolute) return fmt::format("({:010}.{:06})", shown / 1'000'000'000ULL, (shown % 1'000'000'000ULL) / 1000);
-    return fmt::format("({:4}.{:06})", shown / 1'000'000'000ULL, (shown % 1'000'000'000ULL) / 1000);
+    const auto magnitude = static_cast<std::uint64_t>(shown < 0 ? -shown : shown);
+    if (mode == TimeMode::absolute) return fmt::format("({:010}.{:06})", magnitude / 1'000'000'000ULL, (magnitude % 1'000'000'000ULL) / 1000);
+    const std::string sec = (shown < 0 ? "-" : "") + std::to_string(magnitude / 1'000'000'000ULL);
+    return fmt::format("({:>4}.{:06})", sec, (magnitude % 1'000'000'000ULL) / 1000);
   }
 };
 
@@ -110,7 +113,7 @@ std::vector<CanFrame> random_frames(std::mt19937_64& rng, std::size_t n) {
     }
     if (!f.remote)
       for (std::size_t i = 0; i < f.dlc; ++i) f.data[i] = static_cast<std::uint8_t>(rng());
-    // mostly forward, now and then back in time (delta and rel then wrap, as decode always did)
+    // mostly forward, now and then back in time (delta and rel are negative then)
     if (rng() % 50 == 0) {
       ns -= rng() % 5'000'000'000ULL;
     } else {
@@ -243,6 +246,30 @@ TEST_CASE("fast emitter for sniff: error frames say what they report, other line
       CHECK(!std::getline(a, la));
       CHECK(error_frames > 100);
       CHECK(counts.errors == error_frames);
+    }
+  }
+}
+
+TEST_CASE("a time before the first or the previous frame's is negative, written out by hand") {
+  // a log whose times went back (a merge, a clock step): rel and delta once wrapped to "(18446744073.659551)"
+  const std::uint64_t t0 = 1'700'000'000'100'000'000ULL;
+  const std::uint64_t stamps[] = {t0, t0 - 50'000'000, t0 + 100'000'000, t0 - 2'000'000'000};
+  const std::vector<std::string> rel = {"(   0.000000)", "(  -0.050000)", "(   0.100000)", "(  -2.000000)"};
+  const std::vector<std::string> delta = {"(   0.000000)", "(  -0.050000)", "(   0.150000)", "(  -2.100000)"};
+  for (auto mode : {TimeMode::relative, TimeMode::delta}) {
+    const auto& want = mode == TimeMode::relative ? rel : delta;
+    TimeColumn column(mode);
+    FrameEmitter emitter(DecodeFormat::text, mode);
+    fmt::memory_buffer out;
+    DecodeCounts counts;
+    for (std::size_t i = 0; i < 4; ++i) {
+      CHECK(column(stamps[i]) == want[i]);
+      CanFrame f;
+      f.id = 0x7FF;
+      f.timestamp_ns = stamps[i];
+      out.clear();
+      emitter.add(f, "can0", out, counts);
+      CHECK(std::string(out.data(), out.size()).substr(0, want[i].size()) == want[i]);
     }
   }
 }

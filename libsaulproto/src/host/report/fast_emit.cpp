@@ -206,20 +206,34 @@ void FrameEmitter::time_column(std::uint64_t ns, fmt::memory_buffer& out, bool p
 }
 
 char* FrameEmitter::time_chars(std::uint64_t ns, char* w, bool parens) {
-  // As decode always wrote it: differences in unsigned arithmetic, "({:010}.{:06})" or "({:4}.{:06})".
+  // "({:010}.{:06})" absolute, "({:>4}.{:06})" relative or delta, as TimeColumn writes it: a time before the first
+  // frame's (relative) or the previous one's (delta: the log's times went back) is negative, "(  -0.050000)".
   if (!first_) first_ = ns;
   std::uint64_t shown = ns;
-  if (time_ == TimeMode::relative) shown = ns - *first_;
-  if (time_ == TimeMode::delta) shown = previous_ ? ns - *previous_ : 0;
+  bool negative = false;
+  if (time_ != TimeMode::absolute) {
+    const std::uint64_t from = time_ == TimeMode::relative ? *first_ : previous_.value_or(ns);
+    negative = ns < from;
+    shown = negative ? from - ns : ns - from;
+  }
   previous_ = ns;
   const std::uint64_t sec = shown / 1'000'000'000ULL;
   auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
-  if (!seconds_valid_ || sec != seconds_) {  // the seconds and the dot: the same for thousands of frames
+  if (!seconds_valid_ || sec != seconds_ || negative != seconds_negative_) {  // the same for thousands of frames
     fmt::memory_buffer s;
-    put_padded(s, sec, time_ == TimeMode::absolute ? 10 : 4, time_ == TimeMode::absolute ? '0' : ' ');
+    if (time_ == TimeMode::absolute) {
+      put_padded(s, sec, 10, '0');
+    } else {
+      fmt::memory_buffer digits;
+      if (negative) digits.push_back('-');
+      put_padded(digits, sec, 0, ' ');
+      for (std::size_t i = digits.size(); i < 4; ++i) s.push_back(' ');
+      s.append(digits.data(), digits.data() + digits.size());
+    }
     s.push_back('.');
     seconds_text_.assign(s.data(), s.size());
     seconds_ = sec;
+    seconds_negative_ = negative;
     seconds_valid_ = true;
   }
   if (parens) *w++ = '(';

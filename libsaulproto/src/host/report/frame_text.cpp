@@ -44,14 +44,17 @@ std::string describe_error_frame(const CanFrame& f) {
 
 std::string TimeColumn::operator()(std::uint64_t ns) {
   if (!first_) first_ = ns;
-  std::uint64_t shown = ns;
-  if (mode_ == TimeMode::relative) shown = ns >= *first_ ? ns - *first_ : 0;
-  if (mode_ == TimeMode::delta) shown = previous_ && ns >= *previous_ ? ns - *previous_ : 0;
+  if (mode_ == TimeMode::absolute) {
+    previous_ = ns;
+    return fmt::format("({:010}.{:06})", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
+  }
+  // since the first stamp or the previous one; a stamp before it (times that went back) is negative
+  const std::uint64_t from = mode_ == TimeMode::relative ? *first_ : previous_.value_or(ns);
   previous_ = ns;
-  const std::uint64_t sec = shown / 1'000'000'000ULL;
-  const std::uint64_t usec = (shown % 1'000'000'000ULL) / 1000;
-  if (mode_ == TimeMode::absolute) return fmt::format("({:010}.{:06})", sec, usec);
-  return fmt::format("({:4}.{:06})", sec, usec);
+  const bool negative = ns < from;
+  const std::uint64_t shown = negative ? from - ns : ns - from;
+  return fmt::format("({:>4}.{:06})", fmt::format("{}{}", negative ? "-" : "", shown / 1'000'000'000ULL),
+                     (shown % 1'000'000'000ULL) / 1000);
 }
 
 std::string describe_frame(const CanFrame& frame) {

@@ -111,7 +111,7 @@ class FrameEmitter {
   void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
   /// time_column's text written at `w` (room for kTimeColumnMax characters); returns its end.
   char* time_chars(std::uint64_t ns, char* w, bool parens);
-  static constexpr std::size_t kTimeColumnMax = 30;  // "(" 20 digits "." 6 digits ")"
+  static constexpr std::size_t kTimeColumnMax = 30;  // "(" "-" 20 digits "." 6 digits ")"
   /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
   char* stamp_chars(std::uint64_t ns, char* w);
   const Entry& rendered(const CanFrame& frame);
@@ -124,6 +124,7 @@ class FrameEmitter {
   std::optional<std::uint64_t> first_, previous_;
   bool seconds_valid_ = false;
   std::uint64_t seconds_ = 0;
+  bool seconds_negative_ = false;
   std::string seconds_text_;
   bool stamp_valid_ = false;
   std::uint64_t stamp_seconds_ = 0;

@@ -15,6 +15,8 @@ namespace saul::host {
 enum class TimeMode { absolute, relative, delta };
 
 /// Turns frame timestamps into the "(sec.usec)" column for a TimeMode; remembers the first and previous stamp.
+/// Relative and delta times of a stamp before the first or the previous one (a log whose times went back) are
+/// negative: "(  -0.050000)".
 class TimeColumn {
  public:
   explicit TimeColumn(TimeMode mode) : mode_(mode) {}
