@@ -95,7 +95,8 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "  saulctl convert vector.asc run.log && canplayer -I run.log\n"
       "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
       "                                                         '-': standard input, standard output\n");
-  cmd->add_option("IN", opt->in, "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too; - = stdin)")
+  cmd->add_option("IN", opt->in,
+                  "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too; - = stdin)")
       ->required();
   cmd->add_option("OUT", opt->out, "file to write (replaced if it exists; - = stdout, with --format)")->required();
   cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv or gvret-csv")

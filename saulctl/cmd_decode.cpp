@@ -357,7 +357,9 @@ void add_decode_command(CLI::App& app, Runner& run) {
   add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
                 "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
-  cmd->add_option("-t,--time", opt->time, "abs (as logged), rel (since first frame), delta (since previous); negative where the log's times go back")
+  cmd->add_option("-t,--time", opt->time,
+                  "abs (as logged), rel (since first frame), delta (since previous); negative where the log's times "
+                  "go back")
       ->check(CLI::IsMember({"abs", "rel", "delta"}))
       ->capture_default_str();
   add_id_option(cmd, opt->ids, "only these CAN ids");

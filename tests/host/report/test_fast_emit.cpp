@@ -58,7 +58,8 @@ struct Clock {
     if (mode == TimeMode::delta) shown = previous ? Wide{ns} - Wide{*previous} : 0;
     previous = ns;
     const auto magnitude = static_cast<std::uint64_t>(shown < 0 ? -shown : shown);
-    if (mode == TimeMode::absolute) return fmt::format("({:010}.{:06})", magnitude / 1'000'000'000ULL, (magnitude % 1'000'000'000ULL) / 1000);
+    if (mode == TimeMode::absolute)
+      return fmt::format("({:010}.{:06})", magnitude / 1'000'000'000ULL, (magnitude % 1'000'000'000ULL) / 1000);
     const std::string sec = (shown < 0 ? "-" : "") + std::to_string(magnitude / 1'000'000'000ULL);
     return fmt::format("({:>4}.{:06})", sec, (magnitude % 1'000'000'000ULL) / 1000);
   }
