@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "capture_cli.hpp"
@@ -56,12 +57,22 @@ int run_convert(const ConvertOptions& opt) {
   }
   Progress progress("convert", false);
   ProgressReader shown(*reader, progress);
-  const CopyStats stats = copy_frames(shown, *writer, [&opt, &progress](const CaptureError& error) {
-    progress.finish();  // the message gets its own line
-    fmt::print(stderr, "saulctl convert: {}\n", format_capture_error(opt.in, error));
-  });
+  CopyStats stats;
+  try {
+    stats = copy_frames(shown, *writer, [&opt, &progress](const CaptureError& error) {
+      progress.finish();  // the message gets its own line
+      fmt::print(stderr, "saulctl convert: {}\n", format_capture_error(opt.in, error));
+    });
+    writer->close();
+  } catch (const std::invalid_argument& e) {  // a frame the output format cannot hold (more interfaces than it numbers)
+    progress.finish();
+    writer.reset();
+    if (opt.out != "-") std::remove(opt.out.c_str());  // half a file is no capture
+    fmt::print(stderr, "saulctl convert: cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds any number)\n",
+               opt.in, opt.out, e.what(), opt.out);
+    return kFailure;
+  }
   progress.finish();
-  writer->close();
   if (stats.frames == 0 && stats.corrupt > 0) {  // as decode: nothing could be read is a failure, not an empty file
     if (opt.out != "-") std::remove(opt.out.c_str());
     fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt records); {} not written\n", opt.in,

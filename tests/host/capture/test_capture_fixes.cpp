@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <random>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -19,8 +20,10 @@
 #include "saulproto/host/capture/asc.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 #include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/capture/trc.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
 using namespace saul;
@@ -301,4 +304,53 @@ TEST_CASE("a candump log through a pipe path is read once: take_capture_text giv
     REQUIRE(opened.frames);
     CHECK(read_all(*opened.frames).frames.size() == 2000);
   }
+}
+
+TEST_CASE("InterfaceIndex numbers names as a walk through the names seen does, and holds at most max") {
+  // the writers and copy_frames() walked their names for every frame: a log of a million names took 20 minutes
+  std::mt19937 rng(1128);
+  std::vector<std::string> walked;  // the oracle: numbers by a walk
+  InterfaceIndex index;
+  for (int i = 0; i < 20000; ++i) {
+    // runs of one name, names coming back, and now and then a new one
+    const std::string name = rng() % 8 == 0 ? fmt::format("can{}", rng() % 3000) : fmt::format("vcan{}", rng() % 4);
+    std::size_t n = 0;
+    while (n < walked.size() && walked[n] != name) ++n;
+    const bool fits = n < walked.size() || walked.size() < 1000;
+    if (n == walked.size() && fits) walked.push_back(name);
+    const auto got = index.find_or_add(name, 1000);
+    REQUIRE(got.has_value() == fits);
+    if (fits) REQUIRE(*got == n);
+  }
+  CHECK(index.names() == walked);
+  CHECK(walked.size() == 1000);  // the cap was reached, and names beyond it were refused, not added
+}
+
+TEST_CASE("a log of more interfaces than a format numbers is refused by its writer; copy_frames lists the first") {
+  std::string text;
+  for (int i = 0; i < 1100; ++i) text += fmt::format("(1700000000.{:06}) if{} 300#00\n", i, i);
+  std::istringstream in(text);
+  CandumpReader reader(in);
+  std::ostringstream out;
+  AscWriter asc(out);
+  CHECK_THROWS_WITH(copy_frames(reader, asc, {}), "ASC: more than 255 interfaces, the channels the format numbers");
+
+  std::istringstream again(text);
+  CandumpReader reader2(again);
+  std::ostringstream csv;
+  auto writer = make_capture_writer(csv, CaptureFormat::trc);  // TRC numbers buses too: 255
+  CHECK_THROWS_AS(copy_frames(reader2, *writer, {}), std::invalid_argument);
+
+  std::istringstream third(text);
+  CandumpReader reader3(third);
+  std::ostringstream log;
+  CandumpWriter candump(log);
+  const CopyStats stats = copy_frames(reader3, candump, {});
+  CHECK(stats.frames == 1100);
+  CHECK(stats.interfaces.size() == CopyStats::kListed);
+  CHECK(stats.interfaces.front() == "if0");
+  CHECK(stats.more_interfaces);
+  const auto notes = conversion_losses(stats, CaptureFormat::asc);
+  REQUIRE(notes.size() == 1);
+  CHECK(notes[0].ends_with(", and those of the interfaces after the first 1024"));
 }

@@ -20,6 +20,7 @@
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/csv_log.hpp"
 #include "saulproto/host/capture/gvret_csv.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 #include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -730,6 +731,7 @@ std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std:
 CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt) {
   CopyStats stats;
+  InterfaceIndex seen;
   const CaptureTraits traits = capture_traits(out.format());
   for (;;) {
     const auto status = in.next();
@@ -748,11 +750,10 @@ CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
       ++stats.left_out;
       continue;
     }
-    bool known = false;
-    for (const auto& seen : stats.interfaces) known = known || seen == name;
-    if (!known) stats.interfaces.emplace_back(name);
+    if (!seen.find_or_add(name, CopyStats::kListed)) stats.more_interfaces = true;
     out.write(frame, name);
   }
+  stats.interfaces = seen.names();
   return stats;
 }
 
@@ -766,6 +767,7 @@ std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat
       if (stats.interfaces[i] != back)
         renamed += fmt::format("{}{} reads back as {}", renamed.empty() ? "" : ", ", stats.interfaces[i], back);
     }
+    if (stats.more_interfaces) renamed += fmt::format(", and those of the interfaces after the first {}", CopyStats::kListed);
     if (!renamed.empty())
       notes.push_back(fmt::format("{} keeps no interface names: {}", to_string(format), renamed));
   }

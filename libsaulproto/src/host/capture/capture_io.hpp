@@ -19,6 +19,8 @@
 #include <string_view>
 #include <vector>
 
+#include "saulproto/host/capture/interface_index.hpp"
+
 namespace saul::host::detail {
 
 /// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR with 8 zero bytes, as
@@ -29,16 +31,14 @@ inline constexpr std::string_view kFdUnsupported = "CAN FD frame: the robot's bu
 
 /// The number of `interface` among the interfaces a writer has seen, in order of first appearance (0-based);
 /// a new one is added. Throws std::invalid_argument when there would be more than `max` (the format's limit).
-inline std::size_t channel_index(std::vector<std::string>& seen, std::string_view interface, std::size_t max,
+inline std::size_t channel_index(InterfaceIndex& seen, std::string_view interface, std::size_t max,
                                  std::string_view format) {
   if (interface.empty()) interface = "can0";
-  std::size_t index = 0;
-  while (index < seen.size() && seen[index] != interface) ++index;
-  if (index == seen.size()) {
-    if (seen.size() == max) throw std::invalid_argument(std::string(format) + ": more interfaces than the format numbers");
-    seen.emplace_back(interface);
-  }
-  return index;
+  const auto index = seen.find_or_add(interface, max);
+  if (!index)
+    throw std::invalid_argument(std::string(format) + ": more than " + std::to_string(max) +
+                                " interfaces, the channels the format numbers");
+  return *index;
 }
 
 /// Flushes a writer's stream; throws std::runtime_error("<format>: write failed") when the stream has failed.

@@ -505,9 +505,13 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
   check_writable(frame);
   if (interface.empty()) interface = "can0";
   if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
-  std::size_t id = 0;
-  while (id < interfaces_.size() && interfaces_[id] != interface) ++id;
-  if (id == interfaces_.size()) {  // first frame of this interface: describe it
+  const std::size_t known = interfaces_.size();
+  const auto found = interfaces_.find_or_add(interface, kMaxWrittenInterfaces);
+  if (!found)
+    throw std::invalid_argument(fmt::format("pcapng: more than {} interfaces (is the log's interface column noise?)",
+                                            kMaxWrittenInterfaces));
+  const std::size_t id = *found;
+  if (interfaces_.size() > known) {  // first frame of this interface: describe it
     BlockBuilder b(kIdb);
     b.u16(static_cast<std::uint16_t>(kLinktypeCanSocketcan));
     b.u16(0);
@@ -517,7 +521,6 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
     b.option(kIfTsresol, nanoseconds);
     b.option(kOptEnd, {});
     b.finish_and_write(out_);
-    interfaces_.emplace_back(interface);
   }
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   const auto packet = encode_socketcan_packet(frame);

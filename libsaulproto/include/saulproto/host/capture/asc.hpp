@@ -41,6 +41,7 @@
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host {
 
@@ -107,7 +108,7 @@ class AscWriter final : public CaptureWriter {
   std::uint64_t start_ns_ = 0;
   bool header_written_ = false;
   bool closed_ = false;
-  std::vector<std::string> channels_;  ///< index + 1 = ASC channel
+  InterfaceIndex channels_;  ///< index + 1 = ASC channel
 };
 
 }  // namespace saul::host

@@ -39,6 +39,7 @@
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host {
 
@@ -120,7 +121,7 @@ class BlfWriter final : public CaptureWriter {
   void write_header(std::uint64_t file_size);
   void write_container();
   std::ostream& out_;
-  std::vector<std::string> channels_;
+  InterfaceIndex channels_;
   std::vector<std::uint8_t> buffer_;  // uncompressed objects not yet in a container
   std::optional<std::uint64_t> start_ns_;
   std::uint64_t stop_ns_ = 0;

@@ -212,12 +212,14 @@ struct CopyStats {
   std::uint64_t error_frames = 0;
   std::uint64_t remote_frames = 0;
   std::uint64_t left_out = 0;  ///< frames the output format cannot hold (CaptureTraits), not written
-  std::vector<std::string> interfaces;  ///< distinct names, in order of first appearance
+  std::vector<std::string> interfaces;  ///< distinct names, in order of first appearance (the first kListed)
+  bool more_interfaces = false;          ///< there were more than kListed
+  static constexpr std::size_t kListed = 1024;
 };
 
 /// Copies every frame of `in` to `out` (out is not closed). Corrupt records are passed to on_corrupt (may be
 /// empty) and skipped; remote and error frames that out's format cannot hold are left out and counted. Cost
-/// O(frames); memory O(distinct interfaces).
+/// O(frames); memory O(CopyStats::kListed) of its own.
 CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt);
 

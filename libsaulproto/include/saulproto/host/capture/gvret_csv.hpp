@@ -20,6 +20,7 @@
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host {
 
@@ -57,7 +58,7 @@ class GvretCsvWriter final : public CaptureWriter {
 
  private:
   std::ostream& out_;
-  std::vector<std::string> buses_;
+  InterfaceIndex buses_;
   bool closed_ = false;
 };
 

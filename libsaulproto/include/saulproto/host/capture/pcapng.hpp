@@ -22,6 +22,7 @@
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host {
 
@@ -108,10 +109,13 @@ class PcapngWriter final : public CaptureWriter {
   void flush() override;
   void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
+  /// write() of a frame on yet another interface beyond this many throws std::invalid_argument (each is a block
+  /// of its own in the file and a name held here: a log whose interface column is noise must not grow without end).
+  static constexpr std::size_t kMaxWrittenInterfaces = 65536;
 
  private:
   std::ostream& out_;
-  std::vector<std::string> interfaces_;  ///< index = pcapng interface id
+  InterfaceIndex interfaces_;  ///< index = pcapng interface id
   bool closed_ = false;
 };
 

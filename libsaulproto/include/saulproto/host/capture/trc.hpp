@@ -35,6 +35,7 @@
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host {
 
@@ -90,7 +91,7 @@ class TrcWriter final : public CaptureWriter {
  private:
   void header(std::uint64_t first_ns);
   std::ostream& out_;
-  std::vector<std::string> buses_;
+  InterfaceIndex buses_;
   std::uint64_t start_ns_ = 0;
   std::uint64_t number_ = 0;
   bool header_written_ = false;
