@@ -319,8 +319,14 @@ void BusStats::add_repeats(const Content& c, std::uint64_t n, const Known& known
 BusStats::Load& BusStats::load_of(std::string_view interface) {
   if (last_load_ == nullptr || interface != last_interface_) {
     auto it = interfaces_.find(interface);
+    if (it == interfaces_.end() && !block_ && interfaces_.size() >= kMaxInterfaces) {
+      last_interface_.assign(interface);  // beyond the listed ones: counted, not listed
+      last_load_ = unlisted_load_.get();
+      return *last_load_;
+    }
     if (it == interfaces_.end()) {
       it = interfaces_.emplace(std::string(interface), Load{}).first;
+      if (block_) interface_order_.emplace_back(interface);
       if (first_ && interface == first_->interface) {
         it->second.by_runs = true;
         it->second.window_end_ns = first_->ns;  // a frame there or later opens a run
@@ -337,9 +343,28 @@ BusStats::Load& BusStats::load_of(std::string_view interface) {
 
 BusStats::IdStats& BusStats::id_of(const IdKey& id) {
   IdSlot& slot = id_slots_[(id.second ^ (id.second >> 6) ^ (id.first ? 0x2A : 0)) % id_slots_.size()];
-  if (slot.stats == nullptr || slot.key != id) slot = {id, &ids_[id]};
+  if (slot.stats == nullptr || slot.key != id) slot = {id, &listed_or_not(id)};
   return *slot.stats;
 }
+
+// A capture lists the ids that came first (kMaxIds, and 0x300 always); block statistics list all theirs.
+bool BusStats::lists_new_id(const IdKey& id) const {
+  return block_ || ids_.size() < kMaxIds || id == IdKey{false, saulcan::kVelocityCmdId};
+}
+
+BusStats::IdStats& BusStats::listed_or_not(const IdKey& id) {
+  const auto it = ids_.find(id);
+  if (it != ids_.end()) return it->second;
+  if (!lists_new_id(id)) return *unlisted_id_;
+  if (block_) id_order_.push_back(id);
+  return ids_[id];
+}
+
+BusStats::Unlisted BusStats::unlisted_ids() const {
+  return {unlisted_id_->cadence.count, unlisted_id_->remote, unlisted_id_->decode_errors};
+}
+
+BusStats::Unlisted BusStats::unlisted_interfaces() const { return {unlisted_load_->frames, 0, 0}; }
 
 std::uint64_t BusStats::next_serial() {
   static std::atomic<std::uint64_t> serials{0};
@@ -440,9 +465,17 @@ void BusStats::append(const BusStats& later) {
   if (later.last_ns_ && (!last_ns_ || *later.last_ns_ > *last_ns_)) last_ns_ = later.last_ns_;
   for (const auto& [kind, count] : later.error_kinds_) error_kinds_[kind] += count;
   for (const auto& [reason, count] : later.failures_) failures_[reason] += count;
-  for (const auto& [name, from] : later.interfaces_) {
+  for (const std::string& name : later.interface_order_) {  // in file order: the first ones are listed
+    const Load& from = later.interfaces_.find(name)->second;
     auto it = interfaces_.find(name);
-    if (it == interfaces_.end()) it = interfaces_.emplace(name, Load{}).first;
+    if (it == interfaces_.end() && !block_ && interfaces_.size() >= kMaxInterfaces) {
+      unlisted_load_->frames += from.frames;  // beyond the listed ones: their frames counted, no load line
+      continue;
+    }
+    if (it == interfaces_.end()) {
+      it = interfaces_.emplace(name, Load{}).first;
+      if (block_) interface_order_.push_back(name);
+    }
     Load& load = it->second;
     load.frames += from.frames;
     load.bits_none += from.bits_none;
@@ -469,12 +502,19 @@ void BusStats::append(const BusStats& later) {
       for (const Load::Timed& t : from.timed) add_timed(load, t.ns, t.bits);
     }
   }
-  for (const auto& [key, from] : later.ids_) {
-    auto [it, added] = ids_.try_emplace(key);
-    if (added)
-      it->second = from;
-    else
+  unlisted_load_->frames += later.unlisted_load_->frames;  // (a block lists all, so these are 0 there)
+  append_id(*unlisted_id_, *later.unlisted_id_, 0);
+  for (const IdKey& key : later.id_order_) {  // in file order: the first ones are listed
+    const IdStats& from = later.ids_.find(key)->second;
+    const auto it = ids_.find(key);
+    if (it != ids_.end()) {
       append_id(it->second, from, timeout_of(key));
+    } else if (lists_new_id(key)) {
+      ids_.emplace(key, from);
+      if (block_) id_order_.push_back(key);
+    } else {
+      append_id(*unlisted_id_, from, 0);
+    }
   }
 }
 
@@ -513,6 +553,10 @@ std::string BusStats::text(std::string_view name) const {
         load_percent(load, StuffBits::none), static_cast<double>(options_.window_ns) / 1e6,
         peak_percent(load), seconds(load.peak_index * options_.window_ns));
   }
+  if (const Unlisted other = unlisted_interfaces(); other.frames > 0)
+    out += fmt::format("{} frames on interfaces beyond the first {} (not listed, no load worked out): more "
+                       "interfaces than a bench has; is the log's interface column noise?\n",
+                       other.frames, kMaxInterfaces);
   out += fmt::format("error frames: {}", error_frames_);
   if (!error_kinds_.empty()) {
     std::string kinds;
@@ -552,6 +596,10 @@ std::string BusStats::text(std::string_view name) const {
                        c.gaps ? duration_text(static_cast<double>(c.max_gap_ns)) : "-", from,
                        c.gaps > 1 ? duration_text(c.jitter_ns()) : "-", s.bits_worst, s.decode_errors);
   }
+  if (const Unlisted other = unlisted_ids(); other.frames > 0)
+    out += fmt::format("... and {} frames ({} remote, {} decode errors) of ids beyond the first {} (not listed): "
+                       "more ids than a bus has; noise, or a capture at the wrong bit rate?\n",
+                       other.frames, other.remote, other.decode_errors, kMaxIds);
   return out;
 }
 
@@ -585,6 +633,8 @@ nlohmann::json BusStats::json(std::string_view name) const {
                     {"peak_at_s", seconds(load.peak_index * options_.window_ns)}};
   }
   j["load"] = loads;
+  if (const Unlisted other = unlisted_interfaces(); other.frames > 0)
+    j["interfaces_not_listed"] = {{"frames", other.frames}, {"listed_at_most", kMaxInterfaces}};
   nlohmann::json ids = nlohmann::json::array();
   for (const auto& [key, s] : ids_) {
     const Cadence& c = s.cadence;
@@ -610,6 +660,11 @@ nlohmann::json BusStats::json(std::string_view name) const {
     ids.push_back(std::move(e));
   }
   j["ids"] = std::move(ids);
+  if (const Unlisted other = unlisted_ids(); other.frames > 0)
+    j["ids_not_listed"] = {{"frames", other.frames},
+                           {"remote", other.remote},
+                           {"decode_errors", other.decode_errors},
+                           {"listed_at_most", kMaxIds}};
   return j;
 }
 

@@ -280,6 +280,22 @@ class BusStats {
   /// The count and bits of `n` frames of `content` that add_known_again() took through `known` (not yet stale).
   void add_repeats(const Content& content, std::uint64_t n, const Known& known);
 
+  /// A capture's report lists at most this many ids and interfaces, the first in file order (and 0x300 always):
+  /// a bus has a few dozen ids on one or two interfaces, and a log whose id or interface column is noise (a wrong
+  /// bit rate, a corrupt or hostile file) must not take memory without end (2 M distinct ids took 0.9 GB, 3.4 GB for
+  /// --json). The frames of the others are counted in unlisted_ids() / unlisted_interfaces(), and everywhere else.
+  /// Block statistics list all theirs (their memory is bounded by the block); append() applies the limits.
+  static constexpr std::size_t kMaxIds = 4096;
+  static constexpr std::size_t kMaxInterfaces = 256;
+  /// The frames of the ids, or interfaces, beyond the listed ones.
+  struct Unlisted {
+    std::uint64_t frames = 0;
+    std::uint64_t remote = 0;         ///< ids only
+    std::uint64_t decode_errors = 0;  ///< ids only
+  };
+  [[nodiscard]] Unlisted unlisted_ids() const;
+  [[nodiscard]] Unlisted unlisted_interfaces() const;
+
   [[nodiscard]] std::uint64_t frames() const { return frames_; }
   [[nodiscard]] std::uint64_t corrupt() const { return corrupt_; }
   [[nodiscard]] std::uint64_t error_frames() const { return error_frames_; }
@@ -314,8 +330,11 @@ class BusStats {
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
   /// The interface's load, made when new (the last one looked up is remembered).
   Load& load_of(std::string_view interface);
-  /// The id's statistics, made when new (a small direct-mapped table of the ids looked up).
+  /// The id's statistics, made when new (a small direct-mapped table of the ids looked up); *unlisted_id_ for a new
+  /// id beyond kMaxIds.
   IdStats& id_of(const IdKey& id);
+  IdStats& listed_or_not(const IdKey& id);
+  [[nodiscard]] bool lists_new_id(const IdKey& id) const;
   static std::uint64_t next_serial();
   /// The first and last times.
   void note_time(std::uint64_t ns);
@@ -337,6 +356,13 @@ class BusStats {
   std::optional<std::uint64_t> last_ns_;
   std::map<IdKey, IdStats> ids_;
   std::map<std::string, Load, std::less<>> interfaces_;
+  // block statistics: ids and interfaces in the order they came first (append() lists a later block's in file order)
+  std::vector<IdKey> id_order_;
+  std::vector<std::string> interface_order_;
+  // the frames of ids and interfaces beyond kMaxIds / kMaxInterfaces (not a block's), counted as any other
+  // (pointers to them are kept, so they do not move with this object)
+  std::unique_ptr<IdStats> unlisted_id_ = std::make_unique<IdStats>();
+  std::unique_ptr<Load> unlisted_load_ = std::make_unique<Load>();
   std::map<std::string, std::uint64_t> failures_;     // decode failure reason -> count
   std::map<std::string, std::uint64_t> error_kinds_;  // error frame description -> count
   FrameFactsCache facts_;
