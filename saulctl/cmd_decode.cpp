@@ -126,6 +126,10 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
   for (const auto& link : decoder.links())
     fmt::print(stderr, "saulctl decode: {}: {} ({}{}): {}\n", path, link.name, to_string(link.protocol),
                link.guessed ? ", guessed from the bytes" : "", link.counters_text);
+  if (const auto& other = decoder.unlisted(); other.chunks > 0)
+    fmt::print(stderr, "saulctl decode: {}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the "
+                       "capture's link column noise?)\n",
+               path, other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
   return messages;
 }
 

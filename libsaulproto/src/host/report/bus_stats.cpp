@@ -1073,6 +1073,10 @@ void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
 
 void SerialStats::add(const SerialChunk& chunk) {
   auto it = links_.find(chunk.link);
+  if (it == links_.end() && links_.size() >= SerialCaptureDecoder::kMaxLinks) {
+    decoder_.add(chunk, {});  // counts it among the links it does not decode (the same first ones as here)
+    return;
+  }
   if (it == links_.end()) {
     it = links_.emplace(chunk.link, Link{}).first;
     baud_from_link(chunk.link, it->second.baud, it->second.bits_per_byte);
@@ -1124,6 +1128,10 @@ std::string SerialStats::text(std::string_view name) const {
                          m.gaps ? duration_text(m.mean_gap_ns()) : "-",
                          m.gaps ? duration_text(static_cast<double>(m.max_gap_ns)) : "-");
   }
+  if (const auto& other = decoder_.unlisted(); other.chunks > 0)
+    out += fmt::format("\n{} chunks ({} bytes) on links beyond the first {}: not decoded (more links than a bench "
+                       "has; is the capture's link column noise?)\n",
+                       other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
   return out;
 }
 
@@ -1159,6 +1167,9 @@ nlohmann::json SerialStats::json(std::string_view name) const {
     links.push_back(std::move(l));
   }
   j["links"] = std::move(links);
+  if (const auto& other = decoder_.unlisted(); other.chunks > 0)
+    j["links_not_listed"] = {
+        {"chunks", other.chunks}, {"bytes", other.bytes}, {"listed_at_most", SerialCaptureDecoder::kMaxLinks}};
   return j;
 }
 

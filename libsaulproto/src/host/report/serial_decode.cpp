@@ -384,6 +384,11 @@ void SerialCaptureDecoder::add(const SerialChunk& chunk, const Callback& on_mess
   State* state = nullptr;
   for (auto& s : states_)
     if (s.name == chunk.link) state = &s;
+  if (!state && states_.size() >= kMaxLinks) {  // beyond the links decoded: counted only
+    ++unlisted_.chunks;
+    unlisted_.bytes += chunk.bytes.size();
+    return;
+  }
   if (!state) {
     states_.push_back(State{});
     state = &states_.back();

@@ -150,6 +150,15 @@ class SerialCaptureDecoder {
   };
   /// Every link, in order of first appearance.
   [[nodiscard]] std::vector<Link> links() const;
+  /// Links decoded at most: a bench has a few, and a capture whose link column is noise (a corrupt or hostile file)
+  /// must not take a decoder's memory per name (300 000 names took 1 GB and 344 s, a linear search per chunk). The
+  /// chunks of the links after the first kMaxLinks are counted in unlisted(), not decoded.
+  static constexpr std::size_t kMaxLinks = 64;
+  struct Unlisted {
+    std::uint64_t chunks = 0;
+    std::uint64_t bytes = 0;
+  };
+  [[nodiscard]] const Unlisted& unlisted() const { return unlisted_; }
 
  private:
   struct State {
@@ -169,7 +178,8 @@ class SerialCaptureDecoder {
   void feed(State& state, const SerialChunk& chunk, const Callback& on_message);
   std::optional<SerialProtocol> fallback_;
   std::size_t guess_bytes_;
-  std::vector<State> states_;  // few links: a linear search is fine
+  std::vector<State> states_;  // at most kMaxLinks: a linear search is fine
+  Unlisted unlisted_;
 };
 
 // ---- fields of any message, as numbers (saulctl plot) ---------------------------------------------------------
