@@ -354,3 +354,40 @@ TEST_CASE("a log of more interfaces than a format numbers is refused by its writ
   REQUIRE(notes.size() == 1);
   CHECK(notes[0].ends_with(", and those of the interfaces after the first 1024"));
 }
+
+TEST_CASE("pcapng: a section declares at most kPcapngMaxInterfaces interfaces; the reader refuses more") {
+  // each is a name held while reading: a file of millions of declarations must not take memory without end
+  std::string f;
+  le32(f, 0x0A0D0D0A);  // SHB
+  le32(f, 28);
+  le32(f, 0x1A2B3C4D);
+  f += std::string("\x01\x00\x00\x00", 4);
+  f += std::string(8, '\xFF');
+  le32(f, 28);
+  for (std::size_t i = 0; i <= kPcapngMaxInterfaces; ++i) {  // one more than read: IDBs of linktype 227, no name
+    le32(f, 1);
+    le32(f, 20);
+    le32(f, 227);
+    le32(f, 0);
+    le32(f, 20);
+  }
+  const std::string packet("\x00\x00\x03\x00\x02\x00\x00\x00\x11\x22\x00\x00\x00\x00\x00\x00", 16);
+  for (std::uint32_t id : {static_cast<std::uint32_t>(kPcapngMaxInterfaces),
+                           static_cast<std::uint32_t>(kPcapngMaxInterfaces - 1)}) {
+    le32(f, 6);  // EPB on the refused interface, then on the last one read
+    le32(f, 48);
+    le32(f, id);
+    le32(f, 0);
+    le32(f, 1000);
+    le32(f, 16);
+    le32(f, 16);
+    f += packet;
+    le32(f, 48);
+  }
+  const Read r = read(f, CaptureFormat::pcapng);
+  REQUIRE(r.frames.size() == 1);
+  CHECK(r.names[0] == fmt::format("can{}", kPcapngMaxInterfaces - 1));
+  REQUIRE(r.errors.size() == 2);
+  CHECK(r.errors[0].message.starts_with("more than 65536 interfaces in one section"));
+  CHECK(r.errors[1].message == "packet of interface 65536, which no interface description block declared");
+}

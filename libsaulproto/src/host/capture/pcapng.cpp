@@ -321,6 +321,11 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
                    fmt::format("block length {} at the end differs from {} at the start", trailing, length));
 
   if (type == kIdb) {
+    if (interfaces_.size() >= kPcapngMaxInterfaces)
+      return corrupt(start, Recovery::next_block,
+                     fmt::format("more than {} interfaces in one section: this one is not read (its packets are "
+                                 "reported as of an undeclared interface)",
+                                 kPcapngMaxInterfaces));
     if (!parse) {
       interfaces_.push_back({});  // keep the numbering of the interfaces that follow
       return corrupt(start, Recovery::next_block,
@@ -506,10 +511,10 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
   if (interface.empty()) interface = "can0";
   if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
   const std::size_t known = interfaces_.size();
-  const auto found = interfaces_.find_or_add(interface, kMaxWrittenInterfaces);
+  const auto found = interfaces_.find_or_add(interface, kPcapngMaxInterfaces);
   if (!found)
     throw std::invalid_argument(fmt::format("pcapng: more than {} interfaces (is the log's interface column noise?)",
-                                            kMaxWrittenInterfaces));
+                                            kPcapngMaxInterfaces));
   const std::size_t id = *found;
   if (interfaces_.size() > known) {  // first frame of this interface: describe it
     BlockBuilder b(kIdb);

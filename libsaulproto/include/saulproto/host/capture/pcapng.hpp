@@ -26,6 +26,12 @@
 
 namespace saul::host {
 
+/// Interfaces of one section, at most, that the reader reads and the writer writes: each is a block of its own in the
+/// file and a name held in memory, and a file of millions (hostile, or a log whose interface column is noise) must
+/// not grow without end. The reader reports the declarations after them as corrupt (and their packets as of an
+/// undeclared interface); the writer's write() throws std::invalid_argument.
+inline constexpr std::size_t kPcapngMaxInterfaces = 65536;
+
 class PcapngReader final : public CaptureReader {
  public:
   /// Reads the first Section Header Block; throws CaptureOpenError when the stream does not start with one.
@@ -109,9 +115,6 @@ class PcapngWriter final : public CaptureWriter {
   void flush() override;
   void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
-  /// write() of a frame on yet another interface beyond this many throws std::invalid_argument (each is a block
-  /// of its own in the file and a name held here: a log whose interface column is noise must not grow without end).
-  static constexpr std::size_t kMaxWrittenInterfaces = 65536;
 
  private:
   std::ostream& out_;
