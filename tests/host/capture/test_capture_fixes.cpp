@@ -45,6 +45,15 @@ std::optional<CaptureFormat> detect(std::string_view text) {
 void le32(std::string& s, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) s += static_cast<char>(v >> (8 * i));
 }
+/// A little-endian pcapng Section Header Block (version 1.0, section length unknown).
+void pcapng_section(std::string& f) {
+  le32(f, 0x0A0D0D0A);
+  le32(f, 28);
+  le32(f, 0x1A2B3C4D);
+  f += std::string("\x01\x00\x00\x00", 4);
+  f += std::string(8, '\xFF');
+  le32(f, 28);
+}
 
 }  // namespace
 
@@ -87,12 +96,7 @@ TEST_CASE("ASC: a classic DLC of 9..15 and CANFD lines that carry classic frames
 
 TEST_CASE("pcapng: Simple Packet Blocks are read (interface 0, no timestamp)") {
   std::string f;
-  le32(f, 0x0A0D0D0A);  // SHB
-  le32(f, 28);
-  le32(f, 0x1A2B3C4D);
-  f += std::string("\x01\x00\x00\x00", 4);
-  f += std::string(8, '\xFF');
-  le32(f, 28);
+  pcapng_section(f);
   le32(f, 1);  // IDB: linktype 227, snaplen 0, if_name "can7"
   le32(f, 28);
   le32(f, 227);
@@ -358,12 +362,7 @@ TEST_CASE("a log of more interfaces than a format numbers is refused by its writ
 TEST_CASE("pcapng: a section declares at most kPcapngMaxInterfaces interfaces; the reader refuses more") {
   // each is a name held while reading: a file of millions of declarations must not take memory without end
   std::string f;
-  le32(f, 0x0A0D0D0A);  // SHB
-  le32(f, 28);
-  le32(f, 0x1A2B3C4D);
-  f += std::string("\x01\x00\x00\x00", 4);
-  f += std::string(8, '\xFF');
-  le32(f, 28);
+  pcapng_section(f);
   for (std::size_t i = 0; i <= kPcapngMaxInterfaces; ++i) {  // one more than read: IDBs of linktype 227, no name
     le32(f, 1);
     le32(f, 20);
