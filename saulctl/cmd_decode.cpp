@@ -93,7 +93,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
       } else {
         j["message"] = to_json(m);
       }
-      fmt::print("{}\n", j.dump());
+      fmt::print("{}\n", saul::host::json_line(j));
     } else if (format == "long") {
       fmt::print("{}", long_csv_rows(bare, chunk.link, "", signal_values(m)));
     } else if (format == "csv") {

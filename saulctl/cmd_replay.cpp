@@ -11,6 +11,7 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
+#include "saulproto/host/report/format.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/frame_text.hpp"
@@ -184,7 +185,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
                      {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
                      {"stopped", report.stopped}};
     if (l.count() > 0) j["lateness"] = lateness_json(l, "chunks");
-    fmt::print("{}\n", j.dump());
+    fmt::print("{}\n", saul::host::json_line(j));
   } else {
     const std::string motion =
         options.allow_motion
@@ -323,7 +324,7 @@ int run_replay(const ReplayCliOptions& opt) {
                      {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
                      {"stopped", report.stopped}};
     if (l.count() > 0) j["lateness"] = lateness_json(l, "frames");
-    fmt::print("{}\n", j.dump());
+    fmt::print("{}\n", saul::host::json_line(j));
   } else {
     fmt::print(stderr, "replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} that "
                        "can move motors{}, {} error frames, {} corrupt records\n",

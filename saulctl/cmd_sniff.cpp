@@ -336,7 +336,7 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (opt.json) {
           nlohmann::json j{{"time", saul::host::TimeColumn::bare(t)}, {"link", spec.text()},
                            {"message", saul::host::to_json(*m)}};
-          fmt::print("{}\n", j.dump());
+          fmt::print("{}\n", saul::host::json_line(j));
         } else {
           fmt::print("{} {} {}\n", t, port->path(), saul::host::describe(*m));
         }

@@ -8,6 +8,7 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
+#include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/signal_stats.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
@@ -67,7 +68,7 @@ int run_stats(const StatsOptions& opt) {
     if (opt.json) {
       nlohmann::json j = stats.json(opt.file);
       if (opt.signals) j["signals"] = signal_stats.json();
-      fmt::print("{}\n", j.dump());
+      fmt::print("{}\n", saul::host::json_line(j));
     } else {
       fmt::print("{}", stats.text(opt.file));
       if (opt.signals) fmt::print("\nsignals (physical units):\n{}", signal_stats.text());

@@ -251,6 +251,36 @@ TEST_CASE("fast emitter for sniff: error frames say what they report, other line
   }
 }
 
+TEST_CASE("names from files that are not UTF-8, or hold a comma or a quote, still give valid JSON and CSV") {
+  // an interface name of bytes that are not UTF-8 made nlohmann throw: decode --json and stats --json ended with
+  // no output at all; a ',' or '"' in a name shifted the frame CSV's columns
+  CanFrame f;
+  f.id = 0x300;
+  f.dlc = 4;
+  f.timestamp_ns = 1'700'000'000'000'000'000ULL;
+  {
+    FrameEmitter json(DecodeFormat::jsonl, TimeMode::absolute);
+    fmt::memory_buffer out;
+    DecodeCounts counts;
+    json.add(f, "c\xff\xfe", out, counts);
+    const auto line = nlohmann::json::parse(std::string(out.data(), out.size()));
+    CHECK(line["interface"] == "c\xEF\xBF\xBD\xEF\xBF\xBD");  // each byte a U+FFFD
+  }
+  {
+    FrameEmitter csv(DecodeFormat::csv, TimeMode::absolute);
+    fmt::memory_buffer out;
+    DecodeCounts counts;
+    csv.add(f, "a,\"b", out, counts);
+    CHECK(std::string(out.data(), out.size()).starts_with("1700000000.000000,\"a,\"\"b\",300,0,0,4,"));
+  }
+  BusStats stats;
+  f.data = {0xE8, 0x03, 0x0C, 0xFE};
+  stats.add(f, "c\xff");
+  const auto j = nlohmann::json::parse(json_line(stats.json("run\xfe.log")));
+  CHECK(j["file"] == "run\xEF\xBF\xBD.log");
+  CHECK(j["load"].contains("c\xEF\xBF\xBD"));
+}
+
 TEST_CASE("a time before the first or the previous frame's is negative, written out by hand") {
   // a log whose times went back (a merge, a clock step): rel and delta once wrapped to "(18446744073.659551)"
   const std::uint64_t t0 = 1'700'000'000'100'000'000ULL;

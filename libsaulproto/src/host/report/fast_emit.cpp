@@ -57,7 +57,7 @@ void json_string(std::string& out, std::string_view s) {
   for (char c : s)
     if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') plain = false;
   if (!plain) {
-    out += nlohmann::json(std::string(s)).dump();
+    out += json_line(nlohmann::json(std::string(s)));
     return;
   }
   out += '"';
@@ -178,7 +178,7 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
       j["error"] = to_string(result.reason());
       if (error_detail) j["error_detail"] = describe_error_frame(f);
     }
-    return j.dump();
+    return json_line(j);
   }
   if (format == DecodeFormat::csv) {
     std::string name = result ? saul::name_of(result.value()) : std::string("!") + to_string(result.reason());
@@ -188,7 +188,7 @@ std::string reference_frame_line(DecodeFormat format, std::string_view time_colu
       fields = fields.substr(std::min(fields.size(), name.size() + 1));
     }
     const std::string raw = format_candump_frame(f);
-    return fmt::format("{},{},{:X},{},{},{},{},{},{}", bare, interface, f.id, f.extended ? 1 : 0, f.remote ? 1 : 0,
+    return fmt::format("{},{},{:X},{},{},{},{},{},{}", bare, csv_quote(std::string(interface)), f.id, f.extended ? 1 : 0, f.remote ? 1 : 0,
                        f.dlc, raw.substr(raw.find('#') + 1), name, csv_quote(fields));
   }
   std::string what = result ? describe(result.value()) : std::string("!") + to_string(result.reason());
@@ -455,7 +455,7 @@ void FrameEmitter::render(const CanFrame& f, Entry& e) {
       e.text.push_back('\0');  // the split: the timestamp and the interface go here
       if (result) {
         out += ",\"message\":";
-        if (!render_message(encode_bus_message(result.value()), out)) out += to_json(result.value()).dump();
+        if (!render_message(encode_bus_message(result.value()), out)) out += json_line(to_json(result.value()));
       }
       break;
     }
@@ -496,6 +496,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
       if (text && (static_cast<unsigned char>(c) <= 0x20 || c == 0x7F)) c = '_';
       if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') interface_plain_ = false;
     }
+    if (format_ == DecodeFormat::csv) interface_column_ = csv_quote(interface_);  // a ',' or '"' in a name
   }
   // One line in one go: room for all of it, then written in place (no append per column).
   const std::size_t at = out.size();

@@ -439,7 +439,7 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
     for (const auto& note : doc.notes) s += fmt::format("<li>{}</li>\n", escape_html(note));
     s += "</ul>\n";
   }
-  s += "<script type=\"application/json\" id=\"plot-data\">" + script_safe(page_data(doc).dump(), true) + "</script>\n";
+  s += "<script type=\"application/json\" id=\"plot-data\">" + script_safe(json_line(page_data(doc)), true) + "</script>\n";
   s += "<script>" + page_script() + "</script>\n</body>\n</html>\n";
   return s;
 }

@@ -83,5 +83,11 @@ nlohmann::json to_json(const pride::Message& message);
 
 /// The frame itself: {"id":768,"extended":false,"remote":false,"error":false,"dlc":4,"data":"E8030CFE"}
 nlohmann::json frame_to_json(const CanFrame& frame);
+/// `j` as one line of JSON. Text from files (a file name, an interface or link name) may hold bytes that are not
+/// UTF-8, which nlohmann's dump() refuses with an exception (a decode or stats --json then ended with no output at
+/// all): here each such byte becomes U+FFFD and the line stays valid JSON.
+inline std::string json_line(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
 
 }  // namespace saul::host
