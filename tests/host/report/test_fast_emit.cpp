@@ -279,6 +279,10 @@ TEST_CASE("names from files that are not UTF-8, or hold a comma or a quote, stil
   const auto j = nlohmann::json::parse(json_line(stats.json("run\xfe.log")));
   CHECK(j["file"] == "run\xEF\xBF\xBD.log");
   CHECK(j["load"].contains("c\xEF\xBF\xBD"));
+  // and the text report sends no control character from a name to the terminal (an escape sequence clears it)
+  BusStats escape;
+  escape.add(f, "c\x1b[2J");
+  CHECK(escape.text("run.log").find("bus load on c_[2J at 500 kbit/s") != std::string::npos);
 }
 
 TEST_CASE("a time before the first or the previous frame's is negative, written out by hand") {

@@ -549,7 +549,8 @@ std::string BusStats::text(std::string_view name) const {
     out += fmt::format(
         "bus load on {} at {} kbit/s: {:.2f} % (worst-case stuffing), {:.2f} % (exact), {:.2f} % (no stuffing); "
         "busiest {:g} ms window {:.2f} % at +{:.3f} s\n",
-        iface, options_.bitrate / 1000, load_percent(load, StuffBits::worst_case), load_percent(load, StuffBits::exact),
+        candump_interface(iface),  // a name from a file: no control character reaches the terminal
+        options_.bitrate / 1000, load_percent(load, StuffBits::worst_case), load_percent(load, StuffBits::exact),
         load_percent(load, StuffBits::none), static_cast<double>(options_.window_ns) / 1e6,
         peak_percent(load), seconds(load.peak_index * options_.window_ns));
   }
@@ -1110,7 +1111,7 @@ std::string SerialStats::text(std::string_view name) const {
     const Link& link = found->second;
     const Cadence& c = link.chunks;
     const double span = c.first_ns && c.last_ns ? static_cast<double>(*c.last_ns - *c.first_ns) : 0;
-    out += fmt::format("\n{} ({}{}): {} bytes in {} chunks", d.name, to_string(d.protocol),
+    out += fmt::format("\n{} ({}{}): {} bytes in {} chunks", candump_interface(d.name), to_string(d.protocol),
                        d.guessed ? ", guessed" : "", link.bytes, c.count);
     if (span > 0) {
       const double rate = static_cast<double>(link.bytes) / (span / 1e9);
