@@ -62,6 +62,9 @@ done
 "$saulctl" decode "$out/runs" "$root/captures/robot_bus.log" >"$out/o" 2>"$out/e"
 check "a directory among files: named, the files still decode, exit 1" \
   bash -c "test $? -eq 1 && grep -qF '$out/runs: is a directory' '$out/e' && test \$(wc -l <'$out/o') -eq 452"
+: | "$saulctl" stats - >/dev/null 2>"$out/e"
+check "an empty standard input (stats -): exit 1, 'not a capture (empty: not one byte)'" \
+  bash -c "test $? -eq 1 && grep -q '^saulctl stats: -: not a capture (empty: not one byte)' '$out/e'"
 "$saulctl" decode "$root/captures/robot_bus.log" >/dev/null 2>"$out/e"
 check "a real capture is no error (exit 0)" test $? -eq 0
 

@@ -249,6 +249,7 @@ bool looks_binary(std::string_view head) {
 
 /// What a file that is no capture looks like, for the message that refuses it.
 std::string describe_other_text(std::string_view head) {
+  if (head.empty()) return "empty: not one byte";  // (an empty pipe, /dev/null: not "a text file of blank lines")
   if (looks_binary(head)) {
     std::string first;
     for (std::size_t i = 0; i < std::min<std::size_t>(head.size(), 8); ++i)
