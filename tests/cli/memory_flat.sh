@@ -27,16 +27,21 @@ peak() {  # FILE ARGS...: peak RSS in KiB of saulctl ARGS FILE
   /usr/bin/time -f "%M" -o "$out/rss" "$saulctl" "$@" "$file" >/dev/null 2>"$out/err" || { echo 0; return; }
   tail -1 "$out/rss"
 }
-for verb in "decode" "decode --json" "stats"; do
-  # shellcheck disable=SC2086
-  small=$(peak "$out/small.log" $verb)
-  # shellcheck disable=SC2086
-  big=$(peak "$out/big.log" $verb)
-  echo "     $verb: peak RSS $((small / 1024)) MiB on 16 MB, $((big / 1024)) MiB on 128 MB"
-  check "$verb: runs" test "$small" -gt 0 -a "$big" -gt 0
-  check "$verb: peak memory does not grow with the file (128 MB within 8 MiB of 16 MB)" \
-    test "$big" -le $((small + 8 * 1024))
-done
+# flat WHAT SMALL BIG SLACK_MIB VERB...: each verb's peak RSS on BIG is within SLACK_MIB of that on SMALL.
+flat() {
+  local what=$1 small_file=$2 big_file=$3 slack=$4 verb small big
+  shift 4
+  for verb in "$@"; do
+    # shellcheck disable=SC2086
+    small=$(peak "$small_file" $verb)
+    # shellcheck disable=SC2086
+    big=$(peak "$big_file" $verb)
+    echo "     $verb: peak RSS $((small / 1024)) MiB, then $((big / 1024)) MiB ($what)"
+    check "$verb ($what): runs" test "$small" -gt 0 -a "$big" -gt 0
+    check "$verb ($what): peak memory does not grow (within $slack MiB)" test "$big" -le $((small + slack * 1024))
+  done
+}
+flat "16 MB, then 128 MB" "$out/small.log" "$out/big.log" 8 "decode" "decode --json" "stats"
 
 # A log whose id and interface columns are noise (a capture at the wrong bit rate, a hostile file): every line a new
 # id, and a new interface every few lines. stats lists the first ids and interfaces and counts the rest apart, so
@@ -47,16 +52,7 @@ noise() {  # LINES FILE
 }
 noise 250000 "$out/noise_small.log"
 noise 1000000 "$out/noise_big.log"
-for verb in "stats" "stats --json"; do
-  # shellcheck disable=SC2086
-  small=$(peak "$out/noise_small.log" $verb)
-  # shellcheck disable=SC2086
-  big=$(peak "$out/noise_big.log" $verb)
-  echo "     $verb on noise: peak RSS $((small / 1024)) MiB on 250 k ids, $((big / 1024)) MiB on 1 M ids"
-  check "$verb on noise: runs" test "$small" -gt 0 -a "$big" -gt 0
-  check "$verb on noise: peak memory does not grow with the ids (1 M within 16 MiB of 250 k)" \
-    test "$big" -le $((small + 16 * 1024))
-done
+flat "noise: 250 k ids, then 1 M" "$out/noise_small.log" "$out/noise_big.log" 16 "stats" "stats --json"
 "$saulctl" stats "$out/noise_small.log" >"$out/noise.txt" 2>/dev/null
 check "stats on noise: says how many frames of ids and interfaces it did not list" \
   bash -c "grep -q 'of ids beyond the first 4096 (not listed)' '$out/noise.txt' && grep -q 'frames on interfaces beyond the first 256' '$out/noise.txt'"

@@ -45,6 +45,9 @@ std::optional<CaptureFormat> detect(std::string_view text) {
 void le32(std::string& s, std::uint32_t v) {
   for (int i = 0; i < 4; ++i) s += static_cast<char>(v >> (8 * i));
 }
+/// A SocketCAN packet as pcap and pcapng hold it: id 0x300 (big-endian), DLC 2, data 11 22.
+const std::string kPacket300("\x00\x00\x03\x00\x02\x00\x00\x00\x11\x22\x00\x00\x00\x00\x00\x00", 16);
+
 /// A little-endian pcapng Section Header Block (version 1.0, section length unknown).
 void pcapng_section(std::string& f) {
   le32(f, 0x0A0D0D0A);
@@ -103,16 +106,15 @@ TEST_CASE("pcapng: Simple Packet Blocks are read (interface 0, no timestamp)") {
   le32(f, 0);
   f += std::string("\x02\x00\x04\x00" "can7", 8);
   le32(f, 28);
-  const std::string packet("\x00\x00\x03\x00\x02\x00\x00\x00\x11\x22\x00\x00\x00\x00\x00\x00", 16);
   le32(f, 3);  // SPB: original length, then the packet
   le32(f, 32);
   le32(f, 16);
-  f += packet;
+  f += kPacket300;
   le32(f, 32);
   le32(f, 3);  // a length past its block
   le32(f, 32);
   le32(f, 40);
-  f += packet;
+  f += kPacket300;
   le32(f, 32);
   const Read r = read(f, CaptureFormat::pcapng);
   REQUIRE(r.frames.size() == 1);
@@ -370,7 +372,6 @@ TEST_CASE("pcapng: a section declares at most kPcapngMaxInterfaces interfaces; t
     le32(f, 0);
     le32(f, 20);
   }
-  const std::string packet("\x00\x00\x03\x00\x02\x00\x00\x00\x11\x22\x00\x00\x00\x00\x00\x00", 16);
   for (std::uint32_t id : {static_cast<std::uint32_t>(kPcapngMaxInterfaces),
                            static_cast<std::uint32_t>(kPcapngMaxInterfaces - 1)}) {
     le32(f, 6);  // EPB on the refused interface, then on the last one read
@@ -380,7 +381,7 @@ TEST_CASE("pcapng: a section declares at most kPcapngMaxInterfaces interfaces; t
     le32(f, 1000);
     le32(f, 16);
     le32(f, 16);
-    f += packet;
+    f += kPacket300;
     le32(f, 48);
   }
   const Read r = read(f, CaptureFormat::pcapng);
