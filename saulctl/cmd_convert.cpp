@@ -68,7 +68,9 @@ int run_convert(const ConvertOptions& opt) {
     progress.finish();
     writer.reset();
     if (opt.out != "-") std::remove(opt.out.c_str());  // half a file is no capture
-    fmt::print(stderr, "saulctl convert: cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds any number)\n",
+    fmt::print(stderr,
+               "saulctl convert: cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds "
+               "any number)\n",
                opt.in, opt.out, e.what(), opt.out);
     return kFailure;
   }

@@ -64,11 +64,6 @@ class WatchedLines : public std::streambuf {
 
 using saul::host::csv_quote;
 
-saul::host::TimeMode time_mode(const std::string& time) {
-  using saul::host::TimeMode;
-  return time == "rel" ? TimeMode::relative : time == "delta" ? TimeMode::delta : TimeMode::absolute;
-}
-
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
                             saul::host::SerialCaptureReader& reader, std::uint64_t& corrupt,

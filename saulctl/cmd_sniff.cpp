@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "grammar.hpp"
 #include "live.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
@@ -35,11 +36,6 @@ struct SniffOptions {
   bool listen_only = false;
   bool top = false;
 };
-
-saul::host::TimeMode time_mode(const std::string& t) {
-  return t == "rel" ? saul::host::TimeMode::relative
-                    : t == "delta" ? saul::host::TimeMode::delta : saul::host::TimeMode::absolute;
-}
 
 // The filters go in at open: in the kernel before the socket is bound (SocketCAN), before the first frame is
 // queued (slcan, shared links), so not one frame of another id is printed.

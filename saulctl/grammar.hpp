@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "saulproto/host/link/can_link.hpp"
+#include "saulproto/host/report/frame_text.hpp"
 
 namespace saulctl {
 
@@ -35,6 +36,9 @@ CLI::Option* add_duration_option(CLI::App* cmd, std::string& duration, const std
 CLI::Validator duration_check();
 /// Parses "2s", "500ms", "1.5" (seconds), "2m", "1min", "100us" (rounded down to ms). Throws CLI::ValidationError.
 std::chrono::milliseconds parse_duration(const std::string& text);
+
+/// --time abs|rel|delta (decode, sniff) as the time column's mode.
+saul::host::TimeMode time_mode(const std::string& time);
 
 /// Adds --json with the verb's own description of what it prints.
 CLI::Option* add_json_flag(CLI::App* cmd, bool& json, const std::string& what);
