@@ -75,8 +75,16 @@ void BalanceBoard::boot(TimeUs now) noexcept {
     state_ = RobotState::fault;
     latched_faults_ = fault::kWatchdogReset;
     fault_reason_ = FaultReason::watchdog_reset;
-    disarmed_since_latch_ = false;
   }
+  RetainedLimits& kept = hw_.retained;
+  if (reset_ != ResetReason::power_on && kept.check == kept.expected() &&
+      kept.tilt_limit_x100 >= saulcan::ConfigCmd::kMinTiltX100) {
+    // Tighten only: a kept limit never loosens what the configuration gives.
+    if (kept.tilt_limit_x100 < tilt_limit_x100_) tilt_limit_x100_ = kept.tilt_limit_x100;
+    if (kept.orin_max_speed_mmps < orin_max_speed_mmps_) orin_max_speed_mmps_ = kept.orin_max_speed_mmps;
+    write_text(hw_.console, "limits kept across the reset (tilt limit, 0x303 speed): see status\n");
+  }
+  remember_limits();
   published_state_ = state_;
 }
 
@@ -150,11 +158,21 @@ void BalanceBoard::on_link_message(const interboard::Message& message, TimeUs no
       if (io_armed_ == Tri::no) io_arm_request_ = true;  // a fresh arming: 0 -> 1 seen on two valid RC_CMDs
       io_armed_ = Tri::yes;
     } else {
-      if (io_armed_ == Tri::yes || latched()) disarm();
+      // The IO board dropped its flag: a disarm while armed. In a latch it dropped it because of the latch, and in
+      // OFF after an arming BALANCE refused: neither is an operator's disarm.
+      if (io_armed_ == Tri::yes && armed()) (void)apply(arming::Event::disarm);
       io_armed_ = Tri::no;
     }
     if (!rc->button()) button_released_ = true;
-    if (rc->disarm_switch() && !SAUL_MUTANT(arm_switch)) disarm();  // a live radio with CH5 at disarm: now
+    // A live radio with CH5 at disarm: disarmed now and kept so (every RC_CMD); its edge (from a seen "at arm") is
+    // also the radio's way out of a latch, to OFF. A level already there at power-on or when the link returns is no
+    // edge: a latch (a reset's FAULT) stays on the display until the operator moves the switch.
+    if (rc->disarm_switch() && !SAUL_MUTANT(arm_switch)) {
+      if (disarm_switch_ == Tri::no || !latched()) (void)apply(arming::Event::disarm);
+      disarm_switch_ = Tri::yes;
+    } else {
+      disarm_switch_ = rc->disarm_switch() ? Tri::yes : Tri::no;
+    }
   } else if (const auto* f = std::get_if<interboard::Fault>(&message)) {
     io_faults_ = f->flags;
     if ((f->flags & interboard::Fault::kEstop) != 0) estop();
@@ -214,7 +232,7 @@ void BalanceBoard::on_can_frame(const CanFrame& frame, TimeUs now) noexcept {
 void BalanceBoard::on_mode(saulcan::Mode mode) noexcept {
   switch (mode) {
     case saulcan::Mode::off:
-      send_ack(kAckMode, 0, disarm_command() == nullptr ? AckResult::applied : AckResult::not_allowed);
+      send_ack(kAckMode, 0, apply(arming::Event::disarm) == nullptr ? AckResult::applied : AckResult::not_allowed);
       return;
     case saulcan::Mode::estop:
       estop();
@@ -245,6 +263,7 @@ void BalanceBoard::on_config(const saulcan::ConfigCmd& config) noexcept {
   }
   tilt_limit_x100_ = config.tilt_limit_x100;
   orin_max_speed_mmps_ = config.max_speed_mmps;  // can only lower the cap: see speed_cap_mmps()
+  remember_limits();
   send_ack(kAckConfig, 0, AckResult::applied);
 }
 
@@ -263,6 +282,7 @@ void BalanceBoard::update_live(TimeUs now) noexcept {
   if (!link) {
     live |= fault::kIoLinkLoss;
     io_armed_ = Tri::unknown;  // the next arming needs a 0 seen first
+    disarm_switch_ = Tri::unknown;
     io_arm_request_ = false;
   } else {
     if ((io_faults_ & interboard::Fault::kRcLoss) != 0) live |= fault::kRcLoss;
@@ -296,7 +316,7 @@ void BalanceBoard::supervise(TimeUs now) noexcept {
   if (SAUL_MUTANT(link_loss_stop)) causes &= static_cast<std::uint8_t>(~fault::kIoLinkLoss);
   const bool tilted = !imu_stalled_ && filter_.valid() &&
                       std::fabs(filter_.pitch_deg()) * 100.0F > static_cast<float>(tilt_limit_x100_);
-  if (tilted && !SAUL_MUTANT(tilt_cutoff)) latch(RobotState::tilt_cutoff, fault::kTiltCutoff);
+  if (tilted && !SAUL_MUTANT(tilt_cutoff)) (void)apply(arming::Event::tilt, fault::kTiltCutoff);
   if (causes != 0) {
     fault(causes, (causes & fault::kIoLinkLoss) != 0 ? FaultReason::io_link_lost
                   : (causes & fault::kRcLoss) != 0  ? FaultReason::rc_lost
@@ -312,53 +332,49 @@ bool BalanceBoard::latched() const noexcept {
 
 bool BalanceBoard::estop_input() const noexcept { return (live_faults_ & fault::kEstop) != 0; }
 
-void BalanceBoard::estop() noexcept {
-  estop_this_iteration_ = true;
-  latch(RobotState::estop, fault::kEstop);
+void BalanceBoard::remember_limits() noexcept {
+  RetainedLimits& kept = hw_.retained;
+  kept.tilt_limit_x100 = tilt_limit_x100_;
+  kept.orin_max_speed_mmps = orin_max_speed_mmps_;
+  kept.check = kept.expected();
 }
 
-void BalanceBoard::latch(RobotState to, std::uint8_t cause) noexcept {
+void BalanceBoard::estop() noexcept {
+  estop_this_iteration_ = true;
+  (void)apply(arming::Event::estop, fault::kEstop);
+}
+
+const char* BalanceBoard::apply(arming::Event event, std::uint8_t cause) noexcept {
+  const arming::Rule& rule = arming::rule(state_, event);
   latched_faults_ |= cause;
-  if (latched() && to != RobotState::estop) return;  // the first latched state stays; only ESTOP overrides
-  if (state_ != to) button_released_ = false;  // leaving the latch takes a new press
-  state_ = to;
-  disarmed_since_latch_ = false;
-  io_arm_request_ = false;
+  // Every stop and every disarm cancels a hold in progress, whether or not the state changes: a press that began
+  // before it can no longer arm (rule 1). The mutant keeps the hold where the state stays (the bug of issue 33).
+  if (rule.cancels_hold && !(SAUL_MUTANT(hold_cancel) && rule.next == state_)) {
+    // A press under way (the last RC_CMD says the button is down, or the link is not fresh enough to say) can no
+    // longer arm; with the button seen up just now there is no press to cancel, and the next one is a new one.
+    const bool seen_up = rc_seen_ && (live_faults_ & fault::kIoLinkLoss) == 0 && !rc_.button();
+    button_released_ = button_released_ && seen_up;
+    io_arm_request_ = false;
+  }
+  if (rule.refusal != nullptr && !(SAUL_MUTANT(arm_from_latch) && latched())) return rule.refusal;
+  if (rule.kept_by_estop_input && (estop_input() || estop_this_iteration_))
+    return "ESTOP stays while an estop input is active (kill switch, CH6, IO console estop)";
+  if (event == arming::Event::arm) return nullptr;  // allowed from here; try_arm's checks decide
+  state_ = rule.next;  // OFF after a latch keeps its cause bits in 0x401 until the next arming
+  return nullptr;
 }
 
 void BalanceBoard::fault(std::uint8_t cause, FaultReason reason) noexcept {
-  latch(RobotState::fault, cause);
+  (void)apply(arming::Event::fault, cause);
   if (fault_reason_ == FaultReason::none) fault_reason_ = reason;
   write_text(hw_.console, "FAULT: ");
   write_text(hw_.console, fault_reason_text(reason));
   write_text(hw_.console, state_ == RobotState::fault ? " (motors off)\n" : " (motors off, state stays latched)\n");
 }
 
-void BalanceBoard::disarm() noexcept {
-  io_arm_request_ = false;
-  if (armed()) {
-    state_ = RobotState::off;
-    button_released_ = false;
-  } else if (latched()) {
-    disarmed_since_latch_ = true;
-  }
-}
-
-const char* BalanceBoard::disarm_command() noexcept {
-  disarm();
-  if (!latched()) return nullptr;
-  // ESTOP wins over every other input of the iteration it arrives in, and stays while its input does.
-  if (estop_input() || estop_this_iteration_)
-    return "ESTOP stays while an estop input is active (kill switch, CH6, IO console estop)";
-  state_ = RobotState::off;  // motors stay off; the cause stays in 0x401 until the next arming
-  button_released_ = false;
-  return nullptr;
-}
-
 const char* BalanceBoard::try_arm(bool by_button) noexcept {
-  if (armed()) return "already armed";
+  if (const char* why = apply(arming::Event::arm)) return why;
   if (estop_this_iteration_ || estop_input()) return "emergency stop active";
-  if (latched() && !disarmed_since_latch_) return "latched: disarm first, then arm";
   if (by_button && !button_released_ && !SAUL_MUTANT(new_press))
     return "the arming button was not released since the last stop: a new press is needed";
   if (reboot_requested_) return "reboot pending";
@@ -433,7 +449,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       }
       return;
     case Verb::disarm:
-      if (const char* why = disarm_command()) {
+      if (const char* why = apply(arming::Event::disarm)) {
         write_refusal(out, why);
       } else {
         ok();
@@ -444,7 +460,10 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       ok();
       return;
     case Verb::tilt_limit:
-      if (const auto* t = std::get_if<console::TiltLimitCmd>(&parsed.command)) tilt_limit_x100_ = t->tilt_limit_x100;
+      if (const auto* t = std::get_if<console::TiltLimitCmd>(&parsed.command)) {
+        tilt_limit_x100_ = t->tilt_limit_x100;
+        remember_limits();
+      }
       ok();
       return;
     case Verb::speed_limit: {

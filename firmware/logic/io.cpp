@@ -2,6 +2,7 @@
 
 #include <variant>
 
+#include "saulfw/arming.hpp"
 #include "saulfw/mutant.hpp"
 
 namespace saul::fw {
@@ -10,16 +11,9 @@ using saulcan::RobotState;
 
 namespace {
 
-bool is_latched(std::uint8_t state) noexcept {
-  return state == static_cast<std::uint8_t>(RobotState::estop) ||
-         state == static_cast<std::uint8_t>(RobotState::tilt_cutoff) ||
-         state == static_cast<std::uint8_t>(RobotState::fault);
-}
-
-bool is_armed_state(std::uint8_t state) noexcept {
-  return state == static_cast<std::uint8_t>(RobotState::balance) ||
-         state == static_cast<std::uint8_t>(RobotState::manual);
-}
+// STATE's error_state as the arming table's states (saulfw/arming.hpp): IO follows BALANCE's state.
+bool is_latched(std::uint8_t state) noexcept { return arming::is_latched(static_cast<RobotState>(state)); }
+bool is_armed_state(std::uint8_t state) noexcept { return arming::is_armed(static_cast<RobotState>(state)); }
 
 std::int16_t clamp_permille(std::int32_t v, std::int32_t limit = 1000) noexcept {
   return static_cast<std::int16_t>(v > limit ? limit : (v < -limit ? -limit : v));
@@ -95,7 +89,7 @@ void IoBoard::check_estop(TimeUs now) noexcept {
   if (console_estop_ && age(now, console_estop_us_) > config_.console_estop_us) console_estop_ = false;
   if (estop_level_ || console_estop_) {
     motors_off();
-    disarm();
+    disarm(arming::Event::estop);
   }
   if (fault_flags() != sent_faults_) {  // an ESTOP (or RC loss) goes to BALANCE at once, before anything else
     send_fault();
@@ -184,7 +178,7 @@ void IoBoard::read_link(TimeUs now) noexcept {
         state_us_ = now;
         state_seen_ = true;
         // BALANCE just latched ESTOP, TILT_CUTOFF or FAULT: re-arming takes a new press and a fresh 3 s hold.
-        if (new_latch) disarm();
+        if (new_latch) disarm(arming::Event::fault);
       } else if (const auto* c = std::get_if<interboard::SpeedCap>(&*m)) {
         if (valid_cap(c->percent)) balance_cap_pct_ = c->percent;  // anything else: keep the cap it had
       } else if (const auto* l = std::get_if<interboard::LedCmd>(&*m)) {
@@ -207,10 +201,13 @@ bool IoBoard::balance_armed(TimeUs now) const noexcept { return state_fresh(now)
 
 // ---- arming -------------------------------------------------------------------------------------------------------
 
-void IoBoard::disarm() noexcept {
+void IoBoard::disarm(arming::Event event) noexcept {
   armed_ = false;
-  hold_active_ = false;
-  if (!SAUL_MUTANT(new_press)) need_release_ = true;  // the next arming starts with a new press
+  // The arming table's hold column (an IO armed flag is only ever high while BALANCE is armed or arming).
+  if (arming::rule(RobotState::balance, event).cancels_hold) {
+    hold_active_ = false;
+    if (!SAUL_MUTANT(new_press)) need_release_ = true;  // the next arming starts with a new press
+  }
 }
 
 void IoBoard::arming(TimeUs now) noexcept {
@@ -227,9 +224,9 @@ void IoBoard::arming(TimeUs now) noexcept {
 
   if (armed_) {
     if (!arm_switch || estop || !rc_ok) {
-      disarm();
+      disarm(estop ? arming::Event::estop : arming::Event::disarm);
     } else if (fresh && !is_armed_state(state_.error_state) && age(now, armed_us_) > config_.arm_confirm_us) {
-      disarm();  // BALANCE did not take the arming (not upright by its own IMU, a fault, ...)
+      disarm(arming::Event::disarm);  // BALANCE did not take the arming (not upright by its own IMU, a fault, ...)
     }
   }
 
@@ -495,7 +492,7 @@ void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now
       write_refusal(out, "hold the arming button for 3 s (or use the BALANCE console)");
       return;
     case Verb::disarm:
-      disarm();
+      disarm(arming::Event::disarm);
       send_rc_cmd();
       ok();
       return;

@@ -68,7 +68,8 @@ Dog dog;
 Lcd lcd;
 Pins pins;
 
-BalanceBoard balance({imu, can, link_a, console_a, dog, lcd}, BalanceConfig{}, ResetReason::power_on);
+RetainedLimits retained{};
+BalanceBoard balance({imu, can, link_a, console_a, dog, lcd, retained}, BalanceConfig{}, ResetReason::power_on);
 IoBoard io({crsf, elrs, link_b, console_b, pins, pins, pins, pins, pins, dog}, IoConfig{});
 
 }  // namespace

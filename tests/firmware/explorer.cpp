@@ -203,7 +203,7 @@ void next_events(Rng& rng, TimeUs t, std::vector<Event>& out, TimeUs& calm_until
         case 0: at(stop, can(Kind::can, std_frame(0x302, {3}))); break;
         case 1: at(stop, console(0, "estop")); break;
         case 2: at(stop, make(Kind::hang)); break;
-        case 3: at(stop, console(0, "disarm")); break;
+        case 3: at(stop, rng.chance(50) ? console(0, "disarm") : can(Kind::can, std_frame(0x302, {0}))); break;
         case 4:
           at(stop, make(Kind::radio, 5, 1000));
           at(stop + ms(20, 300), make(Kind::radio, 5, 2000));
@@ -377,11 +377,13 @@ class Explorer {
         }
         if (e.a == 6 && e.b > 1500 && !ch6_on_.on && radio_on_.on)
           add_deadline(t, 10 * kMs, "CH6 ESTOP", true, &ch6_on_, true, armed_now, true);
+        if (radio_on_.on && ((e.a == 5 && e.b <= 1500) || (e.a == 6 && e.b > 1500))) last_stop_input_us_ = t;
         ch5_off_.set(ch_[5] <= 1500, t);
         ch6_on_.set(ch_[6] > 1500, t);
         break;
       }
       case Kind::kill:
+        if (e.a != 0) last_stop_input_us_ = t;
         if (e.a != 0 && !kill_.on) add_deadline(t, kMs, "kill switch", true, &kill_, false, armed_now, true);
         kill_.set(e.a != 0, t);
         break;
@@ -402,6 +404,7 @@ class Explorer {
         if (!hung_) {
           hung_ = true;
           hang_at_ = t;
+          last_stop_input_us_ = t;
           Deadline d;
           d.from = t;
           d.due = t + 53 * kMs;
@@ -411,6 +414,7 @@ class Explorer {
         }
         break;
       case Kind::console:
+        if (e.text == "estop" || e.text == "disarm") last_stop_input_us_ = t;  // either board's console
         if (e.a == 0) {
           if (e.text == "arm") console_arm_ = true;
           if (e.text == "disarm") explicit_disarm_ = true;
@@ -427,6 +431,7 @@ class Explorer {
         if (!e.frame.extended && e.frame.id == 0x302 && e.frame.dlc == 1) {
           if (e.frame.data[0] == 3) add_deadline(t, kMs, "0x302 mode 3", true, nullptr, false, armed_now, false, 2);
           if (e.frame.data[0] == 0) explicit_disarm_ = true;
+          if (e.frame.data[0] == 0 || e.frame.data[0] == 3) last_stop_input_us_ = t;
         }
         break;
       case Kind::stream:
@@ -560,14 +565,15 @@ class Explorer {
     if (bal_stop || (prev_io_armed_ && !io_armed)) last_stop_us_ = now;
     if (is_armed(prev_state_) && !is_armed(st)) bal_left_armed_us_ = now;
     if (is_latched(st) && (st != prev_state_ || reset)) {
-      latched_at_ = now;
-      disarm_seen_ = false;
       ++stats_.latches;
     }
-    io_unarmed_.set(!io_armed && !link_cut_.on, now);
-    // BALANCE counts an RC_CMD with the armed flag at 0 as the disarm (the IO board sends one every 10 ms); the
-    // oracle gives it that as soon as the link is up with the IO board disarmed.
-    if (is_latched(st) && (explicit_disarm_ || io_unarmed_.on)) disarm_seen_ = true;
+    // CH5 at disarm as the RC_CMD carries it (a live radio): its rising edge is the radio's explicit disarm.
+    const bool ch5_disarm = radio_on_.on && ch_[5] <= 1500;
+    if (ch5_disarm && !ch5_disarm_prev_) {
+      ch5_disarm_at_ = now;
+      last_explicit_disarm_us_ = now;
+    }
+    ch5_disarm_prev_ = ch5_disarm;
 
     std::optional<Violation> v;
     auto fail = [&](const char* rule, std::string what, std::string check) {
@@ -585,8 +591,10 @@ class Explorer {
                                                   throttle_cmd_.held(now, 11 * kMs));
         console_ok = !kill_.on && !io_estop && !radio_says_no && !(radio_ever_ && rc_dead);
       }
+      // The press began after the last stop or disarm input from any source, whether or not it changed a state
+      // (last_stop_input_us_, from the inputs the explorer gave), and after the last stop BALANCE showed.
       const bool button_ok = button_ && now - press_start_ >= 3000 * kMs && last_broken_us_ < press_start_ &&
-                             last_stop_before_ < press_start_;
+                             last_stop_before_ < press_start_ && last_stop_input_us_ < press_start_;
       last_arming_us_ = now;
       if (console_ok) ++stats_.armings_console;
       if (button_ok) ++stats_.armings_button;
@@ -596,15 +604,18 @@ class Explorer {
                  (console_arm_ ? "console arm with a condition broken" : "no console arm, and the button " +
                   (button_ ? "held " + std::to_string((now - press_start_) / kMs) + " ms, conditions broken " +
                                  (last_broken_us_ >= press_start_ ? "during the hold" : "before") +
-                                 (last_stop_before_ >= press_start_ ? ", a stop since the press" : "")
+                                 (last_stop_before_ >= press_start_ ? ", a stop since the press" : "") +
+                                 (last_stop_input_us_ >= press_start_ ? ", a stop or disarm input since the press" : "")
                            : std::string("not pressed"))),
              "expect no telemetry_a state=BALANCE for 300ms");
-      if (is_latched(prev_state_) && !disarm_seen_)
-        fail("latch", "left " + state_text(prev_state_) + " for " + state_text(st) + " without a disarm first",
+      // A latch is left only to OFF (issue 33): never straight into an armed state, by any arming.
+      if (is_latched(prev_state_))
+        fail("latch", "left " + state_text(prev_state_) + " straight for " + state_text(st) + " (a latch is left only to OFF)",
              "expect no telemetry_a state<=2 for 300ms");
     }
     // -- latch: leaving one for OFF only by an explicit disarm
-    if (is_latched(prev_state_) && st == RobotState::off && !reset && !explicit_disarm_)
+    const bool ch5_recent = now - ch5_disarm_at_ <= 15 * kMs && ch5_disarm_at_ != 0;
+    if (is_latched(prev_state_) && st == RobotState::off && !reset && !explicit_disarm_ && !ch5_recent)
       fail("latch", "left " + state_text(prev_state_) + " for OFF without an explicit disarm",
            "expect no telemetry_a state<=2 for 300ms");
 
@@ -738,8 +749,10 @@ class Explorer {
   bool crsf_on_ = true;
   bool elrs_on_ = true;
   bool radio_ever_ = false;
-  Level radio_on_, ch5_off_, ch6_on_, throttle_off_, throttle_cmd_, kill_, link_cut_, tilted_, beyond_limit_,
-      io_unarmed_;
+  Level radio_on_, ch5_off_, ch6_on_, throttle_off_, throttle_cmd_, kill_, link_cut_, tilted_, beyond_limit_;
+  TimeUs last_stop_input_us_ = 0;  // the last stop or disarm input of any source (a console, the Orin, the radio, ...)
+  bool ch5_disarm_prev_ = false;
+  TimeUs ch5_disarm_at_ = 0;
   TimeUs last_link_cut_us_ = 0;
   bool hand_moved_ = false;
   TimeUs hand_moved_us_ = 0;
@@ -770,8 +783,6 @@ class Explorer {
   TimeUs last_stop_us_ = 0;
   TimeUs last_stop_before_ = 0;  // last_stop_us_ as it was before this tick's observation
   TimeUs bal_left_armed_us_ = 0;
-  TimeUs latched_at_ = 0;
-  bool disarm_seen_ = true;
   bool rc_lost_seen_ = false;
   int prev_pct_ = 10;
   int cap_before_ = 10;

@@ -14,10 +14,11 @@
 //   stop        motors zero within the reference's time after an ESTOP (Orin 0x302 mode 3, either console, CH6,
 //               the kill switch), a tilt beyond the limit, RC loss, inter-board link loss, CH5 at disarm or a hang,
 //               and ESTOP latched;
-//   arming      no arming unless every arming condition held for the whole 3 s of a new press (or, by console,
+//   arming      no arming unless every arming condition held for the whole 3 s of a new press that began after
+//               the last stop or disarm input of any source, whether or not it changed a state (or, by console,
 //               when the console's conditions hold);
-//   latch       a latched state (ESTOP, TILT_CUTOFF, FAULT) left only by a disarm and a fresh arming (or to OFF by an
-//               explicit disarm without an estop input);
+//   latch       a latched state (ESTOP, TILT_CUTOFF, FAULT) is left only to OFF, and only by an explicit disarm
+//               (BALANCE console disarm, 0x302 mode 0, CH5 moved to disarm) without an estop input;
 //   cap         every motor output within the speed cap (10 % at power-on, one 10 % step per console command and
 //               only while disarmed; CH7 only lowers the IO board's output).
 //

@@ -309,6 +309,7 @@ struct BalanceRig {
   FakeSerial console;
   FakeWatchdog watchdog;
   FakeDisplay display;
+  RetainedLimits retained{};  // what a reset keeps (RTC memory on the board)
   BalanceConfig config{};
   std::optional<BalanceBoard> board;
   TimeUs now = 1'000'000;  // boards boot at an arbitrary non-zero time
@@ -332,7 +333,7 @@ struct BalanceRig {
   }
 
   void boot(ResetReason reset) {
-    board.emplace(BalanceBoard::Hardware{imu, can, link, console, watchdog, display}, config, reset);
+    board.emplace(BalanceBoard::Hardware{imu, can, link, console, watchdog, display, retained}, config, reset);
     next_rc = next_fault = next_orin = now;
   }
 

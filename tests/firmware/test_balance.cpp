@@ -337,9 +337,14 @@ TEST_CASE("tilt cutoff: the step that sees |pitch| > limit sends SET_RPM 0 itsel
   rig.pitch = 0.0F;
   rig.run_ms(3000);
   CHECK(rig.board->state() == RobotState::tilt_cutoff);
-  CHECK(rig.reply_to("arm") == "error: latched: disarm first, then arm [not_allowed]\n");
+  CHECK(rig.reply_to("arm") ==
+        "error: latched: disarm first (console disarm, 0x302 mode 0 or CH5 at disarm), then arm [not_allowed]\n");
   CHECK(all_zero(rig.wheels_since(mark)));
-  rig.arm_via_io();  // IO drops its flag (seen as the disarm) and arms again after a fresh hold
+  rig.arm_via_io();  // a fresh hold alone does not leave the latch: a latch is left only to OFF
+  CHECK(rig.board->state() == RobotState::tilt_cutoff);
+  CHECK(rig.reply_to("disarm") == "ok\n");
+  CHECK(rig.board->state() == RobotState::off);
+  rig.arm_via_io();
   CHECK(rig.board->state() == RobotState::balance);
   CHECK((rig.board->faults() & saulcan::fault::kTiltCutoff) == 0);  // latched causes cleared by the arming
 }
@@ -433,7 +438,10 @@ TEST_CASE("watchdog reset: power-on after it is FAULT with watchdog_reset until 
   CHECK(rig.board->faults() & saulcan::fault::kWatchdogReset);
   rig.run_ms(50);
   CHECK(rig.frames_with_id(0x401).back().data[6] & saulcan::fault::kWatchdogReset);
-  rig.arm_via_io();  // the IO flag at 0 is the disarm; then the fresh arming
+  rig.arm_via_io();  // no way out of the latch by a hold: a disarm first, then the fresh arming
+  CHECK(rig.board->state() == RobotState::fault);
+  CHECK(rig.reply_to("disarm") == "ok\n");
+  rig.arm_via_io();
   CHECK(rig.board->state() == RobotState::balance);
   CHECK((rig.board->faults() & saulcan::fault::kWatchdogReset) == 0);
 }

@@ -93,11 +93,86 @@ TEST_CASE("rule 1: a button held through an ESTOP or a watchdog reset never arms
   CHECK_FALSE(r.armed_ever);
   CHECK_FALSE(r.world.io().armed());
   CHECK(r.peak_erpm == 0);
-  // A new press: released, then held 3 s (the IO flag's edge is BALANCE's disarm and fresh arming).
+  // A new press alone does not leave the latch (only OFF is armed): a disarm first, then the new press arms.
   r.sim("button up");
   r.run_ms(600);  // the IO board's console estop lasts 500 ms
   r.press(3100);
+  CHECK_FALSE(is_armed(r.state()));
+  r.run_ms(500);  // the IO board keeps its refused flag 250 ms (arm_confirm_us) before it takes a new press
+  CHECK(r.console("balance", "disarm") == "ok\n");
+  CHECK(r.state() == RobotState::off);
+  r.press(3100);
   CHECK(is_armed(r.state()));
+}
+
+// Issue 33's minimal cases: a stop or disarm that leaves the state as it was still cancels a hold in progress.
+TEST_CASE("rule 1: a stop or disarm during a hold cancels it even when the state does not change (issue 33)") {
+  Robot r;
+  powered_on(r);
+  RobotState before = RobotState::off;
+  bool by_console = true;  // else the Orin
+  SECTION("OFF, BALANCE console disarm") {}
+  SECTION("OFF, the Orin's mode 0") { by_console = false; }
+  SECTION("ESTOP, BALANCE console estop") { before = RobotState::estop; }
+  SECTION("ESTOP, the Orin's mode 3") {
+    before = RobotState::estop;
+    by_console = false;
+  }
+  if (before == RobotState::estop) {
+    r.world.send_can(std_frame(0x302, {3}));
+    r.run_ms(50);
+  }
+  REQUIRE(r.state() == before);
+  r.reset_peaks();
+  r.sim("button down");
+  r.run_ms(1500);
+  // the stop or disarm, in the state the robot is in (it stays)
+  const bool off = before == RobotState::off;
+  if (by_console) {
+    CHECK(r.console("balance", off ? "disarm" : "estop") == "ok\n");
+  } else {
+    r.world.send_can(std_frame(0x302, {static_cast<std::uint8_t>(off ? 0 : 3)}));
+  }
+  r.run_ms(1700);  // the button up at 3.2 s: the IO board's hold has completed
+  r.sim("button up");
+  r.run_ms(2000);
+  CHECK_FALSE(r.armed_ever);
+  CHECK(r.peak_erpm == 0);
+  CHECK(r.state() == before);
+}
+
+TEST_CASE("a latch is left only to OFF: console arm and a new press are refused in ESTOP, a disarm comes first") {
+  Robot r;
+  powered_on(r);
+  r.world.send_can(std_frame(0x302, {3}));
+  r.run_ms(50);
+  REQUIRE(r.state() == RobotState::estop);
+  CHECK(r.console("balance", "arm").find("latched: disarm first") != std::string::npos);
+  r.press(3200);
+  r.run_ms(300);
+  CHECK(r.state() == RobotState::estop);
+  SECTION("console disarm") { CHECK(r.console("balance", "disarm") == "ok\n"); }
+  SECTION("CH5 moved to disarm (its edge), then back") {
+    r.sim("radio 5 1000");
+    r.run_ms(30);
+    CHECK(r.state() == RobotState::off);
+    r.sim("radio 5 2000");
+    r.run_ms(30);
+  }
+  r.run_ms(30);
+  CHECK(r.state() == RobotState::off);
+  CHECK(r.console("balance", "arm") == "ok\n");
+  CHECK(is_armed(r.state()));
+}
+
+TEST_CASE("CH5 already at disarm when a latch comes is no way out of it: the switch must move") {
+  Robot r;
+  powered_on(r);
+  r.sim("radio 5 1000");
+  r.run_ms(50);
+  r.world.send_can(std_frame(0x302, {3}));
+  r.run_ms(200);
+  CHECK(r.state() == RobotState::estop);  // the CH5 level is no disarm of the latch: ESTOP stays on display
 }
 
 TEST_CASE("rule 1 on BALANCE alone: an IO arming whose button was never seen released since the latch is refused") {
@@ -115,13 +190,21 @@ TEST_CASE("rule 1 on BALANCE alone: an IO arming whose button was never seen rel
   rig.rc.flags = interboard::RcCmd::kArmed | interboard::RcCmd::kButton;
   rig.run_ms(20);
   CHECK(rig.board->state() == RobotState::estop);
-  // The button seen released, then a new edge: armed.
-  rig.rc.flags = 0;
-  rig.run_ms(20);
-  rig.rc.flags = interboard::RcCmd::kButton;
-  rig.run_ms(20);
-  rig.rc.flags = interboard::RcCmd::kArmed | interboard::RcCmd::kButton;
-  rig.run_ms(20);
+  // The button seen released, then a new edge: still ESTOP (a latch is left only to OFF); a disarm first.
+  const auto released_then_new_edge = [&] {
+    rig.rc.flags = 0;
+    rig.run_ms(20);
+    rig.rc.flags = interboard::RcCmd::kButton;
+    rig.run_ms(20);
+    rig.rc.flags = interboard::RcCmd::kArmed | interboard::RcCmd::kButton;
+    rig.run_ms(20);
+  };
+  released_then_new_edge();
+  CHECK(rig.board->state() == RobotState::estop);
+  CHECK(rig.reply_to("disarm") == "ok\n");
+  CHECK(rig.board->state() == RobotState::off);
+  // The button seen released after the disarm, then a new edge: armed.
+  released_then_new_edge();
   CHECK(rig.board->state() == RobotState::balance);
 }
 

@@ -56,9 +56,11 @@ TEST_CASE("no IMU at power-on: FAULT after imu_startup_us, why on the console, L
   CHECK(all_zero(rig.wheels_since(0)));
   // the console still answers, and arming says why not
   CHECK(rig.reply_to("status").find("state=FAULT") != std::string::npos);
+  CHECK(rig.reply_to("arm").find("latched: disarm first") != std::string::npos);
+  CHECK(rig.reply_to("disarm") == "ok\n");  // to OFF: then arming says what is missing
   CHECK(rig.reply_to("arm") == "error: no pitch from the IMU [not_allowed]\n");
   rig.arm_via_io();
-  CHECK(rig.board->state() == RobotState::fault);
+  CHECK(rig.board->state() == RobotState::off);
 }
 
 TEST_CASE("an IMU that stops while armed: FAULT and SET_RPM 0 in the step that sees it, the reason kept until a fresh "
@@ -86,6 +88,9 @@ TEST_CASE("an IMU that stops while armed: FAULT and SET_RPM 0 in the step that s
   rig.run_ms(300);
   CHECK(rig.board->state() == RobotState::fault);
   CHECK(rig.board->fault_reason() == FaultReason::imu_silent);
+  rig.arm_via_io();  // a hold alone does not leave the latch
+  CHECK(rig.board->state() == RobotState::fault);
+  CHECK(rig.reply_to("disarm") == "ok\n");
   rig.arm_via_io();
   CHECK(rig.board->state() == RobotState::balance);
   CHECK(rig.board->fault_reason() == FaultReason::none);
@@ -119,10 +124,13 @@ TEST_CASE("an IO board silent since power-on: FAULT (io_link_loss) after io_star
   CHECK(rig.display.last.fault_reason == FaultReason::io_link_silent);
   CHECK((faults_401(rig) & fault::kIoLinkLoss) != 0);
   CHECK(rig.watchdog.feeds == 1203);
-  // the IO board turns up: still FAULT until its armed flag is seen at 0 and a fresh arming follows
+  // the IO board turns up: still FAULT, also after a hold, until a disarm and a fresh arming
   rig.io_on = true;
   rig.run_ms(100);
   CHECK(rig.board->state() == RobotState::fault);
+  rig.arm_via_io();
+  CHECK(rig.board->state() == RobotState::fault);
+  CHECK(rig.reply_to("disarm") == "ok\n");
   rig.arm_via_io();
   CHECK(rig.board->state() == RobotState::balance);
 }

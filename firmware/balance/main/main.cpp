@@ -395,6 +395,9 @@ UsbConsole g_console;
 TaskWatchdog g_watchdog;
 Lcd g_lcd;
 
+// The limits the Orin tightened survive a reset here (not a power cycle): see RetainedLimits in hal.hpp.
+RTC_NOINIT_ATTR RetainedLimits g_retained;
+
 ResetReason reset_reason() {
   switch (esp_reset_reason()) {
     case ESP_RST_TASK_WDT:
@@ -450,7 +453,7 @@ extern "C" void app_main() {
   wdt.trigger_panic = true;
   esp_task_wdt_reconfigure(&wdt);
 
-  static BalanceBoard board({g_imu, g_can, g_link, g_console, g_watchdog, g_lcd}, BalanceConfig{}, reset);
+  static BalanceBoard board({g_imu, g_can, g_link, g_console, g_watchdog, g_lcd, g_retained}, BalanceConfig{}, reset);
 
   xTaskCreatePinnedToCore([](void*) { g_lcd.run(); }, "lcd", 4096, nullptr, 2, nullptr, 0);
   xTaskCreatePinnedToCore(control_task, "control", 8192, &board, configMAX_PRIORITIES - 2, &g_control_task, 1);

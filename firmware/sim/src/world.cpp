@@ -101,6 +101,7 @@ struct World::Hardware {
     fw::LcdView* view;
     void show(const fw::LcdView& v) override { *view = v; }
   } display;
+  fw::RetainedLimits retained{};  // kept across the simulated board's restarts, as RTC memory is across a reset
   struct Pwm final : fw::Pwm {
     std::array<std::uint16_t, fw::kPwmChannelCount>* pwm;
     void set(fw::PwmChannel c, std::uint16_t p) override { (*pwm)[static_cast<std::size_t>(c)] = p; }
@@ -171,7 +172,7 @@ World::~World() = default;
 void World::boot_balance(fw::ResetReason reason) {
   balance_.reset();
   balance_.emplace(fw::BalanceBoard::Hardware{hw_->imu_port, hw_->can_port, hw_->balance_link, hw_->balance_console,
-                                              hw_->balance_watchdog, hw_->display},
+                                              hw_->balance_watchdog, hw_->display, hw_->retained},
                    config_.balance, reason);
   hw_->balance_fed_us = now_;
   balance_hung_ = false;
@@ -231,6 +232,11 @@ void World::step() {
 
   io_->step(now_);
   if (!balance_hung_) balance_->step(now_);
+  // The console's reboot: the board restarts as the glue's esp_restart() does (a software reset: OFF, limits kept).
+  if (!balance_hung_ && balance_->reboot_requested()) {
+    ++balance_resets_;
+    boot_balance(fw::ResetReason::software);
+  }
   // The 50 ms task watchdog: a board that stopped feeding it is reset (and comes back OFF, reason watchdog).
   if (now_ - hw_->balance_fed_us > 50'000) {
     ++balance_resets_;

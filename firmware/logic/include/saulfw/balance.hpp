@@ -27,21 +27,20 @@
 // into a lean, limited to +-max_lean_deg, which becomes the balance PID's pitch setpoint. The request never
 // reaches the wheels directly: the balance loop keeps the rest of the cap for balancing.
 //
-// State machine (docs/protocol.md section 4):
+// State machine: one table, saulfw/arming.hpp (printed in docs/protocol.md section 4), applied by apply():
 //   OFF -(arming)-> BALANCE <-(0x302 mode 1/2)-> MANUAL
-//   BALANCE/MANUAL -(disarm: IO armed flag 1 -> 0, console disarm, 0x302 mode 0)-> OFF
+//   any -(disarm: console disarm, 0x302 mode 0, CH5 at disarm, the IO armed flag 1 -> 0 while armed)-> OFF, except
+//   ESTOP while an estop input is active (then refused). A latched state is left only to OFF: by a console disarm,
+//   0x302 mode 0, or CH5 going to disarm (its edge; the level only keeps the robot disarmed).
 //   any -(estop: RC_CMD kill, FAULT estop, 0x302 mode 3, console estop)-> ESTOP
 //   BALANCE/MANUAL -(|pitch| > tilt limit)-> TILT_CUTOFF
 //   BALANCE/MANUAL -(IO link loss, RC loss, motor fault, loop hang)-> FAULT; power-on after a watchdog
 //   reset -> FAULT; any -(IMU missing or silent, IO board silent since power-on)-> FAULT
-//   ESTOP/TILT_CUTOFF/FAULT stay until a disarm (any of the above, or the IO armed flag seen at 0) followed by a
-//   fresh arming. An explicit disarm (0x302 mode 0, console disarm) takes a latched state to OFF (the cause bits
-//   stay in 0x401 until the next arming), unless an estop input is still active: then it is refused.
-//   A live radio with CH5 at disarm (RC_CMD disarm_switch) disarms at once and forbids every arming.
-// Arming (IO flag edge, console arm): only from OFF or a disarmed latched state, with a valid pitch |pitch| <= 5
-// degrees, the IO link alive, no RC loss, no motor fault, no estop input, CH5 not at disarm and the throttle stick
-// centred (RC_CMD throttle 0); it clears the latched fault bits. The IO flag edge also needs the arming button seen
-// released (RC_CMD button bit) since the last disarm, latch or power-on: a new press (docs/protocol.md, safety
+//   Every stop and every disarm, whatever state it finds, cancels a button hold in progress.
+// Arming (IO flag edge, console arm): only from OFF, with a valid pitch |pitch| <= 5 degrees, the IO link alive,
+// no RC loss, no motor fault, no estop input, CH5 not at disarm and the throttle stick centred (RC_CMD throttle 0);
+// it clears the latched fault bits. The IO flag edge also needs the arming button seen released (RC_CMD button
+// bit) since the last stop, disarm, latch or power-on: a new press (docs/protocol.md, safety
 // decisions). The speed cap (console speed_limit) rises one 10 % step per command and only while disarmed; BALANCE
 // sends it to the IO board (SPEED_CAP) with every STATE and at once when it changes.
 #pragma once
@@ -49,6 +48,7 @@
 #include <cstdint>
 #include <string_view>
 
+#include "saulfw/arming.hpp"
 #include "saulfw/common.hpp"
 #include "saulfw/hal.hpp"
 #include "saulproto/core/console.hpp"
@@ -122,6 +122,7 @@ class BalanceBoard {
     SerialPort& console;  ///< USB console
     Watchdog& watchdog;
     Display& display;
+    RetainedLimits& retained;  ///< survives a reset (see hal.hpp)
   };
 
   BalanceBoard(const Hardware& hw, const BalanceConfig& config, ResetReason reset) noexcept;
@@ -175,19 +176,20 @@ class BalanceBoard {
   void control(TimeUs now) noexcept;
   void publish(TimeUs now) noexcept;
 
+  /// Applies one event of the arming table (saulfw/arming.hpp): the cause bits, the hold cancel, the next state.
+  /// Returns nullptr when done, else why it was refused (a short text for the console; the state stays).
+  const char* apply(arming::Event event, std::uint8_t cause = 0) noexcept;
   void estop() noexcept;
-  void latch(saulcan::RobotState to, std::uint8_t cause) noexcept;
+  /// Writes the tilt limit and the 0x303 speed into the block a reset keeps (RetainedLimits, hal.hpp).
+  void remember_limits() noexcept;
   /// Latches FAULT for a reason: the cause bits, the first reason kept, one console line.
   void fault(std::uint8_t cause, FaultReason reason) noexcept;
   /// The wheels' speed measured by both VESCs (mm/s, + forward); false when either is not fresh.
   bool measured_speed(TimeUs now, std::int64_t& mmps) const noexcept;
   /// The balance output (permille) in BALANCE: the speed loop's lean, then the balance PID.
   float balance_output(float request_mmps, std::int32_t cap, TimeUs now, float dt) noexcept;
-  void disarm() noexcept;
-  /// nullptr when armed, else why not (a short text for the console). by_button: the IO flag's edge.
+  /// The table's arm event, then the arming checks: nullptr when armed, else why not. by_button: the IO flag's edge.
   const char* try_arm(bool by_button) noexcept;
-  /// An explicit disarm (0x302 mode 0, console disarm); nullptr when done, else why the state stays.
-  const char* disarm_command() noexcept;
   [[nodiscard]] bool armed() const noexcept;
   [[nodiscard]] bool latched() const noexcept;
   [[nodiscard]] bool estop_input() const noexcept;
@@ -213,8 +215,7 @@ class BalanceBoard {
   saulcan::RobotState state_ = saulcan::RobotState::off;
   std::uint8_t latched_faults_ = 0;
   std::uint8_t live_faults_ = saulcan::fault::kIoLinkLoss | saulcan::fault::kOrinTimeout;
-  bool disarmed_since_latch_ = true;
-  bool button_released_ = false;  // the arming button seen released (RC_CMD) since the last stop or power-on
+  bool button_released_ = false;  // the arming button seen released (RC_CMD) since the last stop, disarm or power-on
   FaultReason fault_reason_ = FaultReason::none;
   bool imu_fault_seen_ = false;  // the present IMU stall has latched its FAULT (once per stall)
   bool io_silent_seen_ = false;  // the silent IO board at power-on has latched its FAULT
@@ -226,6 +227,7 @@ class BalanceBoard {
   TimeUs rc_us_ = 0;
   bool rc_seen_ = false;
   Tri io_armed_ = Tri::unknown;
+  Tri disarm_switch_ = Tri::unknown;  // RC_CMD disarm_switch (CH5 at disarm): its edge leaves a latch for OFF
   bool io_arm_request_ = false;
   std::uint8_t io_faults_ = 0;
   interboard::Sensor sensor_{};

@@ -57,6 +57,23 @@ class Watchdog {
 /// Why the chip last started. watchdog covers the task, interrupt and RTC watchdogs and a panic.
 enum class ResetReason : std::uint8_t { power_on = 0, software = 1, watchdog = 2 };
 
+/// What BALANCE keeps across a reset of its chip: the limits the Orin tightened with 0x303 (a lower tilt limit, a
+/// lower speed). Without it a watchdog reset silently gave back the power-on 25 degrees and cap. The glue keeps it
+/// in memory a reset does not clear (RTC_NOINIT_ATTR on the ESP32-S3; a power cycle does clear it), the simulator
+/// across its restarts. The logic reads it only after a reset that was not a power-on, and only when `check`
+/// matches (noise in uninitialised memory does not), and only to tighten: a kept limit never loosens a limit.
+// Trivial on purpose: the glue's RTC_NOINIT object must have no constructor that would clear it at start-up.
+struct RetainedLimits {
+  std::uint16_t tilt_limit_x100;
+  std::uint16_t orin_max_speed_mmps;
+  std::uint32_t check;
+
+  static constexpr std::uint32_t kMagic = 0x5A1D'7EE0U;
+  [[nodiscard]] constexpr std::uint32_t expected() const noexcept {
+    return kMagic ^ ((static_cast<std::uint32_t>(tilt_limit_x100) << 16) | orin_max_speed_mmps);
+  }
+};
+
 // ---- BALANCE --------------------------------------------------------------------------------------------------
 
 /// One QMI8658 sample in the robot's body frame (REP-103: x forward, y left, z up), rotated from the chip's own

@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <string_view>
 
+#include "saulfw/arming.hpp"
 #include "saulfw/common.hpp"
 #include "saulfw/hal.hpp"
 #include "saulproto/core/crsf.hpp"
@@ -119,7 +120,8 @@ class IoBoard {
                 bool enabled) noexcept;
   void set_pwm(PwmChannel channel, std::uint16_t permille) noexcept;
   void set_pin(OutputPin pin, bool on) noexcept;
-  void disarm() noexcept;
+  /// Drops the armed flag and, per the arming table's hold column, cancels a hold in progress.
+  void disarm(arming::Event event) noexcept;
   void send_fault() noexcept;
   void send_rc_cmd() noexcept;
   void send_link(const interboard::Message& message) noexcept;

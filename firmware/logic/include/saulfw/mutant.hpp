@@ -23,8 +23,10 @@ enum class Id : std::uint8_t {
   speed_cap,          ///< BALANCE's wheel speed is not limited by the speed cap
   throttle_centred,   ///< arming with the throttle stick off centre
   raise_while_armed,  ///< the speed cap may be raised while armed
+  hold_cancel,        ///< rule 1: a stop or disarm that leaves the state as it was does not cancel a button hold
+  arm_from_latch,     ///< arming (console arm, a button hold) leaves ESTOP, TILT_CUTOFF or FAULT without a disarm
 };
-inline constexpr int kCount = 12;  ///< none included
+inline constexpr int kCount = 14;  ///< none included
 
 constexpr const char* name(Id id) noexcept {
   switch (id) {
@@ -40,6 +42,8 @@ constexpr const char* name(Id id) noexcept {
     case Id::speed_cap: return "speed_cap";
     case Id::throttle_centred: return "throttle_centred";
     case Id::raise_while_armed: return "raise_while_armed";
+    case Id::hold_cancel: return "hold_cancel";
+    case Id::arm_from_latch: return "arm_from_latch";
   }
   return "?";
 }
