@@ -107,4 +107,148 @@ void ConsoleDecoder::take_frame(std::span<const std::uint8_t> frame) noexcept {
   rules_.base += frame.size();
 }
 
+namespace {
+
+bool same_word(std::string_view a, std::string_view b) noexcept {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const auto lower = [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; };
+    if (lower(a[i]) != lower(b[i])) return false;
+  }
+  return true;
+}
+
+constexpr std::size_t kMaxWords = 7;
+
+struct Parser {
+  std::string_view words[kMaxWords];
+  std::size_t count = 0;
+  bool too_many = false;
+  CommandParse result{true, {}, {}};
+
+  explicit Parser(std::string_view line) noexcept {
+    std::size_t i = 0;
+    while (i < line.size()) {
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r' || line[i] == '\n')) ++i;
+      const std::size_t start = i;
+      while (i < line.size() && !(line[i] == ' ' || line[i] == '\t' || line[i] == '\r' || line[i] == '\n')) ++i;
+      if (i == start) break;
+      if (count < kMaxWords) {
+        words[count++] = line.substr(start, i - start);
+      } else {
+        too_many = true;
+      }
+    }
+  }
+  CommandParse fail(Reason reason, const char* message, std::size_t argument) noexcept {
+    result.error = {reason, message, static_cast<std::uint8_t>(argument), nullptr};
+    return result;
+  }
+  CommandParse done(const Command& command) noexcept {
+    result.command = command;
+    return result;
+  }
+  /// Exactly n words, else the count's error naming the usage.
+  bool count_is(std::size_t n, const char* usage) noexcept {
+    if (count < n && !too_many) {
+      fail(Reason::missing_argument, usage, count);
+      return false;
+    }
+    if (count > n || too_many) {
+      fail(Reason::extra_argument, usage, n);
+      return false;
+    }
+    return true;
+  }
+  /// Word i as a number in [lo, hi] (not 0 when nonzero is set).
+  bool number(std::size_t i, float lo, float hi, bool nonzero, const char* range, float& out) noexcept {
+    const auto v = console::parse_float(words[i]);
+    if (!v) {
+      fail(v.reason(), v.reason() == Reason::not_finite ? "not a finite number" : "not a number", i);
+      return false;
+    }
+    if (*v < lo || *v > hi || (nonzero && *v == 0.0F)) {
+      fail(Reason::out_of_range, range, i);
+      return false;
+    }
+    out = *v;
+    return true;
+  }
+};
+
+constexpr const char* kAmplitudeRange = "amplitude must be -2 to 2 degrees, not 0";
+constexpr const char* kDurationRange = "duration must be above 0 and at most 20 seconds";
+constexpr const char* kFrequencyRange = "frequency must be 0.05 to 100 Hz";
+
+CommandParse parse_trace(Parser& p) noexcept {
+  constexpr const char* kUsage = "usage: trace on [N] | trace off | trace dump | trace arm";
+  if (p.count < 2) return p.fail(Reason::missing_argument, kUsage, 1);
+  const std::string_view what = p.words[1];
+  if (what == "on") {
+    if (p.count > 3 || p.too_many) return p.fail(Reason::extra_argument, kUsage, 3);
+    TraceOn on;
+    if (p.count == 3) {
+      float n = 0.0F;
+      if (!p.number(2, 1.0F, kMaxDivider, true, "divider must be a whole number 1 to 1000", n)) return p.result;
+      if (n != static_cast<float>(static_cast<std::uint16_t>(n)))
+        return p.fail(Reason::out_of_range, "divider must be a whole number 1 to 1000", 2);
+      on.divider = static_cast<std::uint16_t>(n);
+    }
+    return p.done(on);
+  }
+  Command command;
+  if (what == "off") {
+    command = TraceOff{};
+  } else if (what == "dump") {
+    command = TraceDump{};
+  } else if (what == "arm") {
+    command = TraceArm{};
+  } else {
+    return p.fail(Reason::unknown_command, kUsage, 1);
+  }
+  if (!p.count_is(2, kUsage)) return p.result;
+  return p.done(command);
+}
+
+CommandParse parse_excite(Parser& p) noexcept {
+  constexpr const char* kUsage =
+      "usage: excite step|prbs <deg> <s> | excite chirp <deg> <f0 Hz> <f1 Hz> <s> | excite off";
+  if (p.count < 2) return p.fail(Reason::missing_argument, kUsage, 1);
+  const std::string_view what = p.words[1];
+  if (what == "off") {
+    if (!p.count_is(2, kUsage)) return p.result;
+    return p.done(ExciteOff{});
+  }
+  ExciteStart e;
+  std::size_t n = 4;
+  if (what == "step") {
+    e.kind = Excite::step;
+  } else if (what == "prbs") {
+    e.kind = Excite::prbs;
+  } else if (what == "chirp") {
+    e.kind = Excite::chirp;
+    n = 6;
+  } else {
+    return p.fail(Reason::unknown_command, kUsage, 1);
+  }
+  if (!p.count_is(n, kUsage)) return p.result;
+  if (!p.number(2, -kMaxAmplitudeDeg, kMaxAmplitudeDeg, true, kAmplitudeRange, e.amplitude_deg)) return p.result;
+  if (e.kind == Excite::chirp) {
+    if (!p.number(3, kMinFrequencyHz, kMaxFrequencyHz, false, kFrequencyRange, e.f0_hz)) return p.result;
+    if (!p.number(4, kMinFrequencyHz, kMaxFrequencyHz, false, kFrequencyRange, e.f1_hz)) return p.result;
+  }
+  if (!p.number(n - 1, 0.0F, kMaxDurationS, true, kDurationRange, e.duration_s)) return p.result;
+  return p.done(e);
+}
+
+}  // namespace
+
+CommandParse parse_command(std::string_view line) noexcept {
+  Parser p(line);
+  if (p.count == 0) return {};
+  if (same_word(p.words[0], "trace")) return parse_trace(p);
+  if (same_word(p.words[0], "excite")) return parse_excite(p);
+  return {};
+}
+
 }  // namespace saul::trace

@@ -23,8 +23,9 @@ enum class Id : std::uint8_t {
   speed_cap,          ///< BALANCE's wheel speed is not limited by the speed cap
   throttle_centred,   ///< arming with the throttle stick off centre
   raise_while_armed,  ///< the speed cap may be raised while armed
+  excite_latch,       ///< the excitation survives leaving BALANCE (a latch, a disarm)
 };
-inline constexpr int kCount = 12;  ///< none included
+inline constexpr int kCount = 13;  ///< none included
 
 constexpr const char* name(Id id) noexcept {
   switch (id) {
@@ -40,6 +41,7 @@ constexpr const char* name(Id id) noexcept {
     case Id::speed_cap: return "speed_cap";
     case Id::throttle_centred: return "throttle_centred";
     case Id::raise_while_armed: return "raise_while_armed";
+    case Id::excite_latch: return "excite_latch";
   }
   return "?";
 }

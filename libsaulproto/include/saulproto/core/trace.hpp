@@ -18,6 +18,9 @@
 #include <span>
 #include <string_view>
 
+#include <variant>
+
+#include "saulproto/core/console.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/result.hpp"
 #include "saulproto/core/stream_framer.hpp"
@@ -179,5 +182,55 @@ class ConsoleDecoder {
   std::size_t line_length_ = 0;
   bool line_cut_ = false;
 };
+
+// ---- console commands (BALANCE) ---------------------------------------------------------------------------------
+//
+//   trace on [DIVIDER]                  stream a record every DIVIDER-th loop (1..1000, default 1)
+//   trace off | trace dump | trace arm  stop streaming; send the flight recorder; re-arm the flight recorder
+//   excite step AMPL DUR                a test signal on the pitch setpoint, AMPL degrees (0 < |AMPL| <= 2),
+//   excite chirp AMPL F0 F1 DUR         DUR seconds (0 < DUR <= 20), F0 and F1 in Hz (0.05 .. 100)
+//   excite prbs AMPL DUR
+//   excite off
+// The first word is matched without regard to ASCII case, like every console command; the second exactly.
+
+inline constexpr float kMaxAmplitudeDeg = 2.0F;
+inline constexpr float kMaxDurationS = 20.0F;
+inline constexpr float kMinFrequencyHz = 0.05F;
+inline constexpr float kMaxFrequencyHz = 100.0F;
+inline constexpr std::uint16_t kMaxDivider = 1000;
+
+struct TraceOn {
+  std::uint16_t divider = 1;
+};
+struct TraceOff {};
+struct TraceDump {};
+struct TraceArm {};
+struct ExciteStart {
+  Excite kind = Excite::step;
+  float amplitude_deg = 0.0F;
+  float f0_hz = 0.0F;  ///< chirp only
+  float f1_hz = 0.0F;  ///< chirp only
+  float duration_s = 0.0F;
+};
+struct ExciteOff {};
+using Command = std::variant<TraceOn, TraceOff, TraceDump, TraceArm, ExciteStart, ExciteOff>;
+
+struct CommandParse {
+  bool matched = false;        ///< the line's first word is trace or excite (else: another console command)
+  Command command{};           ///< when matched and error.reason is ok
+  console::ParseError error{}; ///< when matched and refused: format with console::format_error
+};
+/// Parses a console line if it is a trace or excite command. O(length), no allocation.
+CommandParse parse_command(std::string_view line) noexcept;
+/// The help lines of these commands ("usage   summary\n" each), for the console's help.
+inline constexpr std::string_view kHelp =
+    "trace on [N]        stream the loop trace (every Nth loop, default 1)\n"
+    "trace off           stop the loop trace\n"
+    "trace dump          send the flight recorder (the last 5 s before a latch)\n"
+    "trace arm           re-arm the flight recorder\n"
+    "excite step A D     add a step of A deg (|A| <= 2) to the setpoint for D s (<= 20), BALANCE only\n"
+    "excite chirp A F0 F1 D  a chirp from F0 to F1 Hz\n"
+    "excite prbs A D     a pseudo-random binary sequence (20 ms bits)\n"
+    "excite off          stop the test signal\n";
 
 }  // namespace saul::trace
