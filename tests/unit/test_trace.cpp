@@ -197,3 +197,43 @@ TEST_CASE("trace: the console decoder agrees with a plain model on long random s
     for (const auto& [reason, offset] : c.rejections) CHECK(in[offset] == 0xAA);
   }
 }
+
+TEST_CASE("trace: console commands read back from their own formatting, and the refusals name the rule") {
+  const Command commands[] = {TraceOn{1}, TraceOn{1000}, TraceOff{}, TraceDump{}, TraceArm{}, ExciteOff{},
+                              ExciteStart{Excite::step, -1.5F, 0, 0, 20.0F}, ExciteStart{Excite::prbs, 2.0F, 0, 0, 0.25F},
+                              ExciteStart{Excite::chirp, 0.1F, 0.05F, 100.0F, 7.5F}};
+  for (const auto& c : commands) {
+    char line[64];
+    const auto n = format_command(c, line);
+    REQUIRE(n.ok());
+    INFO(line);
+    const auto back = parse_command(std::string_view(line, *n));
+    REQUIRE(back.matched);
+    REQUIRE(back.error.reason == Reason::ok);
+    CHECK(back.command.index() == c.index());
+    if (const auto* e = std::get_if<ExciteStart>(&c)) {
+      const auto& b = std::get<ExciteStart>(back.command);
+      CHECK(b.kind == e->kind);
+      CHECK(b.amplitude_deg == e->amplitude_deg);
+      CHECK(b.f0_hz == e->f0_hz);
+      CHECK(b.f1_hz == e->f1_hz);
+      CHECK(b.duration_s == e->duration_s);
+    }
+    if (const auto* on = std::get_if<TraceOn>(&c)) CHECK(std::get<TraceOn>(back.command).divider == on->divider);
+  }
+  CHECK(std::string_view(format_command(TraceOn{7}, std::span<char>()).ok() ? "" : "too small") == "too small");
+  CHECK_FALSE(parse_command("status").matched);
+  CHECK_FALSE(parse_command("").matched);
+  CHECK(parse_command("Excite OFF").error.reason == Reason::unknown_command);  // the sub-word is exact
+  CHECK(parse_command("excite step 0 2").error.reason == Reason::out_of_range);
+  CHECK(parse_command("excite step 2.01 2").error.reason == Reason::out_of_range);
+  CHECK(parse_command("excite step -2 20").error.reason == Reason::ok);
+  CHECK(parse_command("excite prbs 1 20.001").error.reason == Reason::out_of_range);
+  CHECK(parse_command("excite prbs 1 0").error.reason == Reason::out_of_range);
+  CHECK(parse_command("excite chirp 1 0.04 5 2").error.argument == 3);
+  CHECK(parse_command("excite chirp 1 1 nan 2").error.reason == Reason::not_finite);
+  CHECK(parse_command("excite step 1 2 3").error.reason == Reason::extra_argument);
+  CHECK(parse_command("trace on 1 2 3 4 5 6 7 8").error.reason == Reason::extra_argument);
+  CHECK(parse_command("trace").error.reason == Reason::missing_argument);
+  CHECK(parse_command("trace on 1001").error.reason == Reason::out_of_range);
+}

@@ -243,6 +243,26 @@ CommandParse parse_excite(Parser& p) noexcept {
 
 }  // namespace
 
+Result<std::size_t> format_command(const Command& command, std::span<char> out) noexcept {
+  console::TextWriter w(out);
+  if (const auto* on = std::get_if<TraceOn>(&command)) {
+    w.text("trace on ").unsigned_number(on->divider);
+  } else if (std::holds_alternative<TraceOff>(command)) {
+    w.text("trace off");
+  } else if (std::holds_alternative<TraceDump>(command)) {
+    w.text("trace dump");
+  } else if (std::holds_alternative<TraceArm>(command)) {
+    w.text("trace arm");
+  } else if (const auto* e = std::get_if<ExciteStart>(&command)) {
+    w.text("excite ").text(to_string(e->kind)).ch(' ').real(e->amplitude_deg);
+    if (e->kind == Excite::chirp) w.ch(' ').real(e->f0_hz).ch(' ').real(e->f1_hz);
+    w.ch(' ').real(e->duration_s);
+  } else {
+    w.text("excite off");
+  }
+  return w.ch('\n').finish();
+}
+
 CommandParse parse_command(std::string_view line) noexcept {
   Parser p(line);
   if (p.count == 0) return {};

@@ -222,6 +222,10 @@ struct CommandParse {
 };
 /// Parses a console line if it is a trace or excite command. O(length), no allocation.
 CommandParse parse_command(std::string_view line) noexcept;
+/// Writes the console line of a command (ending in '\n', NUL-terminated), which parse_command() reads back to the
+/// same command: what saulctl sends. buffer_too_small when it does not fit (64 chars always do).
+Result<std::size_t> format_command(const Command& command, std::span<char> out) noexcept;
+
 /// The help lines of these commands ("usage   summary\n" each), for the console's help.
 inline constexpr std::string_view kHelp =
     "trace on [N]        stream the loop trace (every Nth loop, default 1)\n"
