@@ -69,6 +69,24 @@ check "--dump: the flight recorder's 5000 records" grep -q "^flight recorder: 50
 "$saulctl" decode "$work/dump.trace" 2>/dev/null | grep -c "TILT_CUTOFF" >"$work/tilt" || true
 check "the dump ends at the tilt cutoff" test "$(cat "$work/tilt")" -ge 1
 
+# Live, at real time: `saulctl sim` streams the trace on its BALANCE console pty (trace on works in any state).
+"$saulctl" sim --quiet --paths-file "$work/paths" --for 30s >"$work/sim.log" 2>&1 &
+sim=$!
+for _ in $(seq 200); do [[ -s $work/paths ]] && break; sleep 0.05; done
+balance=$(sed -n 's/^balance=//p' "$work/paths")
+"$saulctl" tune record --console-balance "$balance" --duration 2s -o "$work/live.trace" >"$work/live" 2>&1
+cat "$work/live"
+"$saulctl" tune record --console-balance "$balance" --duration 1s --excite step -o "$work/r.trace" >"$work/ref" 2>&1
+check "live: excite outside BALANCE is refused, exit 1" test $? -eq 1
+cat "$work/ref"
+check "live: the refusal says why" grep -q "^stopped: BALANCE refused: error: excite runs only in BALANCE" "$work/ref"
+kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+"$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
+cat "$work/live.stats"
+live=$(sed -n 's/.*loop trace, \([0-9]*\) records over.*/\1/p' "$work/live.stats")
+check "live from the sim's pty: about 2 s of records (got ${live:-none})" test "${live:-0}" -ge 1500
+check "live: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/live.stats"
+
 "$saulctl" tune record --duration 1s -o "$work/x.trace" >/dev/null 2>&1
 check "no --sim and no port: usage error (2)" test $? -eq 2
 "$saulctl" tune record --sim --amplitude 3 --excite step -o "$work/x.trace" >/dev/null 2>&1
