@@ -111,7 +111,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   auto o = std::make_shared<TuneRecordOptions>();
   auto* cmd = tune.add_subcommand("record", "Record BALANCE's 1 kHz loop trace into a trace file");
   cmd->add_option("-o,--output", o->out, "the trace file to write")->required();
-  cmd->add_option("--duration", o->duration, "how long to trace (10s, 2m)")->capture_default_str();
+  add_duration_option(cmd, o->duration, "how long to trace")->capture_default_str();
   cmd->add_option("--excite", o->excite, "add a test signal to the pitch setpoint while tracing")
       ->check(CLI::IsMember({"step", "chirp", "prbs"}));
   cmd->add_option("--amplitude", o->amplitude, "the test signal's amplitude in degrees (at most 2)")
@@ -127,7 +127,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   cmd->add_option("--seed", o->seed, "noise seed for --sim")->capture_default_str();
   cmd->add_flag("--dump", o->dump,
                 "fetch the flight recorder (the last 5 s before a latch) instead; with --sim: trace, tilt, then dump");
-  cmd->add_flag("--json", o->json, "print the summary as one JSON object");
+  add_json_flag(cmd, o->json, "print the summary as one JSON object");
   cmd->footer(
       "\nThe file holds the console's bytes: 39-byte records (docs/protocol.md section 10) and any text between them;\n"
       "decode, stats, convert (CSV) and plot read it. The test signal needs BALANCE (armed), sticks centred, Orin at 0.\n"
