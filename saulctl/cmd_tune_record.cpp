@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/host/capture/trace_file.hpp"
+#include "saulproto/host/link/shared_link.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/trace_report.hpp"
 #include "saulproto/host/robot/trace_session.hpp"
@@ -72,7 +73,7 @@ int run_tune_record(const TuneRecordOptions& o) {
     simulated_s = r.simulated_s;
   } else {
     saul::host::SerialSettings settings;
-    auto port = saul::host::open_serial(o.console_balance, settings);
+    auto port = saul::host::open_shared_serial(o.console_balance, settings);  // beside monitor, console, ...
     saul::host::LiveTraceOptions options;
     options.duration = duration;
     options.divider = o.divider;
@@ -131,6 +132,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   cmd->footer(
       "\nThe file holds the console's bytes: 39-byte records (docs/protocol.md section 10) and any text between them;\n"
       "decode, stats, convert (CSV) and plot read it. The test signal needs BALANCE (armed), sticks centred, Orin at 0.\n"
+      "The console port is shared: 'saulctl console' or another saulctl can use it beside the recording.\n"
       "\nExamples:\n"
       "  saulctl tune record --sim --seed 3 --duration 10s --excite chirp --amplitude 1 -o run.trace\n"
       "  saulctl tune record --console-balance /dev/ttyACM1 --duration 30s --excite step --amplitude 0.5 -o step.trace\n"
