@@ -11,6 +11,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "trace_cli.hpp"
 #include "saulproto/host/capture/capture.hpp"
 
 namespace saulctl {
@@ -44,6 +45,7 @@ class ProgressReader final : public saul::host::CaptureReader {
 
 int run_convert(const ConvertOptions& opt) {
   using namespace saul::host;
+  if (is_trace(opt.in)) return convert_trace(opt.in, opt.out);  // a loop trace (saulctl tune record): CSV
   std::optional<CaptureFormat> format;
   if (!opt.format.empty()) format = capture_format_from_name(opt.format);
   std::unique_ptr<CaptureReader> reader;

@@ -13,6 +13,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "trace_cli.hpp"
 #include "grammar.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
@@ -129,6 +130,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
 }
 
 int run_decode(const DecodeOptions& opt) {
+  if (opt.files.size() == 1 && is_trace(opt.files[0])) return decode_trace(opt.files[0], opt.json);  // a loop trace
   const std::string format = opt.json ? "jsonl" : opt.format;
   const auto ids = id_filters(opt.ids);
   const saul::host::SerialReadOptions serial_options = serial_read_options(opt.serial);

@@ -13,6 +13,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "trace_cli.hpp"
 #include "grammar.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/report/plot.hpp"
@@ -59,6 +60,7 @@ int run_plot(const PlotOptions& opt) {
     base = base.substr(0, base.find('.'));
     output = base + "." + format;
   }
+  if (is_trace(opt.file)) return plot_trace(opt.file, format, output);  // a loop trace (saulctl tune record)
 
   PlotRequest request;
   request.id = opt.id;

@@ -8,6 +8,7 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
+#include "trace_cli.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/signal_stats.hpp"
@@ -41,6 +42,7 @@ struct StatsOptions {
 
 int run_stats(const StatsOptions& opt) {
   using namespace saul::host;
+  if (is_trace(opt.file)) return stats_trace(opt.file, opt.json);  // a loop trace (saulctl tune record)
   BusStatsOptions bus;
   const std::uint64_t bitrate = parse_rate_hz(opt.bitrate);
   if (bitrate > 1'000'000) throw CLI::ValidationError("--bitrate", "classic CAN runs at 1 Mbit/s at most");

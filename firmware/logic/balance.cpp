@@ -102,6 +102,7 @@ void BalanceBoard::step(TimeUs now) noexcept {
   read_can(now);
   update_live(now);
   supervise(now);
+  excite_check();  // a latch or disarm so far stops the test signal before anything can arm again
   if (io_arm_request_) {
     io_arm_request_ = false;
     (void)try_arm(true);
@@ -109,6 +110,7 @@ void BalanceBoard::step(TimeUs now) noexcept {
   read_console(now);
   control(now);
   publish(now);
+  trace_loop(now);
   hw_.watchdog.feed();  // the loop ran to its end; a missing sensor is a FAULT above, not a reboot loop
 }
 
@@ -144,7 +146,10 @@ void BalanceBoard::read_link(TimeUs now) noexcept {
     const std::size_t n = hw_.link.read(buffer);
     if (n == 0) break;
     for (std::size_t i = 0; i < n && i < sizeof buffer; ++i)
-      if (auto m = link_rx_.push(buffer[i])) on_link_message(*m, now);
+      if (auto m = link_rx_.push(buffer[i])) {
+        on_link_message(*m, now);
+        excite_check();
+      }
   }
 }
 
@@ -190,7 +195,10 @@ void BalanceBoard::on_link_message(const interboard::Message& message, TimeUs no
 
 void BalanceBoard::read_can(TimeUs now) noexcept {
   CanFrame frame;
-  for (int i = 0; i < 32 && hw_.can.receive(frame); ++i) on_can_frame(frame, now);
+  for (int i = 0; i < 32 && hw_.can.receive(frame); ++i) {
+    on_can_frame(frame, now);
+    excite_check();
+  }
   on_stager(stager_.poll(now));
 }
 
@@ -397,7 +405,10 @@ const char* BalanceBoard::try_arm(bool by_button) noexcept {
 // ---- console ------------------------------------------------------------------------------------------------------
 
 void BalanceBoard::read_console(TimeUs now) noexcept {
-  console_in_.pump(hw_.console, [&](std::string_view line, bool overflowed) { on_console_line(line, overflowed, now); });
+  console_in_.pump(hw_.console, [&](std::string_view line, bool overflowed) {
+    on_console_line(line, overflowed, now);
+    excite_check();
+  });
 }
 
 void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {
@@ -406,6 +417,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
     write_formatted(out, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch_), scratch_);
     return;
   }
+  if (on_trace_line(line, now)) return;
   const auto parsed = console::parse(line);
   if (!parsed) {
     if (parsed.error.reason == Reason::syntax) return;  // a blank line: just nothing
@@ -417,6 +429,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
   switch (console::verb_of(parsed.command)) {
     case Verb::help:
       write_formatted(out, console::format_help(scratch_), scratch_);
+      write_text(out, trace::kHelp);
       ok();
       return;
     case Verb::status: {
@@ -433,6 +446,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       r.faults = faults();
       r.battery_mv = battery_mv_;
       r.uptime_ms = static_cast<std::uint32_t>(age(now, boot_us_) / 1000U);
+      write_trace_status();
       write_status(out, r, hw_.can.stats(), console::UartStats::from(link_rx_.counters()), scratch_);
       return;
     }
@@ -526,6 +540,9 @@ void BalanceBoard::control(TimeUs now) noexcept {
   float dt = static_cast<float>(age(now, control_us_)) * 1e-6F;
   if (dt > 0.02F) dt = 0.02F;
   control_us_ = now;
+  excite_check();
+  request_mmps_ = 0.0F;
+  setpoint_deg_ = config_.pitch_setpoint_deg;
 
   const bool drive = armed() && !imu_stalled_ && filter_.valid();
   const auto cap = static_cast<std::int32_t>(speed_cap_mmps());
@@ -545,6 +562,7 @@ void BalanceBoard::control(TimeUs now) noexcept {
     }
     if (steer > max_steer) steer = max_steer;
     if (steer < -max_steer) steer = -max_steer;
+    request_mmps_ = v;
     float base = v;
     if (state_ == RobotState::balance) {  // the request goes through the speed loop, never to the wheels directly
       const float out = balance_output(v, cap, now, dt);
@@ -624,8 +642,9 @@ float BalanceBoard::balance_output(float request_mmps, std::int32_t cap, TimeUs 
   if (!wait) speed_target_mps_ += step > 0.0F ? (delta > step ? step : (delta < -step ? -step : delta)) : delta;
   lean_deg_ = speed_pid_.update(speed_target_mps_ - speed_filtered_mps_, 0.0F, dt) * config_.max_lean_deg /
               BalancePid::kOutputLimit;
-  // Inner loop: the balance PID holds that lean.
-  return pid_.update(config_.pitch_setpoint_deg - lean_deg_ - filter_.pitch_deg(), filter_.rate_dps(), dt);
+  // Inner loop: the balance PID holds that lean, plus the test signal while one runs (excite_check() stops it).
+  setpoint_deg_ = config_.pitch_setpoint_deg - lean_deg_ + excite_.update(now);
+  return pid_.update(setpoint_deg_ - filter_.pitch_deg(), filter_.rate_dps(), dt);
 }
 
 bool BalanceBoard::measured_speed(TimeUs now, std::int64_t& mmps) const noexcept {

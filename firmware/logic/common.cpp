@@ -56,6 +56,8 @@ bool ComplementaryFilter::update(const ImuSample& s) noexcept {
 float BalancePid::update(float error_deg, float rate_dps, float dt_s) noexcept {
   const float p = gains_.kp * error_deg;
   const float d = -gains_.kd * rate_dps;
+  p_ = p;
+  d_ = d;
   const float candidate = integral_ + gains_.ki * error_deg * dt_s;
   const float unsaturated = p + integral_ + d;
   // Anti-windup: do not integrate further into a saturated output.

@@ -46,6 +46,7 @@ TABLE = {
     "completion": set(),
     "dbc": set(),
     "wireshark": set(),
+    "tune record": {"duration", "json"},  # BALANCE's console port, or --sim
 }
 
 

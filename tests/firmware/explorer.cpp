@@ -582,6 +582,16 @@ class Explorer {
     };
     const auto state_text = [](RobotState s) { return std::string(saul::saulcan::to_string(s)); };
 
+    // -- excite: a test signal on the setpoint only while BALANCE (it stops in the iteration that leaves it)
+    if (bal.excitation() != saul::trace::Excite::none) {
+      ++stats_.excite_ticks;
+      if (st != RobotState::balance)
+        fail("excite", std::string("excitation ") + saul::trace::to_string(bal.excitation()) + " still on in " +
+                           state_text(st), "");
+    }
+    if (bal.last_trace().excite != 0 && bal.last_trace().state != static_cast<std::uint8_t>(RobotState::balance))
+      fail("excite", "a trace record marks an excitation outside BALANCE", "");
+
     // -- arming
     if (is_armed(st) && !is_armed(prev_state_) && !reset) {
       const bool link_ok = !link_cut_.on && now - link_cut_.since >= 2 * kMs;
@@ -798,6 +808,23 @@ class Explorer {
 
 // ---- public -------------------------------------------------------------------------------------------------------
 
+/// The loop trace's console commands on BALANCE (test signals, the trace, the flight recorder) at random times, from
+/// a generator of their own so that every other event of a seed stays as it was.
+void add_excitations(std::uint64_t seed, TimeUs length_us, std::vector<Event>& out) {
+  static const char* const kLines[] = {"excite step 2 3",       "excite step -1.5 20",  "excite chirp 1 0.5 20 10",
+                                       "excite chirp 2 1 5 20", "excite prbs 2 8",      "excite prbs 1 20",
+                                       "excite off",            "trace on",             "trace on 10",
+                                       "trace off",             "trace dump",           "trace arm",
+                                       "excite step 3 1",       "excite chirp 1 0 5 5", "excite"};
+  Rng rng(seed ^ 0x7ACE'E1C1'7ACE'E1C1ULL);
+  for (TimeUs t = static_cast<TimeUs>(rng.range(500, 3000)) * kMs; t < length_us;
+       t += static_cast<TimeUs>(rng.range(200, 3000)) * kMs) {
+    Event e = console(0, kLines[rng.below(std::size(kLines))]);
+    e.at_us = t;
+    out.push_back(std::move(e));
+  }
+}
+
 Episode generate(std::uint64_t seed, TimeUs length_us) {
   Rng rng(seed);
   Episode e;
@@ -817,6 +844,7 @@ Episode generate(std::uint64_t seed, TimeUs length_us) {
     const TimeUs gap = static_cast<TimeUs>(rng.chance(15) ? rng.range(1000, 5000) : rng.range(1, 700)) * kMs;
     t = std::max(t + gap, calm_until + kMs);
   }
+  add_excitations(seed, length_us, e.events);
   std::erase_if(e.events, [&](const Event& ev) { return ev.at_us >= length_us; });
   std::stable_sort(e.events.begin(), e.events.end(), [](const Event& a, const Event& b) { return a.at_us < b.at_us; });
   return e;

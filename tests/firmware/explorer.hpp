@@ -19,6 +19,8 @@
 //               when the console's conditions hold);
 //   latch       a latched state (ESTOP, TILT_CUTOFF, FAULT) is left only to OFF, and only by an explicit disarm
 //               (BALANCE console disarm, 0x302 mode 0, CH5 moved to disarm) without an estop input;
+//   excite      a test signal on the pitch setpoint (`excite ...` on BALANCE's console) only while BALANCE: it
+//               stops in the iteration that leaves it (latch, disarm, estop), and the trace record says so;
 //   cap         every motor output within the speed cap (10 % at power-on, one 10 % step per console command and
 //               only while disarmed; CH7 only lowers the IO board's output).
 //
@@ -92,6 +94,7 @@ struct Stats {
   std::uint64_t bal_driving_ticks = 0;  ///< ticks with a non-zero SET_RPM in force
   std::uint64_t resets = 0;
   std::uint64_t cap_raises = 0;
+  std::uint64_t excite_ticks = 0;  ///< ticks with a test signal on BALANCE's setpoint
 };
 
 struct Result {

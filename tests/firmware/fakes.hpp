@@ -191,6 +191,9 @@ struct FakeSerial final : SerialPort {
     tx.insert(tx.end(), data.begin(), data.end());
     return data.size();
   }
+  /// The transmit buffer's size as write_room() tells it (the loop trace writes whole records into the room only).
+  std::size_t tx_limit = static_cast<std::size_t>(-1);
+  std::size_t write_room() override { return tx.size() < tx_limit ? tx_limit - tx.size() : 0; }
   void feed(const Bytes& b) { rx.insert(rx.end(), b.begin(), b.end()); }
   void feed(const std::string& s) { rx.insert(rx.end(), s.begin(), s.end()); }
   std::string text() const { return std::string(tx.begin(), tx.end()); }

@@ -49,6 +49,10 @@ def serial_bytes(path):
 for i, a in enumerate(byte_arrays("test_interboard.cpp")):
     put("interboard", f"unit{i}", a)
 put("interboard", "capture", serial_bytes("captures/interboard_uart.serial"))
+# The BALANCE console: text lines around the worked example of docs/protocol.md section 10 (a loop trace record).
+trace_record = bytes.fromhex("AA2320" "40420F00E803000085FFC801CEFFC800F1FFE2FF9B0090019A01B400000001020264" "0086")
+put("trace", "text_and_record", b"trace on\nok\n" + trace_record + trace_record + b"report=status x=1\n")
+put("trace", "cut_record", b"ok\n" + trace_record[:20] + trace_record)
 for i, a in enumerate(byte_arrays("test_pride.cpp")):
     put("pride", f"unit{i}", a)
 put("pride", "capture", serial_bytes("captures/pride_uart.serial"))

@@ -21,7 +21,8 @@ namespace {
 // A queue-backed byte port: reads from `in`, writes to `out` (or nowhere when out is null or the wire is cut).
 class QueuePort final : public fw::SerialPort {
  public:
-  QueuePort(Bytes& in, Bytes* out, const bool* cut = nullptr) : in_(in), out_(out), cut_(cut) {}
+  QueuePort(Bytes& in, Bytes* out, const bool* cut = nullptr, std::size_t room = static_cast<std::size_t>(-1))
+      : in_(in), out_(out), cut_(cut), room_(room) {}
   std::size_t read(std::span<std::uint8_t> buf) override {
     std::size_t n = 0;
     while (n < buf.size() && !in_.empty()) {
@@ -34,12 +35,21 @@ class QueuePort final : public fw::SerialPort {
     if (out_ && !(cut_ && *cut_)) out_->insert(out_->end(), data.begin(), data.end());
     return data.size();
   }
+  /// A USB transmit buffer that someone empties (take_console_output): the loop trace drops records when it is full.
+  std::size_t write_room() override {
+    const std::size_t used = out_ != nullptr ? out_->size() : 0;
+    return used < room_ ? room_ - used : 0;
+  }
 
  private:
   Bytes& in_;
   Bytes* out_;
   const bool* cut_;
+  std::size_t room_;
 };
+
+/// BALANCE's console transmit buffer: 64 KiB, 1.6 s of the loop trace at 1 kHz for a reader that falls behind.
+constexpr std::size_t kBalanceConsoleRoom = 64 * 1024;
 
 }  // namespace
 
@@ -132,7 +142,7 @@ struct World::Hardware {
 
   QueuePort balance_link{io_to_balance, &balance_to_io, nullptr};
   QueuePort io_link{balance_to_io, &io_to_balance, nullptr};
-  QueuePort balance_console{balance_console_in, &balance_console_out};
+  QueuePort balance_console{balance_console_in, &balance_console_out, nullptr, kBalanceConsoleRoom};
   QueuePort io_console{io_console_in, &io_console_out};
   QueuePort crsf{crsf_in, &telemetry_out};
   QueuePort elrs{elrs_in, nullptr};

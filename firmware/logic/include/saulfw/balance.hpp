@@ -51,6 +51,7 @@
 #include "saulfw/arming.hpp"
 #include "saulfw/common.hpp"
 #include "saulfw/hal.hpp"
+#include "saulfw/trace.hpp"
 #include "saulproto/core/console.hpp"
 #include "saulproto/core/interboard.hpp"
 #include "saulproto/core/pid_stager.hpp"
@@ -156,6 +157,15 @@ class BalanceBoard {
   /// The gyro offset learnt so far (gy, deg/s).
   [[nodiscard]] float gyro_bias_dps() const noexcept { return gyro_bias_dps_; }
   [[nodiscard]] const interboard::Counters& uart_counters() const noexcept { return link_rx_.counters(); }
+  // the loop trace (balance_trace.cpp, docs/protocol.md section 10)
+  /// The test signal on the pitch setpoint now (none unless BALANCE) and its offset (degrees).
+  [[nodiscard]] trace::Excite excitation() const noexcept { return excite_.kind(); }
+  [[nodiscard]] float excitation_deg() const noexcept { return excite_.offset_deg(); }
+  [[nodiscard]] const FlightRecorder& recorder() const noexcept { return recorder_; }
+  [[nodiscard]] std::uint32_t trace_sent() const noexcept { return trace_sent_; }
+  [[nodiscard]] std::uint32_t trace_dropped() const noexcept { return trace_dropped_; }
+  /// The record of the last loop iteration (what the trace and the flight recorder got).
+  [[nodiscard]] const trace::LoopTrace& last_trace() const noexcept { return last_trace_; }
 
  private:
   enum class Tri : std::uint8_t { unknown, no, yes };
@@ -193,6 +203,16 @@ class BalanceBoard {
   [[nodiscard]] bool armed() const noexcept;
   [[nodiscard]] bool latched() const noexcept;
   [[nodiscard]] bool estop_input() const noexcept;
+
+  // the loop trace, the flight recorder and the excitation (balance_trace.cpp)
+  void trace_loop(TimeUs now) noexcept;
+  /// Stops the excitation at once unless the state is BALANCE and the speed request is within the dead band.
+  void excite_check() noexcept;
+  /// A trace or excite console line: handled (true), or another command (false).
+  bool on_trace_line(std::string_view line, TimeUs now) noexcept;
+  void send_trace(const trace::LoopTrace& record) noexcept;
+  void pump_dump() noexcept;
+  void write_trace_status() noexcept;
 
   void send_ack(std::uint8_t command, std::uint8_t sequence, saulcan::AckResult result) noexcept;
   void send_link(const interboard::Message& message) noexcept;
@@ -283,6 +303,20 @@ class BalanceBoard {
   TimeUs last_step_us_ = 0;
 
   char scratch_[console::kMaxReply]{};
+
+  // the loop trace (balance_trace.cpp)
+  Excitation excite_;
+  float setpoint_deg_ = 0.0F;      // the balance PID's setpoint in the last iteration (with the excitation)
+  float request_mmps_ = 0.0F;      // the speed request in the last iteration
+  std::uint32_t loop_seq_ = 0;     // loop iterations since power-on: the records' seq
+  std::uint16_t trace_divider_ = 0;  // 0: not streaming
+  std::uint32_t trace_sent_ = 0;
+  std::uint32_t trace_dropped_ = 0;
+  bool trace_was_armed_ = false;   // the last iteration was BALANCE/MANUAL (a latch after it freezes the recorder)
+  std::size_t dump_next_ = 0;      // the next flight-recorder record to send
+  bool dumping_ = false;
+  trace::LoopTrace last_trace_{};
+  FlightRecorder recorder_;
 };
 
 }  // namespace saul::fw

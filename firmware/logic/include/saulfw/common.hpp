@@ -97,11 +97,16 @@ class BalancePid {
   }
   [[nodiscard]] const saulcan::PidGains& gains() const noexcept { return gains_; }
   [[nodiscard]] float integral() const noexcept { return integral_; }
+  /// The proportional and derivative terms of the last update() (permille), for the loop trace.
+  [[nodiscard]] float p_term() const noexcept { return p_; }
+  [[nodiscard]] float d_term() const noexcept { return d_; }
 
  private:
   saulcan::PidGains gains_;
   float integral_limit_;
   float integral_ = 0.0F;
+  float p_ = 0.0F;
+  float d_ = 0.0F;
 };
 
 // ---- LEDs and tones -------------------------------------------------------------------------------------------

@@ -39,6 +39,9 @@ class SerialPort {
   virtual std::size_t read(std::span<std::uint8_t> out) = 0;
   /// Queues data for sending; returns how many bytes were taken (fewer when the transmit buffer is full).
   virtual std::size_t write(std::span<const std::uint8_t> data) = 0;
+  /// How many bytes write() would take now, so that a record is written whole or not at all (the loop trace).
+  /// A port that cannot tell says "any number"; a short write then still counts as a dropped record.
+  virtual std::size_t write_room() { return static_cast<std::size_t>(-1); }
 
  protected:
   ~SerialPort() = default;

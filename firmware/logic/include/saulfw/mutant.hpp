@@ -25,8 +25,9 @@ enum class Id : std::uint8_t {
   raise_while_armed,  ///< the speed cap may be raised while armed
   hold_cancel,        ///< rule 1: a stop or disarm that leaves the state as it was does not cancel a button hold
   arm_from_latch,     ///< arming (console arm, a button hold) leaves ESTOP, TILT_CUTOFF or FAULT without a disarm
+  excite_latch,       ///< the excitation survives leaving BALANCE (a latch, a disarm)
 };
-inline constexpr int kCount = 14;  ///< none included
+inline constexpr int kCount = 15;  ///< none included
 
 constexpr const char* name(Id id) noexcept {
   switch (id) {
@@ -44,6 +45,7 @@ constexpr const char* name(Id id) noexcept {
     case Id::raise_while_armed: return "raise_while_armed";
     case Id::hold_cancel: return "hold_cancel";
     case Id::arm_from_latch: return "arm_from_latch";
+    case Id::excite_latch: return "excite_latch";
   }
   return "?";
 }

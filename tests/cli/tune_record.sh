@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# saulctl tune record --sim: a loop trace of the simulated robot on simulated time, the issue's done-when: 10 s with a
+# chirp at 1 degree gives >= 9990 records and 0 gaps at 1 kHz in `saulctl stats`; decode, convert (CSV, the column
+# names the tune analysis reads) and stats --json read it; a corrupt record is reported with its byte offset and the
+# rest is read; --dump brings the flight recorder's 5 s before a tilt cutoff; refusals and usage errors.
+set -uo pipefail
+saulctl=$1
+source "$(dirname "$0")/check.bash"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+"$saulctl" tune record --sim --seed 3 --duration 10s --excite chirp --amplitude 1 -o "$work/run.trace" >"$work/rec" 2>&1
+check "tune record --sim exits 0" test $? -eq 0
+cat "$work/rec"
+check "it says what it recorded and why it stopped" grep -q "^stopped: duration" "$work/rec"
+check "it says how much faster than real time" grep -q "x real time)" "$work/rec"
+check "the file starts with its header" test "$(head -c 12 "$work/run.trace")" = "SAULTRACE 1"
+"$saulctl" stats "$work/run.trace" >"$work/stats" 2>&1
+cat "$work/stats"
+records=$(sed -n 's/.*loop trace, \([0-9]*\) records over.*/\1/p' "$work/stats")
+check ">= 9990 records (got ${records:-none})" test "${records:-0}" -ge 9990
+check "0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/stats"
+check "at 1 kHz, every loop" grep -Eq "\((999\.[5-9]|1000\.[0-4]) Hz, every 1 loop\)" "$work/stats"
+check "the chirp is marked in the records" grep -Eq "records with an excitation: (99[0-9][0-9]|[1-9][0-9]{4})" "$work/stats"
+"$saulctl" stats --json "$work/run.trace" >"$work/stats.json"
+check "stats --json: gaps 0" python3 -c "import json,sys; j=json.load(open(sys.argv[1])); sys.exit(j['gaps']!=0 or j['records']<9990)" "$work/stats.json"
+
+"$saulctl" convert "$work/run.trace" "$work/run.csv" 2>"$work/conv"
+check "convert writes a CSV" test -s "$work/run.csv"
+check "CSV columns as the tune analysis reads them" test "$(head -1 "$work/run.csv")" = \
+  "time_s,seq,pitch_deg,rate_dps,setpoint_deg,p_term,i_term,d_term,output,erpm_left,erpm_right,wheel_mmps,request_mmps,state,faults,excite,excite_deg"
+check "one CSV row per record" test "$(($(wc -l <"$work/run.csv") - 1))" = "$records"
+check "the CSV's excitation stays within 1 degree and is a chirp (2)" python3 - "$work/run.csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+ex = [float(r["excite_deg"]) for r in rows if r["excite"] == "2"]
+sys.exit(not (len(ex) > 9000 and max(abs(x) for x in ex) <= 1.0 and max(ex) > 0.99 and min(ex) < -0.99))
+PY
+"$saulctl" decode --json "$work/run.trace" | head -3 >"$work/dec.json"
+check "decode --json: physical units, state by name" python3 -c "
+import json,sys
+for l in open(sys.argv[1]):
+    j=json.loads(l); assert j['state']=='BALANCE' and 'pitch_deg' in j and j['excite']=='chirp', j" "$work/dec.json"
+"$saulctl" decode "$work/run.trace" | head -2 >"$work/dec.txt"
+check "decode: one line per record" grep -q "seq .* pitch .* deg" "$work/dec.txt"
+
+"$saulctl" plot "$work/run.trace" -o "$work/run.html" 2>"$work/plot.err"
+check "plot draws the trace's panels (html page)" grep -q "pitch \[deg\]" "$work/run.html"
+
+# Corruption: flip a byte inside the 100th record (after the header and the "ok" lines), cut the file short.
+python3 - "$work/run.trace" "$work/bad.trace" <<'PY'
+import sys
+data = bytearray(open(sys.argv[1], "rb").read())
+starts = [i for i in range(len(data) - 2) if data[i] == 0xAA and data[i + 1] == 0x23 and data[i + 2] == 0x20]
+data[starts[100] + 10] ^= 0x40
+open(sys.argv[2], "wb").write(bytes(data[:-20]))
+print(starts[100])
+PY
+"$saulctl" stats "$work/bad.trace" >"$work/bad" 2>"$work/bad.err"
+cat "$work/bad.err"
+check "a corrupt record is reported with its byte offset" grep -q "corrupt record at byte [0-9]* (bad_crc); the rest is read" "$work/bad.err"
+check "the cut record at the end too" grep -q "(truncated)" "$work/bad.err"
+check "the rest is read: 2 records fewer" grep -q "loop trace, $((records - 2)) records" "$work/bad"
+check "and the lost record shows as a gap" grep -q "^gaps: 1 (1 records missing)" "$work/bad"
+
+"$saulctl" tune record --sim --seed 3 --duration 2s --dump -o "$work/dump.trace" >"$work/dump" 2>&1
+cat "$work/dump"
+check "--dump: the flight recorder's 5000 records" grep -q "^flight recorder: 5000 records" "$work/dump"
+"$saulctl" decode "$work/dump.trace" 2>/dev/null | grep -c "TILT_CUTOFF" >"$work/tilt" || true
+check "the dump ends at the tilt cutoff" test "$(cat "$work/tilt")" -ge 1
+
+# Live, at real time: `saulctl sim` streams the trace on its BALANCE console pty (trace on works in any state).
+"$saulctl" sim --quiet --paths-file "$work/paths" --for 30s >"$work/sim.log" 2>&1 &
+sim=$!
+for _ in $(seq 200); do [[ -s $work/paths ]] && break; sleep 0.05; done
+balance=$(sed -n 's/^balance=//p' "$work/paths")
+"$saulctl" tune record --console-balance "$balance" --duration 2s -o "$work/live.trace" >"$work/live" 2>&1
+cat "$work/live"
+"$saulctl" tune record --console-balance "$balance" --duration 1s --excite step -o "$work/r.trace" >"$work/ref" 2>&1
+check "live: excite outside BALANCE is refused, exit 1" test $? -eq 1
+cat "$work/ref"
+check "live: the refusal says why" grep -q "^stopped: BALANCE refused: error: excite runs only in BALANCE" "$work/ref"
+kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+"$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
+cat "$work/live.stats"
+live=$(sed -n 's/.*loop trace, \([0-9]*\) records over.*/\1/p' "$work/live.stats")
+check "live from the sim's pty: about 2 s of records (got ${live:-none})" test "${live:-0}" -ge 1500
+check "live: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/live.stats"
+
+"$saulctl" tune record --duration 1s -o "$work/x.trace" >/dev/null 2>&1
+check "no --sim and no port: usage error (2)" test $? -eq 2
+"$saulctl" tune record --sim --amplitude 3 --excite step -o "$work/x.trace" >/dev/null 2>&1
+check "--amplitude 3: usage error (2)" test $? -eq 2
+"$saulctl" stats "$work/dec.txt" >/dev/null 2>&1
+check "stats of a non-trace still goes its own way (not a trace)" test $? -ne 0
+echo "$fails failed"
+exit $((fails > 0))
