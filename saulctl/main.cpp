@@ -27,7 +27,8 @@ constexpr std::pair<std::string_view, Adder> kVerbs[] = {
     {"flash", saulctl::add_flash_command},   {"console", saulctl::add_console_command},
     {"pride", saulctl::add_pride_command},   {"doctor", saulctl::add_doctor_command},
     {"completion", saulctl::add_completion_command},
-    {"dbc", saulctl::add_dbc_command},       {"wireshark", saulctl::add_wireshark_command}};
+    {"dbc", saulctl::add_dbc_command},       {"wireshark", saulctl::add_wireshark_command},
+    {"tune", saulctl::add_tune_command}};
 
 // Parses the command line with the verbs `only` adds (every verb when null) and runs the verb.
 int run_saulctl(int argc, char** argv, Adder only) {

@@ -46,6 +46,8 @@ TABLE = {
     "completion": set(),
     "dbc": set(),
     "wireshark": set(),
+    "tune report": {"json"},
+    "tune compare": {"json"},
 }
 
 
