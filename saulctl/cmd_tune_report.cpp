@@ -7,7 +7,9 @@
 
 #include "commands.hpp"
 #include "saulproto/host/tune/analysis.hpp"
+#include "saulproto/host/report/plot.hpp"
 #include "saulproto/host/tune/report.hpp"
+#include "saulproto/host/tune/report_html.hpp"
 #include "saulproto/host/tune/series.hpp"
 
 namespace saulctl {
@@ -18,6 +20,7 @@ namespace tune = saul::host::tune;
 struct TuneReportOptions {
   std::vector<std::string> files;
   bool json = false;
+  std::string output;  ///< report: the HTML page, when given
 };
 
 /// Reads and analyses one file; prints the refusal (file and why) and returns nullopt when it cannot be read.
@@ -31,8 +34,27 @@ std::optional<tune::Report> analyse_file(const char* verb, const std::string& fi
 }
 
 int run_report(const TuneReportOptions& opt) {
-  const auto report = analyse_file("report", opt.files.front());
-  if (!report) return kFailure;
+  // The page's scripts are read first, so a missing package leaves no half-written page behind.
+  const auto dygraphs = opt.output.empty() ? saul::host::DygraphsAssets{} : saul::host::load_dygraphs();
+  std::optional<tune::Series> series;
+  try {
+    series = tune::read_series(opt.files.front());
+  } catch (const tune::SeriesError& e) {
+    fmt::print(stderr, "saulctl tune report: {}\n", e.what());
+    return kFailure;
+  }
+  const auto report = std::optional<tune::Report>(tune::analyse(*series));
+  if (!opt.output.empty()) {
+    std::ofstream page(opt.output, std::ios::out | std::ios::trunc);
+    page << tune::render_html(*report, *series, dygraphs);
+    page.close();
+    if (!page) {
+      fmt::print(stderr, "saulctl tune report: cannot write '{}': check the folder exists and is writable\n",
+                 opt.output);
+      return kFailure;
+    }
+    fmt::print(stderr, "saulctl tune report: the page is {}\n", opt.output);
+  }
   if (opt.json)
     fmt::print("{}\n", tune::to_json(*report).dump());
   else
@@ -89,7 +111,11 @@ void add_tune_report_commands(CLI::App& tune_cmd, Runner& run) {
       "\nExamples:\n"
       "  saulctl tune report run.csv                       the figures, each with what it means and a verdict\n"
       "  saulctl tune report --json run.csv | jq .step.overshoot_pct\n"
+      "  saulctl tune report run.csv -o report.html        and the charts, to open in a browser\n"
       "  saulctl tune report captures/robot_bus.log        10 Hz telemetry: what it can say, and what not\n");
+  report->add_option("-o,--output", opt->output,
+                     "also write the charts as one HTML page (report.html: step response, spectra, the trace with "
+                     "the excitation marked)");
   wire(report, opt, run, run_report, {"FILE", "a CSV of named columns, or a CAN capture", 1, 1,
                                       "one JSON object instead of the text (docs/tuning.md lists its keys)"});
 
