@@ -43,6 +43,11 @@ int run_report(const TuneReportOptions& opt) {
     fmt::print(stderr, "saulctl tune report: {}\n", e.what());
     return kFailure;
   }
+  if (series->size() < 2) {
+    fmt::print(stderr, "saulctl tune report: {}: {} record(s) read: nothing to analyse{}\n", opt.files.front(),
+               series->size(), series->problems.empty() ? "" : " (the first problem: " + series->problems.front() + ")");
+    return kFailure;
+  }
   const auto report = std::optional<tune::Report>(tune::analyse(*series));
   if (!opt.output.empty()) {
     std::ofstream page(opt.output, std::ios::out | std::ios::trunc);

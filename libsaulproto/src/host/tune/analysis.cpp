@@ -28,6 +28,14 @@ struct Segment {
   std::size_t begin = 0, end = 0;
 };
 
+/// Records in the longest segment: nothing longer is allocated for it (a time column in the wrong unit must not
+/// ask for gigabytes).
+std::size_t longest(const std::vector<Segment>& segments) {
+  std::size_t most = 0;
+  for (const auto& seg : segments) most = std::max(most, seg.end - seg.begin);
+  return most;
+}
+
 std::size_t next_pow2(std::size_t n) {
   std::size_t p = 1;
   while (p < n) p <<= 1U;
@@ -144,6 +152,10 @@ void estimate_step(const Series& s, const std::vector<Segment>& segments, const 
   const auto length = static_cast<std::size_t>(std::lround(opt.window_s * fs));
   const auto hop = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(opt.hop_s * fs)));
   const auto kept = static_cast<std::size_t>(std::lround(opt.response_s * fs));
+  if (length < 8 || length > longest(segments)) {
+    r.step_reason = fmt::format("the trace has no gap-free stretch of {:g} s (one deconvolution window)", opt.window_s);
+    return;
+  }
   const std::size_t n = next_pow2(length + kept);
   detail::RealFft fft(n);
   const auto w = hann(length);
@@ -172,10 +184,6 @@ void estimate_step(const Series& s, const std::vector<Segment>& segments, const 
       }
       ++step.windows_used;
     }
-  }
-  if (step.windows_total == 0) {
-    r.step_reason = fmt::format("the trace has no gap-free stretch of {:g} s (one deconvolution window)", opt.window_s);
-    return;
   }
   if (step.windows_used < opt.min_windows) {
     r.step_reason = fmt::format(
@@ -219,6 +227,11 @@ void measure_steps(const Series& s, const std::vector<Segment>& segments, const 
   const auto kept = static_cast<std::size_t>(std::lround(opt.response_s * fs));
   const auto before = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(0.2 * fs)));
   const auto base = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(0.05 * fs)));
+  if (kept < 5 || before + kept > longest(segments)) {
+    r.direct_step_reason = fmt::format("no gap-free stretch of {:g} s (0.2 s before a step and the response)",
+                                       0.2 + opt.response_s);
+    return;
+  }
   DirectStep d;
   d.dt_s = 1.0 / fs;
   d.response.assign(kept, 0.0);
@@ -307,9 +320,7 @@ void spectra(const Series& s, const std::vector<Segment>& segments, const Analys
   const std::size_t n = next_pow2(static_cast<std::size_t>(std::lround(opt.segment_s * fs)));
   const std::pair<const char*, const std::vector<double>*> signals[] = {
       {"rate_dps", &s.rate_dps}, {"d_term", &s.d_term}, {"output", &s.output}};
-  std::size_t longest = 0;
-  for (const auto& seg : segments) longest = std::max(longest, seg.end - seg.begin);
-  if (longest < n) {
+  if (longest(segments) < n) {
     r.spectra_reason = fmt::format("no gap-free stretch of {} records ({:.2f} s), one spectrum segment", n,
                                    static_cast<double>(n) / fs);
     return;

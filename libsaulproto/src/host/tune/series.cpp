@@ -240,14 +240,20 @@ Series read_capture_series(const std::string& path) {
 Series read_series(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw SeriesError(fmt::format("{}: cannot open the file: check the name and that it is readable", path));
+  // A tuning CSV: a header naming one of its columns, or any .csv but the CAN logs of python-can and SavvyCAN
+  // (whose headers start "timestamp," and "Time Stamp,"), so a CSV missing columns is told which.
+  std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+  for (char& c : ext) c = host::detail::ascii_lower(c);
   std::string line;
   for (int k = 0; k < 64 && std::getline(in, line); ++k) {
     const auto t = trim(line);
     if (t.empty() || t.front() == '#') continue;
-    if (t.find("time_s") != std::string_view::npos) return read_csv_series(path);
-    break;
+    for (const auto name : kColumnNames)
+      if (t.find(name) != std::string_view::npos) return read_csv_series(path);
+    if (ext == ".csv" && !t.starts_with("timestamp,") && !t.starts_with("Time Stamp,")) return read_csv_series(path);
+    return read_capture_series(path);
   }
-  return read_capture_series(path);
+  return ext == ".csv" ? read_csv_series(path) : read_capture_series(path);
 }
 
 }  // namespace saul::host::tune
