@@ -178,6 +178,29 @@ check("4000 rows with junk: a report, every bad row counted, the kept and left-o
       and j["problems_total"] > 0,
       (code, err[-300:], j and (j["records"], j["problems_total"])))
 
+# Saturation, wind-up, falls, by hand: 10 s at 1 kHz, the output at +1000 from 2.0 to 2.5 s with the I term at
+# +400 (wind-up), at -1000 from 5.0 to 5.02 s (too short to count), TILT_CUTOFF from 9 s on
+n = 10000
+t = np.arange(n) / 1000.0
+out = np.zeros(n); out[2000:2500] = 1000; out[5000:5020] = -1000
+iterm = np.zeros(n); iterm[2000:2500] = 400; iterm[5000:5020] = -400
+state = np.where(t < 9.0, "BALANCE", "TILT_CUTOFF")
+path = os.path.join(TMP, "sat.csv")
+with open(path, "w") as f:
+    f.write("time_s,setpoint_deg,pitch_deg,output,i_term,state\n")
+    for k in range(n):
+        f.write(f"{t[k]:.3f},0,{0.5 if k < 9000 else 30},{out[k]:.0f},{iterm[k]:.0f},{state[k]}\n")
+code, j, err = report(path)
+check("saturation 5.2 % of the records (520 of 10000 at +-1000)", j and abs(j["saturation_pct"] - 5.2) < 1e-9,
+      j and j["saturation_pct"])
+check("one wind-up period: 2.0 s for 0.5 s, I term 400 (the 20 ms one is too short)",
+      j and j["windup"]["periods"] == 1 and abs(j["windup"]["list"][0]["start_s"] - 2.0) < 1e-9
+      and abs(j["windup"]["list"][0]["duration_s"] - 0.5) < 1e-9 and j["windup"]["list"][0]["i_term_peak"] == 400,
+      j and j["windup"])
+check("one fall; pitch figures over the 9000 records in BALANCE only (RMS 0.5, offset 0.5)",
+      j and j["falls"] == 1 and j["balancing_records"] == 9000 and abs(j["pitch_rms_deg"] - 0.5) < 1e-9
+      and abs(j["pitch_offset_deg"] - 0.5) < 1e-9, j and (j["falls"], j["balancing_records"], j["pitch_rms_deg"]))
+
 # tune compare: the gains of each file, side by side; --json: one object each
 a = written("soft.csv", traces.trace(0.6, 2.5, "prbs", seconds=20), comment="# kp=20 ki=1 kd=0.8")
 b = written("stiff.csv", traces.trace(0.4, 4.0, "prbs", seconds=20), comment="# gains: kp=45 ki=2 kd=1.9")
