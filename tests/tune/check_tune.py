@@ -201,6 +201,19 @@ check("one fall; pitch figures over the 9000 records in BALANCE only (RMS 0.5, o
       j and j["falls"] == 1 and j["balancing_records"] == 9000 and abs(j["pitch_rms_deg"] - 0.5) < 1e-9
       and abs(j["pitch_offset_deg"] - 0.5) < 1e-9, j and (j["falls"], j["balancing_records"], j["pitch_rms_deg"]))
 
+# Only BALANCE is the loop: a fall at the end (pitch thrown to 60 deg while the setpoint still moves) leaves the
+# step response as it was
+cols = traces.trace(0.5, 3.0, "prbs", seconds=30, seed=11)
+cols["state"] = np.ones(len(cols["time_s"]), dtype=int)
+code, j_before, err = report(written("before_fall.csv", cols))
+cols["state"][25000:] = 4
+cols["pitch_deg"][25000:] = np.linspace(0, 60, 5000)
+code, j, err = report(written("fall.csv", cols))
+check("a fall: counted, and the step response from the BALANCE records only (overshoot as before within 0.5 points)",
+      j["falls"] == 1 and j["step"] is not None and j["step"]["windows_total"] < j_before["step"]["windows_total"]
+      and abs(j["step"]["overshoot_pct"] - j_before["step"]["overshoot_pct"]) < 0.5,
+      (j["falls"], j["step"] and j["step"]["overshoot_pct"], j_before["step"]["overshoot_pct"]))
+
 # tune compare: the gains of each file, side by side; --json: one object each
 a = written("soft.csv", traces.trace(0.6, 2.5, "prbs", seconds=20), comment="# kp=20 ki=1 kd=0.8")
 b = written("stiff.csv", traces.trace(0.4, 4.0, "prbs", seconds=20), comment="# gains: kp=45 ki=2 kd=1.9")

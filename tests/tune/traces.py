@@ -47,7 +47,7 @@ def trace(zeta, fn, kind, seconds=60.0, fs=1000.0, noise_deg=0.02, seed=1, sine_
 def write_csv(path, cols, comment="# kp=40 ki=0 kd=1.5"):
     names = list(cols)
     data = np.column_stack([cols[k] for k in names])
-    fmt = ["%.6f" if k == "time_s" else ("%d" if k == "excite" else "%.6g") for k in names]
+    fmt = ["%.6f" if k == "time_s" else ("%d" if k in ("excite", "state") else "%.6g") for k in names]
     with open(path, "w") as f:
         if comment:
             f.write(comment + "\n")

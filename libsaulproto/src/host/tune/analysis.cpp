@@ -93,6 +93,23 @@ void timing(const Series& s, const AnalysisOptions& opt, Report& r, std::vector<
   (void)opt;
 }
 
+/// The segments cut to the records in BALANCE (when there is a state column): a fall, the robot lying in OFF or a
+/// fault's transient is no response of the balance loop and must not enter its step response or spectra.
+std::vector<Segment> balancing(const Series& s, const std::vector<Segment>& segments) {
+  if (s.state.empty()) return segments;
+  std::vector<Segment> out;
+  for (const auto& seg : segments) {
+    std::size_t i = seg.begin;
+    while (i < seg.end) {
+      while (i < seg.end && s.state[i] != 1) ++i;
+      const std::size_t start = i;
+      while (i < seg.end && s.state[i] == 1) ++i;
+      if (i > start) out.push_back({start, i});
+    }
+  }
+  return out;
+}
+
 /// Pitch RMS, offset and drift over the balancing records; saturation, falls, wind-up, excitation share.
 void basics(const Series& s, const AnalysisOptions& opt, Report& r) {
   const bool has_state = !s.state.empty();
@@ -388,6 +405,7 @@ Report analyse(const Series& s, const AnalysisOptions& opt) {
   r.duration_s = s.time_s.back() - s.time_s.front();
   std::vector<Segment> segments;
   timing(s, opt, r, segments);
+  segments = balancing(s, segments);
   basics(s, opt, r);
   const double fs = r.sample_rate_hz;
   const auto slow = [&](double needed, const char* what) {
