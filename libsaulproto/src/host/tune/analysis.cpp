@@ -68,7 +68,7 @@ void load_window(std::span<double> samples, const std::vector<double>& x, std::s
   std::fill(samples.begin() + static_cast<std::ptrdiff_t>(w.size()), samples.end(), 0.0);
 }
 
-void timing(const Series& s, const AnalysisOptions& opt, Report& r, std::vector<Segment>& segments) {
+void timing(const Series& s, Report& r, std::vector<Segment>& segments) {
   std::vector<double> dt(s.size() - 1);
   for (std::size_t i = 1; i < s.size(); ++i) dt[i - 1] = s.time_s[i] - s.time_s[i - 1];
   std::vector<double> sorted = dt;
@@ -90,7 +90,6 @@ void timing(const Series& s, const AnalysisOptions& opt, Report& r, std::vector<
     begin = i + 1;
   }
   segments.push_back({begin, s.size()});
-  (void)opt;
 }
 
 /// The segments cut to the records in BALANCE (when there is a state column): a fall, the robot lying in OFF or a
@@ -404,7 +403,7 @@ Report analyse(const Series& s, const AnalysisOptions& opt) {
   }
   r.duration_s = s.time_s.back() - s.time_s.front();
   std::vector<Segment> segments;
-  timing(s, opt, r, segments);
+  timing(s, r, segments);
   segments = balancing(s, segments);
   basics(s, opt, r);
   const double fs = r.sample_rate_hz;
