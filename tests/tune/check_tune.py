@@ -3,9 +3,11 @@
 exact step responses, scipy.signal.welch and a numpy deconvolution of our own, a sinusoid planted at a known
 frequency, a 10 Hz trace that must be refused, and bad CSVs that must be told with their lines.
 Run: /usr/bin/python3 tests/tune/check_tune.py SAULCTL ROOT   (Debian's python3-numpy and python3-scipy)"""
+import atexit
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -17,6 +19,7 @@ import traces  # noqa: E402
 
 SAULCTL, ROOT = sys.argv[1], sys.argv[2]
 TMP = tempfile.mkdtemp(prefix="tune_check_")
+atexit.register(shutil.rmtree, TMP, ignore_errors=True)
 fails = 0
 
 
@@ -200,6 +203,20 @@ check("one wind-up period: 2.0 s for 0.5 s, I term 400 (the 20 ms one is too sho
 check("one fall; pitch figures over the 9000 records in BALANCE only (RMS 0.5, offset 0.5)",
       j and j["falls"] == 1 and j["balancing_records"] == 9000 and abs(j["pitch_rms_deg"] - 0.5) < 1e-9
       and abs(j["pitch_offset_deg"] - 0.5) < 1e-9, j and (j["falls"], j["balancing_records"], j["pitch_rms_deg"]))
+
+# The loop's counter tells a late loop from a trace that dropped records: seq runs on over a 3 ms step (the loop
+# was late: 2 missed by time, 0 by seq) and jumps by 11 over a 11 ms step (10 records dropped)
+t = np.arange(2000) / 1000.0
+seq = np.arange(2000) + 100
+t[1000:] += 0.002
+t[1500:] += 0.010
+seq[1500:] += 10
+path = os.path.join(TMP, "seq.csv")
+with open(path, "w") as f:
+    f.write("time_s,seq,setpoint_deg,pitch_deg\n" + "".join(f"{t[k]:.6f},{seq[k]},0,0\n" for k in range(2000)))
+code, j, err = report(path)
+check("seq: 12 missed by time in 2 gaps, 10 by the loop's counter", j and j["gaps"] == 2 and j["missed_iterations"] == 12
+      and j["seq_missing"] == 10, j and (j["gaps"], j["missed_iterations"], j["seq_missing"]))
 
 # Only BALANCE is the loop: a fall at the end (pitch thrown to 60 deg while the setpoint still moves) leaves the
 # step response as it was

@@ -90,6 +90,12 @@ void timing(const Series& s, Report& r, std::vector<Segment>& segments) {
     begin = i + 1;
   }
   segments.push_back({begin, s.size()});
+  if (!s.seq.empty()) {
+    std::uint64_t missing = 0;
+    for (std::size_t i = 1; i < s.seq.size(); ++i)  // a counter going back (a restart, a wrap) is no loss
+      if (s.seq[i] > s.seq[i - 1] + 1) missing += static_cast<std::uint64_t>(s.seq[i] - s.seq[i - 1] - 1);
+    r.seq_missing = missing;
+  }
 }
 
 /// The segments cut to the records in BALANCE (when there is a state column): a fall, the robot lying in OFF or a

@@ -82,6 +82,7 @@ json to_json(const Report& r) {
     j["gap_list"].push_back({{"at_s", round_to(g.at_s, 6)}, {"duration_s", round_to(g.duration_s, 6)},
                              {"line", g.line}, {"missed", g.missed}});
   j["missed_iterations"] = r.missed_iterations;
+  j["seq_missing"] = r.seq_missing ? json(*r.seq_missing) : json(nullptr);
   j["loop_period_us"] = {{"p50", round_to(r.period_p50_us, 1)}, {"p99", round_to(r.period_p99_us, 1)},
                          {"max", round_to(r.period_max_us, 1)}};
   j["balancing_records"] = r.balancing_records;
@@ -160,6 +161,9 @@ std::string to_text(const Report& r, const Health& h) {
                      telemetry ? std::string("(telemetry: the bus's timing, not the loop's)")
                                : verdict(r.gaps_total == 0 && r.period_p99_us <= h.period_p99_us,
                                          "the loop runs late or the trace lost records"));
+  if (r.seq_missing)
+    out += fmt::format("loop counter  {} iterations missing by seq{}\n", *r.seq_missing,
+                       *r.seq_missing < r.missed_iterations ? ": the rest of the missed ones, the loop ran late" : "");
   for (std::size_t k = 0; k < std::min<std::size_t>(r.gaps.size(), 5); ++k)
     out += fmt::format("  gap at {:.3f} s (line {}): {:.1f} ms, {} missing\n", r.gaps[k].at_s, r.gaps[k].line,
                        r.gaps[k].duration_s * 1e3, r.gaps[k].missed);

@@ -78,10 +78,10 @@ void read_gains(std::string_view comment, Gains& gains) {
   }
 }
 
-enum Column : std::uint8_t { kTime, kSetpoint, kPitch, kRate, kP, kI, kD, kOutput, kExcite, kState, kColumns };
+enum Column : std::uint8_t { kTime, kSetpoint, kPitch, kRate, kP, kI, kD, kOutput, kSeq, kExcite, kState, kColumns };
 constexpr std::array<std::string_view, kColumns> kColumnNames{"time_s", "setpoint_deg", "pitch_deg", "rate_dps",
                                                               "p_term", "i_term",       "d_term",    "output",
-                                                              "excite", "state"};
+                                                              "seq",    "excite", "state"};
 constexpr std::size_t kNeeded = 3;  // time_s, setpoint_deg, pitch_deg
 
 }  // namespace
@@ -96,8 +96,9 @@ Series read_csv_series(const std::string& path) {
   bool header = false;
   std::string text;
   std::uint64_t number = 0;
-  std::array<std::vector<double>*, kOutput + 1> numeric{&s.time_s, &s.setpoint_deg, &s.pitch_deg, &s.rate_dps,
-                                                        &s.p_term, &s.i_term,       &s.d_term,    &s.output};
+  std::array<std::vector<double>*, kSeq + 1> numeric{&s.time_s, &s.setpoint_deg, &s.pitch_deg, &s.rate_dps,
+                                                        &s.p_term, &s.i_term,       &s.d_term,    &s.output,
+                                                        &s.seq};
   while (std::getline(in, text)) {
     ++number;
     const std::string_view line = trim(text);
@@ -132,7 +133,7 @@ Series read_csv_series(const std::string& path) {
                             header_cells));
       continue;
     }
-    std::array<double, kOutput + 1> row{};
+    std::array<double, kSeq + 1> row{};
     std::uint8_t excite = 0;
     std::uint8_t state = 0;
     std::string bad;
@@ -173,7 +174,7 @@ Series read_csv_series(const std::string& path) {
       s.problem(fmt::format("{}:{}: {} (row left out)", path, number, bad));
       continue;
     }
-    for (std::size_t k = 0; k <= kOutput; ++k)
+    for (std::size_t k = 0; k <= kSeq; ++k)
       if (index[k]) numeric[k]->push_back(row[k]);
     if (index[kExcite]) s.excite.push_back(excite);
     if (index[kState]) s.state.push_back(state);

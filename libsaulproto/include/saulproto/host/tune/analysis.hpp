@@ -111,7 +111,10 @@ struct Report {
   double sample_rate_hz = 0;      ///< 1 / the median period
   // Loop timing (the time column's steps)
   double period_p50_us = 0, period_p99_us = 0, period_max_us = 0;
-  std::uint64_t missed_iterations = 0;
+  std::uint64_t missed_iterations = 0;  ///< by the time column: periods missing in the gaps
+  /// By the loop's counter (a seq column): iterations absent from the trace (dropped by it, or rows left out as
+  /// bad). Missed by time but not by seq: the loop itself ran late.
+  std::optional<std::uint64_t> seq_missing;
   std::uint64_t gaps_total = 0;
   std::vector<Gap> gaps;          ///< the first few
   // What any rate can say

@@ -32,6 +32,7 @@ struct Series {
   std::vector<double> rate_dps;      ///< pitch rate, deg/s
   std::vector<double> p_term, i_term, d_term;  ///< the PID's terms, permille
   std::vector<double> output;        ///< the PID's output, permille (saturated at +-1000)
+  std::vector<double> seq;           ///< the loop's iteration counter, when the trace has one
   std::vector<std::uint8_t> excite;  ///< 1 while a deliberate excitation runs
   std::vector<std::uint8_t> state;   ///< saulcan::RobotState values (1 = BALANCE, 4 = TILT_CUTOFF)
   std::vector<std::uint64_t> line;   ///< the row's line (CSV) or frame number (capture), for messages
@@ -60,8 +61,8 @@ class SeriesError : public std::runtime_error {
 };
 
 /// Reads a CSV whose header names the columns (any order, extra columns ignored): time_s, setpoint_deg and
-/// pitch_deg are needed; rate_dps, p_term, i_term, d_term, output, excite and state (a number or a state name) are
-/// used when present. Lines starting with '#' are comments; one saying "kp=30 ki=2 kd=1.5" gives the gains.
+/// pitch_deg are needed; rate_dps, p_term, i_term, d_term, output, seq, excite and state (a number or a state
+/// name) are used when present. Lines starting with '#' are comments; one saying "kp=30 ki=2 kd=1.5" gives the gains.
 /// A row with a missing or non-numeric value, or a time that does not move forward, is left out and told.
 /// Throws SeriesError when the file cannot be read or the header lacks a needed column.
 Series read_csv_series(const std::string& path);
