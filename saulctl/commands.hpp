@@ -37,7 +37,8 @@ void add_doctor_command(CLI::App& app, Runner& run);
 void add_completion_command(CLI::App& app, Runner& run);  // keep last in main(): it walks the others
 void add_dbc_command(CLI::App& app, Runner& run);
 void add_wireshark_command(CLI::App& app, Runner& run);
-void add_tune_command(CLI::App& app, Runner& run);
-void add_tune_record_command(CLI::App& tune, Runner& run);  // a subcommand of tune
+void add_tune_command(CLI::App& app, Runner& run);  // tune: its subcommands below
+void add_tune_record_command(CLI::App& tune, Runner& run);   // tune record
+void add_tune_report_commands(CLI::App& tune, Runner& run);  // tune report, tune compare
 
 }  // namespace saulctl

@@ -11,6 +11,7 @@ packages=(
   libncurses-dev tmux  # saulctl's full-screen views; tmux drives them in tests/cli/views.sh
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
+  libfftw3-dev python3-numpy python3-scipy  # saulctl tune's FFTs (host/tune); its independent checks (tests/tune)
   libjs-dygraphs gnuplot-nox chromium  # saulctl plot: HTML page, SVG/PNG/PDF reports; headless browser test
   zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)

@@ -47,6 +47,8 @@ TABLE = {
     "dbc": set(),
     "wireshark": set(),
     "tune record": {"duration", "json"},  # BALANCE's console port, or --sim
+    "tune report": {"json"},
+    "tune compare": {"json"},
 }
 
 

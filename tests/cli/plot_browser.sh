@@ -11,23 +11,13 @@ source "$(dirname "$0")/check.bash"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 
-browser=$(command -v chromium || command -v chromium-browser || true)
-if [ -z "$browser" ]; then
-  echo "FAIL chromium is not installed: scripts/setup.sh installs it (Debian's chromium)"
-  echo "1 failed"
-  exit 1
-fi
-# dom URL: the <html> start tag of URL once loaded, in a window 1400 px wide.
-dom() {
-  "$browser" --headless --no-sandbox --disable-gpu --disable-background-networking --disable-component-update \
-    --disable-sync --no-first-run --user-data-dir="$(mktemp -d -p "$out")" --window-size=1400,1000 \
-    --virtual-time-budget=5000 --dump-dom "$1" 2>/dev/null | grep -o '<html[^>]*>' | head -n 1
-}
-# attr TAG NAME: the attribute's value in the tag
-attr() { sed -n "s/.* $2=\"\\([^\"]*\\)\".*/\\1/p" <<<"$1"; }
+source "$(dirname "$0")/browser.bash"  # need_browser, dom URL, attr TAG NAME
+need_browser
+# html_tag URL: the <html> start tag of URL once loaded
+html_tag() { dom "$1" | grep -o '<html[^>]*>' | head -n 1; }
 
 "$saulctl" plot "$root/captures/robot_bus.log" -o "$out/run.html" 2>/dev/null
-tag=$(dom "file://$out/run.html")
+tag=$(html_tag "file://$out/run.html")
 echo "  robot_bus.html: $tag"
 check "the page loads without a script error" test "$(attr "$tag" data-plot-errors)" = 0
 check "... and draws all 6 panels" test "$(attr "$tag" data-plot-panels)" = 6
@@ -46,11 +36,11 @@ with open(sys.argv[2], "w") as f:
             f.write("(%.6f) %s\n" % (float(ts.strip("()")) + 3.0 * k, rest))
 EOF
 "$saulctl" plot "$out/long.log" -o "$out/long.html" 2>/dev/null
-tag=$(dom "file://$out/long.html")
+tag=$(html_tag "file://$out/long.html")
 echo "  long.html: $tag"
 check "a 60 s run: no error, 6 panels, no sample points at full view (600 to 1480 points a panel)" \
   bash -c "test '$(attr "$tag" data-plot-errors)' = 0 && test '$(attr "$tag" data-plot-panels)' = 6 && test '$(attr "$tag" data-plot-points)' = 0"
-tag=$(dom "file://$out/long.html#t=10,12")
+tag=$(html_tag "file://$out/long.html#t=10,12")
 echo "  long.html#t=10,12: $tag"
 check "zoomed into 10..12 s on the first panel: every panel follows" \
   test "$(attr "$tag" data-plot-windows)" = "$(printf '[10,12]%.0s,' 1 2 3 4 5 6 | sed 's/,$//; s/.*/[&]/')"

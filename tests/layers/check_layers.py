@@ -21,6 +21,7 @@ HOST_ALLOWED = {
     "replay": {"link", "capture", "report"},
     "flash": {"link"},
     "bench": {"link", "capture", "report"},
+    "tune": {"capture", "report"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
 
