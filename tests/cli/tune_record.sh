@@ -80,6 +80,16 @@ cat "$work/live"
 check "live: excite outside BALANCE is refused, exit 1" test $? -eq 1
 cat "$work/ref"
 check "live: the refusal says why" grep -q "^stopped: BALANCE refused: error: excite runs only in BALANCE" "$work/ref"
+# Beside another saulctl on the same port (the shared serial link): console's status gets its reply, the trace no gap.
+"$saulctl" tune record --console-balance "$balance" --duration 3s -o "$work/shared.trace" >"$work/shared" 2>&1 &
+rec=$!
+sleep 1
+timeout 10 "$saulctl" console "$balance" status >"$work/con" 2>&1
+check "shared: saulctl console gets its reply while the trace records" grep -aq "^report=status board=balance" "$work/con"
+wait "$rec"
+check "shared: the recording ends well" test $? -eq 0
+"$saulctl" stats "$work/shared.trace" >"$work/shared.stats" 2>&1
+check "shared: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/shared.stats"
 kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
 "$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
 cat "$work/live.stats"
