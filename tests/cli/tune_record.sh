@@ -91,6 +91,27 @@ check "shared: the recording ends well" test $? -eq 0
 "$saulctl" stats "$work/shared.trace" >"$work/shared.stats" 2>&1
 check "shared: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/shared.stats"
 kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+
+# The flight recorder live: `saulctl sim` armed by the button on its control pty, tilted beyond the cutoff, then
+# `tune record --dump` on its BALANCE pty brings the 5 s before the latch.
+"$saulctl" sim --quiet --paths-file "$work/paths2" --for 40s >"$work/sim2.log" 2>&1 &
+sim=$!
+for _ in $(seq 200); do [[ -s $work/paths2 ]] && break; sleep 0.05; done
+balance=$(sed -n 's/^balance=//p' "$work/paths2")
+control=$(sed -n 's/^control=//p' "$work/paths2")
+sleep 1.5
+exec 3<>"$control"
+printf 'button down\n' >&3; sleep 3.4; printf 'button up\n' >&3; sleep 6; printf 'tilt 40\n' >&3; sleep 1
+"$saulctl" tune record --console-balance "$balance" --dump -o "$work/livedump.trace" >"$work/livedump" 2>&1
+check "live --dump exits 0" test $? -eq 0
+exec 3>&-
+kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+cat "$work/livedump"
+"$saulctl" stats "$work/livedump.trace" >"$work/livedump.stats" 2>&1
+cat "$work/livedump.stats"
+check "live --dump: 5000 records" grep -q "loop trace, 5000 records" "$work/livedump.stats"
+check "live --dump: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/livedump.stats"
+check "live --dump: the 5 s of BALANCE and the latch's own loop" grep -q "^states: BALANCE 4999 TILT_CUTOFF 1;" "$work/livedump.stats"
 "$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
 cat "$work/live.stats"
 live=$(sed -n 's/.*loop trace, \([0-9]*\) records over.*/\1/p' "$work/live.stats")
