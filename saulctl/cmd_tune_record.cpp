@@ -102,7 +102,7 @@ int run_tune_record(const TuneRecordOptions& o) {
     if (o.dump) fmt::print("flight recorder: {} records{}\n", o.sim ? dump_records : s.records(), "");
     fmt::print("stopped: {}\n", stopped);
   }
-  const bool ok = stopped.starts_with("duration") || stopped == "done";
+  const bool ok = stopped.starts_with("duration") || stopped.starts_with("the flight recorder");
   return g_interrupted ? kFailure : (ok && s.records() > 0 ? kOk : kFailure);
 }
 

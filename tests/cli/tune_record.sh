@@ -80,7 +80,38 @@ cat "$work/live"
 check "live: excite outside BALANCE is refused, exit 1" test $? -eq 1
 cat "$work/ref"
 check "live: the refusal says why" grep -q "^stopped: BALANCE refused: error: excite runs only in BALANCE" "$work/ref"
+# Beside another saulctl on the same port (the shared serial link): console's status gets its reply, the trace no gap.
+"$saulctl" tune record --console-balance "$balance" --duration 3s -o "$work/shared.trace" >"$work/shared" 2>&1 &
+rec=$!
+sleep 1
+timeout 10 "$saulctl" console "$balance" status >"$work/con" 2>&1
+check "shared: saulctl console gets its reply while the trace records" grep -aq "^report=status board=balance" "$work/con"
+wait "$rec"
+check "shared: the recording ends well" test $? -eq 0
+"$saulctl" stats "$work/shared.trace" >"$work/shared.stats" 2>&1
+check "shared: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/shared.stats"
 kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+
+# The flight recorder live: `saulctl sim` armed by the button on its control pty, tilted beyond the cutoff, then
+# `tune record --dump` on its BALANCE pty brings the 5 s before the latch.
+"$saulctl" sim --quiet --paths-file "$work/paths2" --for 40s >"$work/sim2.log" 2>&1 &
+sim=$!
+for _ in $(seq 200); do [[ -s $work/paths2 ]] && break; sleep 0.05; done
+balance=$(sed -n 's/^balance=//p' "$work/paths2")
+control=$(sed -n 's/^control=//p' "$work/paths2")
+sleep 1.5
+exec 3<>"$control"
+printf 'button down\n' >&3; sleep 3.4; printf 'button up\n' >&3; sleep 6; printf 'tilt 40\n' >&3; sleep 1
+"$saulctl" tune record --console-balance "$balance" --dump -o "$work/livedump.trace" >"$work/livedump" 2>&1
+check "live --dump exits 0" test $? -eq 0
+exec 3>&-
+kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+cat "$work/livedump"
+"$saulctl" stats "$work/livedump.trace" >"$work/livedump.stats" 2>&1
+cat "$work/livedump.stats"
+check "live --dump: 5000 records" grep -q "loop trace, 5000 records" "$work/livedump.stats"
+check "live --dump: 0 gaps" grep -q "^gaps: 0 (0 records missing)" "$work/livedump.stats"
+check "live --dump: the 5 s of BALANCE and the latch's own loop" grep -q "^states: BALANCE 4999 TILT_CUTOFF 1;" "$work/livedump.stats"
 "$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
 cat "$work/live.stats"
 live=$(sed -n 's/.*loop trace, \([0-9]*\) records over.*/\1/p' "$work/live.stats")

@@ -152,7 +152,7 @@ TEST_CASE("flight recorder: the last 5 s before a tilt cutoff, frozen at the lat
   CHECK(rig.board->recorder().size() == 11);
 }
 
-TEST_CASE("flight recorder: a latch while disarmed does not freeze it; ESTOP while armed does") {
+TEST_CASE("flight recorder: a latch while disarmed does not freeze it, ESTOP while armed does") {
   BalanceRig rig;
   rig.run_ms(30);
   rig.reply_to("estop");
@@ -167,7 +167,7 @@ TEST_CASE("flight recorder: a latch while disarmed does not freeze it; ESTOP whi
   CHECK(std::string(rig.board->recorder().why()) == "ESTOP");
 }
 
-TEST_CASE("excite: refused outside BALANCE with the reason; bad arguments refused with the rule") {
+TEST_CASE("excite: refused outside BALANCE with the reason, bad arguments refused with the rule") {
   BalanceRig rig;
   rig.run_ms(30);
   CHECK(rig.reply_to("excite step 1 2") == "error: excite runs only in BALANCE (arm first) [not_allowed]\n");
@@ -185,7 +185,7 @@ TEST_CASE("excite: refused outside BALANCE with the reason; bad arguments refuse
   CHECK(rig.board->excitation() == trace::Excite::none);
 }
 
-TEST_CASE("excite step: on the setpoint in BALANCE, in the trace; ends by itself; ESTOP ends it in that iteration") {
+TEST_CASE("excite step: on the setpoint in BALANCE, in the trace, it ends by itself, ESTOP ends it in that iteration") {
   BalanceRig rig;
   arm(rig);
   rig.run_ms(100);

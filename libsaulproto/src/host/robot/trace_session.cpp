@@ -34,7 +34,7 @@ LiveTraceEnd run_live_trace(SerialPort& console, const LiveTraceOptions& options
   if (options.dump) {
     send(console, trace::TraceDump{});
     const bool ok = pump(Clock::now() + std::chrono::seconds(30), done);
-    end.stopped = !ok ? "interrupted" : done() ? "done" : "no end of the dump within 30 s";
+    end.stopped = !ok ? "interrupted" : done() ? "the flight recorder's dump ended" : "no end of the dump within 30 s";
   } else {
     send(console, trace::TraceOn{options.divider});
     if (options.excite) send(console, *options.excite);

@@ -24,7 +24,9 @@ struct LiveTraceOptions {
 };
 
 struct LiveTraceEnd {
-  std::string stopped;  ///< "duration", "interrupted", "done" (done() said so), "no end of the dump within 30 s"
+  /// "duration", "interrupted", "done" (done() said so), "the flight recorder's dump ended", "no end of the dump
+  /// within 30 s"
+  std::string stopped;
 };
 
 /// Runs it on an open console port: `out` gets every byte, `done` (asked after each read) ends it early (the
