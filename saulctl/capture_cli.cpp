@@ -7,15 +7,13 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "saulproto/host/capture/recorder.hpp"
+
 namespace saulctl {
 
 std::vector<std::string> input_format_names() {
-  using saul::host::CaptureFormat;
   std::vector<std::string> names;
-  for (auto f : {CaptureFormat::candump, CaptureFormat::pcap, CaptureFormat::pcapng, CaptureFormat::asc,
-                 CaptureFormat::blf, CaptureFormat::trc, CaptureFormat::csv, CaptureFormat::gvret_csv,
-                 CaptureFormat::serial, CaptureFormat::sigrok, CaptureFormat::sigrok_json, CaptureFormat::pulseview_csv})
-    names.emplace_back(saul::host::to_string(f));
+  for (const auto& f : saul::host::kCaptureFormats) names.emplace_back(saul::host::to_string(f.format));
   return names;
 }
 
@@ -56,24 +54,10 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
 }
 
 std::uint64_t parse_rate_hz(const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (...) {
-    used = 0;
-  }
-  std::string unit = text.substr(used);
-  if (unit.size() >= 2 && (unit.substr(unit.size() - 2) == "Hz" || unit.substr(unit.size() - 2) == "hz"))
-    unit.resize(unit.size() - 2);
-  double scale = 0;
-  if (unit.empty()) scale = 1;
-  if (unit == "k" || unit == "K") scale = 1e3;
-  if (unit == "M") scale = 1e6;
-  if (unit == "G") scale = 1e9;
-  if (used == 0 || scale == 0 || !(v > 0) || v * scale > 1e12)
+  const auto hz = saul::host::parse_quantity(text, {"Hz", "hz"}, 1e3);
+  if (!hz || *hz > 1'000'000'000'000ULL)
     throw CLI::ValidationError("--samplerate", "bad sample rate '" + text + "' (use e.g. 10M, 1MHz, 1000000)");
-  return static_cast<std::uint64_t>(std::llround(v * scale));
+  return *hz;
 }
 
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options) {

@@ -95,7 +95,7 @@ int run_convert(const ConvertOptions& opt) {
 void add_convert_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<ConvertOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "convert", "Convert a capture file between candump, pcap, pcapng, ASC, BLF, TRC and CSV (compressed or not)");
+      "convert", "Convert a capture file between " + saul::host::capture_format_list(false));
   cmd->footer(
       "\nThe input format is told by the file's content (--input-format to force one); gzip and zstd files\n"
       "are decompressed on the fly. The output format comes from OUT's extension (.log .pcap .pcapng .asc\n"
@@ -111,7 +111,7 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
       "                                                         '-': standard input, standard output\n");
   cmd->add_option("IN", opt->in,
-                  "capture file to read (candump, pcap, pcapng, ASC, BLF, TRC, CSV; .gz/.zst too; - = stdin)")
+                  "capture file to read (" + saul::host::capture_format_list(false) + "; - = stdin)")
       ->required();
   cmd->add_option("OUT", opt->out, "file to write (replaced if it exists; - = stdout, with --format)")->required();
   cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv or gvret-csv")

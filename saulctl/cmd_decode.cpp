@@ -323,7 +323,7 @@ int run_decode(const DecodeOptions& opt) {
 void add_decode_command(CLI::App& app, Runner& run) {
   auto opt = std::make_shared<DecodeOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "decode", "Decode every frame of capture files (candump, pcap, pcapng, ASC, serial logs, sigrok/PulseView UART)");
+      "decode", "Decode every frame of capture files (" + saul::host::capture_format_list(true) + ")");
   cmd->footer(
       "\nOutput (text): one line per frame, greppable:\n"
       "  (1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
@@ -347,8 +347,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "  saulctl decode --protocol pride --samplerate 1M la.txt   a logic analyser's UART decode\n"
       "Serial captures end with each link's decoder counters on stderr (frames, CRC errors, bytes skipped).\n");
   cmd->add_option("files", opt->files,
-                  "capture files: candump, pcap, pcapng, ASC, serial log, sigrok/PulseView UART export "
-                  "('-' = candump text on standard input)")
+                  "capture files: " + saul::host::capture_format_list(true) + " ('-' = candump text on standard input)")
       ->required();
   cmd->add_option("--format", opt->format,
                   "text, jsonl, csv (a row per frame) or long (a row per signal: time,interface,id,message,signal,"

@@ -343,8 +343,7 @@ void add_replay_command(CLI::App& app, Runner& run) {
   auto* cmd = app.add_subcommand("replay", "Replay a CAN or serial capture onto a bus or serial port with its original "
                                             "timing");
   cmd->add_option("FILE", o->file,
-                  "capture file: CAN (candump, pcap, pcapng, ASC) or serial bytes (serial log, sigrok/PulseView "
-                  "export)")
+                  "capture file, CAN frames or serial bytes: " + saul::host::capture_format_list(true))
       ->required();
   cmd->add_option("-l,--link,--to", o->link,
                   "the link: can0 | slcan:/dev/ttyACM0[@500000] for CAN captures; serial:/dev/ttyUSB0[@BAUD[:8E1]] "

@@ -15,6 +15,18 @@ if grep -nE '#include <(string|vector|map|memory|iostream|sstream|fstream|functi
   echo "embedded-check: FAIL: a core or firmware logic file includes a heap or iostream header (above)" >&2
   exit 1
 fi
+# ESP-IDF's placement attributes (DMA_ATTR, DRAM_ATTR, ...) name a section of their own at each use (__COUNTER__):
+# on both a static member's declaration in its class and its definition, GCC warns "ignoring attribute section ...
+# conflicts with previous" (the ESP-IDF build does not run here). One of them carries it: the definition.
+while IFS= read -r hit; do
+  name=$(sed -nE 's/.*_ATTR static [^;]*[^A-Za-z0-9_]([A-Za-z_][A-Za-z0-9_]*) *(\[[^;]*)?;.*/\1/p' <<<"${hit#*:*:}")
+  file=${hit%%:*} line=${hit#*:}
+  if [[ -n $name ]] && grep -qE "_ATTR [^;]*::$name\b" "$file"; then
+    echo "embedded-check: FAIL: $file:${line%%:*}: $name has its placement attribute on its declaration and its" \
+         "definition: keep the definition's" >&2
+    exit 1
+  fi
+done < <(grep -nE '_ATTR static ' "$root"/firmware/*/main/*.cpp)
 flags=(-std=c++20 -mcpu=cortex-m4 -mthumb -Os -fno-exceptions -fno-rtti -ffunction-sections -fdata-sections
        -Wall -Wextra -Werror -I "$root/libsaulproto/include")
 objs=()

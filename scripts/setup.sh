@@ -20,6 +20,7 @@ packages=(
   clang libclang-rt-14-dev  # libFuzzer + ASan/UBSan runtimes of the fuzz targets (tests/fuzz/run.sh)
   pybind11-dev python3-pybind11 python3-dev python3-pytest  # the Python module and its tests (python/)
   help2man dpkg-dev man-db  # the .deb: man page, dpkg-shlibdeps, man -l on the page (packaging/, tests/package)
+  lintian  # Debian's package checker on the .deb files (tests/package/deb.sh)
 )
 if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)

@@ -13,6 +13,11 @@ saulctl=$1
 source "$(dirname "$0")/check.bash"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
+# Runs in its scratch directory: a saulctl that takes the '-' below for a file name (convert's OUT before it meant
+# standard output) writes that file where it runs, and one was committed from the repository's root.
+[[ $saulctl == */* ]] && saulctl=$(realpath "$saulctl")
+set -- "$saulctl" "$(realpath "$2")"
+cd "$out" || exit 1
 
 python3 - "$out/long.log" <<'PY'
 import sys
@@ -124,6 +129,10 @@ check "convert to - --format blf redirected to a file: the bytes of convert to a
 check "convert to - without --format: exit 1" test $? -eq 1
 check "convert to - without --format: says to give it, and writes no file called -" \
   bash -c "grep -q 'give the format' '$out/convert.err' && ! test -e '$out/-'"
+saulctl_status() { "$saulctl" "$@" >/dev/null 2>"$out/status.err"; echo $?; }
+check "record -o -: refused as usage (exit 2) before opening the link, no file called -" \
+  bash -c "test $(saulctl_status record slcan:/dev/null -o - --format blf) -eq 2 && ! test -e '$out/-' &&
+           grep -q 'record writes files' '$out/status.err'"
 "$saulctl" plot - -o "$out/stdin.csv" <"$out/bus.log" 2>/dev/null
 check "plot - from a redirected file: writes the plot" test -s "$out/stdin.csv"
 "$saulctl" plot <(cat "$out/bus.log") -o "$out/piped.csv" >/dev/null 2>"$out/plot.err"

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # The .deb files packaging/build.sh made, checked as a bench laptop would meet them:
 #  - Depends (dpkg-shlibdeps through CPack) names only installed Debian packages, and covers every shared
-#    library saulctl and the Python module need (each NEEDED soname's package is in Depends), and saulctl needs
-#    only glibc's (its other libraries are linked in: SAUL_LEAN_LINK);
+#    library saulctl and the Python module need (each NEEDED soname's package is in Depends), and saulctl loads
+#    Debian's zlib and ncurses rather than copies of them;
 #  - dpkg-deb -x into a temporary root: saulctl --version tells the package's version, man -l reads its page,
 #    saulctl decodes captures/robot_bus.log exactly as the golden says, the bash completion completes a verb,
 #    the Python module imports from the unpacked dist-packages, and the dev package's pkg-config file builds a
-#    program from the unpacked tree.
+#    program from the unpacked tree;
+#  - lintian, Debian's checker, finds no error in any of the three.
 #   deb.sh SOURCE_DIR PACKAGE_BUILD_DIR
 set -euo pipefail
 src=$1 pkg=$2
@@ -57,11 +58,11 @@ check_depends() {  # check_depends DEB ELF: Depends are Debian's packages and co
   ok "$(basename "$deb") Depends: $(dpkg-deb -f "$deb" Depends)"
 }
 check_depends "$saulctl_deb" "$root/usr/bin/saulctl"
-# saulctl links its libraries in (SAUL_LEAN_LINK) and loads only glibc's: each further shared library cost start-up
-# time that a command on a small file feels (bench/README.md).
-extra=$(readelf -d "$root/usr/bin/saulctl" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p' | grep -Evx 'libc\.so\.6|libm\.so\.6|ld-linux-x86-64\.so\.2' |
-        tr '\n' ' ' || true)
-[[ -z $extra ]] && ok "saulctl needs only glibc's libc, libm and ld.so" || fail "saulctl also needs: $extra(SAUL_LEAN_LINK)"
+# A packaged saulctl links Debian's shared libraries (packaging/build.sh turns SAUL_LEAN_LINK off): a copy of zlib
+# or ncurses linked into it would never get Debian's security updates.
+needed=$(readelf -d "$root/usr/bin/saulctl" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p' | tr '\n' ' ')
+[[ " $needed" == *" libz.so.1 "* && " $needed" == *" libncursesw.so.6 "* ]] &&
+  ok "saulctl loads Debian's zlib and ncurses: $needed" || fail "saulctl does not load libz and libncursesw (embedded?): $needed"
 check_depends "$py_deb" "$(compgen -G "$root/usr/lib/python3/dist-packages/saulproto/_saulproto*.so")"
 grep -q 'libserialport-dev' <<<"$(dpkg-deb -f "$dev_deb" Depends)" || fail "libsaulproto-dev does not depend on libserialport-dev"
 
@@ -121,6 +122,18 @@ if c++ -std=c++20 "$src/tests/package/consumer/orin_node.cpp" $(pkg-config --cfl
   ok "libsaulproto-dev: a program builds from the unpacked tree with pkg-config"
 else
   fail "libsaulproto-dev: build against the unpacked tree"
+fi
+
+# ---- Debian's own checker ---------------------------------------------------------------------------------------
+# lintian (Debian's package checker): no error in any of the three (copyright, changelog, stripped binaries, no
+# embedded copy of a Debian library, ...). Its warnings are printed, not failed on.
+if command -v lintian >/dev/null; then
+  report=$(lintian --no-cfg --fail-on none "$saulctl_deb" "$dev_deb" "$py_deb" 2>&1)
+  grep -E '^[EW]: ' <<<"$report" || true
+  errors=$(grep -c '^E: ' <<<"$report" || true)
+  [[ $errors -eq 0 ]] && ok "lintian: no errors in the three packages" || fail "lintian: $errors errors (above)"
+else
+  fail "lintian is not installed: scripts/setup.sh installs it"
 fi
 
 ((fails == 0)) || { echo "$fails check(s) failed"; exit 1; }

@@ -382,7 +382,7 @@ class Lcd final : public Display {
   portMUX_TYPE lock_ = portMUX_INITIALIZER_UNLOCKED;
   LcdView view_{};
   bool fresh_ = false;
-  DMA_ATTR static std::uint16_t pixels_[kSize * kChunkRows];
+  static std::uint16_t pixels_[kSize * kChunkRows];  // DMA-capable RAM: DMA_ATTR on the definition, once
 };
 DMA_ATTR std::uint16_t Lcd::pixels_[Lcd::kSize * Lcd::kChunkRows];
 

@@ -47,8 +47,8 @@ class SerialPort {
   ~SerialPort() = default;
 };
 
-/// The hardware watchdog (BALANCE: task watchdog at 50 ms). The logic feeds it at the end of a loop iteration that
-/// ran completely with fresh sensor data, and only then.
+/// The hardware watchdog (BALANCE: task watchdog at 50 ms). The logic feeds it at the end of every loop that ran,
+/// sensor data or not: only a hang starves it. A missing or silent IMU is a latched FAULT, not a reboot loop.
 class Watchdog {
  public:
   virtual void feed() = 0;

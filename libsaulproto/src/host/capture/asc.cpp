@@ -348,10 +348,14 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
   const std::size_t flags_at = data + *length + 2;
   std::optional<std::uint64_t> flags;
   if (flags_at < tokens_.size()) flags = parse_number(tokens_[flags_at].second, 16);
-  const bool fd = flags ? (*flags & 0x1000) != 0 : (*brs == 1 || *esi == 1 || *length > 8 || *dlc > 8);
+  // One rule for every CANFD line: it is CAN FD (reported, skipped) when anything on it says so: the EDL flag, or
+  // what only an FD frame has (bit rate switch, error state indicator, DLC above 8, more than 8 bytes), even where
+  // the flags column leaves EDL clear (python-can's logfile.asc: a 64-byte line with flags 0). Otherwise it is a
+  // classic frame logged on an FD channel (log2asc -f, CANoe) and read as one. An ErrorFrame on a CANFD line (above)
+  // is a bus error, as on a CAN line: an event, not a frame's content.
+  const bool fd = (flags && (*flags & 0x1000) != 0) || *brs == 1 || *esi == 1 || *length > 8 || *dlc > 8;
   if (fd) return corrupt(tokens_[1].first, std::string(kFdUnsupported));
   f.remote = flags ? (*flags & 0x10) != 0 : (*length == 0 && *dlc > 0);
-  if (*length > 8) return corrupt(tokens_[k + 3].first, "classic frame with more than 8 data bytes");
   f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);
   if (!f.remote) {
     if (*length != f.dlc) return corrupt(tokens_[k + 3].first, fmt::format("data length {} but DLC {}", *length, *dlc));

@@ -45,13 +45,6 @@ const char* to_string(TimestampSource s) {
   return "?";
 }
 
-bool passes(const std::vector<CanFilter>& filters, const CanFrame& frame) {
-  if (filters.empty() || frame.error) return true;
-  for (const auto& f : filters)
-    if (f.extended == frame.extended && (frame.id & f.mask) == (f.id & f.mask)) return true;
-  return false;
-}
-
 std::uint64_t realtime_ns() {
   timespec ts{};
   ::clock_gettime(CLOCK_REALTIME, &ts);

@@ -11,29 +11,6 @@
 #include "saulproto/core/saul_can.hpp"
 
 namespace saul::host {
-namespace {
-
-std::uint32_t parse_hex_id(std::string_view text, std::string_view whole, bool& extended) {
-  std::string_view t = text;
-  if (t.starts_with("0x") || t.starts_with("0X")) t.remove_prefix(2);
-  if (t.empty() || t.size() > 8) throw std::invalid_argument(fmt::format("bad CAN id '{}' in '{}'", text, whole));
-  std::uint32_t v = 0;
-  for (char c : t) {
-    int d = -1;
-    if (c >= '0' && c <= '9') d = c - '0';
-    if (c >= 'a' && c <= 'f') d = c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') d = c - 'A' + 10;
-    if (d < 0) throw std::invalid_argument(fmt::format("bad CAN id '{}' in '{}': ids are hex", text, whole));
-    v = v << 4 | static_cast<std::uint32_t>(d);
-  }
-  extended = t.size() > 3 || v > CanFrame::kMaxStandardId;
-  if (v > CanFrame::kMaxExtendedId)
-    throw std::invalid_argument(fmt::format("CAN id '{}' in '{}' is above 1FFFFFFF", text, whole));
-  return v;
-}
-
-}  // namespace
-
 bool can_move_motors(const CanFrame& f) noexcept {
   if (f.error || f.remote) return false;
   if (!f.extended) {
@@ -50,22 +27,9 @@ IdMapping parse_id_mapping(std::string_view text) {
   if (eq == std::string_view::npos || eq == 0 || eq + 1 == text.size())
     throw std::invalid_argument(fmt::format("bad id mapping '{}': use FROM=TO in hex, e.g. 300=310", text));
   IdMapping m;
-  m.from = parse_hex_id(text.substr(0, eq), text, m.from_extended);
-  m.to = parse_hex_id(text.substr(eq + 1), text, m.to_extended);
+  m.from = parse_can_id(text.substr(0, eq), text, m.from_extended);
+  m.to = parse_can_id(text.substr(eq + 1), text, m.to_extended);
   return m;
-}
-
-CanFilter parse_id_filter(std::string_view text) {
-  const auto colon = text.find(':');
-  CanFilter f;
-  f.id = parse_hex_id(text.substr(0, colon), text, f.extended);
-  if (colon == std::string_view::npos) {
-    f.mask = f.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId;
-  } else {
-    bool ignored = false;
-    f.mask = parse_hex_id(text.substr(colon + 1), text, ignored);
-  }
-  return f;
 }
 
 ReplayVerdict plan_frame(const CanFrame& in, const ReplayOptions& options, CanFrame& out) {

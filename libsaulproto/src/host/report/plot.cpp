@@ -174,13 +174,25 @@ constexpr const char* kPageScript = R"JS(
     if (digits > 0) text += '.' + pad(frac, digits);
     return (days > 0 ? '+' + days + 'd ' : '') + text;
   }
-  // Times of day in UTC on the axis (".5" only when there is a fraction), the full date in the legend.
+  // Times of day in UTC on the axis, the full date in the legend. The ticks fall on round times of day (08:26:40.2,
+  // not time 0 + 0.2 s = 08:26:40.201), one step of 1-2-5 (or 15 s, 30 s, minutes, hours) for the whole axis, and
+  // as far apart as the longest label needs: labels of 12 characters 70 px apart ran into each other at 1400 px.
+  var steps = [];
+  for (var e = -6; e < 1; ++e) [1, 2, 5].forEach(function (m) { steps.push(m * Math.pow(10, e)); });
+  steps.push(10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600, 7200, 10800, 21600, 43200, 86400);
+  function decimals(step) { var d = 0; while (d < 6 && Math.abs(step * Math.pow(10, d) - Math.round(step * Math.pow(10, d))) > 1e-9) ++d; return d; }
   var xaxis = !dated ? {} : {
-    axisLabelWidth: 100,
-    axisLabelFormatter: function (t, granularity, opts, g) {
-      var r = g.xAxisRange(), span = r[1] - r[0];
-      var text = tod(t, span < 0.05 ? 6 : span < 5 ? 3 : span < 600 ? 1 : 0);
-      return text.indexOf('.') < 0 ? text : text.replace(/0+$/, '').replace(/\.$/, '');
+    axisLabelWidth: 110,
+    ticker: function (min, max, pixels) {
+      var s0 = P.start_tod_s, span = Math.max(max - min, 1e-9);
+      for (var i = 0; i < steps.length; ++i) {
+        var d = decimals(steps[i]), width = 7.5 * (8 + (d ? d + 1 : 0)) + 24;  // px of "08:26:40.123" and a gap
+        if (span / steps[i] * width <= pixels || i === steps.length - 1) break;
+      }
+      var step = steps[i], ticks = [];
+      for (var k = Math.ceil((s0 + min) / step - 1e-9); k * step - s0 <= max + 1e-9; ++k)
+        ticks.push({v: k * step - s0, label: tod(k * step - s0, d)});
+      return ticks;
     },
     valueFormatter: function (t) { return P.start_date + ' ' + tod(t, 6) + ' UTC (+' + t.toFixed(6) + ' s)'; }
   };

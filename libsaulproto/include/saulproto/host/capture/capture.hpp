@@ -10,6 +10,7 @@
 // offset for binary ones) and, where the format allows, the reader carries on after it.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <istream>
@@ -53,6 +54,37 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 /// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .blf, .trc, .csv (python-can's), .serial
 /// (case-insensitive); nullopt otherwise, also for a compressed name (strip_compression_extension first).
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
+/// Every capture format with the name help text gives it, in the order help lists them: the one table every verb's
+/// help and --input-format take their list from, so a format added here is named wherever files are read.
+struct CaptureFormatInfo {
+  CaptureFormat format;
+  std::string_view label;  ///< "ASC", "GVRET CSV", "sigrok UART"
+};
+inline constexpr std::array<CaptureFormatInfo, 12> kCaptureFormats = {{
+    {CaptureFormat::candump, "candump"},
+    {CaptureFormat::pcap, "pcap"},
+    {CaptureFormat::pcapng, "pcapng"},
+    {CaptureFormat::asc, "ASC"},
+    {CaptureFormat::blf, "BLF"},
+    {CaptureFormat::trc, "TRC"},
+    {CaptureFormat::csv, "CSV"},
+    {CaptureFormat::gvret_csv, "GVRET CSV"},
+    {CaptureFormat::serial, "serial log"},
+    {CaptureFormat::sigrok, "sigrok UART"},
+    {CaptureFormat::sigrok_json, "sigrok JSON"},
+    {CaptureFormat::pulseview_csv, "PulseView CSV"},
+}};
+/// For help text: the labels of the CAN formats, then (with_serial) the serial ones, and that any of them may be
+/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too".
+inline std::string capture_format_list(bool with_serial) {
+  std::string list;
+  for (const auto& f : kCaptureFormats) {
+    if (holds_serial_bytes(f.format) && !with_serial) continue;
+    if (!list.empty()) list += ", ";
+    list += f.label;
+  }
+  return list + "; .gz/.zst too";
+}
 /// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
 /// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
 /// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),

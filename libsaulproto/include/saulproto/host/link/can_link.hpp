@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
@@ -86,7 +87,18 @@ class CanLink {
   [[nodiscard]] virtual std::string sharing() const { return {}; }
 };
 
-/// Software filter check, shared by the transports that cannot filter in hardware.
+// CAN id filters, one home (can_filter.cpp): `--id` of sniff, record and replay, the kernel's and the software check.
+
+/// Parses a CAN id as saulctl spells them: hex digits (either case, "0x" allowed), 1 to 8 of them; more than 3
+/// digits or a value above 0x7FF means 29-bit (`extended` set). `whole` is what an error message quotes (the
+/// option's whole value). Throws std::invalid_argument for no digits, more than 8, a non-hex one or a value above
+/// 0x1FFFFFFF.
+std::uint32_t parse_can_id(std::string_view text, std::string_view whole, bool& extended);
+/// Parses "300" or "300:7F0" (ID[:MASK], hex, like `saulctl sniff --id`): without a mask, every id bit of the
+/// id's format. Throws std::invalid_argument.
+CanFilter parse_id_filter(std::string_view text);
+/// Software filter check, shared by the transports that cannot filter in hardware: true when `filters` is empty,
+/// for an error frame, or when one filter matches (same format, (id & mask) equal).
 bool passes(const std::vector<CanFilter>& filters, const CanFrame& frame);
 
 /// Realtime clock now, in ns since the Unix epoch.

@@ -38,8 +38,6 @@ struct IdMapping {
 /// Parses "300=310", "0x300=0x310", "00000344=00000345". Ids are hex; more than 3 digits or a value above 0x7FF
 /// means 29-bit. Throws std::invalid_argument with the accepted form.
 IdMapping parse_id_mapping(std::string_view text);
-/// Parses "300" or "300:7F0" (ID[:MASK], hex, like `saulctl sniff --id`). Throws std::invalid_argument.
-CanFilter parse_id_filter(std::string_view text);
 
 struct ReplayOptions {
   double speed = 1.0;                     ///< 2 = twice as fast, 0.5 = half speed, 0 = as fast as possible
