@@ -1,6 +1,7 @@
 #include "saulproto/host/capture/trace_file.hpp"
 
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 
@@ -19,6 +20,10 @@ std::string why(const std::string& path, const char* what) {
 }  // namespace
 
 bool is_trace_file(const std::string& path) {
+  // Only a regular file is looked into: reading the head of a pipe (decode <(cat run.log), a named pipe) would take
+  // those bytes from the reader that comes next. A trace through a pipe is saved to a file first.
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) return false;
   std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "rb"));
   if (!f) return false;
   char head[kTraceMagic.size()];
