@@ -13,7 +13,7 @@ std::vector<std::string> input_format_names() {
   using saul::host::CaptureFormat;
   std::vector<std::string> names;
   for (auto f : {CaptureFormat::candump, CaptureFormat::pcap, CaptureFormat::pcapng, CaptureFormat::asc,
-                 CaptureFormat::blf, CaptureFormat::trc, CaptureFormat::csv, CaptureFormat::gvret_csv,
+                 CaptureFormat::blf, CaptureFormat::trc, CaptureFormat::csv, CaptureFormat::gvret_csv, CaptureFormat::mcap,
                  CaptureFormat::serial, CaptureFormat::sigrok, CaptureFormat::sigrok_json, CaptureFormat::pulseview_csv})
     names.emplace_back(saul::host::to_string(f));
   return names;
