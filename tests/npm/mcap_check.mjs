@@ -207,3 +207,4 @@ else if (mode === "stream") await stream();
 else if (mode === "write") await write();
 else if (mode === "chunks") await chunks();
 else fail(`unknown mode ${mode}`);
+process.exit(0); // a decompression handler may keep the event loop alive
