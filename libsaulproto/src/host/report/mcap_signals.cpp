@@ -86,6 +86,13 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
 
 void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::uint64_t log_time, McapWriter& out) {
   if (frame.error || frame.remote) return;
+  std::uint64_t key = frame.id * 0x9E3779B97F4A7C15ULL ^ frame.dlc;
+  for (std::uint8_t b : frame.payload()) key = (key ^ b) * 0x100000001B3ULL;
+  Rendered& slot = cache_[(key ^ (key >> 29)) % kCache];
+  if (slot.used && slot.frame.same_wire(frame)) {
+    out.add_message(slot.channel, log_time, slot.json);
+    return;
+  }
   const signals::MessageDesc* d = signals::find_can(frame.id, frame.extended);
   if (d == nullptr) return;
   const auto message = decode_bus_frame(frame);
@@ -105,7 +112,11 @@ void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::
                                 out.add_channel(schema->second, mcap_topic(*d, controller), "json", metadata))
                   .first;
   }
-  out.add_message(channel->second, log_time, json_line(to_json(message.value())));
+  slot.used = true;
+  slot.frame = frame;
+  slot.channel = channel->second;
+  slot.json = json_line(to_json(message.value()));
+  out.add_message(slot.channel, log_time, slot.json);
 }
 
 std::unique_ptr<CaptureWriter> open_mcap_signal_writer(const std::string& path, McapWriterOptions options,

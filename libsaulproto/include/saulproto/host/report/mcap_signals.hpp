@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/mcap.hpp"
@@ -30,6 +31,16 @@ class McapSignalChannels final : public McapFrameExtra {
   void on_frame(const CanFrame& frame, std::string_view interface, std::uint64_t log_time, McapWriter& out) override;
 
  private:
+  /// Robot buses repeat payloads: the JSON of a frame's message is kept in a small table keyed by the frame's id,
+  /// flags and bytes (as decode's FrameEmitter keeps its lines), so most frames are not decoded and rendered again.
+  struct Rendered {
+    bool used = false;
+    CanFrame frame;  ///< the key (its timestamp is not part of it)
+    std::uint16_t channel = 0;
+    std::string json;
+  };
+  static constexpr std::size_t kCache = 4096;
+  std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
   std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
   std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
 };
