@@ -7,6 +7,7 @@
 #include <zstd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -400,15 +401,33 @@ void McapCaptureWriter::write(const CanFrame& frame, std::string_view interface)
   if (closed_) throw std::runtime_error("mcap: the writer is closed");
   check_writable(frame);
   if (interface.empty()) interface = "can0";
-  json_.clear();
-  fmt::format_to(std::back_inserter(json_), R"({{"id":{},"extended":{},"remote":{},"error":{},"dlc":{},"data":")",
-                 frame.id, frame.extended, frame.remote, frame.error, frame.dlc);
+  if (interface != interface_) {  // its JSON string (escaped, invalid UTF-8 replaced) made once per change
+    interface_.assign(interface);
+    interface_json_ = nlohmann::json(interface_).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  }
+  auto number = [this](std::uint64_t v) {
+    std::array<char, 24> digits{};
+    const auto end = std::to_chars(digits.data(), digits.data() + digits.size(), v).ptr;
+    json_.append(digits.data(), end);
+  };
+  auto flag = [this](const char* key, bool v) {
+    json_ += key;
+    json_ += v ? "true" : "false";
+  };
+  json_.assign(R"({"id":)");
+  number(frame.id);
+  flag(R"(,"extended":)", frame.extended);
+  flag(R"(,"remote":)", frame.remote);
+  flag(R"(,"error":)", frame.error);
+  json_ += R"(,"dlc":)";
+  number(frame.dlc);
+  json_ += R"(,"data":")";
   for (std::uint8_t b : frame.payload()) {
     json_ += kHex[b >> 4];
     json_ += kHex[b & 15];
   }
   json_ += R"(","interface":)";
-  json_ += nlohmann::json(std::string(interface)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  json_ += interface_json_;
   json_ += '}';
   const std::uint64_t t = frame.timestamp_ns.value_or(0);
   writer_.add_message(frames_channel_, t, json_);

@@ -147,6 +147,7 @@ class McapCaptureWriter final : public CaptureWriter {
   std::unique_ptr<McapFrameExtra> extra_;
   std::uint16_t frames_channel_ = 0;
   std::string json_;
+  std::string interface_, interface_json_;  ///< the last interface name and its JSON string
   bool closed_ = false;
 };
 
