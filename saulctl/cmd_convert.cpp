@@ -13,6 +13,12 @@
 #include "commands.hpp"
 #include "trace_cli.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/mcap.hpp"
+#include "saulproto/host/report/mcap_signals.hpp"
+
+#ifndef SAULCTL_VERSION
+#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
+#endif
 
 namespace saulctl {
 namespace {
@@ -22,6 +28,7 @@ struct ConvertOptions {
   std::string out;
   std::string format;  // output format; empty = from OUT's extension
   std::string input_format;  // empty = from IN's content
+  std::string compression = "zstd";  // MCAP chunks
 };
 
 /// Reads through another reader and draws the progress line (copy_frames() does the reading).
@@ -52,7 +59,17 @@ int run_convert(const ConvertOptions& opt) {
   std::unique_ptr<CaptureWriter> writer;
   try {
     reader = open_capture_reader(opt.in, input_format(opt.input_format));
-    writer = open_capture_writer(opt.out, format);
+    const auto out_format = format ? format : capture_format_from_extension(opt.out);
+    if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
+      McapWriterOptions mcap;
+      mcap.compression = *mcap_compression_from_name(opt.compression);
+      mcap.library = "saulctl " SAULCTL_VERSION;
+      writer = open_mcap_signal_writer(opt.out, mcap,
+                                       {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
+                                        {"source_format", std::string(to_string(reader->format()))}});
+    } else {
+      writer = open_capture_writer(opt.out, format);
+    }
   } catch (const CaptureOpenError& e) {
     fmt::print(stderr, "saulctl convert: {}\n", e.what());
     return kFailure;
@@ -99,7 +116,7 @@ void add_convert_command(CLI::App& app, Runner& run) {
   cmd->footer(
       "\nThe input format is told by the file's content (--input-format to force one); gzip and zstd files\n"
       "are decompressed on the fly. The output format comes from OUT's extension (.log .pcap .pcapng .asc\n"
-      ".blf .trc .csv, then .gz or .zst to compress) unless --format says. What each format keeps:\n"
+      ".blf .trc .csv .mcap, then .gz or .zst to compress) unless --format says. What each format keeps:\n"
       "docs/captures.md. Corrupt input records are reported on stderr and skipped, as in decode; when\n"
       "nothing could be read, convert fails (exit 1) and leaves no OUT.\n"
       "\nExamples:\n"
@@ -107,6 +124,8 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "  saulctl convert run.pcap run.asc                       for CANalyzer/CANoe or python-can\n"
       "  saulctl convert canoe.blf run.log.zst                  a BLF as a compressed candump log\n"
       "  saulctl convert run.log run.csv --format gvret-csv     for SavvyCAN\n"
+      "  saulctl convert captures/robot_bus.log run.mcap        for Foxglove, Lichtblick, PlotJuggler: a\n"
+      "                                                         channel per message kind, physical values\n"
       "  saulctl convert vector.asc run.log && canplayer -I run.log\n"
       "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
       "                                                         '-': standard input, standard output\n");
@@ -114,8 +133,10 @@ void add_convert_command(CLI::App& app, Runner& run) {
                   "capture file to read (" + saul::host::capture_format_list(false) + "; - = stdin)")
       ->required();
   cmd->add_option("OUT", opt->out, "file to write (replaced if it exists; - = stdout, with --format)")->required();
-  cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv or gvret-csv")
-      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv"}));
+  cmd->add_option("--format", opt->format, "output format: candump, pcap, pcapng, asc, blf, trc, csv, gvret-csv or mcap")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "mcap"}));
+  cmd->add_option("--compression", opt->compression, "MCAP: how chunks are compressed: zstd (default), lz4 or none")
+      ->check(CLI::IsMember({"none", "lz4", "zstd"}));
   add_input_format_option(cmd, opt->input_format);
   cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }

@@ -11,7 +11,13 @@
 #include "live.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/link_spec.hpp"
+#include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/recorder.hpp"
+#include "saulproto/host/report/mcap_signals.hpp"
+
+#ifndef SAULCTL_VERSION
+#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
+#endif
 #include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
@@ -98,7 +104,7 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!format) format = capture_format_from_extension(opt.output);
   if (!format)
     throw CLI::ValidationError("-o", "cannot tell the format of '" + opt.output +
-                                         "': name it .log, .pcap, .pcapng, .asc, .blf, .trc or .csv, or give --format");
+                                         "': name it .log, .pcap, .pcapng, .asc, .blf, .trc, .csv or .mcap, or give --format");
   if (holds_serial_bytes(*format))
     throw CLI::ValidationError("--format", std::string(to_string(*format)) + " holds serial bytes; " + spec.text() +
                                                " is a CAN link: use candump, pcap, pcapng, asc, blf, trc or csv");
@@ -111,9 +117,22 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   open.listen_only = opt.listen_only;
   open.paced = true;  // every frame is written: a burst waits in the adapter rather than being dropped here
   auto link = open_can_link(spec, open);
-  RotatingCaptureWriter writer(opt.output, *format, rotation_of(opt), [&](const std::string& path) {
-    if (!opt.quiet) fmt::print(stderr, "record: writing {} ({})\n", path, to_string(*format));
-  });
+  RotatingCaptureWriter::MakeWriter make;
+  if (*format == CaptureFormat::mcap) {  // with the decoded signals' channels and what is known of the link
+    McapWriterOptions mcap;
+    mcap.library = "saulctl " SAULCTL_VERSION;
+    McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()}};
+    if (spec.kind == LinkSpec::Kind::slcan) metadata.emplace_back("bitrate", std::to_string(spec.bitrate));
+    make = [mcap, metadata](std::ostream& out) {
+      return std::make_unique<McapCaptureWriter>(out, mcap, std::make_unique<McapSignalChannels>(), metadata);
+    };
+  }
+  RotatingCaptureWriter writer(
+      opt.output, *format, rotation_of(opt),
+      [&](const std::string& path) {
+        if (!opt.quiet) fmt::print(stderr, "record: writing {} ({})\n", path, to_string(*format));
+      },
+      make);
   if (!opt.quiet)
     fmt::print(stderr, "record: {} as {} (timestamps: {}); Ctrl-C to stop\n", link->name(), iface,
                to_string(link->timestamp_source()));
@@ -245,8 +264,9 @@ void add_record_command(CLI::App& app, Runner& run) {
   cmd->add_option("-o,--output", o->output, "file to write (replaced); with rotation NAME-000.EXT, NAME-001.EXT, ...")
       ->required();
   cmd->add_option("--format", o->format,
-                  "candump, pcap, pcapng, asc, blf, trc, csv, gvret-csv (CAN) or serial (default: from the extension)")
-      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "serial"}));
+                  "candump, pcap, pcapng, asc, blf, trc, csv, gvret-csv, mcap (CAN) or serial (default: from the "
+                  "extension)")
+      ->check(CLI::IsMember({"candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "mcap", "serial"}));
   cmd->add_option("--rotate-size", o->rotate_size, "start a new file when this one holds this much (100M, 1G, 64k)");
   cmd->add_option("--rotate-time", o->rotate_time, "start a new file after this long (10m, 30s)")->check(duration_check());
   cmd->add_option("--compress", o->compress, "gz or zst: compress each file once it is finished (in the background; "

@@ -12,6 +12,7 @@ packages=(
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
   libfftw3-dev python3-numpy python3-scipy  # saulctl tune's FFTs (host/tune); its independent checks (tests/tune)
+  liblz4-dev  # lz4 chunks of MCAP files (host/capture/mcap.cpp)
   libjs-dygraphs gnuplot-nox chromium  # saulctl plot: HTML page, SVG/PNG/PDF reports; headless browser test
   zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
@@ -27,12 +28,14 @@ if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
 fi
 packages+=("$@")
 
-# npm packages the tests use (tests/npm/package.json): DuckDB's Node package for the long CSV check.
+# npm packages the tests use (tests/npm/package.json): DuckDB's Node package for the long CSV check; @mcap/core,
+# @mcap/support and ajv, the independent MCAP reader, writer and JSON Schema validator (tests/cli/mcap.sh).
 # With the machine's Node.js and npm, from the npm registry; only when they are not there yet.
 npm_packages() {
   local dir
   dir="$(cd "$(dirname "$0")/.." && pwd)/tests/npm"
-  [[ -d $dir/node_modules/@duckdb/node-api ]] && return 0
+  [[ -d $dir/node_modules/@duckdb/node-api && -d $dir/node_modules/@mcap/core && -d $dir/node_modules/@mcap/support &&
+     -d $dir/node_modules/ajv ]] && return 0
   command -v npm >/dev/null || { echo "setup: npm missing (Node.js): tests/cli/long_csv.sh needs it" >&2; return 1; }
   echo "setup: installing npm packages in tests/npm"
   # No lock file: the one npm writes here records no download addresses and lacks the other platforms' bindings,

@@ -57,7 +57,7 @@ def decode(path):
 SLCAN_IN = b"t3004E8030CFE\rt40070AFF2C012C0101\rT0000034440000008F\rt4023020000\r"
 EXPECT_LINES = ["300#E8030CFE", "400#0AFF2C012C0101", "00000344#0000008F", "402#020000"]
 
-for ext in ("log", "pcapng", "asc"):
+for ext in ("log", "pcapng", "asc", "mcap"):
     out_file = os.path.join(tmp, "rec." + ext)
     p = Pty()
     proc = start(["record", "slcan:" + p.path, "-o", out_file])

@@ -1,5 +1,5 @@
 // CAN capture readers (make_capture_reader over a std::istringstream), one binary per format: built with
-// -DSAUL_FUZZ_FORMAT=candump|pcap|pcapng|asc|blf|trc|csv|gvret_csv. Only CaptureOpenError (bad header) may be
+// -DSAUL_FUZZ_FORMAT=candump|pcap|pcapng|asc|blf|trc|csv|gvret_csv|mcap. Only CaptureOpenError (bad header) may be
 // thrown; next() never throws. BLF inflates its log containers (on a second thread), so a few input bytes may
 // stand for many records: its bound is per container, not per input byte.
 #include <sstream>
@@ -9,6 +9,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/host/capture/blf.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 
 namespace {
@@ -92,6 +93,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::size_t max_records = size + 1;
   if (CaptureFormat::SAUL_FUZZ_FORMAT == CaptureFormat::blf)  // an object is at least 16 bytes once inflated
     max_records = (size / 16 + 1) * (BlfReader::kMaxContainerBytes / 16 + 2);
+  if (CaptureFormat::SAUL_FUZZ_FORMAT == CaptureFormat::mcap)  // a chunk inflates to kMcapMaxRecord at most
+    max_records = (size / 9 + 1) * (kMcapMaxRecord / 31 + 2);     // ... of records of 31 bytes or more
   for (;;) {
     auto status = reader->next();
     if (status == CaptureReader::Status::end) break;

@@ -86,12 +86,17 @@ with tempfile.TemporaryDirectory() as tmp:
     with open(head, "w") as f:
         f.write("\n".join(bus[:20]) + "\n")
     for fmt, ext in (("pcap", "pcap"), ("pcapng", "pcapng"), ("asc", "asc"), ("blf", "blf"), ("trc", "trc"),
-                     ("csv", "csv"), ("gvret_csv", "gvret.csv")):
+                     ("csv", "csv"), ("gvret_csv", "gvret.csv"), ("mcap", "mcap")):
         dst = os.path.join(tmp, "head." + ext)
         cmd = [saulctl, "convert", head, dst] + (["--format", "gvret-csv"] if fmt == "gvret_csv" else [])
         if subprocess.run(cmd, capture_output=True).returncode == 0:
             with open(dst, "rb") as f:
                 put("capture_" + fmt, "robot_bus_head", f.read())
+    for compression in ("lz4", "none"):  # MCAP's other chunk compressions (zstd is the default, above)
+        dst = os.path.join(tmp, "head_" + compression + ".mcap")
+        if subprocess.run([saulctl, "convert", head, dst, "--compression", compression], capture_output=True).returncode == 0:
+            with open(dst, "rb") as f:
+                put("capture_mcap", "robot_bus_head_" + compression, f.read())
     for method, ext in (("gzip", "log.gz"), ("zstd", "blf.zst")):
         dst = os.path.join(tmp, "head." + ext)
         if subprocess.run([saulctl, "convert", head, dst], capture_output=True).returncode == 0:

@@ -113,7 +113,7 @@ struct FormatCase {
 constexpr FormatCase kFormats[] = {
     {CaptureFormat::candump, "log"}, {CaptureFormat::pcap, "pcap"}, {CaptureFormat::pcapng, "pcapng"},
     {CaptureFormat::asc, "asc"},     {CaptureFormat::blf, "blf"},   {CaptureFormat::trc, "trc"},
-    {CaptureFormat::csv, "csv"},     {CaptureFormat::gvret_csv, "gvret-csv"},
+    {CaptureFormat::csv, "csv"},     {CaptureFormat::gvret_csv, "gvret-csv"}, {CaptureFormat::mcap, "mcap"},
 };
 
 }  // namespace

@@ -22,6 +22,7 @@
 #include "saulproto/host/capture/gvret_csv.hpp"
 #include "saulproto/host/capture/interface_index.hpp"
 #include "saulproto/host/capture/pcap.hpp"
+#include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/capture/trc.hpp"
@@ -343,13 +344,15 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
 class FileWriter final : public CaptureWriter {
  public:
   FileWriter(std::string path, std::unique_ptr<char[]> buffer, std::unique_ptr<std::ofstream> file,
-             CaptureFormat format, Compression compression)
+             CaptureFormat format, Compression compression,
+             const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make)
       : path_(std::move(path)), buffer_(std::move(buffer)), file_(std::move(file)) {
     if (compression != Compression::none) {
       packer_ = make_compressing_buf(*file_->rdbuf(), compression);
       packed_ = std::make_unique<std::ostream>(packer_.get());
     }
-    inner_ = make_capture_writer(packed_ ? *packed_ : *file_, format);
+    std::ostream& out = packed_ ? *packed_ : *file_;
+    inner_ = make ? make(out) : make_capture_writer(out, format);
   }
   ~FileWriter() override {
     try {
@@ -420,6 +423,8 @@ std::string_view to_string(CaptureFormat format) noexcept {
       return "csv";
     case CaptureFormat::gvret_csv:
       return "gvret-csv";
+    case CaptureFormat::mcap:
+      return "mcap";
     case CaptureFormat::serial:
       return "serial";
     case CaptureFormat::sigrok:
@@ -441,6 +446,7 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
   if (name == "trc") return CaptureFormat::trc;
   if (name == "csv") return CaptureFormat::csv;
   if (name == "gvret-csv") return CaptureFormat::gvret_csv;
+  if (name == "mcap") return CaptureFormat::mcap;
   if (name == "serial") return CaptureFormat::serial;
   if (name == "sigrok") return CaptureFormat::sigrok;
   if (name == "sigrok-json") return CaptureFormat::sigrok_json;
@@ -466,6 +472,7 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   if (x == "trc") return CaptureFormat::trc;
   if (x == "csv") return CaptureFormat::csv;
   if (x == "serial") return CaptureFormat::serial;
+  if (x == "mcap") return CaptureFormat::mcap;
   return std::nullopt;
 }
 
@@ -480,6 +487,7 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
       if (m == magic) return CaptureFormat::pcap;
     if (m == std::array<std::uint8_t, 4>{0x0A, 0x0D, 0x0D, 0x0A}) return CaptureFormat::pcapng;
     if (m == std::array<std::uint8_t, 4>{'L', 'O', 'G', 'G'}) return CaptureFormat::blf;
+    if (m == std::array<std::uint8_t, 4>{0x89, 'M', 'C', 'A'}) return CaptureFormat::mcap;
   }
   const std::string_view text(reinterpret_cast<const char*>(head.data()), head.size());
   if (text.find('\0') != std::string_view::npos) return std::nullopt;
@@ -525,6 +533,8 @@ CaptureTraits capture_traits(CaptureFormat format) noexcept {
       return {1000, false, false, true, true, true};
     case CaptureFormat::gvret_csv:
       return {1000, false, true, false, false, false};
+    case CaptureFormat::mcap:
+      return {1, true, false, true, true, true};
     case CaptureFormat::serial:
       return {1000, true, false, false, false, false};
     case CaptureFormat::sigrok:
@@ -574,6 +584,8 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
       return std::make_unique<CsvLogReader>(in);
     case CaptureFormat::gvret_csv:
       return std::make_unique<GvretCsvReader>(in);
+    case CaptureFormat::mcap:
+      return std::make_unique<McapFrameReader>(in);
     case CaptureFormat::serial:
     case CaptureFormat::sigrok:
     case CaptureFormat::sigrok_json:
@@ -601,6 +613,8 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
       return std::make_unique<CsvLogWriter>(out);
     case CaptureFormat::gvret_csv:
       return std::make_unique<GvretCsvWriter>(out);
+    case CaptureFormat::mcap:
+      return std::make_unique<McapCaptureWriter>(out);
     case CaptureFormat::serial:
     case CaptureFormat::sigrok:
     case CaptureFormat::sigrok_json:
@@ -610,12 +624,22 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
   throw std::invalid_argument(fmt::format("{} is not a CAN capture format", to_string(format)));
 }
 
+namespace {
+/// The format's reader of an opened file; MCAP's is told the file's size, so that a record longer than the file
+/// is reported as such at once (not read up to the file's end first).
+std::unique_ptr<CaptureReader> reader_of(FileSource& source, CaptureFormat format) {
+  if (format == CaptureFormat::mcap && !source.inflater)
+    return std::make_unique<McapFrameReader>(source.stream, source.size);
+  return make_capture_reader(source.stream, format);
+}
+}  // namespace
+
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std::optional<CaptureFormat> format) {
   auto source = open_source(path, format);
   if (holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("'{}' holds serial bytes ({}), not CAN frames", path, to_string(*format)));
   try {
-    auto inner = make_capture_reader(source->stream, *format);
+    auto inner = reader_of(*source, *format);
     return std::make_unique<FileReader>(std::move(source), std::move(inner));
   } catch (const CaptureOpenError& e) {
     throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
@@ -687,7 +711,7 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
     return opened;
   }
   try {
-    auto inner = make_capture_reader(source->stream, *format);
+    auto inner = reader_of(*source, *format);
     opened.frames = std::make_unique<FileReader>(std::move(source), std::move(inner));
   } catch (const CaptureOpenError& e) {
     throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
@@ -696,6 +720,12 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
 }
 
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
+  return open_capture_writer_made(path, format, nullptr);
+}
+
+std::unique_ptr<CaptureWriter> open_capture_writer_made(
+    const std::string& path, std::optional<CaptureFormat> format,
+    const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make) {
   const Compression compression = compression_from_extension(path);
   const bool to_stdout = path == "-";
   if (!format && !to_stdout) format = capture_format_from_extension(strip_compression_extension(path));
@@ -707,7 +737,8 @@ std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std:
                                        ".asc, .blf, .trc or .csv (+ .gz or .zst to compress), or give the format",
                                        path));
   if (to_stdout && ::isatty(STDOUT_FILENO) &&
-      (*format == CaptureFormat::pcap || *format == CaptureFormat::pcapng || *format == CaptureFormat::blf))
+      (*format == CaptureFormat::pcap || *format == CaptureFormat::pcapng || *format == CaptureFormat::blf ||
+       *format == CaptureFormat::mcap))
     throw CaptureOpenError(fmt::format("standard output is a terminal and {} is binary: redirect it (> run.{}) or "
                                        "pipe it (| wireshark -k -i -)",
                                        to_string(*format), to_string(*format)));
@@ -726,7 +757,7 @@ std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std:
   const bool append = to_stdout && *format != CaptureFormat::blf;
   file->open(capture_write_name(path), std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc));
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
-  return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression);
+  return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression, make);
 }
 
 CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,

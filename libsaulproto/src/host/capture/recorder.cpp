@@ -169,13 +169,17 @@ bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file
 // ---- CAN ----------------------------------------------------------------------------------------------------------
 
 RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
-                                             std::function<void(const std::string&)> on_new_file)
-    : plan_(path, rotation), compressor_(compressor_for(rotation)), format_(format), on_new_file_(std::move(on_new_file)) {
+                                             std::function<void(const std::string&)> on_new_file, MakeWriter make)
+    : plan_(path, rotation),
+      compressor_(compressor_for(rotation)),
+      format_(format),
+      on_new_file_(std::move(on_new_file)),
+      make_(std::move(make)) {
   if (holds_serial_bytes(format))
     throw CaptureOpenError(fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
   current_path_ = plan_.path_for(0);
   file_ = create(current_path_);
-  inner_ = make_capture_writer(*file_, format_);
+  inner_ = make_ ? make_(*file_) : make_capture_writer(*file_, format_);
   if (on_new_file_) on_new_file_(current_path_);
 }
 
@@ -197,7 +201,7 @@ void RotatingCaptureWriter::open_next() {
   ++index_;
   current_path_ = plan_.path_for(index_);
   file_ = create(current_path_);
-  inner_ = make_capture_writer(*file_, format_);
+  inner_ = make_ ? make_(*file_) : make_capture_writer(*file_, format_);
   frames_in_file_ = 0;
   file_start_ns_.reset();
   if (on_new_file_) on_new_file_(current_path_);

@@ -36,6 +36,7 @@ enum class CaptureFormat : std::uint8_t {
   trc,        ///< PEAK PCAN-View/PCAN-Explorer trace, versions 1.0 to 2.1
   csv,        ///< python-can's CSV log: timestamp,arbitration_id,extended,remote,error,dlc,data (base64)
   gvret_csv,  ///< SavvyCAN's native CSV ("GVRET"): Time Stamp,ID,Extended,Dir,Bus,LEN,D1..D8
+  mcap,       ///< MCAP (Foxglove, Lichtblick, PlotJuggler, ROS 2): frames on "/can/frames" (mcap.hpp)
   // Byte captures of the UART links (serial_capture.hpp, uart_export.hpp): not CAN, read as SerialChunks.
   serial,         ///< saulctl's serial log, "(1700000000.000000) serial:/dev/ttyUSB0@460800:8N1 interboard AA05..."
   sigrok,         ///< sigrok-cli UART annotation text ("uart-1: AA", "1023-1195 uart-1: AA"), PulseView's export
@@ -60,7 +61,7 @@ struct CaptureFormatInfo {
   CaptureFormat format;
   std::string_view label;  ///< "ASC", "GVRET CSV", "sigrok UART"
 };
-inline constexpr std::array<CaptureFormatInfo, 12> kCaptureFormats = {{
+inline constexpr std::array<CaptureFormatInfo, 13> kCaptureFormats = {{
     {CaptureFormat::candump, "candump"},
     {CaptureFormat::pcap, "pcap"},
     {CaptureFormat::pcapng, "pcapng"},
@@ -69,6 +70,7 @@ inline constexpr std::array<CaptureFormatInfo, 12> kCaptureFormats = {{
     {CaptureFormat::trc, "TRC"},
     {CaptureFormat::csv, "CSV"},
     {CaptureFormat::gvret_csv, "GVRET CSV"},
+    {CaptureFormat::mcap, "MCAP"},
     {CaptureFormat::serial, "serial log"},
     {CaptureFormat::sigrok, "sigrok UART"},
     {CaptureFormat::sigrok_json, "sigrok JSON"},
@@ -234,6 +236,11 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
 /// file cannot be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
+/// As open_capture_writer, with the format writer that `make` builds on the opened (maybe compressing) stream:
+/// for writers with options of their own (open_mcap_writer).
+std::unique_ptr<CaptureWriter> open_capture_writer_made(
+    const std::string& path, std::optional<CaptureFormat> format,
+    const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make);
 /// A writer of `format` onto a stream the caller keeps alive (and closes).
 std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFormat format);
 

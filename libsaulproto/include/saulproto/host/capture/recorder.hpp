@@ -83,8 +83,11 @@ class RotationPlan {
 /// CAN frames into one file or a rotating series. `on_new_file(path)` is told of every file opened.
 class RotatingCaptureWriter final : public CaptureWriter {
  public:
+  /// `make`, when given, builds each file's format writer on its stream (an MCAP writer with options and decoded
+  /// channels, report/mcap_signals.hpp); otherwise make_capture_writer(stream, format).
+  using MakeWriter = std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>;
   RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation = {},
-                        std::function<void(const std::string&)> on_new_file = {});
+                        std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
   ~RotatingCaptureWriter() override;
   void write(const CanFrame& frame, std::string_view interface) override;
   void flush() override;
@@ -102,6 +105,7 @@ class RotatingCaptureWriter final : public CaptureWriter {
   std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
   CaptureFormat format_;
   std::function<void(const std::string&)> on_new_file_;
+  MakeWriter make_;
   std::unique_ptr<std::ofstream> file_;
   std::unique_ptr<CaptureWriter> inner_;
   std::string current_path_;

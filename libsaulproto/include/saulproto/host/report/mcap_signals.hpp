@@ -1,0 +1,52 @@
+// The decoded signals of a CAN capture as MCAP channels, for Foxglove, Lichtblick and PlotJuggler: one channel per
+// message kind (and per VESC controller), each with a JSON Schema of its fields (units in the descriptions) made
+// from the signal descriptions (core/signals.hpp), and messages that are exactly the "message" object of
+// `saulctl decode --json` (format.hpp's to_json()), so a plot in a viewer shows the numbers decode prints.
+//
+// Topics: "/saul/<name>" for the robot's own messages ("/saul/telemetry_a"), "/vesc/<controller>/<name>" for a
+// VESC's status messages ("/vesc/68/status_1"). Frames that do not decode (unknown id, rejected, error and
+// remote frames) are on "/can/frames" only. docs/captures.md lists them.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "saulproto/core/signals.hpp"
+#include "saulproto/host/capture/mcap.hpp"
+
+namespace saul::host {
+
+/// "/saul/telemetry_a", "/vesc/68/status_1" (controller: the VESC's id, ignored for other protocols).
+std::string mcap_topic(const signals::MessageDesc& message, std::uint32_t controller);
+/// The JSON Schema of what to_json() gives for this message: "type" and every signal's key, with its unit.
+std::string mcap_json_schema(const signals::MessageDesc& message);
+
+/// Adds the decoded channels to an McapCaptureWriter (McapFrameExtra).
+class McapSignalChannels final : public McapFrameExtra {
+ public:
+  void on_frame(const CanFrame& frame, std::string_view interface, std::uint64_t log_time, McapWriter& out) override;
+
+ private:
+  /// Robot buses repeat payloads: the JSON of a frame's message is kept in a small table keyed by the frame's id,
+  /// flags and bytes (as decode's FrameEmitter keeps its lines), so most frames are not decoded and rendered again.
+  struct Rendered {
+    bool used = false;
+    CanFrame frame;  ///< the key (its timestamp is not part of it)
+    std::uint16_t channel = 0;
+    std::string json;
+  };
+  static constexpr std::size_t kCache = 4096;
+  std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
+  std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
+  std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
+};
+
+/// An MCAP writer of CAN frames with the decoded channels (open_mcap_writer with McapSignalChannels).
+std::unique_ptr<CaptureWriter> open_mcap_signal_writer(const std::string& path, McapWriterOptions options,
+                                                       const McapMap& metadata);
+
+}  // namespace saul::host

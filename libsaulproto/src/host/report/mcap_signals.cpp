@@ -1,0 +1,127 @@
+#include "saulproto/host/report/mcap_signals.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/host/report/format.hpp"
+
+namespace saul::host {
+namespace {
+
+using signals::Kind;
+using signals::Text;
+
+/// "vesc_status_1" -> "status_1": the topic already says vesc.
+std::string_view short_name(const signals::MessageDesc& m) {
+  std::string_view name = m.name;
+  if (m.protocol == signals::Protocol::vesc_can && name.starts_with("vesc_")) name.remove_prefix(5);
+  return name;
+}
+
+/// "pitch, deg; wire integer = value x 1/100" and the like: what a viewer shows next to the field.
+std::string unit_text(const signals::SignalDesc& s) {
+  std::string text = s.name;
+  if (s.unit[0] != '\0') text += fmt::format(" in {}", s.unit);
+  return text;
+}
+
+nlohmann::json property(const signals::SignalDesc& s) {
+  nlohmann::json p;
+  std::string what = unit_text(s);
+  if (s.kind == Kind::string) {
+    p["type"] = "string";
+  } else if (s.text == Text::name) {
+    nlohmann::json names = nlohmann::json::array();
+    for (const auto& v : s.values) names.push_back(v.name);
+    p["anyOf"] = {{{"enum", names}}, {{"type", "integer"}}};
+    what += s.value_bits ? " (a bit's name, or the number)" : " (the value's name, or the number when it has none)";
+  } else if (s.text == Text::physical) {
+    p["type"] = "number";
+  } else if (s.text == Text::physical_int) {
+    p["type"] = "integer";
+  } else if (s.kind == Kind::float32) {
+    p["type"] = "number";
+  } else {
+    p["type"] = "integer";
+    if (signals::text_in_unit(s))
+      what = fmt::format("{}: the wire integer, {} x {}/{}{}", s.key, s.name, s.scale_num, s.scale_den,
+                         s.unit[0] != '\0' ? fmt::format(" {}", s.unit) : std::string());
+  }
+  p["description"] = what;
+  return p;
+}
+
+}  // namespace
+
+std::string mcap_topic(const signals::MessageDesc& message, std::uint32_t controller) {
+  if (message.protocol == signals::Protocol::vesc_can) return fmt::format("/vesc/{}/{}", controller, short_name(message));
+  return fmt::format("/saul/{}", message.name);
+}
+
+std::string mcap_json_schema(const signals::MessageDesc& message) {
+  nlohmann::json props = nlohmann::json::object();
+  nlohmann::json required = nlohmann::json::array({"type"});
+  props["type"] = {{"const", message.name}, {"description", "the message's name"}};
+  for (const auto& s : message.signals) {
+    props[s.key] = property(s);
+    const bool always = s.mux != signals::Mux::multiplexed;
+    if (always) required.push_back(s.key);
+    if (signals::text_in_unit(s)) {
+      const bool whole = signals::text_decimals(s) < 0;
+      props[physical_key(s)] = {{"type", whole ? "integer" : "number"},
+                                {"description", fmt::format("{} in {} (physical value)", s.name, s.unit)}};
+      if (always) required.push_back(physical_key(s));
+    }
+  }
+  nlohmann::json schema = {{"title", message.name},
+                           {"description", fmt::format("{} ({} -> {}), as saulctl decode --json shows it",
+                                                       message.name, message.sender, message.receiver)},
+                           {"type", "object"},
+                           {"properties", props},
+                           {"required", required},
+                           {"additionalProperties", false}};
+  return schema.dump();
+}
+
+void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::uint64_t log_time, McapWriter& out) {
+  if (frame.error || frame.remote) return;
+  std::uint64_t key = frame.id * 0x9E3779B97F4A7C15ULL ^ frame.dlc;
+  for (std::uint8_t b : frame.payload()) key = (key ^ b) * 0x100000001B3ULL;
+  Rendered& slot = cache_[(key ^ (key >> 29)) % kCache];
+  if (slot.used && slot.frame.same_wire(frame)) {
+    out.add_message(slot.channel, log_time, slot.json);
+    return;
+  }
+  const signals::MessageDesc* d = signals::find_can(frame.id, frame.extended);
+  if (d == nullptr) return;
+  const auto message = decode_bus_frame(frame);
+  if (!message) return;  // rejected: on /can/frames only
+  const std::uint32_t controller = d->protocol == signals::Protocol::vesc_can ? (frame.id & 0xFF) : 0;
+  auto channel = channels_.find({d, controller});
+  if (channel == channels_.end()) {
+    auto schema = schemas_.find(d);
+    if (schema == schemas_.end()) {
+      const std::string name = fmt::format("{}.{}", d->protocol == signals::Protocol::vesc_can ? "vesc" : "saul",
+                                           short_name(*d));
+      schema = schemas_.emplace(d, out.add_schema(name, "jsonschema", mcap_json_schema(*d))).first;
+    }
+    const McapMap metadata = {{"can_id", fmt::format("0x{:X}", frame.id)}, {"sender", d->sender},
+                              {"receiver", d->receiver}};
+    channel = channels_.emplace(std::pair{d, controller},
+                                out.add_channel(schema->second, mcap_topic(*d, controller), "json", metadata))
+                  .first;
+  }
+  slot.used = true;
+  slot.frame = frame;
+  slot.channel = channel->second;
+  slot.json = json_line(to_json(message.value()));
+  out.add_message(slot.channel, log_time, slot.json);
+}
+
+std::unique_ptr<CaptureWriter> open_mcap_signal_writer(const std::string& path, McapWriterOptions options,
+                                                       const McapMap& metadata) {
+  return open_mcap_writer(path, std::move(options), std::make_unique<McapSignalChannels>(), metadata);
+}
+
+}  // namespace saul::host

@@ -1,0 +1,145 @@
+#!/usr/bin/env bash
+# MCAP (issue 37) against Foxglove's own library: every file saulctl writes is read by @mcap/core's indexed and
+# streaming readers, each message validated against its channel's JSON Schema (ajv), counts per channel equal to
+# saulctl stats, values equal to decode --json (tests/npm/mcap_check.mjs); a file written by @mcap/core's writer
+# reads back in saulctl frame for frame; a file cut at every 4 KiB boundary reads, in saulctl and in the streaming
+# reader, exactly the complete chunks before the cut; damaged files are reported with their byte offset.
+set -uo pipefail
+saulctl=$1
+root=$2
+source "$(dirname "$0")/check.bash"
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+npm_dir=$root/tests/npm
+if [[ ! -d $npm_dir/node_modules/@mcap/core || ! -d $npm_dir/node_modules/ajv ]]; then
+  echo "FAIL @mcap/core or ajv missing in tests/npm (run scripts/setup.sh)"
+  exit 1
+fi
+node_check() { node "$npm_dir/mcap_check.mjs" "$@"; }
+verify() { node_check verify "$@" >/dev/null; }
+frames_of() { "$saulctl" decode --json "$1" 2>/dev/null | jq -c '[.frame, .interface]'; }
+
+# 1. Every input format (and every chunk compression) to MCAP, checked by the independent reader.
+for src in robot_bus.log robot_bus.blf robot_bus.csv robot_bus.trc.zst robot_bus.log.gz glitches.log; do
+  "$saulctl" decode --json "$root/captures/$src" >"$out/d.jsonl" 2>/dev/null
+  "$saulctl" stats --json "$root/captures/$src" >"$out/s.json" 2>/dev/null
+  for c in zstd lz4 none; do
+    "$saulctl" convert --compression "$c" "$root/captures/$src" "$out/r.mcap" 2>"$out/e"
+    check "convert $src (--compression $c): @mcap/core reads it, schemas, counts, values" \
+      verify "$out/r.mcap" "$out/d.jsonl" "$out/s.json"
+  done
+  check "decode of $src's MCAP = decode of $src (frames, interfaces)" \
+    cmp -s <(frames_of "$root/captures/$src") <(frames_of "$out/r.mcap")
+done
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/run.mcap" 2>/dev/null
+topics=$(node_check verify "$out/run.mcap" <("$saulctl" decode --json "$root/captures/robot_bus.log" 2>/dev/null) \
+  <("$saulctl" stats --json "$root/captures/robot_bus.log" 2>/dev/null))
+check "robot_bus.log: one channel per message kind (/saul/telemetry_a, /vesc/68/status_1, ...)" \
+  bash -c '[[ $0 == *\"/saul/telemetry_a\":30* && $0 == *\"/vesc/68/status_1\":30* && $0 == *\"/can/frames\":452* ]]' "$topics"
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/f.x" --format mcap 2>/dev/null
+check "--format mcap whatever the name" cmp -s <(frames_of "$out/f.x") <(frames_of "$root/captures/robot_bus.log")
+check "stats reads MCAP: the same counts as from the log" \
+  cmp -s <("$saulctl" stats --json "$out/run.mcap" | jq -c '.ids') <("$saulctl" stats --json "$root/captures/robot_bus.log" | jq -c '.ids')
+
+# 2. A file written by @mcap/core's McapWriter (frames in our schema, plus a channel saulctl must pass over).
+"$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/d.jsonl" 2>/dev/null
+node_check write "$out/theirs.mcap" "$out/d.jsonl"
+check "@mcap/core's writer: saulctl decode reads it frame for frame" \
+  cmp -s <(frames_of "$out/theirs.mcap") <(frames_of "$root/captures/robot_bus.log")
+check "@mcap/core's writer: the same timestamps" \
+  cmp -s <("$saulctl" decode "$out/theirs.mcap" 2>/dev/null) <("$saulctl" decode "$root/captures/robot_bus.log" 2>/dev/null)
+
+# 3. Live: record -o x.mcap from the simulated robot. Ctrl-C writes the summary (checked like the converted
+# files); kill -9 leaves a file that reads up to its last closed chunk, in saulctl as in @mcap/core.
+"$saulctl" sim --quiet --paths-file "$out/sim.paths" --for 120s >"$out/sim.out" 2>&1 &
+sim=$!
+wait_for() {  # wait_for SECONDS COMMAND...: polls a condition (not a fixed sleep), false on timeout
+  local until=$((SECONDS + $1)); shift
+  until "$@"; do ((SECONDS < until)) || return 1; sleep 0.1; done
+}
+wait_for 20 test -s "$out/sim.paths"
+can=$(sed -n 's/^can=//p' "$out/sim.paths")
+size_over() { [[ -f $1 && $(stat -c %s "$1") -gt $2 ]]; }
+"$saulctl" record "slcan:$can" -o "$out/rec.mcap" -q 2>"$out/rec.err" &
+rec=$!
+wait_for 30 size_over "$out/rec.mcap" 60000
+kill -INT "$rec"
+wait "$rec"
+check "record -o x.mcap, Ctrl-C: exit 0" test $? = 0
+"$saulctl" decode --json "$out/rec.mcap" >"$out/d.jsonl" 2>/dev/null
+"$saulctl" stats --json "$out/rec.mcap" >"$out/s.json" 2>/dev/null
+check "record -o x.mcap, Ctrl-C: @mcap/core reads it whole (summary, indexes), schemas, counts, values" \
+  verify "$out/rec.mcap" "$out/d.jsonl" "$out/s.json"
+"$saulctl" record "slcan:$can" -o "$out/killed.mcap" -q 2>/dev/null &
+rec=$!
+wait_for 30 size_over "$out/killed.mcap" 60000
+kill -9 "$rec"
+wait "$rec" 2>/dev/null
+ours=$("$saulctl" decode "$out/killed.mcap" 2>"$out/e" | wc -l)
+theirs=$(node_check stream "$out/killed.mcap" | jq .frames)
+check "record killed (kill -9): saulctl and @mcap/core's streaming reader read the same $ours frames (> 100)" \
+  test "$ours" = "$theirs" -a "$ours" -gt 100
+check "record killed: decode says the file ends without its footer" grep -q "ends without its footer" "$out/e"
+kill "$sim" 2>/dev/null
+wait "$sim" 2>/dev/null
+
+# 4. The recording cut at every 4 KiB boundary: both read exactly the frames of the chunks complete before the cut.
+node_check chunks "$out/rec.mcap" >"$out/chunks"
+size=$(stat -c %s "$out/rec.mcap")
+cut_fails=0
+for ((at = 4096; at < size; at += 4096)); do
+  head -c "$at" "$out/rec.mcap" >"$out/part.mcap"
+  want=$(awk -v at="$at" '$1 <= at { n += $2 } END { print n + 0 }' "$out/chunks")
+  ours=$("$saulctl" decode "$out/part.mcap" 2>/dev/null | wc -l)
+  theirs=$(node_check stream "$out/part.mcap" | jq .frames)
+  if [[ $ours != "$want" || $theirs != "$want" ]]; then
+    echo "  cut at $at: saulctl $ours, @mcap/core $theirs, complete chunks hold $want"
+    cut_fails=$((cut_fails + 1))
+  fi
+done
+check "the recording cut at every 4 KiB of $size bytes: saulctl and the streaming reader read the complete chunks" \
+  test "$cut_fails" = 0
+
+# 5. Damaged files: reported with the byte offset, the rest read.
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/cut.mcap" --compression none 2>/dev/null
+node_check chunks "$out/cut.mcap" >"$out/chunks"
+head -c 8192 "$out/cut.mcap" >"$out/part.mcap"
+check "a cut file: decode says where it ends" \
+  bash -c '"$0" decode "$1" 2>&1 >/dev/null | grep -Eq "byte [0-9]+: a record \(opcode 0x0[0-9A-F]\) of [0-9]+ bytes is longer than the rest of the file \([0-9]+ bytes\): the file is cut short"' "$saulctl" "$out/part.mcap"
+first_chunk_end=$(head -1 "$out/chunks" | cut -d' ' -f1)
+first_chunk_frames=$(head -1 "$out/chunks" | cut -d' ' -f2)
+total=$(awk '{ n += $2 } END { print n }' "$out/chunks")
+# A byte of the first chunk's records flipped (uncompressed, so only its CRC can tell).
+python3 - "$out/cut.mcap" "$out/crc.mcap" "$first_chunk_end" <<'EOF'
+import sys
+data = bytearray(open(sys.argv[1], "rb").read())
+data[int(sys.argv[3]) - 100] ^= 0x01
+open(sys.argv[2], "wb").write(data)
+EOF
+"$saulctl" decode "$out/crc.mcap" >"$out/o" 2>"$out/e"
+check "a flipped byte in a chunk: 'byte N: chunk: CRC-32 ... does not match', the other chunks read" \
+  bash -c 'grep -Eq "crc.mcap: byte [0-9]+: chunk: CRC-32 of its records is [0-9A-F]{8}, the chunk says" "$0" &&
+           test "$(wc -l <"$1")" = "$2"' "$out/e" "$out/o" "$((total - first_chunk_frames))"
+python3 -c "import sys; d=open(sys.argv[1],'rb').read(); open(sys.argv[2],'wb').write(b'\x89MCAQ0\r\n'+d[8:])" \
+  "$out/cut.mcap" "$out/badmagic.mcap"
+"$saulctl" decode --input-format mcap "$out/badmagic.mcap" >/dev/null 2>"$out/e"
+check "wrong magic (forced as mcap): refused at byte 0, exit 1" \
+  bash -c 'grep -q "byte 0: not an MCAP file" "$0"' "$out/e"
+# A record whose length is larger than the file: reported, with the frames before it.
+python3 - "$out/cut.mcap" "$out/long.mcap" "$first_chunk_end" <<'EOF'
+import struct, sys
+data = bytearray(open(sys.argv[1], "rb").read())
+at = int(sys.argv[3])
+while data[at] == 0x07:  # past the first chunk's message indexes, to the second chunk
+    at += 9 + struct.unpack_from("<Q", data, at + 1)[0]
+assert data[at] == 0x06, data[at]
+struct.pack_into("<Q", data, at + 1, 1 << 40)
+open(sys.argv[2], "wb").write(data)
+EOF
+"$saulctl" decode "$out/long.mcap" >"$out/o" 2>"$out/e"
+check "a record longer than the file: 'byte N: ... longer than the rest of the file', the chunk before read" \
+  bash -c 'grep -Eq "byte [0-9]+: a record \(opcode 0x06\) of 1099511627776 bytes is longer than the rest" "$0" &&
+           test "$(wc -l <"$1")" = "$2"' "$out/e" "$out/o" "$first_chunk_frames"
+
+echo "$fails failed"
+exit $((fails > 0))

@@ -1,0 +1,210 @@
+// The MCAP files saulctl writes, read by Foxglove's own library (@mcap/core, with @mcap/support's zstd/lz4) and
+// checked with a JSON Schema validator (ajv): the independent side of tests/cli/mcap.sh.
+//
+//   node mcap_check.mjs verify FILE.mcap DECODE.jsonl STATS.json
+//       Reads FILE with the indexed reader (summary, chunk indexes) and with the streaming reader (CRCs checked);
+//       both must give the same messages. Every message must validate against its channel's JSON Schema; per
+//       channel, the counts must equal what `saulctl stats --json` (STATS.json) says; the frames and decoded
+//       messages must equal `saulctl decode --json` (DECODE.jsonl), line by line. Prints the counts per topic.
+//   node mcap_check.mjs stream FILE.mcap
+//       Streams FILE as far as it goes (a file cut short): prints {"frames":N,"error":"..."}.
+//   node mcap_check.mjs chunks FILE.mcap
+//       From the summary: each chunk's end offset and how many /can/frames messages it holds, one per line.
+//   node mcap_check.mjs write OUT.mcap DECODE.jsonl
+//       Writes the frames of DECODE.jsonl with @mcap/core's McapWriter on "/can/frames" in saulctl's schema (and
+//       a channel of another topic that saulctl must pass over), in chunks of 4 KiB, uncompressed.
+import { McapIndexedReader, McapStreamReader, McapWriter } from "@mcap/core";
+import { loadDecompressHandlers } from "@mcap/support";
+import Ajv from "ajv";
+import { promises as fs } from "node:fs";
+import { readFileSync, writeFileSync } from "node:fs";
+
+const [, , mode, file, arg2, arg3] = process.argv;
+const text = new TextDecoder();
+const fail = (msg) => {
+  console.error(`mcap_check: ${file}: ${msg}`);
+  process.exit(1);
+};
+const lines = (path) =>
+  readFileSync(path, "utf8")
+    .split("\n")
+    .filter((l) => l.length > 0)
+    .map((l) => {
+      // timestamp_ns exceeds 2^53: taken from the text, not from JSON.parse's double
+      const v = JSON.parse(l);
+      const t = /"timestamp_ns":(\d+)/.exec(l);
+      if (t) v.frame.timestamp_ns = t[1];
+      return v;
+    });
+
+// A JSON value with its object keys sorted, to compare without caring about member order.
+const canon = (v) =>
+  Array.isArray(v)
+    ? v.map(canon)
+    : v && typeof v === "object"
+      ? Object.fromEntries(Object.keys(v).sort().map((k) => [k, canon(v[k])]))
+      : v;
+const same = (a, b) => JSON.stringify(canon(a)) === JSON.stringify(canon(b));
+
+async function streamAll(bytes, handlers) {
+  const reader = new McapStreamReader({ decompressHandlers: handlers, validateCrcs: true });
+  reader.append(bytes);
+  const channels = new Map();
+  const schemas = new Map();
+  const messages = [];
+  let error;
+  try {
+    for (let r; (r = reader.nextRecord()); ) {
+      if (r.type === "Schema") schemas.set(r.id, r);
+      if (r.type === "Channel") channels.set(r.id, r);
+      if (r.type === "Message") messages.push(r);
+    }
+  } catch (e) {
+    error = String(e.message ?? e);
+  }
+  return { channels, schemas, messages, error, done: reader.done() };
+}
+
+async function verify() {
+  const handlers = await loadDecompressHandlers();
+  const bytes = readFileSync(file);
+  const handle = await fs.open(file, "r");
+  const readable = {
+    size: async () => BigInt((await handle.stat()).size),
+    read: async (offset, length) => {
+      const buf = Buffer.alloc(Number(length));
+      await handle.read(buf, 0, Number(length), Number(offset));
+      return buf;
+    },
+  };
+  const indexed = await McapIndexedReader.Initialize({ readable, decompressHandlers: handlers });
+  if (indexed.chunkIndexes.length === 0) fail("no chunk indexes in the summary");
+  const fromIndex = [];
+  for await (const m of indexed.readMessages()) fromIndex.push(m);
+  await handle.close();
+  const streamed = await streamAll(bytes, handlers);
+  if (streamed.error || !streamed.done) fail(`streaming reader: ${streamed.error ?? "did not reach the end"}`);
+  if (streamed.messages.length !== fromIndex.length)
+    fail(`streaming reader read ${streamed.messages.length} messages, the indexed one ${fromIndex.length}`);
+
+  // The indexed reader gives log-time order, the stream file order: compare as multisets per channel.
+  const key = (m) => `${m.channelId}|${m.logTime}|${text.decode(m.data)}`;
+  const a = fromIndex.map(key).sort();
+  const b = streamed.messages.map(key).sort();
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) fail(`indexed and streamed messages differ: ${a[i]} / ${b[i]}`);
+  if (indexed.statistics === undefined) fail("no Statistics record");
+  if (Number(indexed.statistics.messageCount) !== fromIndex.length)
+    fail(`Statistics says ${indexed.statistics.messageCount} messages, the file holds ${fromIndex.length}`);
+
+  // Every message against its channel's JSON Schema.
+  const ajv = new Ajv({ strict: false, allErrors: false });
+  const validators = new Map();
+  const counts = {};
+  for (const m of streamed.messages) {
+    const channel = indexed.channelsById.get(m.channelId);
+    if (!channel) fail(`message on channel ${m.channelId}, not in the summary`);
+    if (channel.messageEncoding !== "json") fail(`${channel.topic}: message encoding ${channel.messageEncoding}`);
+    const schema = indexed.schemasById.get(channel.schemaId);
+    if (!schema || schema.encoding !== "jsonschema") fail(`${channel.topic}: no jsonschema schema`);
+    if (!validators.has(schema.id)) validators.set(schema.id, ajv.compile(JSON.parse(text.decode(schema.data))));
+    const value = JSON.parse(text.decode(m.data));
+    const validate = validators.get(schema.id);
+    if (!validate(value))
+      fail(`${channel.topic} at ${m.logTime}: ${JSON.stringify(value)} fails its schema: ${ajv.errorsText(validate.errors)}`);
+    counts[channel.topic] = (counts[channel.topic] ?? 0) + 1;
+  }
+
+  // Counts per channel = saulctl stats: all frames on /can/frames, each id's decoded frames on its topic.
+  const stats = JSON.parse(readFileSync(arg3, "utf8"));
+  const expected = { "/can/frames": stats.frames };
+  for (const id of stats.ids) {
+    if (!id.type) continue;
+    const decoded = id.count - id.decode_errors - (id.remote ?? 0);
+    if (decoded <= 0) continue;
+    const topic = id.extended ? `/vesc/${id.id & 0xff}/${id.type.replace(/^vesc_/, "")}` : `/saul/${id.type}`;
+    expected[topic] = (expected[topic] ?? 0) + decoded;
+  }
+  if (!same(counts, expected)) fail(`counts per topic ${JSON.stringify(canon(counts))}, saulctl stats says ${JSON.stringify(canon(expected))}`);
+
+  // The values = decode --json: in file order, each frame, then its decoded message when it has one.
+  const decoded = lines(arg2);
+  let i = 0;
+  for (const line of decoded) {
+    const m = streamed.messages[i++];
+    const channel = indexed.channelsById.get(m?.channelId);
+    if (!m || channel.topic !== "/can/frames") fail(`frame ${JSON.stringify(line.frame)}: not next on /can/frames`);
+    const { timestamp_ns, ...frame } = line.frame;
+    frame.interface = line.interface;
+    if (!same(JSON.parse(text.decode(m.data)), frame)) fail(`frame ${text.decode(m.data)} != decode's ${JSON.stringify(frame)}`);
+    if (BigInt(timestamp_ns) !== m.logTime) fail(`frame log time ${m.logTime} != decode's ${timestamp_ns}`);
+    if (line.message) {
+      const d = streamed.messages[i++];
+      const value = d && JSON.parse(text.decode(d.data));
+      if (!d || !same(value, line.message)) fail(`decoded ${JSON.stringify(value)} != decode's ${JSON.stringify(line.message)}`);
+      if (d.logTime !== m.logTime) fail(`decoded message at ${d.logTime}, its frame at ${m.logTime}`);
+    }
+  }
+  if (i !== streamed.messages.length) fail(`${streamed.messages.length - i} messages more than decode --json's lines`);
+  console.log(JSON.stringify(canon(counts)));
+}
+
+async function stream() {
+  const handlers = await loadDecompressHandlers();
+  const s = await streamAll(readFileSync(file), handlers);
+  const frames = s.messages.filter((m) => s.channels.get(m.channelId)?.topic === "/can/frames").length;
+  console.log(JSON.stringify({ frames, error: s.error ?? null }));
+}
+
+async function chunks() {
+  const handlers = await loadDecompressHandlers();
+  const bytes = readFileSync(file);
+  const readable = {
+    size: async () => BigInt(bytes.length),
+    read: async (offset, length) => bytes.subarray(Number(offset), Number(offset + length)),
+  };
+  const indexed = await McapIndexedReader.Initialize({ readable, decompressHandlers: handlers });
+  const frames = [...indexed.channelsById.values()].find((c) => c.topic === "/can/frames").id;
+  for (const c of indexed.chunkIndexes) {
+    // The chunk's Message Index record of the frames channel (opcode, length u64, channel u16, then the array's
+    // byte length u32) says how many frames it holds: 16 bytes (time, offset) each.
+    const at = Number(c.messageIndexOffsets.get(frames) ?? -1);
+    let count = 0;
+    if (at >= 0) count = Number(Buffer.from(bytes.subarray(at + 11, at + 15)).readUInt32LE(0)) / 16;
+    console.log(`${c.chunkStartOffset + c.chunkLength} ${count}`);
+  }
+}
+
+async function write() {
+  const chunks = [];
+  let position = 0n;
+  const writable = {
+    position: () => position,
+    write: async (buf) => {
+      chunks.push(Buffer.from(buf));
+      position += BigInt(buf.byteLength);
+    },
+  };
+  const writer = new McapWriter({ writable, chunkSize: 4096 });
+  await writer.start({ profile: "", library: "@mcap/core (saul-tee test)" });
+  const schemaText = Buffer.from('{"type":"object"}'); // saulctl goes by the topic and the schema's name
+  const schemaId = await writer.registerSchema({ name: "saul.can_frame", encoding: "jsonschema", data: schemaText });
+  const other = await writer.registerChannel({ topic: "/other", messageEncoding: "json", schemaId: 0, metadata: new Map() });
+  const frames = await writer.registerChannel({ topic: "/can/frames", messageEncoding: "json", schemaId, metadata: new Map() });
+  let seq = 0;
+  for (const line of lines(arg2)) {
+    const { timestamp_ns, ...frame } = line.frame;
+    frame.interface = line.interface;
+    const t = BigInt(timestamp_ns);
+    await writer.addMessage({ channelId: frames, sequence: seq++, logTime: t, publishTime: t, data: Buffer.from(JSON.stringify(frame)) });
+    await writer.addMessage({ channelId: other, sequence: seq, logTime: t, publishTime: t, data: Buffer.from('{"not":"a frame"}') });
+  }
+  await writer.end();
+  writeFileSync(file, Buffer.concat(chunks));
+}
+
+if (mode === "verify") await verify();
+else if (mode === "stream") await stream();
+else if (mode === "write") await write();
+else if (mode === "chunks") await chunks();
+else fail(`unknown mode ${mode}`);
+process.exit(0); // a decompression handler may keep the event loop alive
