@@ -53,5 +53,18 @@ import json,sys; j=json.load(open('bad.json')); print(j['problems']); sys.exit(n
 "$saulctl" tune report bad.trace >bad.txt
 check "the text report tells the corrupt record too" grep -q "byte [0-9]*: a corrupt or cut record" bad.txt
 
+# --gains: the simulated robot runs the gain set asked for (soft and stiff give different figures from the same seed).
+"$saulctl" tune record --sim --seed 1 --gains 70 350 2 --duration 10s --excite chirp -o soft.trace >/dev/null &&
+  "$saulctl" tune record --sim --seed 1 --gains 140 700 4 --duration 10s --excite chirp -o stiff.trace >/dev/null
+check "tune record --sim --gains records (soft and stiff)" test $? -eq 0
+"$saulctl" tune report soft.trace --json >soft.json && "$saulctl" tune report stiff.trace --json >stiff.json
+check "the stiffer set overshoots less (soft > stiff + 5 points)" python3 -c "
+import json,sys; a=json.load(open('soft.json'))['step']; b=json.load(open('stiff.json'))['step']
+print(a['overshoot_pct'], b['overshoot_pct']); sys.exit(not a['overshoot_pct'] > b['overshoot_pct'] + 5)"
+"$saulctl" tune record --console-balance /dev/null --gains 1 2 3 -o x.trace >/dev/null 2>&1
+check "--gains without --sim: usage error (2)" test $? -eq 2
+"$saulctl" tune record --sim --gains 1 2 -o x.trace >/dev/null 2>&1
+check "--gains with two numbers: usage error (2)" test $? -eq 2
+
 echo "$fails failed"
 exit $((fails > 0))
