@@ -11,6 +11,8 @@
 #include <memory>
 #include <optional>
 
+#include <unistd.h>  // getpid: a temporary file of this process
+
 #include "commands.hpp"
 #include "saulproto/host/capture/trace_file.hpp"
 #include "saulproto/host/tune/analysis.hpp"
