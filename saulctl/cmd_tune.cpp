@@ -10,6 +10,7 @@ void add_tune_command(CLI::App& app, Runner& run) {
   tune->require_subcommand(1);
   add_tune_record_command(*tune, run);
   add_tune_report_commands(*tune, run);
+  add_tune_auto_command(*tune, run);
 }
 
 }  // namespace saulctl

@@ -4,6 +4,7 @@
 #include <fmt/core.h>
 
 #include <memory>
+#include <vector>
 
 #include "commands.hpp"
 #include "live.hpp"
@@ -28,6 +29,7 @@ struct TuneRecordOptions {
   std::string console_balance;
   bool sim = false;
   std::uint32_t seed = 1;
+  std::vector<float> gains;  // --gains KP KI KD (--sim only)
   bool dump = false;
   bool json = false;
 };
@@ -49,6 +51,8 @@ int run_tune_record(const TuneRecordOptions& o) {
   if (duration.count() <= 0) throw CLI::ValidationError("--duration", "the duration must be at least 1 ms");
   if (!o.sim && o.console_balance.empty())
     throw CLI::ValidationError("--console-balance", "name BALANCE's console port (or --sim for the simulated robot)");
+  if (!o.gains.empty() && !o.sim)
+    throw CLI::ValidationError("--gains", "only with --sim: on the robot send gains with 'saulctl pid' (and see them acked)");
   saul::host::TraceFileWriter file(o.out);
   saul::host::TraceTap tap;
   const auto take = [&](std::span<const std::uint8_t> bytes) {
@@ -67,6 +71,7 @@ int run_tune_record(const TuneRecordOptions& o) {
     options.divider = o.divider;
     options.excite = excitation(o);
     options.dump = o.dump;
+    if (o.gains.size() == 3) options.gains = saul::saulcan::PidGains{o.gains[0], o.gains[1], o.gains[2]};
     const auto r = saul::sim::run_sim_trace(options, take, interrupted);
     stopped = r.stopped;
     dump_records = r.dump_records;
@@ -126,6 +131,9 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   cmd->add_option("--console-balance", o->console_balance, "BALANCE board USB console port, e.g. /dev/ttyACM1");
   cmd->add_flag("--sim", o->sim, "trace the simulated robot in this process, on simulated time (armed first)");
   cmd->add_option("--seed", o->seed, "noise seed for --sim")->capture_default_str();
+  cmd->add_option("--gains", o->gains, "--sim: the balance PID's gains KP KI KD instead of the sim's shipped 100 500 3")
+      ->expected(3)
+      ->check(CLI::Range(0.0F, 1000.0F));
   cmd->add_flag("--dump", o->dump,
                 "fetch the flight recorder (the last 5 s before a latch) instead; with --sim: trace, tilt, then dump");
   add_json_flag(cmd, o->json, "print the summary as one JSON object");
@@ -135,6 +143,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
       "The console port is shared: 'saulctl console' or another saulctl can use it beside the recording.\n"
       "\nExamples:\n"
       "  saulctl tune record --sim --seed 3 --duration 10s --excite chirp --amplitude 1 -o run.trace\n"
+      "  saulctl tune record --sim --gains 140 700 4 --excite prbs -o stiff.trace    another gain set, simulated\n"
       "  saulctl tune record --console-balance /dev/ttyACM1 --duration 30s --excite step --amplitude 0.5 -o step.trace\n"
       "  saulctl tune record --console-balance /dev/ttyACM1 --dump -o fall.trace     the 5 s before the last latch\n"
       "  saulctl stats run.trace; saulctl convert run.trace run.csv\n"

@@ -39,6 +39,7 @@ void add_dbc_command(CLI::App& app, Runner& run);
 void add_wireshark_command(CLI::App& app, Runner& run);
 void add_tune_command(CLI::App& app, Runner& run);  // tune: its subcommands below
 void add_tune_record_command(CLI::App& tune, Runner& run);   // tune record
+void add_tune_auto_command(CLI::App& tune, Runner& run);     // tune auto
 void add_tune_report_commands(CLI::App& tune, Runner& run);  // tune report, tune compare
 
 }  // namespace saulctl

@@ -25,6 +25,7 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
   TraceRunResult result;
   WorldConfig config;
   config.plant.seed = options.seed;
+  if (options.gains) config.balance.gains = *options.gains;
   World world(config);
   host::TraceTap tap;  // the trace, then (with dump) the flight recorder's records
   bool tracing = false;
@@ -64,12 +65,16 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
   tracing = !options.dump;
   if (!options.dump)
     world.console_input("balance", line_of(trace::TraceOn{options.divider == 0 ? std::uint16_t{1} : options.divider}));
+  const fw::TimeUs end = world.now_us() + options.duration_us;
   if (options.excite) {
     trace::ExciteStart e = *options.excite;  // for the trace's duration, at most the 20 s an excitation may last
-    e.duration_s = std::min(trace::kMaxDurationS, static_cast<float>(options.duration_us) * 1e-6F);
+    // A step starts after a quiet second of trace, so the trace holds the level before it and the step response
+    // can be measured directly (tune report's step_direct); the other signals start with the trace.
+    const fw::TimeUs quiet = e.kind == trace::Excite::step ? std::min<fw::TimeUs>(1000 * kMs, options.duration_us / 4) : 0;
+    if (quiet > 0 && !run_to(world.now_us() + quiet)) return finish("interrupted");
+    e.duration_s = std::min(trace::kMaxDurationS, static_cast<float>(end - world.now_us()) * 1e-6F);
     world.console_input("balance", line_of(e));
   }
-  const fw::TimeUs end = world.now_us() + options.duration_us;
   if (!run_to(end)) return finish("interrupted");
   world.console_input("balance", line_of(trace::TraceOff{}));
   if (!run_to(world.now_us() + 5 * kMs)) return finish("interrupted");

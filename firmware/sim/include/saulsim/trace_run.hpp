@@ -11,6 +11,7 @@
 #include <string>
 
 #include "saulfw/hal.hpp"
+#include "saulproto/core/pid_stager.hpp"
 #include "saulproto/core/trace.hpp"
 
 namespace saul::sim {
@@ -23,6 +24,8 @@ struct TraceRunOptions {
   /// Instead of a live trace: balance untraced for the duration, tilt the body beyond the cutoff, then `trace dump`
   /// (the flight recorder's 5 s before the latch); records and gaps are then the dump's.
   bool dump = false;
+  /// The balance PID's power-on gains instead of the firmware's (BalanceConfig::gains): comparing gain sets.
+  std::optional<saulcan::PidGains> gains;
 };
 
 struct TraceRunResult {

@@ -13,6 +13,8 @@
 #include "../util.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/trace_file.hpp"
+#include "saulproto/host/report/trace_report.hpp"
 
 namespace saul::host::tune {
 
@@ -238,7 +240,53 @@ Series read_capture_series(const std::string& path) {
   return s;
 }
 
+Series read_trace_series(const std::string& path) {
+  Series s;
+  s.name = path;
+  s.source = SeriesSource::loop_trace;
+  TraceClock clock;  // time_us wraps after 71.6 min: unwrapped into seconds since 0
+  TraceSink sink;
+  sink.record = [&](const trace::LoopTrace& r, std::uint64_t offset) {
+    if (s.truncated) return;
+    const double time = clock.seconds(r.time_us);
+    if (!s.time_s.empty() && time <= s.time_s.back()) {
+      s.problem(fmt::format("{}: record at byte {}: time does not move forward (record left out)", path, offset));
+      return;
+    }
+    if (s.size() >= kMaxRecords) {
+      s.truncated = true;
+      s.problem(fmt::format("{}: more than {} records: the rest is left out", path, kMaxRecords));
+      return;
+    }
+    s.time_s.push_back(time);
+    s.setpoint_deg.push_back(r.setpoint_x100 / 100.0);
+    s.pitch_deg.push_back(r.pitch_x100 / 100.0);
+    s.rate_dps.push_back(r.rate_x10 / 10.0);
+    s.p_term.push_back(r.p_term);
+    s.i_term.push_back(r.i_term);
+    s.d_term.push_back(r.d_term);
+    s.output.push_back(r.output);
+    s.seq.push_back(r.seq);
+    s.excite.push_back(r.excite != 0 ? 1 : 0);
+    s.state.push_back(r.state);
+    s.line.push_back(offset);
+  };
+  sink.line = [&](std::string_view text) { read_gains(text, s.gains); };  // "pid kp=.. ki=.. kd=.." echoed by BALANCE
+  sink.corrupt = [&](Reason reason, std::uint64_t offset) {
+    s.problem(fmt::format("{}: byte {}: a corrupt or cut record ({}): skipped, the rest is read", path, offset,
+                          to_string(reason)));
+  };
+  try {
+    read_trace_file(path, sink);
+  } catch (const std::runtime_error& e) {
+    throw SeriesError(e.what());
+  }
+  if (s.size() == 0) throw SeriesError(fmt::format("{}: a trace file without any loop record: nothing to analyse", path));
+  return s;
+}
+
 Series read_series(const std::string& path) {
+  if (is_trace_file(path)) return read_trace_series(path);
   std::ifstream in(path);
   if (!in) throw SeriesError(fmt::format("{}: cannot open the file: check the name and that it is readable", path));
   // A tuning CSV: a header naming one of its columns, or any .csv but the CAN logs of python-can and SavvyCAN

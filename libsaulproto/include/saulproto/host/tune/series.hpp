@@ -35,7 +35,7 @@ struct Series {
   std::vector<double> seq;           ///< the loop's iteration counter, when the trace has one
   std::vector<std::uint8_t> excite;  ///< 1 while a deliberate excitation runs
   std::vector<std::uint8_t> state;   ///< saulcan::RobotState values (1 = BALANCE, 4 = TILT_CUTOFF)
-  std::vector<std::uint64_t> line;   ///< the row's line (CSV) or frame number (capture), for messages
+  std::vector<std::uint64_t> line;   ///< the row's line (CSV), frame number (capture) or byte offset (trace)
   Gains gains;
   /// Rows (or frames) read but left out, each "FILE:LINE: why (row left out)"; at most kMaxProblems kept.
   std::vector<std::string> problems;
@@ -72,7 +72,14 @@ Series read_csv_series(const std::string& path);
 /// capture or holds no telemetry.
 Series read_capture_series(const std::string& path);
 
-/// By content: a CSV of named columns when the first line that is not a comment has "time_s", else a capture.
+/// Reads a loop trace file (`saulctl tune record`, "SAULTRACE 1" header): one row per record, time from time_us with
+/// its 32-bit wrap unwrapped, seq kept (its gaps become the report's seq_missing), excite and state per record. A
+/// corrupt or cut record is told with its byte offset and the rest is read. Throws SeriesError when the file cannot
+/// be read or holds no record.
+Series read_trace_series(const std::string& path);
+
+/// By content: a loop trace file (SAULTRACE header); a CSV of named columns when the first line that is not a
+/// comment has "time_s"; else a capture.
 Series read_series(const std::string& path);
 
 }  // namespace saul::host::tune

@@ -1,0 +1,161 @@
+// saulctl tune auto --sim: proposes balance gains from experiments on the simulated robot, and verifies them there
+// before showing them. The experiment: the shipped gains scaled together (ratios kept) by 1.0 .. 2.0, each run with
+// a 10 s chirp on the seed given and its step response estimated (host/tune/analysis.hpp); the stiffest scale whose
+// estimate overshoots under 25 %, shows no oscillation and never falls is proposed, then run 60 s untouched on every
+// verification seed against the shipped gains: proposed only when it never falls and its mean pitch RMS is lower.
+// Gains are never applied to anything: they are printed (send them with 'saulctl pid').
+#include <fmt/core.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <unistd.h>  // getpid: a temporary file of this process
+
+#include "commands.hpp"
+#include "saulproto/host/capture/trace_file.hpp"
+#include "saulproto/host/tune/analysis.hpp"
+#include "saulproto/host/tune/series.hpp"
+#include "saulsim/trace_run.hpp"
+
+namespace saulctl {
+
+namespace {
+
+struct TuneAutoOptions {
+  bool sim = false;
+  std::uint32_t seed = 1;
+  std::uint32_t verify_seeds = 20;
+  bool yes = false;
+};
+
+constexpr float kShippedKp = 100.0F, kShippedKi = 500.0F, kShippedKd = 3.0F;  // the sim's shipped set (world.cpp)
+constexpr double kMaxOvershootPct = 25.0;
+
+/// One simulated run with these gains, analysed. No value when the robot did not balance for the whole run.
+std::optional<saul::host::tune::Report> run(const saul::saulcan::PidGains& gains, std::uint32_t seed, double seconds,
+                                            bool chirp, const std::string& file) {
+  saul::sim::TraceRunOptions options;
+  options.seed = seed;
+  options.duration_us = static_cast<saul::fw::TimeUs>(seconds * 1e6);
+  options.gains = gains;
+  if (chirp) {
+    saul::trace::ExciteStart e;
+    e.kind = saul::trace::Excite::chirp;
+    e.amplitude_deg = 1.0F;
+    e.f0_hz = 0.5F;
+    e.f1_hz = 15.0F;
+    options.excite = e;
+  }
+  saul::host::TraceFileWriter writer(file);
+  const auto r = saul::sim::run_sim_trace(options, [&](std::span<const std::uint8_t> b) { writer.write(b); },
+                                          [] { return g_interrupted.load(); });
+  writer.close();
+  if (!r.ok) return std::nullopt;
+  auto report = saul::host::tune::analyse(saul::host::tune::read_trace_series(file));
+  if (report.falls > 0) return std::nullopt;
+  return report;
+}
+
+int run_tune_auto(const TuneAutoOptions& o) {
+  fmt::print("experiment: the shipped gains (Kp {} Ki {} Kd {}) scaled together by 1.0 .. 2.0; each scale balances\n"
+             "  10 s with a 1 deg chirp (0.5-15 Hz) on seed {}; the stiffest whose estimated step response overshoots\n"
+             "  under {:g} % without oscillation is verified: 60 s on seeds 1-{}, never falling, mean pitch RMS below\n"
+             "  the shipped gains'. Nothing is applied: the gains are printed for you to send ('saulctl pid').\n",
+             kShippedKp, kShippedKi, kShippedKd, o.seed, kMaxOvershootPct, o.verify_seeds);
+  if (!o.sim) {
+    fmt::print("saulctl tune auto: the live robot is not driven by this version: the plan above runs on the simulator "
+               "only (add --sim)\n");
+    return kUsage;
+  }
+  const std::string file = (std::filesystem::temp_directory_path() / fmt::format("saulctl-tune-auto-{}.trace",
+                                                                                   static_cast<long>(::getpid())))
+                               .string();
+  std::optional<float> best;
+  std::optional<saul::host::tune::StepFigures> predicted;
+  for (int k = 10; k <= 20; k += 2) {
+    const float scale = static_cast<float>(k) / 10.0F;
+    const saul::saulcan::PidGains g{kShippedKp * scale, kShippedKi * scale, kShippedKd * scale};
+    const auto r = run(g, o.seed, 10.0, true, file);
+    if (!r || !r->step) {
+      fmt::print("  x{:.1f}: {}\n", scale, r ? "no step response: " + r->step_reason : "did not balance the 10 s");
+      continue;
+    }
+    const auto& f = r->step->figures;
+    const bool good = f.overshoot_pct < kMaxOvershootPct && !r->oscillation;
+    fmt::print("  x{:.1f}: Kp {:g} Ki {:g} Kd {:g}: overshoot {:.1f} %, settling {}, pitch RMS {:.3f} deg{}\n", scale,
+               g.kp, g.ki, g.kd, f.overshoot_pct,
+               f.settling_time_s ? fmt::format("{:.3f} s", *f.settling_time_s) : std::string("none"),
+               r->pitch_rms_deg, good ? "" : r->oscillation ? "  (oscillates)" : "  (overshoots too much)");
+    if (good) {
+      best = scale;
+      predicted = f;
+    }
+  }
+  if (!best) {
+    std::remove(file.c_str());
+    fmt::print("no answer: no scale met the overshoot and oscillation limits\n");
+    return kTimeout;
+  }
+  const saul::saulcan::PidGains proposed{kShippedKp * *best, kShippedKi * *best, kShippedKd * *best};
+  const saul::saulcan::PidGains shipped{kShippedKp, kShippedKi, kShippedKd};
+  double rms_proposed = 0, rms_shipped = 0;
+  std::uint32_t held = 0;
+  for (std::uint32_t seed = 1; seed <= o.verify_seeds; ++seed) {
+    const auto a = run(proposed, seed, 60.0, false, file);
+    const auto b = run(shipped, seed, 60.0, false, file);
+    if (a) {
+      ++held;
+      rms_proposed += a->pitch_rms_deg;
+    }
+    if (b) rms_shipped += b->pitch_rms_deg;
+    std::fprintf(stderr, "\rverifying: seed %u of %u", seed, o.verify_seeds);
+  }
+  std::fprintf(stderr, "\n");
+  std::remove(file.c_str());
+  const double n = o.verify_seeds > 0 ? o.verify_seeds : 1;
+  fmt::print("verification: held 60 s on {} of {} seeds; mean pitch RMS {:.4f} deg (shipped {:.4f} deg)\n", held,
+             o.verify_seeds, rms_proposed / n, rms_shipped / n);
+  if (held != o.verify_seeds || !(rms_proposed < rms_shipped)) {
+    fmt::print("no answer: x{:.1f} did not pass the verification\n", *best);
+    return kTimeout;
+  }
+  fmt::print("proposed: Kp {:g} Ki {:g} Kd {:g}  (predicted: overshoot {:.1f} %, rise {:.3f} s, settling {})\n",
+             proposed.kp, proposed.ki, proposed.kd, predicted->overshoot_pct, predicted->rise_time_s,
+             predicted->settling_time_s ? fmt::format("{:.3f} s", *predicted->settling_time_s) : std::string("none"));
+  fmt::print("not applied: send them with 'saulctl pid {:g} {:g} {:g}' when you choose to\n", proposed.kp, proposed.ki,
+             proposed.kd);
+  return kOk;
+}
+
+}  // namespace
+
+void add_tune_auto_command(CLI::App& tune, Runner& run) {
+  auto o = std::make_shared<TuneAutoOptions>();
+  auto* cmd = tune.add_subcommand("auto", "Propose balance gains from experiments on the simulated robot (never applied)");
+  cmd->add_flag("--sim", o->sim, "run the experiment on the simulated robot, in this process, on simulated time");
+  cmd->add_option("--seed", o->seed, "noise seed of the experiment")->capture_default_str();
+  cmd->add_option("--verify-seeds", o->verify_seeds, "verify on seeds 1..N, 60 s each")
+      ->check(CLI::Range(1U, 100U))
+      ->capture_default_str();
+  cmd->add_flag("--yes", o->yes, "reserved for the live robot (not driven by this version)");
+  cmd->footer("\nExamples:\n"
+              "  saulctl tune auto --sim                 the experiment on seed 1, verified on seeds 1-20\n"
+              "  saulctl tune auto --sim --seed 4 --verify-seeds 5\n"
+              "  saulctl tune auto                       prints the plan only (the live robot is not driven)\n"
+              "\nExit codes: 0 gains proposed, 2 usage (or no --sim), 3 no gains passed the verification.\n");
+  cmd->callback([o, &run] {
+    run = [o]() -> int {
+      install_signal_handlers();
+      try {
+        return run_tune_auto(*o);
+      } catch (const std::runtime_error& e) {
+        fmt::print(stderr, "saulctl tune auto: {}\n", e.what());
+        return kFailure;
+      }
+    };
+  });
+}
+
+}  // namespace saulctl
