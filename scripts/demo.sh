@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on a machine with no robot: sets up, builds saulctl, starts the simulated SAUL-TEE (both boards'
 # firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), arms it with the virtual button,
-# puts it in balance mode and shows it balancing in `saulctl monitor`.
+# puts it in balance mode and shows it balancing in `saulctl monitor`; then the tuning instrument: 10 s of the
+# balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on BALANCE's console) and what
+# it says about the gains (`saulctl tune report`: step response, oscillation, saturation; build/demo-tune.html).
 #   scripts/demo.sh                 20 s of live telemetry (SAUL_DEMO_SECONDS to change)
 #   scripts/demo.sh decode FILE     any other saulctl command instead (e.g. decode captures/robot_bus.log)
 set -euo pipefail
@@ -23,6 +25,7 @@ trap 'kill $sim 2>/dev/null; wait $sim 2>/dev/null || true' EXIT
 for _ in $(seq 100); do [[ -s $paths ]] && break; sleep 0.05; done
 can=$(sed -n 's/^can=//p' "$paths")
 control=$(sed -n 's/^control=//p' "$paths")
+balance=$(sed -n 's/^balance=//p' "$paths")
 echo "simulated robot: CAN on slcan:$can, control console $control (see build/sim.log)"
 
 sleep 1                              # BALANCE reports itself upright to IO
@@ -31,3 +34,5 @@ sleep 3.2
 echo "button up" >"$control"
 "$saulctl" mode balance --yes --link "slcan:$can"
 "$saulctl" monitor --link "slcan:$can" --duration "${SAUL_DEMO_SECONDS:-20}s"
+"$saulctl" tune record --console-balance "$balance" --duration 10s --excite chirp --amplitude 1 -o build/demo.trace
+"$saulctl" tune report build/demo.trace -o build/demo-tune.html

@@ -2,6 +2,8 @@
 // script for SVG, PNG and PDF. Nothing here draws a line itself.
 #include "saulproto/host/report/plot.hpp"
 
+#include "saulproto/host/report/format.hpp"  // json_line
+
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <spawn.h>
