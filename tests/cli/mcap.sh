@@ -17,7 +17,7 @@ if [[ ! -d $npm_dir/node_modules/@mcap/core || ! -d $npm_dir/node_modules/ajv ]]
 fi
 # --single-threaded: Node 20's process.exit deadlocks now and then (about 1 run in 8 here) when a V8 background
 # thread compiling the decompressors' WebAssembly waits for a garbage collection while the main thread joins it.
-node_check() { node --single-threaded "$npm_dir/mcap_check.mjs" "$@"; }
+node_check() { timeout 120 node --single-threaded "$npm_dir/mcap_check.mjs" "$@"; }  # a hang fails the check
 verify() { node_check verify "$@" >/dev/null; }
 frames_of() { "$saulctl" decode --json "$1" 2>/dev/null | jq -c '[.frame, .interface]'; }
 
