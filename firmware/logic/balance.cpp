@@ -413,20 +413,13 @@ void BalanceBoard::read_console(TimeUs now) noexcept {
 
 void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {
   SerialPort& out = hw_.console;
-  if (overflowed) {
-    write_formatted(out, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch_), scratch_);
-    return;
-  }
-  if (on_trace_line(line, now)) return;
-  const auto parsed = console::parse(line);
-  if (!parsed) {
-    if (parsed.error.reason == Reason::syntax) return;  // a blank line: just nothing
-    write_formatted(out, console::format_error(parsed.error, scratch_), scratch_);
-    return;
-  }
-  const auto ok = [&] { write_formatted(out, console::format_ok(scratch_), scratch_); };
+  if (!overflowed && on_trace_line(line, now)) return;
+  console::ParseResult parsed;
+  const console::Command* command = read_command(out, line, overflowed, parsed, scratch_);
+  if (command == nullptr) return;
+  const auto ok = [&] { write_ok(out, scratch_); };
   using console::Verb;
-  switch (console::verb_of(parsed.command)) {
+  switch (console::verb_of(*command)) {
     case Verb::help:
       write_formatted(out, console::format_help(scratch_), scratch_);
       write_text(out, trace::kHelp);
@@ -451,7 +444,7 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       return;
     }
     case Verb::pid: {
-      if (const auto* p = std::get_if<console::PidCmd>(&parsed.command)) pid_.set_gains({p->kp, p->ki, p->kd});
+      if (const auto* p = std::get_if<console::PidCmd>(command)) pid_.set_gains({p->kp, p->ki, p->kd});
       ok();
       return;
     }
@@ -474,14 +467,14 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       ok();
       return;
     case Verb::tilt_limit:
-      if (const auto* t = std::get_if<console::TiltLimitCmd>(&parsed.command)) {
+      if (const auto* t = std::get_if<console::TiltLimitCmd>(command)) {
         tilt_limit_x100_ = t->tilt_limit_x100;
         remember_limits();
       }
       ok();
       return;
     case Verb::speed_limit: {
-      const auto* limit = std::get_if<console::SpeedLimitCmd>(&parsed.command);
+      const auto* limit = std::get_if<console::SpeedLimitCmd>(command);
       const std::uint8_t pct = limit != nullptr ? limit->percent : speed_limit_pct_;
       if (pct > speed_limit_pct_ && armed() && !SAUL_MUTANT(raise_while_armed)) {
         write_refusal(out, "raise the speed limit only while disarmed");
@@ -496,20 +489,12 @@ void BalanceBoard::on_console_line(std::string_view line, bool overflowed, TimeU
       ok();
       return;
     }
-    case Verb::can_stats: {
-      const auto s = hw_.can.stats();
-      write_formatted(out, console::format_human(s, scratch_), scratch_);
-      write_formatted(out, console::format_kv(s, scratch_), scratch_);
-      ok();
+    case Verb::can_stats:
+      write_stats(out, hw_.can.stats(), scratch_);
       return;
-    }
-    case Verb::uart_stats: {
-      const auto s = console::UartStats::from(link_rx_.counters());
-      write_formatted(out, console::format_human(s, scratch_), scratch_);
-      write_formatted(out, console::format_kv(s, scratch_), scratch_);
-      ok();
+    case Verb::uart_stats:
+      write_stats(out, console::UartStats::from(link_rx_.counters()), scratch_);
       return;
-    }
     case Verb::reboot:
       if (armed()) {
         write_refusal(out, "disarm before rebooting");

@@ -180,15 +180,48 @@ void write_refusal(SerialPort& port, std::string_view message) noexcept {
   write_text(port, " [not_allowed]\n");
 }
 
+namespace {
+// A report's two forms, the words for people and the key=value line for scripts.
+template <class Report>
+void write_both(SerialPort& port, const Report& report, std::span<char> scratch) noexcept {
+  write_formatted(port, console::format_human(report, scratch), scratch);
+  write_formatted(port, console::format_kv(report, scratch), scratch);
+}
+}  // namespace
+
+void write_ok(SerialPort& port, std::span<char> scratch) noexcept {
+  write_formatted(port, console::format_ok(scratch), scratch);
+}
+
 void write_status(SerialPort& port, const console::StatusReport& status, const console::CanStats& can,
                   const console::UartStats& uart, std::span<char> scratch) noexcept {
-  write_formatted(port, console::format_human(status, scratch), scratch);
-  write_formatted(port, console::format_kv(status, scratch), scratch);
-  write_formatted(port, console::format_human(can, scratch), scratch);
-  write_formatted(port, console::format_kv(can, scratch), scratch);
-  write_formatted(port, console::format_human(uart, scratch), scratch);
-  write_formatted(port, console::format_kv(uart, scratch), scratch);
-  write_formatted(port, console::format_ok(scratch), scratch);
+  write_both(port, status, scratch);
+  write_both(port, can, scratch);
+  write_both(port, uart, scratch);
+  write_ok(port, scratch);
+}
+
+void write_stats(SerialPort& port, const console::CanStats& stats, std::span<char> scratch) noexcept {
+  write_both(port, stats, scratch);
+  write_ok(port, scratch);
+}
+
+void write_stats(SerialPort& port, const console::UartStats& stats, std::span<char> scratch) noexcept {
+  write_both(port, stats, scratch);
+  write_ok(port, scratch);
+}
+
+const console::Command* read_command(SerialPort& port, std::string_view line, bool overflowed,
+                                     console::ParseResult& parsed, std::span<char> scratch) noexcept {
+  if (overflowed) {
+    write_formatted(port, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch), scratch);
+    return nullptr;
+  }
+  parsed = console::parse(line);
+  if (parsed) return &parsed.command;
+  // A blank line is a syntax error without words: answered with nothing, as a terminal's Enter expects.
+  if (parsed.error.reason != Reason::syntax) write_formatted(port, console::format_error(parsed.error, scratch), scratch);
+  return nullptr;
 }
 
 }  // namespace saul::fw

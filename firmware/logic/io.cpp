@@ -457,19 +457,12 @@ void IoBoard::read_console(TimeUs now) noexcept {
 
 void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now) noexcept {
   SerialPort& out = hw_.console;
-  if (overflowed) {
-    write_formatted(out, console::format_error({Reason::syntax, "line too long", 0, nullptr}, scratch_), scratch_);
-    return;
-  }
-  const auto parsed = console::parse(line);
-  if (!parsed) {
-    if (parsed.error.reason == Reason::syntax) return;
-    write_formatted(out, console::format_error(parsed.error, scratch_), scratch_);
-    return;
-  }
-  const auto ok = [&] { write_formatted(out, console::format_ok(scratch_), scratch_); };
+  console::ParseResult parsed;
+  const console::Command* command = read_command(out, line, overflowed, parsed, scratch_);
+  if (command == nullptr) return;
+  const auto ok = [&] { write_ok(out, scratch_); };
   using console::Verb;
-  switch (console::verb_of(parsed.command)) {
+  switch (console::verb_of(*command)) {
     case Verb::help:
       write_formatted(out, console::format_help(scratch_), scratch_);
       ok();
@@ -507,20 +500,12 @@ void IoBoard::on_console_line(std::string_view line, bool overflowed, TimeUs now
     case Verb::speed_limit:
       write_refusal(out, "set on the BALANCE board");
       return;
-    case Verb::can_stats: {
-      const console::CanStats none{};  // no CAN controller on the IO board
-      write_formatted(out, console::format_human(none, scratch_), scratch_);
-      write_formatted(out, console::format_kv(none, scratch_), scratch_);
-      ok();
+    case Verb::can_stats:
+      write_stats(out, console::CanStats{}, scratch_);  // no CAN controller on the IO board
       return;
-    }
-    case Verb::uart_stats: {
-      const auto s = console::UartStats::from(link_rx_.counters());
-      write_formatted(out, console::format_human(s, scratch_), scratch_);
-      write_formatted(out, console::format_kv(s, scratch_), scratch_);
-      ok();
+    case Verb::uart_stats:
+      write_stats(out, console::UartStats::from(link_rx_.counters()), scratch_);
       return;
-    }
     case Verb::reboot:
       if (armed_ || motors_enabled_) {
         write_refusal(out, "disarm before rebooting");

@@ -192,5 +192,16 @@ void write_refusal(SerialPort& port, std::string_view message) noexcept;
 /// The reply to status: the status lines and report, then the can_stats and uart_stats ones, then "ok".
 void write_status(SerialPort& port, const console::StatusReport& status, const console::CanStats& can,
                   const console::UartStats& uart, std::span<char> scratch) noexcept;
+/// "ok\n": a command done.
+void write_ok(SerialPort& port, std::span<char> scratch) noexcept;
+/// The reply to can_stats / uart_stats: the human lines, the key=value line, then "ok".
+void write_stats(SerialPort& port, const console::CanStats& stats, std::span<char> scratch) noexcept;
+void write_stats(SerialPort& port, const console::UartStats& stats, std::span<char> scratch) noexcept;
+
+/// The part of a console line both boards answer alike, so each board's switch holds only its own verbs: a line
+/// too long or not understood gets its error reply here, a blank line gets nothing. Returns the command to act on,
+/// held in `parsed`, or nullptr when the line has been answered. O(line length), no allocation.
+const console::Command* read_command(SerialPort& port, std::string_view line, bool overflowed,
+                                     console::ParseResult& parsed, std::span<char> scratch) noexcept;
 
 }  // namespace saul::fw
