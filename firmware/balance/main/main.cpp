@@ -12,7 +12,6 @@
 #include "driver/spi_master.h"
 #include "driver/twai.h"
 #include "driver/uart.h"
-#include "driver/usb_serial_jtag.h"
 #include "esp_attr.h"
 #include "esp_lcd_gc9a01.h"
 #include "esp_lcd_panel_io.h"
@@ -24,12 +23,15 @@
 #include "freertos/semphr.h"
 #include "freertos/task.h"
 #include "pins.hpp"
+#include "saul_esp_ports.hpp"
 #include "saulfw/balance.hpp"
 
 namespace {
 
 using namespace saul;
 using namespace saul::fw;
+using esp::Uart;
+using esp::UsbConsole;
 
 constexpr spi_host_device_t kSpiHost = SPI2_HOST;  // shared by the IMU and the LCD
 constexpr uart_port_t kLinkUart = UART_NUM_1;
@@ -203,52 +205,7 @@ class Twai final : public CanPort {
   std::uint32_t busoff_ = 0;
 };
 
-// ---- byte streams -----------------------------------------------------------------------------------------------
-
-class Uart final : public SerialPort {
- public:
-  bool init(uart_port_t port, int tx, int rx, int baud) {
-    port_ = port;
-    uart_config_t c{};
-    c.baud_rate = baud;
-    c.data_bits = UART_DATA_8_BITS;
-    c.parity = UART_PARITY_DISABLE;
-    c.stop_bits = UART_STOP_BITS_1;
-    c.flow_ctrl = UART_HW_FLOWCTRL_DISABLE;
-    c.source_clk = UART_SCLK_DEFAULT;
-    return uart_driver_install(port_, 1024, 1024, 0, nullptr, 0) == ESP_OK && uart_param_config(port_, &c) == ESP_OK &&
-           uart_set_pin(port_, tx, rx, UART_PIN_NO_CHANGE, UART_PIN_NO_CHANGE) == ESP_OK;
-  }
-  std::size_t read(std::span<std::uint8_t> out) override {
-    const int n = uart_read_bytes(port_, out.data(), out.size(), 0);
-    return n > 0 ? static_cast<std::size_t>(n) : 0;
-  }
-  std::size_t write(std::span<const std::uint8_t> data) override {
-    const int n = uart_write_bytes(port_, data.data(), data.size());
-    return n > 0 ? static_cast<std::size_t>(n) : 0;
-  }
-
- private:
-  uart_port_t port_ = UART_NUM_1;
-};
-
-class UsbConsole final : public SerialPort {
- public:
-  bool init() {
-    usb_serial_jtag_driver_config_t c = USB_SERIAL_JTAG_DRIVER_CONFIG_DEFAULT();
-    c.rx_buffer_size = 512;
-    c.tx_buffer_size = 2048;
-    return usb_serial_jtag_driver_install(&c) == ESP_OK;
-  }
-  std::size_t read(std::span<std::uint8_t> out) override {
-    const int n = usb_serial_jtag_read_bytes(out.data(), out.size(), 0);
-    return n > 0 ? static_cast<std::size_t>(n) : 0;
-  }
-  std::size_t write(std::span<const std::uint8_t> data) override {
-    const int n = usb_serial_jtag_write_bytes(data.data(), data.size(), 0);
-    return n > 0 ? static_cast<std::size_t>(n) : 0;
-  }
-};
+// Byte streams (UARTs, the USB console): saul_esp_ports.hpp, shared with the other board.
 
 class TaskWatchdog final : public Watchdog {
  public:
