@@ -2,7 +2,7 @@
 # Bench suites asserting tuning figures (docs/bench-tests.md, "Tuning figures"): `trace chirp 1 for 10s` then
 # `expect tune ...` on the simulated robot. A limit the shipped gains cannot meet fails the suite with the figure, its
 # measured value and the limit; the figures are the ones `tune record --sim` + `tune report --json` find in the same
-# run (the suite arms on the same simulated schedule, so the traces are the same); a wrong unit or an unknown figure is
+# run (the suite arms on the same simulated schedule, 20 ms for the status reply included, so the traces are the same); a wrong unit or an unknown figure is
 # a suite error (exit 2) naming it; `expect tune` without a trace fails.
 set -uo pipefail
 saulctl=$1
@@ -12,7 +12,7 @@ trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
 
 suite() {  # NAME EXPECT-LINE: armed on tune record --sim's schedule, a 10 s 1 deg chirp, then the expectation
-  printf 'requires: sim\nwait 1500ms\nsim button down\nwait 3200ms\nsim button up\nwait 2500ms\ntrace chirp 1 for 10s\n%s\n' "$2" >"$1"
+  printf 'requires: sim\nwait 1500ms\nsim button down\nwait 3200ms\nsim button up\nwait 2520ms\ntrace chirp 1 for 10s\n%s\n' "$2" >"$1"
 }
 
 suite pass.saul "expect tune overshoot<25% settling<1.2s rise<200ms delay<100ms oscillation=none saturation<5% falls=0"
