@@ -229,19 +229,19 @@ bool holds(const Condition& c, const FieldValue& v) {
 }
 
 Condition parse_tune_condition(const std::string& word, const std::string& path, int line) {
-  // The unit is cut off a number before the condition is parsed (25% -> 25, 600ms -> 600 x 0.001), then checked
-  // against the figure's own.
-  static const std::pair<std::string_view, double> kUnits[] = {{"ms", 1e-3}, {"Hz", 1}, {"deg", 1}, {"%", 1}, {"s", 1}};
+  // The unit is cut off a number before the condition is parsed (25% -> 25, 600ms -> 600 / 1000), then checked
+  // against the figure's own. A division, so 300ms is the same double as 0.3 (300 x 0.001 need not be).
+  static const std::pair<std::string_view, double> kUnits[] = {{"ms", 1000}, {"Hz", 1}, {"deg", 1}, {"%", 1}, {"s", 1}};
   std::string text = word;
   std::string_view unit;
-  double scale = 1;
-  for (const auto& [u, factor] : kUnits) {
+  double divisor = 1;
+  for (const auto& [u, per] : kUnits) {
     if (text.size() <= u.size() || !text.ends_with(u)) continue;
     const char before = text[text.size() - u.size() - 1];
     if (std::isdigit(static_cast<unsigned char>(before)) == 0 && before != '.') continue;
     text.resize(text.size() - u.size());
     unit = u == "ms" ? "s" : u;
-    scale = factor;
+    divisor = per;
     break;
   }
   Condition c = parse_condition(text, path, line);
@@ -255,7 +255,7 @@ Condition parse_tune_condition(const std::string& word, const std::string& path,
     throw ParseError(path, line, fmt::format("'{}': {} is in {}, not {}", word, f->name,
                                              f->unit.empty() ? std::string_view("a count") : f->unit, unit));
   if (c.number) {
-    c.number = *c.number * scale;
+    c.number = *c.number / divisor;
     c.text = fmt::format("{}", *c.number);
   } else if (c.field != "oscillation" || lower(c.text) != "none") {
     throw ParseError(path, line, "'" + word + "': the value must be a number (oscillation also takes none)");
