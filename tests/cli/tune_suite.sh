@@ -3,7 +3,8 @@
 # `expect tune ...` on the simulated robot. A limit the shipped gains cannot meet fails the suite with the figure, its
 # measured value and the limit; the figures are the ones `tune record --sim` + `tune report --json` find in the same
 # run (the suite arms on the same simulated schedule, 20 ms for the status reply included, so the traces are the same); a wrong unit or an unknown figure is
-# a suite error (exit 2) naming it; `expect tune` without a trace fails.
+# a suite error (exit 2) naming it; `expect tune` without a trace fails. The shipped suite also passes over a running
+# `saulctl sim`'s ptys (the trace read from the BALANCE console port, as from the robot).
 set -uo pipefail
 saulctl=$1
 source "$(dirname "$0")/check.bash"
@@ -56,6 +57,20 @@ check "an unknown figure is a suite error naming the figures" grep -q "no tuning
 printf 'requires: sim\nexpect tune overshoot<25%%\n' >none.saul
 "$saulctl" test --sim none.saul >none.txt
 check "expect tune without a trace fails" grep -q "no trace to judge" none.txt
+
+# The same suite over a running `saulctl sim`'s ptys, in real time (about 17 s): the trace comes through the BALANCE
+# console port the way it would from the robot's USB console (LiveTarget::console_take).
+"$saulctl" sim --quiet --paths-file paths --for 60s >sim.log 2>&1 &
+sim=$!
+for _ in $(seq 200); do [[ -s paths ]] && break; sleep 0.05; done
+"$saulctl" test --link "slcan:$(sed -n 's/^can=//p' paths)" --console-balance "$(sed -n 's/^balance=//p' paths)" \
+  --sim-control "$(sed -n 's/^control=//p' paths)" "$2/tests/bench/tune_figures.saul" >live.txt 2>&1
+status=$?
+kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+cat live.txt
+check "live (saulctl sim's ptys): tests/bench/tune_figures.saul passes" test $status -eq 0
+records=$(sed -n 's/.*trace chirp 1 for 10s  -> \([0-9]*\) records at.*/\1/p' live.txt)
+check "live: the 10 s trace came through the console port (${records:-no} records)" test "${records:-0}" -ge 9000
 
 echo "$fails failed"
 exit $((fails > 0))
