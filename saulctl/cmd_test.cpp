@@ -115,7 +115,8 @@ void add_test_command(CLI::App& app, Runner& run) {
   cmd->add_flag("--sim", o->sim, "run against a simulated robot in this process, on simulated time (no --link)");
   cmd->add_option("--seed", o->seed, "noise seed for --sim")->capture_default_str();
   cmd->footer(
-      "\nA suite is one step per line (send, stream, stop, expect, hold, console, sim, wait); see docs/bench-tests.md.\n"
+      "\nA suite is one step per line (send, stream, stop, expect, hold, console, sim, wait, trace + expect tune);\n"
+      "see docs/bench-tests.md.\n"
       "Steps that need something this target lacks (a console, the simulator) are skipped, not failed.\n"
       "\nExamples:\n  saulctl test --sim tests/bench/*.saul --junit results.xml     the simulator, fast and repeatable\n"
       "  saulctl sim & saulctl test tests/bench/*.saul --link slcan:CAN --console-balance BAL --sim-control CTL\n"

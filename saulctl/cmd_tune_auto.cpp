@@ -3,7 +3,8 @@
 // a 10 s chirp on the seed given and its step response estimated (host/tune/analysis.hpp); the stiffest scale whose
 // estimate overshoots under 25 %, shows no oscillation and never falls is proposed, then run 60 s untouched on every
 // verification seed against the shipped gains: proposed only when it never falls and its mean pitch RMS is lower.
-// Gains are never applied to anything: they are printed (send them with 'saulctl pid').
+// Gains are never applied to anything: they are printed (send them with 'saulctl pid'). Without --sim it prints the
+// experiment it would run on the live robot and sends nothing; --yes (running it there) is refused for now.
 #include <fmt/core.h>
 
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include <unistd.h>  // getpid: a temporary file of this process
 
 #include "commands.hpp"
+#include "saulproto/core/trace.hpp"
 #include "saulproto/host/capture/trace_file.hpp"
 #include "saulproto/host/tune/analysis.hpp"
 #include "saulproto/host/tune/series.hpp"
@@ -25,6 +27,7 @@ namespace {
 
 struct TuneAutoOptions {
   bool sim = false;
+  std::string console_balance;  // the live robot's BALANCE console (the plan names it; nothing is opened yet)
   std::uint32_t seed = 1;
   std::uint32_t verify_seeds = 20;
   bool yes = false;
@@ -58,17 +61,36 @@ std::optional<saul::host::tune::Report> run(const saul::saulcan::PidGains& gains
   return report;
 }
 
+/// The live robot: the experiment it would run, printed; nothing is opened or sent. With --yes it refuses: driving a
+/// live robot through the experiment is not implemented yet, and nothing may move a motor by accident.
+int print_live_plan(const TuneAutoOptions& o) {
+  fmt::print("live plan (robot: BALANCE console {}):\n", o.console_balance.empty() ? "not given (--console-balance)" : o.console_balance);
+  fmt::print("  gains:      the robot's own (read from its status), scaled together by 1.0 .. 2.0 in steps of 0.2; each\n"
+             "              set sent as one PID set (0x301) and its acknowledgement awaited; the robot's gains restored\n"
+             "              at the end, and every change printed as it is sent\n");
+  fmt::print("  excitation: chirp of {:g} deg on the pitch setpoint, 0.5-15 Hz, 10 s per set (6 sets: 60 s), the loop\n"
+             "              traced at 1 kHz on BALANCE's console; the robot armed in BALANCE on its tether beforehand\n",
+             1.0);
+  fmt::print("  limits:     amplitude at most {:g} deg and {:g} s per excitation (BALANCE refuses more); a set whose\n"
+             "              trace shows a fall, an oscillation or an overshoot over {:g} % ends the experiment and the\n"
+             "              robot's gains are restored\n",
+             saul::trace::kMaxAmplitudeDeg, saul::trace::kMaxDurationS, kMaxOvershootPct);
+  if (!o.yes) {
+    fmt::print("nothing sent: this is the plan only (--yes would run it on the robot: not implemented yet)\n");
+    return kOk;
+  }
+  fmt::print(stderr, "saulctl tune auto: --yes: running the experiment is not implemented for live robots yet; nothing "
+                     "was sent (use --sim, or 'tune record --excite' and 'tune report' by hand)\n");
+  return kFailure;
+}
+
 int run_tune_auto(const TuneAutoOptions& o) {
+  if (!o.sim) return print_live_plan(o);
   fmt::print("experiment: the shipped gains (Kp {} Ki {} Kd {}) scaled together by 1.0 .. 2.0; each scale balances\n"
              "  10 s with a 1 deg chirp (0.5-15 Hz) on seed {}; the stiffest whose estimated step response overshoots\n"
              "  under {:g} % without oscillation is verified: 60 s on seeds 1-{}, never falling, mean pitch RMS below\n"
              "  the shipped gains'. Nothing is applied: the gains are printed for you to send ('saulctl pid').\n",
              kShippedKp, kShippedKi, kShippedKd, o.seed, kMaxOvershootPct, o.verify_seeds);
-  if (!o.sim) {
-    fmt::print("saulctl tune auto: the live robot is not driven by this version: the plan above runs on the simulator "
-               "only (add --sim)\n");
-    return kUsage;
-  }
   const std::string file = (std::filesystem::temp_directory_path() / fmt::format("saulctl-tune-auto-{}.trace",
                                                                                    static_cast<long>(::getpid())))
                                .string();
@@ -139,12 +161,16 @@ void add_tune_auto_command(CLI::App& tune, Runner& run) {
   cmd->add_option("--verify-seeds", o->verify_seeds, "verify on seeds 1..N, 60 s each")
       ->check(CLI::Range(1U, 100U))
       ->capture_default_str();
-  cmd->add_flag("--yes", o->yes, "reserved for the live robot (not driven by this version)");
+  cmd->add_option("--console-balance", o->console_balance, "the live robot's BALANCE console, for the plan");
+  cmd->add_flag("--yes", o->yes, "run the plan on the live robot (not implemented yet: refused, nothing sent)");
   cmd->footer("\nExamples:\n"
               "  saulctl tune auto --sim                 the experiment on seed 1, verified on seeds 1-20\n"
               "  saulctl tune auto --sim --seed 4 --verify-seeds 5\n"
-              "  saulctl tune auto                       prints the plan only (the live robot is not driven)\n"
-              "\nExit codes: 0 gains proposed, 2 usage (or no --sim), 3 no gains passed the verification.\n");
+              "  saulctl tune auto --console-balance /dev/ttyACM1   the live robot: prints the experiment only, sends nothing\n"
+              "\nWithout --sim nothing is sent unless --yes is given, and --yes is refused for now (live runs are not\n"
+              "implemented yet). Gains are never applied without saying so: --sim prints them for 'saulctl pid'.\n"
+              "\nExit codes: 0 gains proposed (or the live plan printed), 1 --yes on a live robot (refused), 2 usage,\n"
+              "3 no gains passed the verification.\n");
   cmd->callback([o, &run] {
     run = [o]() -> int {
       install_signal_handlers();

@@ -139,6 +139,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   add_json_flag(cmd, o->json, "print the summary as one JSON object");
   cmd->footer(
       "\nThe file holds the console's bytes: 39-byte records (docs/protocol.md section 10) and any text between them;\n"
+      "BALANCE's status reply comes first, so the file says which gains the loop ran with (tune report shows them).\n"
       "decode, stats, convert (CSV) and plot read it. The test signal needs BALANCE (armed), sticks centred, Orin at 0.\n"
       "The console port is shared: 'saulctl console' or another saulctl can use it beside the recording.\n"
       "\nExamples:\n"

@@ -62,6 +62,10 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
     return finish("not armed: the simulated robot did not reach BALANCE after the 3 s button hold");
 
   // With dump, the robot balances for the duration untraced: the file then holds the flight recorder's records only.
+  // BALANCE's status first: its "report=status ... kp= ki= kd=" line in the file says which gains the trace ran
+  // with (docs/captures.md, "Loop traces"), in the board's own words.
+  world.console_input("balance", "status\n");
+  if (!run_to(world.now_us() + 20 * kMs)) return finish("interrupted");
   tracing = !options.dump;
   if (!options.dump)
     world.console_input("balance", line_of(trace::TraceOn{options.divider == 0 ? std::uint16_t{1} : options.divider}));

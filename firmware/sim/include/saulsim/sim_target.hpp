@@ -26,6 +26,11 @@ class SimTarget final : public host::benchtest::Target {
   std::optional<CanFrame> receive_until(std::uint64_t deadline_us) override;
   std::optional<std::string> console(const std::string& board, const std::string& line, const std::string& until,
                                      std::uint64_t timeout_us) override;
+  bool console_type(const std::string& board, const std::string& bytes) override {
+    world_.console_input(board, bytes);
+    return true;
+  }
+  std::optional<std::string> console_take(const std::string& board) override { return world_.take_console_output(board); }
   bool sim(const std::string& command, std::string& error) override;
   [[nodiscard]] bool is_simulator() const override { return true; }
   [[nodiscard]] std::string describe() const override { return "the simulated robot (in-process, simulated time)"; }

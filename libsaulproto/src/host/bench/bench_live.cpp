@@ -50,6 +50,23 @@ std::optional<std::string> LiveTarget::console(const std::string& board, const s
   return exchange(*it->second, line, until, timeout_us);
 }
 
+bool LiveTarget::console_type(const std::string& board, const std::string& bytes) {
+  const auto it = consoles_.find(board);
+  if (it == consoles_.end()) return false;
+  it->second->write(bytes, milliseconds(200));
+  return true;
+}
+
+std::optional<std::string> LiveTarget::console_take(const std::string& board) {
+  const auto it = consoles_.find(board);
+  if (it == consoles_.end()) return std::nullopt;
+  // What has arrived, without waiting: a trace step calls this every 10 ms (390 bytes of 1 kHz trace records).
+  std::array<std::uint8_t, 4096> buf{};
+  std::string out;
+  for (std::size_t n; (n = it->second->read(buf, milliseconds(0))) > 0;) out.append(reinterpret_cast<const char*>(buf.data()), n);
+  return out;
+}
+
 bool LiveTarget::sim(const std::string& command, std::string& error) {
   if (!sim_control_) {
     error = "not a simulator (give --sim-control PATH to use a running saulctl sim)";

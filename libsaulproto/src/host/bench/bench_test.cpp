@@ -13,6 +13,7 @@
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/saul_can.hpp"
+#include "saulproto/host/bench/bench_tune.hpp"
 #include "saulproto/host/capture/candump.hpp"
 
 namespace saul::host::benchtest {
@@ -48,30 +49,6 @@ std::optional<double> number(const std::string& s) {
   }
   if (used != s.size()) return std::nullopt;
   return v;
-}
-
-Condition parse_condition(const std::string& w, const std::string& path, int line) {
-  static const std::pair<const char*, Condition::Op> kOps[] = {{"!=", Condition::Op::ne}, {"<=", Condition::Op::le},
-                                                               {">=", Condition::Op::ge}, {"=", Condition::Op::eq},
-                                                               {"<", Condition::Op::lt},  {">", Condition::Op::gt}};
-  for (const auto& [text, op] : kOps) {
-    const auto pos = w.find(text);
-    if (pos == std::string::npos || pos == 0) continue;
-    Condition c;
-    c.op = op;
-    c.field = w.substr(0, pos);
-    c.text = w.substr(pos + std::char_traits<char>::length(text));
-    if (c.field.size() > 2 && c.field.front() == '|' && c.field.back() == '|') {
-      c.absolute = true;
-      c.field = c.field.substr(1, c.field.size() - 2);
-    }
-    c.number = number(c.text);
-    if (c.text.empty()) throw ParseError(path, line, "condition '" + w + "' has no value");
-    if ((op != Condition::Op::eq && op != Condition::Op::ne) && !c.number)
-      throw ParseError(path, line, "condition '" + w + "' compares with a value that is not a number");
-    return c;
-  }
-  throw ParseError(path, line, "'" + w + "' is not a condition (FIELD=VALUE, FIELD<VALUE, |FIELD|<VALUE, ...)");
 }
 
 std::map<std::string, std::string> assignments(const std::vector<std::string>& w, std::size_t from,
@@ -184,11 +161,7 @@ std::uint64_t need_duration(const std::string& w, const std::string& path, int l
   return *d;
 }
 
-// Field value of a decoded message, as a number or as text (enum names).
-struct FieldValue {
-  std::optional<double> number;
-  std::string text;
-};
+}  // namespace
 
 std::optional<FieldValue> field_of(const BusMessage& m, const std::string& field) {
   std::optional<FieldValue> out;
@@ -213,6 +186,30 @@ std::optional<FieldValue> field_of(const BusMessage& m, const std::string& field
   return out;
 }
 
+Condition parse_condition(const std::string& w, const std::string& path, int line) {
+  static const std::pair<const char*, Condition::Op> kOps[] = {{"!=", Condition::Op::ne}, {"<=", Condition::Op::le},
+                                                               {">=", Condition::Op::ge}, {"=", Condition::Op::eq},
+                                                               {"<", Condition::Op::lt},  {">", Condition::Op::gt}};
+  for (const auto& [text, op] : kOps) {
+    const auto pos = w.find(text);
+    if (pos == std::string::npos || pos == 0) continue;
+    Condition c;
+    c.op = op;
+    c.field = w.substr(0, pos);
+    c.text = w.substr(pos + std::char_traits<char>::length(text));
+    if (c.field.size() > 2 && c.field.front() == '|' && c.field.back() == '|') {
+      c.absolute = true;
+      c.field = c.field.substr(1, c.field.size() - 2);
+    }
+    c.number = number(c.text);
+    if (c.text.empty()) throw ParseError(path, line, "condition '" + w + "' has no value");
+    if ((op != Condition::Op::eq && op != Condition::Op::ne) && !c.number)
+      throw ParseError(path, line, "condition '" + w + "' compares with a value that is not a number");
+    return c;
+  }
+  throw ParseError(path, line, "'" + w + "' is not a condition (FIELD=VALUE, FIELD<VALUE, |FIELD|<VALUE, ...)");
+}
+
 bool holds(const Condition& c, const FieldValue& v) {
   if (c.number && v.number) {  // numbers compare as numbers (state=1 works as well as state=BALANCE)
     double x = *v.number;
@@ -231,23 +228,40 @@ bool holds(const Condition& c, const FieldValue& v) {
   return c.op == Condition::Op::eq ? same : c.op == Condition::Op::ne ? !same : false;
 }
 
-std::string us_text(std::uint64_t us) { return fmt::format("{:.3f} s", static_cast<double>(us) / 1e6); }
-
-std::string xml_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
-    }
+Condition parse_tune_condition(const std::string& word, const std::string& path, int line) {
+  // The unit is cut off a number before the condition is parsed (25% -> 25, 600ms -> 600 / 1000), then checked
+  // against the figure's own. A division, so 300ms is the same double as 0.3 (300 x 0.001 need not be).
+  static const std::pair<std::string_view, double> kUnits[] = {{"ms", 1000}, {"Hz", 1}, {"deg", 1}, {"%", 1}, {"s", 1}};
+  std::string text = word;
+  std::string_view unit;
+  double divisor = 1;
+  for (const auto& [u, per] : kUnits) {
+    if (text.size() <= u.size() || !text.ends_with(u)) continue;
+    const char before = text[text.size() - u.size() - 1];
+    if (std::isdigit(static_cast<unsigned char>(before)) == 0 && before != '.') continue;
+    text.resize(text.size() - u.size());
+    unit = u == "ms" ? "s" : u;
+    divisor = per;
+    break;
   }
-  return o;
+  Condition c = parse_condition(text, path, line);
+  const auto* f = std::find_if(kTuneFigures.begin(), kTuneFigures.end(), [&](const auto& t) { return t.name == c.field; });
+  if (f == kTuneFigures.end() || c.absolute) {
+    std::string names;
+    for (const auto& t : kTuneFigures) names += (names.empty() ? "" : ", ") + std::string(t.name);
+    throw ParseError(path, line, "'" + word + "': no tuning figure '" + c.field + "' (" + names + ")");
+  }
+  if (!unit.empty() && unit != f->unit)
+    throw ParseError(path, line, fmt::format("'{}': {} is in {}, not {}", word, f->name,
+                                             f->unit.empty() ? std::string_view("a count") : f->unit, unit));
+  if (c.number) {
+    c.number = *c.number / divisor;
+    c.text = fmt::format("{}", *c.number);
+  } else if (c.field != "oscillation" || lower(c.text) != "none") {
+    throw ParseError(path, line, "'" + word + "': the value must be a number (oscillation also takes none)");
+  }
+  return c;
 }
-
-}  // namespace
 
 std::optional<std::uint64_t> parse_duration_us(const std::string& text) {
   std::size_t used = 0;
@@ -328,6 +342,37 @@ Suite parse_suite(std::istream& in, const std::string& path) {
       s.frames = build_frames(head, 1, path, line);
     } else if (verb == "stop") {
       s.kind = Step::Kind::stop;
+    } else if (verb == "expect" && w.size() >= 2 && w[1] == "tune") {
+      s.kind = Step::Kind::expect_tune;
+      if (w.size() < 3) throw ParseError(path, line, "expect tune needs figures, e.g. overshoot<25% settling<0.6s");
+      for (std::size_t i = 2; i < w.size(); ++i) s.conditions.push_back(parse_tune_condition(w[i], path, line));
+    } else if (verb == "trace") {
+      // trace [step|chirp|prbs AMPLITUDE] for DURATION
+      s.kind = Step::Kind::trace;
+      std::size_t i = 1;
+      if (i < w.size() && w[i] != "for") {
+        static const std::map<std::string, trace::Excite> kKinds = {
+            {"step", trace::Excite::step}, {"chirp", trace::Excite::chirp}, {"prbs", trace::Excite::prbs}};
+        if (!kKinds.count(w[i]) || i + 1 >= w.size())
+          throw ParseError(path, line, "trace takes a test signal 'step|chirp|prbs AMPLITUDE_DEG' before 'for'");
+        std::string amplitude = w[i + 1];
+        if (amplitude.ends_with("deg")) amplitude.resize(amplitude.size() - 3);
+        const auto a = number(amplitude);
+        if (!a || *a == 0 || std::fabs(*a) > trace::kMaxAmplitudeDeg)
+          throw ParseError(path, line, fmt::format("trace: the amplitude '{}' must be a number of degrees, 0 < |A| <= {}",
+                                                   w[i + 1], trace::kMaxAmplitudeDeg));
+        trace::ExciteStart e;
+        e.kind = kKinds.at(w[i]);
+        e.amplitude_deg = static_cast<float>(*a);
+        e.f0_hz = 0.5F;  // chirp: what tune record sweeps by default
+        e.f1_hz = 15.0F;
+        s.excite = e;
+        i += 2;
+      }
+      if (i + 2 != w.size() || w[i] != "for") throw ParseError(path, line, "trace needs 'for DURATION' at the end");
+      s.duration_us = need_duration(w[i + 1], path, line);
+      if (s.duration_us < 1'000'000 || s.duration_us > 600'000'000)
+        throw ParseError(path, line, "trace: the duration must be 1 s to 10 min");
     } else if (verb == "expect" || verb == "hold") {
       const bool hold = verb == "hold";
       const std::string until_word = hold ? "for" : "within";
@@ -396,7 +441,7 @@ Suite parse_suite(std::istream& in, const std::string& path) {
       s.duration_us = need_duration(w[1], path, line);
     } else {
       throw ParseError(path, line, "unknown step '" + verb +
-                                       "' (send, stream, stop, expect, hold, mean, stable, console, sim, wait)");
+                                       "' (send, stream, stop, expect, hold, mean, stable, console, sim, wait, trace)");
     }
     suite.steps.push_back(std::move(s));
   }
@@ -407,290 +452,6 @@ Suite load_suite(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw ParseError(path, 0, "cannot open the suite file");
   return parse_suite(f, path);
-}
-
-bool SuiteResult::passed() const {
-  if (skipped) return true;
-  return std::none_of(steps.begin(), steps.end(),
-                      [](const StepResult& s) { return s.status == StepResult::Status::failed; });
-}
-
-SuiteResult run_suite(const Suite& suite, Target& target) {
-  SuiteResult result;
-  result.name = suite.name;
-  result.path = suite.path;
-  if (suite.requires_sim && !target.is_simulator()) {
-    result.skipped = true;
-    result.skip_reason = "needs the simulator (requires: sim)";
-    return result;
-  }
-  // Background stream state.
-  std::vector<CanFrame> stream;
-  std::uint64_t stream_period = 0;
-  std::uint64_t stream_next = 0;
-  const std::uint64_t suite_start = target.now_us();
-
-  // Receives until deadline, sending stream frames when due; calls on_frame for each frame (return false to stop).
-  auto pump = [&](std::uint64_t deadline, const auto& on_frame) {
-    for (;;) {
-      std::uint64_t until = deadline;
-      if (target.now_us() >= deadline) return;
-      if (!stream.empty()) {
-        if (target.now_us() >= stream_next) {
-          for (const auto& f : stream) target.send(f);
-          stream_next += stream_period;
-          continue;
-        }
-        until = std::min(until, stream_next);
-      }
-      auto f = target.receive_until(until);
-      if (f && !on_frame(*f)) return;
-    }
-  };
-
-  bool failed = false;
-  for (const auto& step : suite.steps) {
-    StepResult r;
-    r.line = step.line;
-    r.source = step.source;
-    if (failed) {
-      r.status = StepResult::Status::skipped;
-      r.message = "not run: an earlier step failed";
-      result.steps.push_back(r);
-      continue;
-    }
-    const std::uint64_t t0 = target.now_us();
-    try {
-      switch (step.kind) {
-        case Step::Kind::send:
-          for (const auto& f : step.frames) target.send(f);
-          r.message = fmt::format("sent {} frame(s)", step.frames.size());
-          break;
-        case Step::Kind::stream:
-          stream = step.frames;
-          stream_period = step.period_us;
-          stream_next = target.now_us();
-          r.message = fmt::format("streaming every {}", us_text(step.period_us));
-          break;
-        case Step::Kind::stop:
-          stream.clear();
-          r.message = "stream stopped";
-          break;
-        case Step::Kind::wait:
-          pump(t0 + step.duration_us, [](const CanFrame&) { return true; });
-          break;
-        case Step::Kind::expect: {
-          std::optional<CanFrame> seen;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, step.conditions)) return true;
-            seen = f;
-            return false;
-          });
-          if (seen) {
-            r.message = fmt::format("seen after {}", us_text(target.now_us() - t0));
-          } else {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no matching {} within {}", step.message.empty() ? "frame" : step.message,
-                                    us_text(step.duration_us));
-          }
-          break;
-        }
-        case Step::Kind::expect_none: {
-          std::optional<CanFrame> seen;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, step.conditions)) return true;
-            seen = f;
-            return false;
-          });
-          if (seen) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0));
-          }
-          break;
-        }
-        case Step::Kind::hold: {
-          std::uint64_t count = 0;
-          std::string broken;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, {})) return true;
-            ++count;
-            if (matches(f, step.message, step.conditions)) return true;
-            broken = fmt::format("condition broken after {} by {}", us_text(target.now_us() - t0),
-                                 format_candump_frame(f));
-            return false;
-          });
-          if (!broken.empty()) {
-            r.status = StepResult::Status::failed;
-            r.message = broken;
-          } else if (count == 0) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
-          } else {
-            r.message = fmt::format("held over {} frames", count);
-          }
-          break;
-        }
-        case Step::Kind::mean: {
-          std::map<std::string, double> sums;              // per field ("|field|" for the absolute values)
-          std::map<std::string, std::uint64_t> sums_frames;  // the frame count a field was last added at
-          std::uint64_t count = 0;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, {})) return true;
-            const auto m = decode_bus_frame(f);
-            ++count;
-            for (const auto& c : step.conditions) {  // once per field (and per |field|)
-              const std::string key = c.absolute ? "|" + c.field + "|" : c.field;
-              if (sums.count(key) != 0 && sums_frames[key] == count) continue;
-              const auto v = field_of(m.value(), c.field);
-              if (!v || !v->number) throw std::runtime_error(step.message + " has no number field '" + c.field + "'");
-              sums[key] += c.absolute ? std::fabs(*v->number) : *v->number;
-              sums_frames[key] = count;
-            }
-            return true;
-          });
-          if (count == 0) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
-            break;
-          }
-          std::string means;
-          for (const auto& [field, sum] : sums) means += fmt::format("{}{} {:.2f}", means.empty() ? "" : ", ", field, sum / static_cast<double>(count));
-          r.output = fmt::format("means over {} frames: {}", count, means);
-          for (const auto& c : step.conditions) {
-            Condition plain = c;
-            plain.absolute = false;  // the mean is already of the absolute values
-            const double mean = sums[c.absolute ? "|" + c.field + "|" : c.field] / static_cast<double>(count);
-            if (!holds(plain, FieldValue{mean, fmt::format("{}", mean)})) {
-              r.status = StepResult::Status::failed;
-              r.message = fmt::format("{} mean {:.2f} breaks the condition ({})", c.field, mean, r.output);
-              break;
-            }
-          }
-          if (r.status == StepResult::Status::passed) r.message = r.output;
-          break;
-        }
-        case Step::Kind::stable: {
-          std::vector<Step::Clause> clauses{{step.message, step.conditions}};
-          clauses.insert(clauses.end(), step.more.begin(), step.more.end());
-          std::vector<std::uint64_t> seen(clauses.size(), t0);
-          std::uint64_t since = t0;
-          std::uint64_t longest = 0;
-          std::uint64_t restarts = 0;
-          std::string last_break;
-          bool done = false;
-          const auto restart = [&](std::uint64_t now, std::string why) {
-            longest = std::max(longest, now - since);
-            since = now;
-            ++restarts;
-            last_break = fmt::format("at {}: {}", us_text(now - t0), why);
-          };
-          // A silent message restarts the clock once per kStableMaxGapUs of silence.
-          const auto check_gaps = [&](std::uint64_t now) {
-            for (std::size_t c = 0; c < clauses.size(); ++c) {
-              if (now - seen[c] <= kStableMaxGapUs) continue;
-              restart(now, clauses[c].message + " silent for over " + us_text(kStableMaxGapUs));
-              seen[c] = now;
-            }
-          };
-          pump(t0 + step.limit_us, [&](const CanFrame& f) {
-            const std::uint64_t now = target.now_us();
-            check_gaps(now);
-            for (std::size_t c = 0; c < clauses.size(); ++c) {
-              if (!matches(f, clauses[c].message, {})) continue;
-              seen[c] = now;
-              if (!matches(f, clauses[c].message, clauses[c].conditions))
-                restart(now, "broken by " + format_candump_frame(f));
-            }
-            if (now - since >= step.duration_us) {
-              done = true;
-              return false;
-            }
-            return true;
-          });
-          const std::uint64_t end = target.now_us();
-          if (!done) check_gaps(end);
-          const std::uint64_t stretch = end - since;
-          longest = std::max(longest, stretch);
-          const std::string summary =
-              fmt::format("longest stable stretch {} (needed {}), {} restart(s){}{}", us_text(longest),
-                          us_text(step.duration_us), restarts, restarts > 0 ? ", the last " : "", last_break);
-          if (done) {
-            r.message = fmt::format("stable for {} from {} on; {}", us_text(stretch), us_text(since - t0), summary);
-          } else {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("never stable for {} within {}: {}", us_text(step.duration_us),
-                                    us_text(step.limit_us), summary);
-          }
-          r.output = r.message;
-          break;
-        }
-        case Step::Kind::console: {
-          const auto reply = target.console(step.board, step.text, step.expect_text, step.duration_us);
-          if (!reply) {
-            r.status = StepResult::Status::skipped;
-            r.message = "no console for board " + step.board + " on this target";
-          } else if (reply->find(step.expect_text) == std::string::npos) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("reply did not contain '{}': '{}'", step.expect_text, *reply);
-          } else {
-            r.message = "reply ok";
-          }
-          break;
-        }
-        case Step::Kind::sim: {
-          std::string error;
-          if (!target.sim(step.text, error)) {
-            r.status = target.is_simulator() ? StepResult::Status::failed : StepResult::Status::skipped;
-            r.message = error;
-          }
-          break;
-        }
-      }
-    } catch (const std::exception& e) {
-      r.status = StepResult::Status::failed;
-      r.message = e.what();
-    }
-    r.elapsed_us = target.now_us() - t0;
-    if (r.status == StepResult::Status::failed) failed = true;
-    result.steps.push_back(r);
-  }
-  result.elapsed_us = target.now_us() - suite_start;
-  return result;
-}
-
-std::string junit_xml(const std::vector<SuiteResult>& results) {
-  std::string x = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n";
-  for (const auto& s : results) {
-    std::size_t failures = 0, skipped = 0;
-    for (const auto& st : s.steps) {
-      failures += st.status == StepResult::Status::failed;
-      skipped += st.status == StepResult::Status::skipped;
-    }
-    if (s.skipped) skipped = 1;
-    x += fmt::format("  <testsuite name=\"{}\" tests=\"{}\" failures=\"{}\" skipped=\"{}\" time=\"{:.3f}\">\n",
-                     xml_escape(s.name), s.skipped ? 1 : s.steps.size(), failures, skipped,
-                     static_cast<double>(s.elapsed_us) / 1e6);
-    if (s.skipped) {
-      x += fmt::format("    <testcase name=\"{}\"><skipped message=\"{}\"/></testcase>\n", xml_escape(s.name),
-                       xml_escape(s.skip_reason));
-    }
-    for (const auto& st : s.steps) {
-      x += fmt::format("    <testcase classname=\"{}\" name=\"line {}: {}\" time=\"{:.3f}\"", xml_escape(s.name), st.line,
-                       xml_escape(st.source), static_cast<double>(st.elapsed_us) / 1e6);
-      const std::string out =
-          st.output.empty() ? "" : fmt::format("<system-out>{}</system-out>", xml_escape(st.output));
-      if (st.status == StepResult::Status::passed) {
-        x += out.empty() ? "/>\n" : ">" + out + "</testcase>\n";
-      } else if (st.status == StepResult::Status::failed) {
-        x += fmt::format("><failure message=\"{}\"/>{}</testcase>\n", xml_escape(st.message), out);
-      } else {
-        x += fmt::format("><skipped message=\"{}\"/></testcase>\n", xml_escape(st.message));
-      }
-    }
-    x += "  </testsuite>\n";
-  }
-  x += "</testsuites>\n";
-  return x;
 }
 
 }  // namespace saul::host::benchtest

@@ -17,6 +17,21 @@ std::string why(const std::string& path, const char* what) {
   return "'" + path + "': " + what + " (" + std::strerror(errno) + ")";
 }
 
+/// The decoder's sink calls as a TraceSink's, offsets moved by what came before the bytes (the file's header).
+struct SinkAdapter {
+  const TraceSink& sink;
+  std::uint64_t base = 0;
+  void record(const trace::LoopTrace& r, std::uint64_t offset) const {
+    if (sink.record) sink.record(r, offset + base);
+  }
+  void line(std::string_view text, bool) const {
+    if (sink.line) sink.line(text);
+  }
+  void rejected(Reason reason, std::uint64_t offset) const {
+    if (sink.corrupt) sink.corrupt(reason, offset + base);
+  }
+};
+
 }  // namespace
 
 bool is_trace_file(const std::string& path) {
@@ -67,18 +82,7 @@ trace::Counters read_trace_file(const std::string& path, const TraceSink& sink) 
   const std::size_t got = std::fread(head, 1, sizeof head, f);
   if (got != sizeof head || std::string_view(head, sizeof head) != kTraceMagic)
     throw std::runtime_error("'" + path + "': not a loop trace (no 'SAULTRACE 1' header; record one with saulctl tune record)");
-  struct Adapter {
-    const TraceSink& sink;
-    void record(const trace::LoopTrace& r, std::uint64_t offset) const {
-      if (sink.record) sink.record(r, offset + kTraceMagic.size());
-    }
-    void line(std::string_view text, bool) const {
-      if (sink.line) sink.line(text);
-    }
-    void rejected(Reason reason, std::uint64_t offset) const {
-      if (sink.corrupt) sink.corrupt(reason, offset + kTraceMagic.size());
-    }
-  } adapter{sink};
+  const SinkAdapter adapter{sink, kTraceMagic.size()};
   trace::ConsoleDecoder decoder;
   std::uint8_t buffer[1 << 16];
   for (;;) {
@@ -87,6 +91,14 @@ trace::Counters read_trace_file(const std::string& path, const TraceSink& sink) 
     decoder.push(std::span<const std::uint8_t>(buffer, n), adapter);
   }
   if (std::ferror(f)) throw std::runtime_error(why(path, "cannot read the trace file"));
+  decoder.finish(adapter);
+  return decoder.counters();
+}
+
+trace::Counters read_trace_bytes(std::span<const std::uint8_t> bytes, const TraceSink& sink) {
+  const SinkAdapter adapter{sink, 0};
+  trace::ConsoleDecoder decoder;
+  decoder.push(bytes, adapter);
   decoder.finish(adapter);
   return decoder.counters();
 }

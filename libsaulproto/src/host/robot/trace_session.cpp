@@ -6,6 +6,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr std::chrono::milliseconds kWrite{500};
+constexpr std::chrono::milliseconds kStatusReply{200};  // BALANCE answers status within a loop or two
 
 void send(SerialPort& port, const trace::Command& command) {
   char line[64];
@@ -36,6 +37,10 @@ LiveTraceEnd run_live_trace(SerialPort& console, const LiveTraceOptions& options
     const bool ok = pump(Clock::now() + std::chrono::seconds(30), done);
     end.stopped = !ok ? "interrupted" : done() ? "the flight recorder's dump ended" : "no end of the dump within 30 s";
   } else {
+    // BALANCE's status first: its "report=status ... kp= ki= kd=" line in the file says which gains the trace ran
+    // with (docs/captures.md, "Loop traces").
+    console.write("status\n", kWrite);
+    if (!pump(Clock::now() + kStatusReply, never)) return {"interrupted"};
     send(console, trace::TraceOn{options.divider});
     if (options.excite) send(console, *options.excite);
     const bool ok = pump(Clock::now() + options.duration, done);

@@ -38,7 +38,7 @@ json gains_json(const Gains& g) {
 std::string gains_text(const Gains& g) {
   if (!g.known()) return "gains not given";
   const auto one = [](const std::optional<double>& v) { return v ? fmt::format("{:g}", *v) : std::string("?"); };
-  return fmt::format("kp={} ki={} kd={}", one(g.kp), one(g.ki), one(g.kd));
+  return fmt::format("gains kp={} ki={} kd={}", one(g.kp), one(g.ki), one(g.kd));
 }
 
 /// "ok" or "CHECK (why)".

@@ -240,22 +240,21 @@ Series read_capture_series(const std::string& path) {
   return s;
 }
 
-Series read_trace_series(const std::string& path) {
-  Series s;
-  s.name = path;
-  s.source = SeriesSource::loop_trace;
-  TraceClock clock;  // time_us wraps after 71.6 min: unwrapped into seconds since 0
+namespace {
+
+/// The sink that turns loop trace records into a series' rows (shared by the file and the in-memory reader).
+TraceSink trace_rows(Series& s, TraceClock& clock) {
   TraceSink sink;
-  sink.record = [&](const trace::LoopTrace& r, std::uint64_t offset) {
+  sink.record = [&s, &clock](const trace::LoopTrace& r, std::uint64_t offset) {
     if (s.truncated) return;
     const double time = clock.seconds(r.time_us);
     if (!s.time_s.empty() && time <= s.time_s.back()) {
-      s.problem(fmt::format("{}: record at byte {}: time does not move forward (record left out)", path, offset));
+      s.problem(fmt::format("{}: record at byte {}: time does not move forward (record left out)", s.name, offset));
       return;
     }
     if (s.size() >= kMaxRecords) {
       s.truncated = true;
-      s.problem(fmt::format("{}: more than {} records: the rest is left out", path, kMaxRecords));
+      s.problem(fmt::format("{}: more than {} records: the rest is left out", s.name, kMaxRecords));
       return;
     }
     s.time_s.push_back(time);
@@ -271,17 +270,39 @@ Series read_trace_series(const std::string& path) {
     s.state.push_back(r.state);
     s.line.push_back(offset);
   };
-  sink.line = [&](std::string_view text) { read_gains(text, s.gains); };  // "pid kp=.. ki=.. kd=.." echoed by BALANCE
-  sink.corrupt = [&](Reason reason, std::uint64_t offset) {
-    s.problem(fmt::format("{}: byte {}: a corrupt or cut record ({}): skipped, the rest is read", path, offset,
+  // The gains from BALANCE's own `status` reply ("report=status ... kp=100 ki=500 kd=3 ..."), which tune record asks
+  // for before switching the trace on (docs/captures.md): the last one in the file wins.
+  sink.line = [&s](std::string_view text) { read_gains(text, s.gains); };
+  sink.corrupt = [&s](Reason reason, std::uint64_t offset) {
+    s.problem(fmt::format("{}: byte {}: a corrupt or cut record ({}): skipped, the rest is read", s.name, offset,
                           to_string(reason)));
   };
+  return sink;
+}
+
+}  // namespace
+
+Series read_trace_series(const std::string& path) {
+  Series s;
+  s.name = path;
+  s.source = SeriesSource::loop_trace;
+  TraceClock clock;  // time_us wraps after 71.6 min: unwrapped into seconds since 0
   try {
-    read_trace_file(path, sink);
+    read_trace_file(path, trace_rows(s, clock));
   } catch (const std::runtime_error& e) {
     throw SeriesError(e.what());
   }
   if (s.size() == 0) throw SeriesError(fmt::format("{}: a trace file without any loop record: nothing to analyse", path));
+  return s;
+}
+
+Series read_trace_bytes_series(std::span<const std::uint8_t> bytes, const std::string& name) {
+  Series s;
+  s.name = name;
+  s.source = SeriesSource::loop_trace;
+  TraceClock clock;
+  read_trace_bytes(bytes, trace_rows(s, clock));
+  if (s.size() == 0) throw SeriesError(fmt::format("{}: no loop record in the trace: nothing to analyse", name));
   return s;
 }
 

@@ -24,6 +24,8 @@ class LiveTarget final : public Target {
   std::optional<CanFrame> receive_until(std::uint64_t deadline_us) override;
   std::optional<std::string> console(const std::string& board, const std::string& line, const std::string& until,
                                      std::uint64_t timeout_us) override;
+  bool console_type(const std::string& board, const std::string& bytes) override;
+  std::optional<std::string> console_take(const std::string& board) override;
   bool sim(const std::string& command, std::string& error) override;
   [[nodiscard]] bool is_simulator() const override { return sim_control_ != nullptr; }
   [[nodiscard]] std::string describe() const override;

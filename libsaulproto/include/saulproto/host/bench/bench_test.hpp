@@ -22,6 +22,9 @@
 //   console balance arm expect ok within 500ms      a USB console command and a text its reply must contain
 //   sim push 8                                      a simulator control command (fault injection, radio, ...)
 //   wait 1s
+//   trace step 0.5 for 4s                           BALANCE's 1 kHz loop trace for 4 s, with a test signal (step,
+//                                                   chirp or prbs, amplitude in degrees; none: plain `trace for 4s`)
+//   expect tune overshoot<25% settling<0.6s oscillation=none   tuning figures of the last trace (bench_tune.hpp)
 //
 // Conditions: FIELD OP VALUE with OP one of = != < <= > >=, and |FIELD| for the absolute value. Fields are the
 // decoded message's fields as `saulctl decode` prints them (enum fields compare by name: state=BALANCE).
@@ -38,6 +41,8 @@
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/trace.hpp"
 
 namespace saul::host::benchtest {
 
@@ -51,7 +56,7 @@ struct Condition {
 };
 
 struct Step {
-  enum class Kind { send, stream, stop, expect, expect_none, hold, mean, stable, console, sim, wait };
+  enum class Kind { send, stream, stop, expect, expect_none, hold, mean, stable, console, sim, wait, trace, expect_tune };
   /// stable: a further message and its conditions ('... and telemetry_b faults=0 ...').
   struct Clause {
     std::string message;
@@ -70,6 +75,7 @@ struct Step {
   std::string board;                  ///< console
   std::string text;                   ///< console command, sim command
   std::string expect_text;            ///< console
+  std::optional<trace::ExciteStart> excite;  ///< trace: the test signal (its duration set when it starts)
 };
 
 struct Suite {
@@ -108,6 +114,12 @@ class Target {
   /// contained `until` or timeout passed; nullopt when this target has no console for that board.
   virtual std::optional<std::string> console(const std::string& board, const std::string& line,
                                              const std::string& until, std::uint64_t timeout_us) = 0;
+  /// Types bytes (a whole line, its newline included) on a board's console without waiting for a reply; false when
+  /// this target has no console for that board. With console_take, what a `trace` step reads the loop trace with.
+  virtual bool console_type(const std::string& /*board*/, const std::string& /*bytes*/) { return false; }
+  /// Everything the board's console printed since the last call (text and binary records alike); nullopt when this
+  /// target has no console for that board.
+  virtual std::optional<std::string> console_take(const std::string& /*board*/) { return std::nullopt; }
   /// Runs a simulator control command; false with a reason when not possible (e.g. a real robot).
   virtual bool sim(const std::string& command, std::string& error) = 0;
   [[nodiscard]] virtual bool is_simulator() const = 0;
@@ -143,6 +155,19 @@ SuiteResult run_suite(const Suite& suite, Target& target);
 /// JUnit XML for CI systems: one <testsuite> per suite, one <testcase> per step (with <system-out> when the step
 /// measured something: a stable step's longest stretch, a mean step's means).
 std::string junit_xml(const std::vector<SuiteResult>& results);
+
+/// Parses one condition word (FIELD OP VALUE, |FIELD| OP VALUE); throws ParseError naming the file and line.
+Condition parse_condition(const std::string& word, const std::string& path, int line);
+
+/// A value a condition is checked against: a number, or a text (enum names, "none").
+struct FieldValue {
+  std::optional<double> number;
+  std::string text;
+};
+/// A field of a decoded message as a number and a text (enum fields: their name); nullopt when it has no such field.
+std::optional<FieldValue> field_of(const BusMessage& message, const std::string& field);
+/// True when the value satisfies the condition (numbers compare as numbers, texts by name without case).
+bool holds(const Condition& condition, const FieldValue& value);
 
 /// Evaluates conditions against a frame: true when the frame decodes to `message` (or any message when empty)
 /// and every condition holds. Exposed for tests.

@@ -48,4 +48,8 @@ struct TraceSink {
 /// a trace file (the message names the file and says what it is instead). Returns the decoder's counters.
 trace::Counters read_trace_file(const std::string& path, const TraceSink& sink);
 
+/// The same for console bytes in memory without the header (what a bench suite's `trace` step captured from
+/// BALANCE's console); offsets are bytes into `bytes`.
+trace::Counters read_trace_bytes(std::span<const std::uint8_t> bytes, const TraceSink& sink);
+
 }  // namespace saul::host

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -77,6 +78,9 @@ Series read_capture_series(const std::string& path);
 /// corrupt or cut record is told with its byte offset and the rest is read. Throws SeriesError when the file cannot
 /// be read or holds no record.
 Series read_trace_series(const std::string& path);
+/// The same from a trace's console bytes in memory (no header): what a bench suite's `trace` step captured. `name`
+/// stands for the file in messages. Throws SeriesError when the bytes hold no record.
+Series read_trace_bytes_series(std::span<const std::uint8_t> bytes, const std::string& name);
 
 /// By content: a loop trace file (SAULTRACE header); a CSV of named columns when the first line that is not a
 /// comment has "time_s"; else a capture.
