@@ -7,7 +7,8 @@ set -uo pipefail
 saulctl=$1
 source "$(dirname "$0")/check.bash"
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+sim=""
+trap '[[ -n $sim ]] && kill "$sim" 2>/dev/null; rm -rf "$work"' EXIT
 
 "$saulctl" tune record --sim --seed 3 --duration 10s --excite chirp --amplitude 1 -o "$work/run.trace" >"$work/rec" 2>&1
 check "tune record --sim exits 0" test $? -eq 0
@@ -70,7 +71,8 @@ check "--dump: the flight recorder's 5000 records" grep -q "^flight recorder: 50
 check "the dump ends at the tilt cutoff" test "$(cat "$work/tilt")" -ge 1
 
 # Live, at real time: `saulctl sim` streams the trace on its BALANCE console pty (trace on works in any state).
-"$saulctl" sim --quiet --paths-file "$work/paths" --for 30s >"$work/sim.log" 2>&1 &
+# The simulator runs until killed below (--for only bounds a test that died): under load the recordings take longer.
+"$saulctl" sim --quiet --paths-file "$work/paths" --for 300s >"$work/sim.log" 2>&1 &
 sim=$!
 for _ in $(seq 200); do [[ -s $work/paths ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' "$work/paths")
@@ -94,7 +96,7 @@ kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
 
 # The flight recorder live: `saulctl sim` armed by the button on its control pty, tilted beyond the cutoff, then
 # `tune record --dump` on its BALANCE pty brings the 5 s before the latch.
-"$saulctl" sim --quiet --paths-file "$work/paths2" --for 40s >"$work/sim2.log" 2>&1 &
+"$saulctl" sim --quiet --paths-file "$work/paths2" --for 300s >"$work/sim2.log" 2>&1 &
 sim=$!
 for _ in $(seq 200); do [[ -s $work/paths2 ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' "$work/paths2")
