@@ -6,15 +6,20 @@ BALANCE telemetry (0x400/0x401, 10 Hz), VESC SET_RPM to both wheels (50 Hz), VES
 (5 Hz), occasional PID gains / config / mode requests with their acks. The speed profile wanders so payloads vary.
 On the real bus the VESCs report faster than this; the rates are scaled up (--scale) so a long capture keeps the
 mix but stays a plausible bus load per second of file time.
-  make_bus.py FRAMES OUT.log
+  make_bus.py FRAMES OUT.log [--random]
+With --random every payload's bytes are random (same ids, lengths and times, seeded): nothing repeats, so a cache
+of lines or contents seen before gains nothing; bench/compare times both logs.
 """
 import math
+import random
 import struct
 import sys
 
 T0 = 1763800000.0
 frames = int(sys.argv[1])
 out = open(sys.argv[2], "w", buffering=1 << 20)
+scramble = "--random" in sys.argv[3:]
+rng = random.Random(15)
 n = 0
 
 
@@ -23,6 +28,8 @@ def emit(t, ident, data, extended=False):
     us = int(round(t * 1e6))  # whole microseconds, as candump prints them
     sec, usec = divmod(us, 1_000_000)
     ids = f"{ident:08X}" if extended else f"{ident:03X}"
+    if scramble:
+        data = rng.randbytes(len(data))
     out.write(f"({sec:010d}.{usec:06d}) can0 {ids}#{data.hex().upper()}\n")
     n += 1
 

@@ -60,6 +60,21 @@ std::uint64_t parse_rate_hz(const std::string& text) {
   return *hz;
 }
 
+void add_parallel_from_option(CLI::App* cmd, std::string& size) {
+  size = kParallelFrom;
+  cmd->add_option("--parallel-from", size,
+                  "files of this size and more are worked on both cores (1: always; larger than the file: one core)")
+      ->capture_default_str();
+}
+
+std::uint64_t parse_size_option(const std::string& option, const std::string& text) {
+  try {
+    return saul::host::parse_size(text);
+  } catch (const std::invalid_argument& e) {
+    throw CLI::ValidationError(option, e.what());
+  }
+}
+
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options) {
   saul::host::SerialReadOptions r;
   r.protocol = fallback_protocol(options);

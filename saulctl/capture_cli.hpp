@@ -43,6 +43,16 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
 /// "10M", "10MHz", "200k", "1000000", "1e6" -> Hz. Throws CLI::ValidationError.
 std::uint64_t parse_rate_hz(const std::string& text);
 
+/// From what size decode and stats put the second core to work on a file: a candump, pcap or pcapng file of this
+/// size and more is cut into blocks worked on both cores, another format is read on a thread of its own. Below
+/// 4 MiB (~90 000 frames, ~20 ms of work) a thread costs more than it saves. An option, not an environment
+/// variable (issue 34): tests give 1 to check that both cores give the bytes of one.
+inline constexpr const char* kParallelFrom = "4MiB";
+/// Adds --parallel-from SIZE (default kParallelFrom) to a verb.
+void add_parallel_from_option(CLI::App* cmd, std::string& size);
+/// Bytes of a size option ("4MiB", "64k", "1"); throws CLI::ValidationError naming `option`.
+std::uint64_t parse_size_option(const std::string& option, const std::string& text);
+
 /// A progress line on stderr for long passes over a capture file, redrawn in place at most 4 times a second:
 ///   decode: 42% of 2.8 GB, 12 345 678 records, 3.1 s
 /// Only when stderr is a terminal and, for a verb that prints records to stdout, stdout is not (output redirected

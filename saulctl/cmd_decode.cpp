@@ -34,6 +34,7 @@ struct DecodeOptions {
   std::vector<std::string> ids;
   bool json = false;
   bool strict = false;
+  std::string parallel_from;  // --parallel-from
   SerialCliOptions serial;
 };
 
@@ -153,12 +154,10 @@ int run_decode(const DecodeOptions& opt) {
   fast.format = format == "jsonl" ? DecodeFormat::jsonl : format == "csv" ? DecodeFormat::csv : DecodeFormat::text;
   fast.time = time_mode(opt.time);
   if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
-  // Tests force the two-thread path on small files (tests/cli/decode_fast.sh).
-  if (const char* from = std::getenv("SAUL_DECODE_PARALLEL_FROM")) fast.parallel_from = std::strtoull(from, nullptr, 10);
-  // Formats other than candump and pcap are read on a second thread from 4 MiB on (~20 ms of work: from there a
-  // thread pays off); tests move it (SAUL_DECODE_AHEAD_FROM).
-  std::uint64_t read_ahead_from = std::uint64_t{4} << 20;
-  if (const char* from = std::getenv("SAUL_DECODE_AHEAD_FROM")) read_ahead_from = std::strtoull(from, nullptr, 10);
+  // From --parallel-from bytes on, candump, pcap and pcapng files are decoded in blocks on both cores and the other
+  // formats are read on a second thread.
+  fast.parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
+  const std::uint64_t read_ahead_from = fast.parallel_from;
   auto write_out = [](std::string_view text) { std::fwrite(text.data(), 1, text.size(), stdout); };
   auto count = [&](const saul::host::DecodeCounts& c) {
     frames += c.frames;
@@ -364,6 +363,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       ->capture_default_str();
   add_id_option(cmd, opt->ids, "only these CAN ids");
   add_serial_read_options(cmd, opt->serial);
+  add_parallel_from_option(cmd, opt->parallel_from);
   cmd->callback([opt, &run] {
     run = [opt] {
       try {

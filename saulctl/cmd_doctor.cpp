@@ -5,7 +5,6 @@
 
 #include <array>
 #include <cctype>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -34,6 +33,7 @@ struct DoctorOptions {
   std::string link;
   std::string wait = "1s";
   bool json = false;
+  std::string sysroot = "/";  // --sysroot: where /proc and the udev rule folders are (tests give a fake one)
 };
 
 // Each check's outcome: a line (and its fix) for people, or, with --json, one element of the "checks" array.
@@ -300,7 +300,7 @@ void check_socketcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds w
 
 // ModemManager probes every new ttyACM with AT commands, which a CANable2 on slcan firmware (USB 16d0:117e) takes
 // for slcan commands. The saulctl package's udev rule (packaging/60-saulctl-canable.rules) sets
-// ID_MM_DEVICE_IGNORE on it; any rules file naming 16d0, 117e and ID_MM_DEVICE_IGNORE counts. SAUL_SYSROOT (for
+// ID_MM_DEVICE_IGNORE on it; any rules file naming 16d0, 117e and ID_MM_DEVICE_IGNORE counts. --sysroot (for
 // tests) reads /proc and the rule folders under another root.
 bool modemmanager_running(const std::filesystem::path& root) {
   std::error_code ec;
@@ -331,9 +331,7 @@ std::optional<std::filesystem::path> canable_mm_rule(const std::filesystem::path
   return std::nullopt;
 }
 
-void check_modemmanager(Checks& c) {
-  const char* sysroot = std::getenv("SAUL_SYSROOT");
-  const std::filesystem::path root = sysroot != nullptr && *sysroot != '\0' ? sysroot : "/";
+void check_modemmanager(Checks& c, const std::filesystem::path& root) {
   if (!modemmanager_running(root)) {
     c.ok("ModemManager", "not running");
   } else if (const auto rule = canable_mm_rule(root)) {
@@ -358,7 +356,7 @@ int run_doctor(const DoctorOptions& opt) {
   Checks c;
   c.json = opt.json;
   check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
-  check_modemmanager(c);
+  check_modemmanager(c, opt.sysroot.empty() ? "/" : opt.sysroot);
   if (!spec) spec = find_adapter(c);
   if (!spec) {
     c.skip("link", "none given (--link or SAUL_LINK) and no single adapter to check");
@@ -390,6 +388,8 @@ void add_doctor_command(CLI::App& app, Runner& run) {
   add_link_option(cmd, o->link, true);
   cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str()->check(duration_check());
   add_json_flag(cmd, o->json, "one JSON object: {\"checks\": [{check, result, detail, fix}], \"failed\": N}");
+  cmd->add_option("--sysroot", o->sysroot, "the system root whose /proc and udev rules the ModemManager check reads")
+      ->capture_default_str();
   cmd->footer(
       "\nChecks: serial ports present (CANable2 / ESP32 roles recognised); ModemManager (a warning when it runs\n"
       "without the CANable2 udev rule); without --link, the CANable2s plugged in (by USB id, both firmwares; the one\n"

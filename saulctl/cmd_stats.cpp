@@ -3,8 +3,6 @@
 // The arithmetic lives in the host library (saulproto/host/report/bus_stats.hpp).
 #include <fmt/core.h>
 
-#include <cstdlib>
-
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
@@ -20,16 +18,10 @@
 namespace saulctl {
 namespace {
 
-/// stats counts candump, pcap and pcapng files of this size and more on both cores (a thread costs ~0.1 ms to start;
-/// 4 MiB is ~90 000 frames, ~20 ms of work: from there on both cores pay off), in blocks of kStatsBlock bytes (1 MiB:
-/// as fast as larger ones, and a pcapng block is held whole while it is counted).
-/// SAUL_STATS_AHEAD_FROM and SAUL_STATS_BLOCK move them (tests: many blocks from a small file).
-std::uint64_t from_env(const char* name, std::uint64_t otherwise) {
-  const char* value = std::getenv(name);
-  return value != nullptr ? std::strtoull(value, nullptr, 10) : otherwise;
-}
-const std::uint64_t kStatsAheadFrom = from_env("SAUL_STATS_AHEAD_FROM", std::uint64_t{4} << 20);
-const std::uint64_t kStatsBlock = from_env("SAUL_STATS_BLOCK", std::uint64_t{1} << 20);
+/// stats counts candump, pcap and pcapng files of --parallel-from bytes and more on both cores, in blocks of
+/// --block-size bytes (kStatsBlock, 1 MiB: as fast as larger ones, and a pcapng block is held whole while it is
+/// counted; tests give 64k to have many blocks from a small file).
+constexpr const char* kStatsBlock = "1MiB";
 
 struct StatsOptions {
   std::string file;
@@ -37,6 +29,8 @@ struct StatsOptions {
   bool signals = false;
   std::string bitrate = "500k";
   std::string window = "100ms";
+  std::string parallel_from;  // --parallel-from
+  std::string block_size = kStatsBlock;
   SerialCliOptions serial;
 };
 
@@ -50,6 +44,8 @@ int run_stats(const StatsOptions& opt) {
   const auto window = parse_duration(opt.window);
   if (window.count() <= 0) throw CLI::ValidationError("--window", "the window must be at least 1 ms");
   bus.window_ns = static_cast<std::uint64_t>(window.count()) * 1'000'000ULL;
+  const std::uint64_t parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
+  const std::uint64_t block = parse_size_option("--block-size", opt.block_size);
 
   OpenedCapture opened;
   try {
@@ -78,7 +74,7 @@ int run_stats(const StatsOptions& opt) {
   };
   if (opened.frames) {
     BusStats stats(bus);
-    // Uncompressed pcap and pcapng files from kStatsAheadFrom bytes on: blocks on both cores (not with --signals,
+    // Uncompressed pcap and pcapng files from --parallel-from bytes on: blocks on both cores (not with --signals,
     // which needs the frames in order on one thread). An uncompressed candump file: big reads and batches
     // (capture/candump_scan.hpp), in blocks on both cores when large; a compressed one in blocks cut as it
     // inflates. Any other format frame by frame.
@@ -86,21 +82,21 @@ int run_stats(const StatsOptions& opt) {
     const auto total = opened.frames->bytes_total();
     std::unique_ptr<CaptureBlocks> blocks;
     if (!opt.signals && (format == CaptureFormat::pcap || format == CaptureFormat::pcapng) && total &&
-        *total >= kStatsAheadFrom)
-      blocks = CaptureBlocks::open(opt.file, kStatsBlock);
+        *total >= parallel_from)
+      blocks = CaptureBlocks::open(opt.file, block);
     if (blocks)
       add_capture_blocks(stats, *blocks, report_corrupt, [&](std::uint64_t records, std::uint64_t bytes) {
         progress.update_many(records, bytes, blocks->size());
       });
     const auto file = !blocks && format == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
-    // From kStatsAheadFrom bytes on, both cores count (add_candump_file: blocks, or with --signals a reading thread).
+    // From --parallel-from bytes on, both cores count (add_candump_file: blocks, or with --signals a reading thread).
     if (file) {
       std::function<void(const saul::CanFrame&)> also;
       if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
       add_candump_file(
-          stats, file->fd(), file->size(), file->size() >= kStatsAheadFrom, report_corrupt,
+          stats, file->fd(), file->size(), file->size() >= parallel_from, report_corrupt,
           [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also,
-          kStatsBlock);
+          block);
     }
     // A compressed candump log (any size: a few MB of zstd hold 40 MB of text), or one from a pipe: its text cut
     // into blocks as it comes, counted on both cores; taken from the file already open (a pipe is read once).
@@ -181,6 +177,8 @@ void add_stats_command(CLI::App& app, Runner& run) {
   cmd->add_option("--bitrate", opt->bitrate, "CAN bit rate for the load (500k, 1M, 250000)")->capture_default_str();
   cmd->add_option("--window", opt->window, "window of the peak load (100ms, 1s)")->capture_default_str()->check(duration_check());
   add_serial_read_options(cmd, opt->serial);
+  add_parallel_from_option(cmd, opt->parallel_from);
+  cmd->add_option("--block-size", opt->block_size, "size of the blocks counted on both cores")->capture_default_str();
   cmd->callback([opt, &run] {
     run = [opt]() -> int {
       try {

@@ -22,6 +22,7 @@ packages=(
   pybind11-dev python3-pybind11 python3-dev python3-pytest  # the Python module and its tests (python/)
   help2man dpkg-dev man-db  # the .deb: man page, dpkg-shlibdeps, man -l on the page (packaging/, tests/package)
   lintian  # Debian's package checker on the .deb files (tests/package/deb.sh)
+  strace  # counts the threads of decode's and stats' two-core paths (tests/cli/decode_fast.sh)
 )
 if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)

@@ -4,7 +4,7 @@
 #   never holds the line (peak RSS far below 200 MB; the bound is loose for sanitizer builds);
 # - stdin ('-') and a file give the same bytes; --format csv and --json the same as through the pcap reader
 #   (another reader, the same emitter), and --json parses line by line;
-# - a file above the two-thread threshold (SAUL_DECODE_PARALLEL_FROM forced low) decodes to the same bytes as on
+# - a file above the two-thread threshold (--parallel-from 1) decodes to the same bytes as on
 #   one thread; stats read ahead on a second thread gives the report of one, and so does decode of a pcapng;
 # - a log through a pipe path (<(cat log), plain, gz, zst; a named pipe) gives the file's bytes and report, and
 #   replay refuses it.
@@ -71,7 +71,7 @@ for fmt in text csv jsonl; do
   "$saulctl" decode --format $fmt "$out/bus.log" >"$out/file.$fmt" 2>/dev/null
   "$saulctl" decode --format $fmt - <"$out/bus.log" >"$out/stdin.$fmt" 2>/dev/null
   check "$fmt: stdin and file give the same bytes" cmp -s "$out/file.$fmt" "$out/stdin.$fmt"
-  SAUL_DECODE_PARALLEL_FROM=1 "$saulctl" decode --format $fmt "$out/bus.log" >"$out/two.$fmt" 2>"$out/two.err"
+  "$saulctl" decode --parallel-from 1 --format $fmt "$out/bus.log" >"$out/two.$fmt" 2>"$out/two.err"
   check "$fmt: two threads give the bytes of one" cmp -s "$out/file.$fmt" "$out/two.$fmt"
   check "$fmt: two threads report the corrupt line at its line" grep -q "bus.log:$((frames + 1)):" "$out/two.err"
 done
@@ -158,11 +158,30 @@ assert n == int(sys.argv[2]), n' "$out/file.jsonl" "$frames"
 "$saulctl" convert "$out/bus.log" "$out/bus.pcapng" >/dev/null 2>&1
 head -n "$frames" "$out/file.text" >"$out/frames.text"
 for ahead in 1 999999999999; do
-  SAUL_DECODE_AHEAD_FROM=$ahead "$saulctl" decode "$out/bus.pcapng" >"$out/pcapng.$ahead" 2>/dev/null
+  "$saulctl" decode --parallel-from $ahead "$out/bus.pcapng" >"$out/pcapng.$ahead" 2>/dev/null
   check "pcapng (read ahead from $ahead bytes): the bytes of the candump log" cmp -s "$out/frames.text" "$out/pcapng.$ahead"
 done
 
-# stats on both cores (SAUL_STATS_AHEAD_FROM forced low; SAUL_STATS_BLOCK small: the file counted in ~40 blocks
+# The checks above that two threads give one thread's bytes pass as well when --parallel-from is ignored: here the
+# threads are counted (strace: clones of `saulctl VERB --parallel-from 1` above those of a size larger than the file;
+# LeakSanitizer refuses to run under a tracer, so it is off here). Skipped where strace is missing or ptrace is not
+# allowed.
+if command -v strace >/dev/null && strace -f -o /dev/null true 2>/dev/null; then
+  clones() {
+    ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" strace -f -e trace=clone,clone3 -o "$out/strace" \
+      "$saulctl" "$@" >/dev/null 2>&1
+    grep -c 'clone' "$out/strace"
+  }
+  for verb in "decode $out/bus.log" "decode $out/bus.pcapng" "stats $out/bus.log" "stats $out/bus.pcap"; do
+    # shellcheck disable=SC2086
+    few=$(clones ${verb% *} --parallel-from 999999999999 "${verb##* }") more=$(clones ${verb% *} --parallel-from 1 "${verb##* }")
+    check "${verb% *} $(basename "${verb##* }") --parallel-from 1 starts a thread ($more clones, $few with one core)" test "$more" -gt "$few"
+  done
+else
+  echo "SKIP the threads counted: strace is missing or may not trace here"
+fi
+
+# stats on both cores (--parallel-from 1; --block-size 64k: the file counted in ~40 blocks
 # appended in order) gives one thread's report and the same corrupt lines, with a corrupt line in the middle, one
 # at the end and a frame on a second interface; so does --signals (parsing on a second thread).
 {
@@ -171,18 +190,18 @@ done
   tail -n +30001 "$out/bus.log"
 } >"$out/mixed.log"
 for json in "" --json; do
-  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats $json "$out/mixed.log" >"$out/one$json.stats" 2>"$out/one.err"
-  SAUL_STATS_AHEAD_FROM=1 SAUL_STATS_BLOCK=65536 "$saulctl" stats $json "$out/mixed.log" >"$out/ahead$json.stats" 2>"$out/ahead.err"
+  "$saulctl" stats --parallel-from 999999999999 $json "$out/mixed.log" >"$out/one$json.stats" 2>"$out/one.err"
+  "$saulctl" stats --parallel-from 1 --block-size 64k $json "$out/mixed.log" >"$out/ahead$json.stats" 2>"$out/ahead.err"
   check "stats$json: both cores give one thread's report" cmp -s "$out/one$json.stats" "$out/ahead$json.stats"
   check "stats$json: both cores report the same corrupt lines" cmp -s "$out/one.err" "$out/ahead.err"
-  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats --signals $json "$out/mixed.log" >"$out/one$json.signals" 2>/dev/null
-  SAUL_STATS_AHEAD_FROM=1 "$saulctl" stats --signals $json "$out/mixed.log" >"$out/ahead$json.signals" 2>/dev/null
+  "$saulctl" stats --parallel-from 999999999999 --signals $json "$out/mixed.log" >"$out/one$json.signals" 2>/dev/null
+  "$saulctl" stats --parallel-from 1 --signals $json "$out/mixed.log" >"$out/ahead$json.signals" 2>/dev/null
   check "stats --signals$json: read ahead gives one thread's report" cmp -s "$out/one$json.signals" "$out/ahead$json.signals"
 done
 # pcap and pcapng in blocks on both cores: one thread's report
 for f in bus.pcap bus.pcapng; do
-  SAUL_STATS_AHEAD_FROM=999999999999 "$saulctl" stats --json "$out/$f" >"$out/$f.one" 2>/dev/null
-  SAUL_STATS_AHEAD_FROM=1 SAUL_STATS_BLOCK=65536 "$saulctl" stats --json "$out/$f" >"$out/$f.blocks" 2>/dev/null
+  "$saulctl" stats --parallel-from 999999999999 --json "$out/$f" >"$out/$f.one" 2>/dev/null
+  "$saulctl" stats --parallel-from 1 --block-size 64k --json "$out/$f" >"$out/$f.blocks" 2>/dev/null
   check "stats of $f: blocks on both cores give one thread's report" cmp -s "$out/$f.one" "$out/$f.blocks"
 done
 check "stats: both corrupt lines reported at their lines" \

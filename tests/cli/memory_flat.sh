@@ -14,7 +14,6 @@ fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=4"
-export SAUL_DECODE_PARALLEL_FROM=1
 
 python3 "$root/bench/make_bus.py" 50000 "$out/block.log" >/dev/null 2>&1
 block=$(stat -c %s "$out/block.log")

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# saulctl doctor's ModemManager check on a fake system root (SAUL_SYSROOT: its proc/ and udev rule folders):
+# saulctl doctor's ModemManager check on a fake system root (--sysroot: its proc/ and udev rule folders):
 # ModemManager running without the CANable2 rule -> a warning with the fix; with the package's rule (in either
 # rules folder) -> ok; not running -> ok. Doctor's other checks run on the real machine and are not looked at.
 #   doctor_modemmanager.sh SAULCTL RULES_FILE
@@ -10,7 +10,7 @@ trap 'rm -rf "$root"' EXIT
 fails=0
 expect() {  # expect NAME PATTERN: doctor's ModemManager lines must match PATTERN (grep -E)
   local name=$1 pattern=$2 out
-  out=$(SAUL_SYSROOT=$root "$saulctl" doctor 2>&1) || true
+  out=$("$saulctl" doctor --sysroot "$root" 2>&1) || true
   local lines
   lines=$(grep -A1 'ModemManager:' <<<"$out" || true)
   if grep -Eq "$pattern" <<<"$lines"; then

@@ -400,7 +400,7 @@ Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode
 }  // namespace
 
 TEST_CASE("fast decode on two threads: what a decoding thread or the writer throws ends the decode with it") {
-  // The blocks-in-order engine (host/in_order.hpp) under both failures: a block's work throws (here the --id
+  // The blocks-in-order engine (host/threads/in_order.hpp) under both failures: a block's work throws (here the --id
   // filter, which runs on the decoding threads), or handing a block on throws (the writer). Either way the
   // exception comes out of decode_candump_file, the threads are stopped and joined, and nothing hangs.
   std::mt19937_64 rng(31);

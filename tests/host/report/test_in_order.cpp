@@ -1,4 +1,5 @@
-// The engine under decode's and stats' two-core paths (host/in_order.hpp, private to the host library), on its own:
+// The engine under decode's and stats' two-core paths (host/threads/in_order.hpp, private to the host library), on
+// its own:
 // on many random runs (1-4 threads, blocks of random cost, known or found count, failures in work and in take) every
 // block is taken once, in order, one take at a time, never more than 2 x threads blocks ahead of take, and a failure
 // comes out with every thread joined.
@@ -12,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-#include "../../../libsaulproto/src/host/in_order.hpp"
+#include "../../../libsaulproto/src/host/threads/in_order.hpp"
 
 using saul::host::detail::kBlocksUntilNone;
 using saul::host::detail::run_blocks_in_order;

@@ -15,7 +15,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
-#include "saulproto/host/capture/read_ahead.hpp"
+#include "../threads/read_ahead.hpp"
 
 namespace saul::host {
 namespace {

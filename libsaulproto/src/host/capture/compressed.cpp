@@ -18,7 +18,6 @@
 #include <stdexcept>
 
 #include "../util.hpp"
-#include "saulproto/host/capture/work_threads.hpp"
 
 namespace saul::host {
 namespace {
@@ -188,7 +187,6 @@ class ReadAheadBuf final : public DecompressingBuf {
   explicit ReadAheadBuf(std::unique_ptr<DecompressingBuf> inner) : inner_(std::move(inner)) {
     for (auto& c : chunks_) c.bytes.resize(kChunkBytes);
     worker_ = std::thread([this] { fill(); });  // std::system_error when no thread is to be had: the caller's
-    start_beside(worker_);
   }
   ~ReadAheadBuf() override {
     {

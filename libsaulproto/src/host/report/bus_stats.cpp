@@ -14,7 +14,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture_blocks.hpp"
-#include "../in_order.hpp"
+#include "../threads/in_order.hpp"
 
 namespace saul::host {
 namespace {

@@ -17,8 +17,8 @@
 #include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
-#include "saulproto/host/capture/read_ahead.hpp"
-#include "../in_order.hpp"
+#include "../threads/read_ahead.hpp"
+#include "../threads/in_order.hpp"
 
 namespace saul::host {
 namespace {

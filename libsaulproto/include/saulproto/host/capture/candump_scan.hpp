@@ -21,10 +21,6 @@
 #include <string_view>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
 
@@ -96,31 +92,14 @@ std::size_t first_byte(const std::uint64_t (&words)[N], char c) noexcept {
   return 8 * N;
 }
 /// Where the first `a` and the first `b` are in the 40 bytes at `p` (40 for one not there), as first_byte() on those
-/// bytes as words: with SSE2 (every x86-64) three 16-byte compares, no loop; 48 bytes are read. stats finds a
-/// candump line's end and its '#' with it.
+/// bytes as words (40 bytes are read). stats finds a candump line's end and its '#' with it.
 struct TwoPlaces {
   std::size_t a, b;
 };
 inline TwoPlaces first_two(const char* p, char a, char b) noexcept {
-#if defined(__SSE2__)
-  const __m128i x0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
-  const __m128i x1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 16));
-  const __m128i x2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 32));
-  auto places = [&](char c) {
-    const __m128i cs = _mm_set1_epi8(c);
-    const std::uint64_t found =
-        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x0, cs)))) |
-        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x1, cs)))) << 16 |
-        static_cast<std::uint64_t>(static_cast<unsigned>(_mm_movemask_epi8(_mm_cmpeq_epi8(x2, cs)))) << 32 |
-        std::uint64_t{1} << 40;  // not in the 40 bytes: 40
-    return static_cast<std::size_t>(std::countr_zero(found));
-  };
-  return {places(a), places(b)};
-#else
   std::uint64_t words[5];
   std::memcpy(words, p, sizeof words);
   return {first_byte(words, a), first_byte(words, b)};
-#endif
 }
 /// The word's first `n` bytes (n <= 8), zeros after them.
 inline std::uint64_t first_bytes(std::uint64_t word, std::size_t n) noexcept {
@@ -177,22 +156,6 @@ inline constexpr std::size_t kCandumpFixedTimeLength = 20;
 /// The fraction of a line of candump_fixed_time's shape, its 6 digits then ") " at line[12..19], in ns; false when
 /// it is not of that shape.
 inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept {
-#if defined(__SSE2__)
-  // The 8 bytes "dddddd) " checked and read in one register (stats reads every line's fraction: ~20 instructions
-  // where the word operations below take ~35): each byte minus what it must be ('0' for a digit) is at most 9 for a
-  // digit and 0 for ") "; then digit pairs, then pairs of pairs, by multiply-adds.
-  const __m128i v = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(line + 12));
-  const __m128i d = _mm_sub_epi8(v, _mm_setr_epi8('0', '0', '0', '0', '0', '0', ')', ' ', 0, 0, 0, 0, 0, 0, 0, 0));
-  const __m128i most = _mm_setr_epi8(9, 9, 9, 9, 9, 9, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0);
-  if ((_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, most), most)) & 0xFF) != 0xFF) return false;
-  const __m128i pairs = _mm_madd_epi16(_mm_unpacklo_epi8(d, _mm_setzero_si128()),
-                                       _mm_setr_epi16(10, 1, 10, 1, 10, 1, 0, 0));  // 32-bit: d0d1, d2d3, d4d5
-  const __m128i fours = _mm_madd_epi16(_mm_packs_epi32(pairs, pairs), _mm_setr_epi16(100, 1, 1, 0, 0, 0, 0, 0));
-  const auto high = static_cast<std::uint64_t>(_mm_cvtsi128_si32(fours));                    // d0d1d2d3
-  const auto low = static_cast<std::uint64_t>(_mm_cvtsi128_si32(_mm_srli_si128(fours, 4)));  // d4d5
-  ns = (high * 100 + low) * 1000;
-  return true;
-#else
   if (line[18] != ')' || line[19] != ' ') return false;
   std::uint64_t fraction;
   std::memcpy(&fraction, line + 12, 8);  // 6 digits and ") ", which become "00": the fraction times 100
@@ -200,7 +163,6 @@ inline bool candump_fixed_fraction(const char* line, std::uint64_t& ns) noexcept
   if (!detail::eight_digits(fraction, fraction)) return false;
   ns = fraction * 10;
   return true;
-#endif
 }
 /// The time of candump -L's own shape, "(" 10 digits "." 6 digits ") " (so what follows starts at line[20]), in
 /// ns; false for any other shape. Inline: stats reads it for every line.

@@ -9,8 +9,6 @@
 #include <mutex>
 #include <thread>
 
-#include "saulproto/host/capture/work_threads.hpp"
-
 namespace saul::host {
 
 /// Calls produce(k % slots) -> bool on a new thread for k = 0, 1, ... until it returns false, and consume(k % slots)
@@ -44,7 +42,6 @@ void read_ahead(std::size_t slots, Produce&& produce, Consume&& consume) {
     done = true;
     changed.notify_all();
   });
-  start_beside(producer);
   try {
     for (std::size_t k = 0;; ++k) {
       {

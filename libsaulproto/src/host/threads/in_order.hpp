@@ -10,8 +10,6 @@
 #include <type_traits>
 #include <vector>
 
-#include "saulproto/host/capture/work_threads.hpp"
-
 namespace saul::host::detail {
 
 /// `blocks` for run_blocks_in_order when the blocks are found as they are read: work() says where they end.
@@ -121,7 +119,6 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
         auto state = make_state();
         worker(state);
       });
-      start_beside(pool.back(), t - 1);  // else it may wait for a scheduler tick on this thread's CPU
     }
   } catch (...) {  // no more threads to be had: those there are do the work
   }
