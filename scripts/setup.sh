@@ -13,6 +13,7 @@ packages=(
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
   libfftw3-dev python3-numpy python3-scipy  # saulctl tune's FFTs (host/tune); its independent checks (tests/tune)
   liblz4-dev  # lz4 chunks of MCAP files (host/capture/mcap.cpp)
+  libdeflate-dev  # fast CRC-32 of MCAP files (host/capture/mcap.cpp)
   libjs-dygraphs gnuplot-nox chromium  # saulctl plot: HTML page, SVG/PNG/PDF reports; headless browser test
   zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)

@@ -455,11 +455,15 @@ void FrameEmitter::render(const CanFrame& f, Entry& e) {
       e.text.push_back('\0');  // the split: the timestamp and the interface go here
       if (result) {
         out += ",\"message\":";
-        if (!render_message(encode_bus_message(result.value()), out)) out += json_line(to_json(result.value()));
+        message_json(result.value(), out);
       }
       break;
     }
   }
+}
+
+void FrameEmitter::message_json(const BusMessage& message, std::string& out) {
+  if (!render_message(encode_bus_message(message), out)) out += json_line(to_json(message));
 }
 
 const FrameEmitter::Entry& FrameEmitter::rendered(const CanFrame& f) {

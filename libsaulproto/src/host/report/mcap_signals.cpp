@@ -115,7 +115,8 @@ void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::
   slot.used = true;
   slot.frame = frame;
   slot.channel = channel->second;
-  slot.json = json_line(to_json(message.value()));
+  slot.json.clear();
+  emitter_.message_json(message.value(), slot.json);
   out.add_message(slot.channel, log_time, slot.json);
 }
 

@@ -9,8 +9,14 @@
 // Writing (McapWriter): Schema and Channel records go into the data section between chunks (before the chunk
 // that first uses them, which is still being filled in memory), not into a chunk: a chunk found damaged then
 // loses its own messages only, not the channels of all that follow. A file cut short (a recorder killed) reads
-// up to its last complete chunk by a reader that scans it (MCAP readers can read a file without its summary). A chunk is closed when its records reach McapWriterOptions::chunk_bytes, when
-// its messages span chunk_ns of log time, and on flush(); each closed chunk goes to the stream at once.
+// up to its last complete chunk by a reader that scans it (MCAP readers can read a file without its summary). A
+// chunk is closed when its records reach McapWriterOptions::chunk_bytes, when its messages span chunk_ns of log
+// time, and on flush(); each closed chunk goes to the stream at once.
+// Speed: a closed chunk is checksummed, compressed and written by a thread of the writer's own while the caller
+// fills the next one (a chunk is independent of the others; at most one waits, so memory stays two chunks), and
+// the CRC-32s are libdeflate's (carry-less multiplication; zlib 1.2's crc32 ran at ~0.9 GB/s). Anything else
+// that writes (a Schema, Channel or Metadata record, flush(), close()) first waits for that thread, so the
+// records keep their order.
 //
 // CAN frames (McapCaptureWriter, McapFrameReader): one channel "/can/frames", schema "saul.can_frame"
 // (jsonschema, below), message encoding json, one message per frame
@@ -26,20 +32,26 @@
 #pragma once
 
 #include <array>
+#include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <istream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <ostream>
 #include <span>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <utility>
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
+
+struct ZSTD_CCtx_s;  // zstd.h's ZSTD_CCtx
 
 namespace saul::host {
 
@@ -60,6 +72,9 @@ using McapMap = std::vector<std::pair<std::string, std::string>>;
 
 struct McapWriterOptions {
   McapCompression compression = McapCompression::zstd;
+  /// zstd's level: 1, its fastest regular level, packs a bus's JSON ~5x at ~0.6-0.8 GB/s (bench/README.md).
+  /// Negative levels are faster still and pack less; higher ones pack more, slower (up to 19 for an archive).
+  int zstd_level = 1;
   std::uint64_t chunk_bytes = std::uint64_t{1} << 20;  ///< a chunk is closed when its records reach this
   std::uint64_t chunk_ns = 1'000'000'000;              ///< ... or its messages span this much log time
   std::string library = "saulctl";                     ///< the Header's library field
@@ -97,28 +112,54 @@ class McapWriter {
     std::uint64_t compressed_size = 0, uncompressed_size = 0;
     std::vector<std::pair<std::uint16_t, std::uint64_t>> index_offsets;
   };
+  using TimeOffsets = std::vector<std::pair<std::uint64_t, std::uint64_t>>;  ///< a channel's messages: time, offset
+  /// A chunk's records and message index: the one being filled, and the one the chunk thread writes.
+  struct Chunk {
+    std::vector<std::uint8_t> records;
+    std::vector<TimeOffsets> index;       ///< by channel id
+    std::vector<std::uint16_t> channels;  ///< the ids with entries in `index`
+    std::uint64_t start = 0, end = 0;
+    bool has_messages = false;
+  };
+  /// Hands the open chunk (if it holds anything) to the chunk thread; the next one is filled meanwhile.
   void close_chunk();
+  /// Waits until the chunk thread has written what it was given; rethrows what it failed with.
+  void wait_for_chunk();
+  void chunk_thread();
+  /// The chunk record (CRC, compression) and its Message Index records, on the chunk thread.
+  void write_chunk(Chunk& chunk);
   void emit(std::span<const std::uint8_t> bytes);
   void emit(const std::vector<std::uint8_t>& record) { emit(std::span<const std::uint8_t>(record)); }
 
   std::ostream& out_;
   McapWriterOptions options_;
+  // Written by whichever thread writes (the caller, or the chunk thread while it holds a chunk): the caller waits
+  // for the chunk thread before it writes itself or reads them.
   std::uint64_t offset_ = 0;
-  std::uint32_t data_crc_ = 0;  ///< zlib crc32 of everything written so far (the data section's, at DataEnd)
+  std::uint32_t data_crc_ = 0;  ///< crc32 of everything written so far (the data section's, at DataEnd)
+  std::vector<ChunkIndex> chunk_indexes_;
+  std::vector<std::uint8_t> packed_;        ///< compression output, reused
+  std::vector<std::uint8_t> index_record_;  ///< a Message Index record, reused
+  struct ZstdFree {
+    void operator()(ZSTD_CCtx_s* context) const noexcept;
+  };
+  std::unique_ptr<ZSTD_CCtx_s, ZstdFree> zstd_;  ///< zstd's context, reused (made by the first chunk)
+  // The caller's.
   bool closed_ = false;
   std::vector<std::vector<std::uint8_t>> schemas_;   ///< records, for the summary
   std::vector<std::vector<std::uint8_t>> channels_;  ///< records, for the summary
   std::vector<std::uint64_t> channel_counts_;
   std::vector<std::vector<std::uint8_t>> metadata_index_;
-  std::vector<ChunkIndex> chunk_indexes_;
   std::uint64_t message_count_ = 0, first_time_ = 0, last_time_ = 0;
   std::uint32_t metadata_count_ = 0;
-  // the open chunk
-  std::vector<std::uint8_t> chunk_;
-  std::uint64_t chunk_start_ = 0, chunk_end_ = 0;
-  bool chunk_has_messages_ = false;
-  std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> chunk_index_;  ///< time, offset
-  std::vector<std::uint8_t> packed_;  ///< compression output, reused
+  Chunk open_;  ///< the chunk being filled
+  // The chunk thread (started by the first chunk closed) and what it is given.
+  Chunk given_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  bool busy_ = false, stop_ = false;
+  std::exception_ptr failure_;
 };
 
 /// What a writer of frames may add for each frame: messages on channels of its own (the decoded signals).

@@ -83,6 +83,9 @@ class FrameEmitter {
   void set_first(std::uint64_t ns) noexcept { first_ = ns; }
   /// Error frames with what they report (sniff's lines), not only "!error_frame" (decode's).
   void show_error_detail() noexcept { error_detail_ = true; }
+  /// Appends a decoded message's JSON object to `out`: the "message" member of the JSON lines (the bytes of
+  /// json_line(to_json(message))), for writers that keep messages apart (MCAP's channels). DecodeFormat::jsonl only.
+  void message_json(const BusMessage& message, std::string& out);
 
  private:
   struct Entry {

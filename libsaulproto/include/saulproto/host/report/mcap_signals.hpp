@@ -17,6 +17,7 @@
 
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/mcap.hpp"
+#include "saulproto/host/report/fast_emit.hpp"
 
 namespace saul::host {
 
@@ -41,6 +42,7 @@ class McapSignalChannels final : public McapFrameExtra {
   };
   static constexpr std::size_t kCache = 4096;
   std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
+  FrameEmitter emitter_{DecodeFormat::jsonl, TimeMode::absolute};  ///< renders a message as decode --json does
   std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
   std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
 };
