@@ -94,7 +94,7 @@ void rate(benchmark::State& state, std::uint64_t frames) {
 void BM_Scan(benchmark::State& state) {
   const auto file = CandumpFile::open(log_file().path);
   std::uint64_t frames = 0;
-  CandumpBatch batch;
+  FrameBatch batch;
   for (auto _ : state) {
     CandumpScanner scanner(file->fd(), 0, file->size());
     while (scanner.next_batch(batch)) frames += batch.frames.size();
@@ -223,11 +223,11 @@ BENCHMARK(BM_BusStatsAdd)->Unit(benchmark::kMillisecond);
 
 /// The whole decode of the file: arg 0 = format (0 text, 1 CSV, 2 JSON), arg 1 = threads.
 void BM_DecodeFile(benchmark::State& state) {
-  CandumpDecodeOptions o;
+  FrameDecodeOptions o;
   o.format = static_cast<DecodeFormat>(state.range(0));
   o.threads = static_cast<unsigned>(state.range(1));
   o.parallel_from = 0;
-  CandumpDecodeSinks sinks;
+  FrameDecodeSinks sinks;
   std::uint64_t bytes = 0;
   sinks.write = [&](std::string_view s) { bytes += s.size(); };
   sinks.corrupt = [](const CaptureError&) {};

@@ -150,7 +150,7 @@ int run_decode(const DecodeOptions& opt) {
   // when large; every other format frame by frame from its reader, written by the same emitter.
   using saul::host::DecodeFormat;
   using saul::host::TimeMode;
-  saul::host::CandumpDecodeOptions fast;
+  saul::host::FrameDecodeOptions fast;
   fast.format = format == "jsonl" ? DecodeFormat::jsonl : format == "csv" ? DecodeFormat::csv : DecodeFormat::text;
   fast.time = time_mode(opt.time);
   if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
@@ -176,7 +176,7 @@ int run_decode(const DecodeOptions& opt) {
   };
   for (const auto& path : opt.files) {
     std::uint64_t progress_records = 0;
-    saul::host::CandumpDecodeSinks sinks;
+    saul::host::FrameDecodeSinks sinks;
     sinks.write = write_out;
     sinks.corrupt = [&](const saul::host::CaptureError& e) {
       progress.finish();
@@ -186,7 +186,7 @@ int run_decode(const DecodeOptions& opt) {
       progress.update_many(n - progress_records, bytes, std::nullopt);
       progress_records = n;
     };
-    std::optional<saul::host::CandumpDecodeResult> fast_result;
+    std::optional<saul::host::FrameDecodeResult> fast_result;
     // '-' is candump text from standard input; files are any capture format, told by their content.
     std::unique_ptr<saul::host::CaptureReader> opened;
     std::unique_ptr<WatchedLines> watched;

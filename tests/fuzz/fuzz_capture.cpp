@@ -43,7 +43,7 @@ void same_in_memory(const std::uint8_t* data, std::size_t size) {
     std::string error;
   };
   std::vector<Record> batched;
-  CandumpBatch batch;
+  FrameBatch batch;
   for (std::size_t max = 1; c->next_batch(batch, max); max = max % 7 + 1) {
     if (batch.frames.size() + batch.corrupt.size() > max) saul::fuzz::fail();
     std::size_t k = 0;

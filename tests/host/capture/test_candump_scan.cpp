@@ -62,7 +62,7 @@ Seen with_reader(const std::string& text) {
 
 Seen with_scanner(CandumpScanner& scanner) {
   Seen s;
-  CandumpBatch batch;
+  FrameBatch batch;
   while (scanner.next_batch(batch)) {
     std::size_t c = 0;
     for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
@@ -247,7 +247,7 @@ TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at an
     INFO("block " << block);
     PcapScanner scanner(fd, pcap.size(), block);
     Seen got;
-    CandumpBatch batch;
+    FrameBatch batch;
     while (scanner.next_batch(batch)) {
       for_each_in_order(
           batch,
@@ -317,7 +317,7 @@ TEST_CASE("candump scanner: a line taker's lines and the batches give CandumpRea
     Seen got;
     Taker taker;
     taker.seen = &got;
-    CandumpBatch batch;
+    FrameBatch batch;
     while (scanner.next_batch(batch, &taker)) {
       // a batch ends at its first entry: a frame or a report, never both, never more than one
       CHECK(batch.frames.size() + batch.corrupt.size() == 1);

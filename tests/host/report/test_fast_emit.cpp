@@ -350,7 +350,7 @@ std::string random_log(std::mt19937_64& rng, std::size_t frames) {
 struct Decoded {
   std::string out;
   std::vector<std::string> corrupt;
-  CandumpDecodeResult result;
+  FrameDecodeResult result;
   std::uint64_t progress_bytes = 0;  ///< the last progress report's
 };
 
@@ -358,7 +358,7 @@ struct Decoded {
 template <class Decode>
 Decoded run_with(Decode&& decode) {
   Decoded d;
-  CandumpDecodeSinks sinks;
+  FrameDecodeSinks sinks;
   sinks.write = [&](std::string_view s) { d.out.append(s); };
   sinks.corrupt = [&](const CaptureError& e) { d.corrupt.push_back(format_capture_error("f", e)); };
   sinks.progress = [&](std::uint64_t, std::uint64_t bytes) { d.progress_bytes = bytes; };
@@ -366,8 +366,8 @@ Decoded run_with(Decode&& decode) {
   return d;
 }
 
-Decoded run(const std::string& path, const CandumpDecodeOptions& o) {
-  return run_with([&](const CandumpDecodeSinks& sinks) {
+Decoded run(const std::string& path, const FrameDecodeOptions& o) {
+  return run_with([&](const FrameDecodeSinks& sinks) {
     auto r = decode_candump_file(path, o, sinks);
     REQUIRE(r);
     return *r;
@@ -405,11 +405,11 @@ TEST_CASE("fast decode on two threads: what a decoding thread or the writer thro
   // exception comes out of decode_candump_file, the threads are stopped and joined, and nothing hangs.
   std::mt19937_64 rng(31);
   TempFile file(random_log(rng, 20000));
-  CandumpDecodeOptions o;
+  FrameDecodeOptions o;
   o.threads = 2;
   o.parallel_from = 0;
   o.block = 4096;
-  CandumpDecodeSinks sinks;
+  FrameDecodeSinks sinks;
   std::size_t writes = 0;
   sinks.write = [&](std::string_view) { ++writes; };
   sinks.corrupt = [](const CaptureError&) {};
@@ -439,7 +439,7 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
     for (auto mode : {TimeMode::absolute, TimeMode::relative, TimeMode::delta}) {
       for (const std::set<std::uint32_t>* ids : {static_cast<const std::set<std::uint32_t>*>(nullptr), &some}) {
         INFO("format " << static_cast<int>(format) << " time " << static_cast<int>(mode) << " filter " << (ids != nullptr));
-        CandumpDecodeOptions o;
+        FrameDecodeOptions o;
         o.format = format;
         o.time = mode;
         if (ids != nullptr) o.keep = [ids](const saul::CanFrame& f) { return ids->count(f.id) != 0; };
@@ -514,8 +514,8 @@ std::string raw_pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t
   return r;
 }
 
-Decoded run_pcap(const std::string& path, const CandumpDecodeOptions& o) {
-  return run_with([&](const CandumpDecodeSinks& sinks) {
+Decoded run_pcap(const std::string& path, const FrameDecodeOptions& o) {
+  return run_with([&](const FrameDecodeSinks& sinks) {
     auto r = decode_pcap_file(path, o, sinks);
     REQUIRE(r);
     return *r;
@@ -628,7 +628,7 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
   for (auto format : {DecodeFormat::text, DecodeFormat::csv, DecodeFormat::jsonl}) {
     for (auto mode : {TimeMode::absolute, TimeMode::relative}) {
       INFO("format " << static_cast<int>(format) << " time " << static_cast<int>(mode));
-      CandumpDecodeOptions o;
+      FrameDecodeOptions o;
       o.format = format;
       o.time = mode;
       o.threads = 1;
@@ -687,8 +687,8 @@ std::string raw_unknown_block(std::uint32_t trailing = 16) {
   return b;
 }
 
-Decoded run_pcapng(const std::string& path, const CandumpDecodeOptions& o) {
-  return run_with([&](const CandumpDecodeSinks& sinks) {
+Decoded run_pcapng(const std::string& path, const FrameDecodeOptions& o) {
+  return run_with([&](const FrameDecodeSinks& sinks) {
     if (auto r = decode_pcapng_file(path, o, sinks)) return *r;
     std::ifstream in(path, std::ios::binary);  // not cut: the reader, as saulctl decode does then
     PcapngReader reader(in);
@@ -746,7 +746,7 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
   for (auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
     for (auto mode : {TimeMode::absolute, TimeMode::relative}) {
       INFO("format " << static_cast<int>(format) << " time " << static_cast<int>(mode));
-      CandumpDecodeOptions o;
+      FrameDecodeOptions o;
       o.format = format;
       o.time = mode;
       o.threads = 2;
@@ -799,7 +799,7 @@ TEST_CASE("pcap and pcapng blocks cut ahead of their readers are lent late, read
     std::vector<CanFrame> got;
     for (std::size_t k = 0; blocks->has(k); ++k) {
       (void)blocks->has(k + 1);  // the walk finds block k's end before block k's reader asks for it
-      blocks->read(k, scratch, [&](const CandumpBatch& batch) {
+      blocks->read(k, scratch, [&](const FrameBatch& batch) {
         got.insert(got.end(), batch.frames.begin(), batch.frames.end());
         return true;
       });
@@ -833,7 +833,7 @@ TEST_CASE("fast decode: pcap/pcapng blocks the cutter cannot lend are read from 
   pcap += raw_pcap_record(1763800001, 0, 300 * 1024).substr(0, 16);
   pcap.append(200 * 1024, '\0');
   TempFile png_file(png), pcap_file(pcap);
-  CandumpDecodeOptions o;
+  FrameDecodeOptions o;
   o.threads = 2;
   o.parallel_from = 0;
   o.block = 4096;
@@ -948,11 +948,11 @@ TEST_CASE("pcap and pcapng files are cut where a record-by-record walk cuts them
 namespace {
 
 /// decode_candump_text of the compressed candump log at `path`.
-Decoded run_text(const std::string& path, const CandumpDecodeOptions& o) {
+Decoded run_text(const std::string& path, const FrameDecodeOptions& o) {
   const auto text = open_capture_text(path);
   REQUIRE(text->compressed());
   REQUIRE(text->format() == CaptureFormat::candump);
-  return run_with([&](const CandumpDecodeSinks& sinks) {
+  return run_with([&](const FrameDecodeSinks& sinks) {
     auto r = decode_candump_text(*text, o, sinks);
     REQUIRE(r);
     return *r;
@@ -971,7 +971,7 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
   std::string log = random_log(rng, 20000);
   log.insert(log.find('\n', log.size() / 3) + 1, "# " + std::string(3 * kMaxCandumpLine, 'c') + "\n");
   TempFile plain(log);
-  CandumpDecodeOptions o;
+  FrameDecodeOptions o;
   o.threads = 1;
   const Decoded expected = run(plain.path, o);
   REQUIRE(expected.corrupt.size() > 50);
@@ -1005,7 +1005,7 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     o.format = DecodeFormat::text;
     o.time = TimeMode::relative;  // needs the first frame's time before the blocks: the reader's path
     const auto text = open_capture_text(packed);
-    CandumpDecodeSinks none;
+    FrameDecodeSinks none;
     CHECK_FALSE(decode_candump_text(*text, o, none));
     o.time = TimeMode::absolute;
   }
@@ -1025,7 +1025,7 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     o.threads = 1;
     auto reader = open_capture_reader(cut.path);
     const Decoded by_reader =
-        run_with([&](const CandumpDecodeSinks& sinks) { return decode_reader(*reader, false, o, sinks); });
+        run_with([&](const FrameDecodeSinks& sinks) { return decode_reader(*reader, false, o, sinks); });
     REQUIRE_FALSE(by_reader.corrupt.empty());  // the decompression error, at the end
     o.threads = 2;
     const Decoded two = run_text(cut.path, o);

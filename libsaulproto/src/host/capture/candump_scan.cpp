@@ -135,7 +135,7 @@ std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
   }
 }
 
-void CandumpScanner::line(std::string_view text, CandumpBatch& batch, CandumpLineTaker* taker) {
+void CandumpScanner::line(std::string_view text, FrameBatch& batch, CandumpLineTaker* taker) {
   ++line_;
   if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer (and CandumpReader) does
     if (first_other_.empty() && text.find_first_not_of(" \t\r") != std::string_view::npos)
@@ -155,7 +155,7 @@ void CandumpScanner::line(std::string_view text, CandumpBatch& batch, CandumpLin
   }
   batch.frames.pop_back();
   CandumpLine parsed;
-  CandumpBatch::Corrupt bad;
+  FrameBatch::Corrupt bad;
   if (parse_candump_line(text, parsed, bad.error)) {
     batch.frames.push_back(parsed.frame);
     batch.interfaces.push_back(parsed.interface);
@@ -168,8 +168,8 @@ void CandumpScanner::line(std::string_view text, CandumpBatch& batch, CandumpLin
   batch.corrupt.push_back(std::move(bad));
 }
 
-void CandumpScanner::too_long(CandumpBatch& batch) {
-  CandumpBatch::Corrupt bad;
+void CandumpScanner::too_long(FrameBatch& batch) {
+  FrameBatch::Corrupt bad;
   bad.before = batch.frames.size();
   bad.error.column = 0;
   bad.error.message = fmt::format("line longer than {} bytes", kMaxCandumpLine);
@@ -179,7 +179,7 @@ void CandumpScanner::too_long(CandumpBatch& batch) {
   batch.corrupt.push_back(std::move(bad));
 }
 
-bool CandumpScanner::next_batch(CandumpBatch& batch, CandumpLineTaker* taker) {
+bool CandumpScanner::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
   batch.clear();
   // with a taker, a batch ends at its first entry (what was taken after it would come before it)
   auto taker_stops = [&] { return taker != nullptr && (!batch.frames.empty() || !batch.corrupt.empty()); };
@@ -255,7 +255,7 @@ namespace {
 
 /// A batch read ahead, with its interfaces copied out of the scanner's buffer (which the next read reuses).
 struct AheadSlot {
-  CandumpBatch batch;
+  FrameBatch batch;
   std::string names;
   std::uint64_t bytes = 0;
   void own() {
@@ -279,11 +279,11 @@ struct AheadSlot {
 
 }  // namespace
 
-void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const CandumpBatchSink& on_batch,
-                  const CandumpBatchPrepare& prepare) {
+void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const FrameBatchSink& on_batch,
+                  const FrameBatchPrepare& prepare) {
   if (!ahead) {
     CandumpScanner scanner(fd, begin, end);
-    CandumpBatch batch;
+    FrameBatch batch;
     while (scanner.next_batch(batch)) {
       if (prepare) prepare(batch, 0);
       on_batch(batch, scanner.bytes_read(), 0);

@@ -141,13 +141,13 @@ CaptureBlocks::~CaptureBlocks() {
 }
 
 CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
-                                        const std::function<bool(const CandumpBatch&)>& each,
+                                        const std::function<bool(const FrameBatch&)>& each,
                                         CandumpLineTaker* taker) const {
   const auto r = range(k, format_ == CaptureFormat::candump ? nullptr : &scratch.bytes);
   Read read;
   if (!r) return read;
   const std::uint64_t begin = r->begin, end = r->end, prefix_end = r->prefix_end;
-  CandumpBatch& batch = scratch.batch;
+  FrameBatch& batch = scratch.batch;
   const std::uint8_t* const lent = r->lent ? scratch.bytes.data() + r->offset : nullptr;
   switch (format_) {
     case CaptureFormat::candump: {
@@ -210,7 +210,7 @@ std::optional<std::uint64_t> CaptureBlocks::first_time(const std::function<bool(
   Scratch scratch;
   std::optional<std::uint64_t> first;
   for (std::size_t k = 0; !first && has(k); ++k)
-    read(k, scratch, [&](const CandumpBatch& batch) {
+    read(k, scratch, [&](const FrameBatch& batch) {
       for (const auto& f : batch.frames)
         if (!keep || keep(f)) {
           first = f.timestamp_ns.value_or(0);

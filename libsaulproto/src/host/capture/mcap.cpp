@@ -15,7 +15,6 @@
 #include <stdexcept>
 
 #include "capture_io.hpp"
-#include "saulproto/host/capture/work_threads.hpp"
 
 namespace saul::host {
 namespace {
@@ -298,10 +297,7 @@ void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
 void McapWriter::close_chunk() {
   if (open_.records.empty()) return;
   wait_for_chunk();
-  if (!thread_.joinable()) {
-    thread_ = std::thread([this] { chunk_thread(); });
-    start_beside(thread_);
-  }
+  if (!thread_.joinable()) thread_ = std::thread([this] { chunk_thread(); });
   {
     const std::lock_guard lock(mutex_);
     std::swap(open_, given_);  // the chunk thread's last buffers (emptied) are filled next

@@ -152,8 +152,8 @@ std::size_t PcapScanner::ensure(std::size_t n) {
   return tail_ - head_;
 }
 
-void PcapScanner::corrupt(CandumpBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
-  CandumpBatch::Corrupt bad;
+void PcapScanner::corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
+  FrameBatch::Corrupt bad;
   bad.before = batch.frames.size();
   bad.error.column = 0;
   bad.error.kind = PositionKind::byte_offset;
@@ -165,7 +165,7 @@ void PcapScanner::corrupt(CandumpBatch& batch, std::uint64_t at, Recovery recove
 }
 
 // Record by record exactly as PcapReader::next() reads them.
-bool PcapScanner::next_batch(CandumpBatch& batch) {
+bool PcapScanner::next_batch(FrameBatch& batch) {
   batch.clear();
   while (!stopped_ && batch.frames.size() < CandumpScanner::kMaxBatch) {
     const std::uint64_t start = offset_;

@@ -420,7 +420,7 @@ std::uint64_t PcapngReader::packet_time(const Interface& iface, std::uint64_t ti
   return ns;
 }
 
-bool PcapngReader::usual_packet(CandumpBatch& batch) {
+bool PcapngReader::usual_packet(FrameBatch& batch) {
   // Exactly the checks block() and packet_block() make on the way to a frame; the first that does not pass hands
   // the block to next(), which reports it as those do.
   const std::size_t left = mem_.size() - static_cast<std::size_t>(offset_);
@@ -447,7 +447,7 @@ bool PcapngReader::usual_packet(CandumpBatch& batch) {
   return true;
 }
 
-bool PcapngReader::next_batch(CandumpBatch& batch, std::size_t max) {
+bool PcapngReader::next_batch(FrameBatch& batch, std::size_t max) {
   batch.clear();
   while (batch.frames.size() + batch.corrupt.size() < max) {
     if (in_ == nullptr && !stopped_ && usual_packet(batch)) continue;

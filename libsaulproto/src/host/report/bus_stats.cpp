@@ -962,7 +962,7 @@ void count_blocks(BusStats& stats, const std::optional<BusStats::FirstTimed>& fi
         block.records = 0;
         w.lines.start(block.stats);
         const std::optional<CaptureBlocks::Read> read =
-            read_block(k, w, [&](const CandumpBatch& batch) {
+            read_block(k, w, [&](const FrameBatch& batch) {
               for (const auto& c : batch.corrupt) {
                 block.stats.add_corrupt();
                 block.corrupt.push_back(c.error);
@@ -1004,7 +1004,7 @@ void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
     first = BusStats::FirstTimed{record->interface, *record->frame.timestamp_ns};
   count_blocks(stats, first, on_corrupt, on_progress,
                [&](std::size_t k, BlockWorker& w,
-                   const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
+                   const std::function<bool(const FrameBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
                  if (!blocks.has(k)) return std::nullopt;  // a pcap or pcapng file is cut as its blocks are read
                  return blocks.read(k, w.scratch, each, &w.lines);
                });
@@ -1016,7 +1016,7 @@ void add_capture_text(BusStats& stats, CaptureText& text, const std::function<vo
   CaptureTextBlocks blocks(text, block_bytes);
   count_blocks(stats, std::nullopt, on_corrupt, on_progress,
                [&](std::size_t k, BlockWorker& w,
-                   const std::function<bool(const CandumpBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
+                   const std::function<bool(const FrameBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
                  CaptureBlocks::Read read;
                  if (!blocks.take(k, w.text, read.bytes)) return std::nullopt;
                  CandumpScanner scanner(std::string_view(w.text), block_bytes);
@@ -1045,7 +1045,7 @@ void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
   std::array<std::vector<FrameFacts>, kAheadBatches> facts;
   scan_candump(
       fd, 0, size, ahead,
-      [&](const CandumpBatch& batch, std::uint64_t bytes, std::size_t slot) {
+      [&](const FrameBatch& batch, std::uint64_t bytes, std::size_t slot) {
         if (on_progress) on_progress(batch.frames.size() + batch.corrupt.size(), bytes);
         const std::vector<FrameFacts>& known = facts[slot];
         std::size_t c = 0;
@@ -1063,7 +1063,7 @@ void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
         }
         corrupt_before(n);
       },
-      [&](const CandumpBatch& batch, std::size_t slot) {
+      [&](const FrameBatch& batch, std::size_t slot) {
         std::vector<FrameFacts>& out = facts[slot];
         out.clear();
         for (const CanFrame& f : batch.frames) out.push_back(cache.get(f));

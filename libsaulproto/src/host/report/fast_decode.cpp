@@ -33,10 +33,10 @@ struct Piece {
   std::uint64_t bytes = 0;
 };
 
-bool wanted(const CandumpDecodeOptions& o, const CanFrame& f) { return !o.keep || o.keep(f); }
+bool wanted(const FrameDecodeOptions& o, const CanFrame& f) { return !o.keep || o.keep(f); }
 
 /// One batch's frames into `piece` (its corrupt records kept there for the caller).
-void emit_batch(const CandumpBatch& batch, FrameEmitter& emitter, const CandumpDecodeOptions& o, Piece& piece) {
+void emit_batch(const FrameBatch& batch, FrameEmitter& emitter, const FrameDecodeOptions& o, Piece& piece) {
   for (const auto& c : batch.corrupt) piece.corrupt.push_back(c.error);
   const std::size_t n = batch.frames.size();
   piece.records += n;
@@ -50,9 +50,9 @@ void emit_batch(const CandumpBatch& batch, FrameEmitter& emitter, const CandumpD
 /// Reads every batch of `scanner` into `piece`; after each batch calls after_batch(piece, corrupt_from) where
 /// corrupt_from is the first corrupt entry that batch added.
 template <class Scanner, class AfterBatch>
-void scan_all(Scanner& scanner, FrameEmitter& emitter, const CandumpDecodeOptions& o, Piece& piece,
+void scan_all(Scanner& scanner, FrameEmitter& emitter, const FrameDecodeOptions& o, Piece& piece,
               AfterBatch&& after_batch) {
-  CandumpBatch batch;
+  FrameBatch batch;
   while (scanner.next_batch(batch)) {
     const std::size_t corrupt_from = piece.corrupt.size();
     emit_batch(batch, emitter, o, piece);
@@ -65,14 +65,14 @@ void scan_all(Scanner& scanner, FrameEmitter& emitter, const CandumpDecodeOption
 /// One thread's output: reports the batch's corrupt records and progress, writes every flush_at bytes (every batch
 /// when `live`).
 struct InOrder {
-  InOrder(const CandumpDecodeOptions& options, const CandumpDecodeSinks& to, bool is_live)
+  InOrder(const FrameDecodeOptions& options, const FrameDecodeSinks& to, bool is_live)
       : o(options), sinks(to), live(is_live), emitter(options.format, options.time) {}
-  const CandumpDecodeOptions& o;
-  const CandumpDecodeSinks& sinks;
+  const FrameDecodeOptions& o;
+  const FrameDecodeSinks& sinks;
   bool live;
   FrameEmitter emitter;
   Piece piece;
-  CandumpDecodeResult result;
+  FrameDecodeResult result;
   void after_batch(std::size_t corrupt_from) {
     Piece& p = piece;
     if (sinks.progress) sinks.progress(p.records + result.corrupt + p.corrupt.size() - corrupt_from, p.bytes);
@@ -84,7 +84,7 @@ struct InOrder {
       p.out.clear();
     }
   }
-  CandumpDecodeResult finish() {
+  FrameDecodeResult finish() {
     if (piece.out.size() > 0) sinks.write(std::string_view(piece.out.data(), piece.out.size()));
     result.counts = piece.counts;
     result.records = piece.records;
@@ -94,8 +94,8 @@ struct InOrder {
 
 /// One thread: batches in file order.
 template <class Scanner>
-CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptions& o,
-                           const CandumpDecodeSinks& sinks) {
+FrameDecodeResult single(Scanner& scanner, bool live, const FrameDecodeOptions& o,
+                           const FrameDecodeSinks& sinks) {
   InOrder run(o, sinks, live);
   scan_all(scanner, run.emitter, o, run.piece, [&](Piece&, std::size_t corrupt_from) { run.after_batch(corrupt_from); });
   return run.finish();
@@ -103,13 +103,13 @@ CandumpDecodeResult single(Scanner& scanner, bool live, const CandumpDecodeOptio
 
 /// A batch of any CaptureReader's frames, as CandumpScanner hands them out, its interfaces in `names`.
 struct ReaderSlot {
-  CandumpBatch batch;
+  FrameBatch batch;
   std::string names;
   std::uint64_t bytes = 0;
 };
 
 bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
-  CandumpBatch& batch = slot.batch;
+  FrameBatch& batch = slot.batch;
   batch.clear();
   slot.names.clear();
   std::vector<std::pair<std::size_t, std::size_t>> spans;  // of the interfaces in names, made views at the end
@@ -141,7 +141,7 @@ bool read_batch(CaptureReader& reader, ReaderSlot& slot) {
 /// Corrupt positions are counted from the block's start when its scanner counts lines (candump), else they are
 /// the file's byte offsets already (pcap, pcapng). Relative times count from `first`.
 struct Worker {
-  Worker(const CandumpDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
+  Worker(const FrameDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
     if (first) emitter.set_first(*first);
   }
   FrameEmitter emitter;
@@ -149,9 +149,9 @@ struct Worker {
   std::string text;  // decode_candump_text: the block's lines
 };
 template <class ReadBlock>
-CandumpDecodeResult in_blocks(const CandumpDecodeOptions& o, const CandumpDecodeSinks& sinks,
+FrameDecodeResult in_blocks(const FrameDecodeOptions& o, const FrameDecodeSinks& sinks,
                               std::optional<std::uint64_t> first, ReadBlock&& read_block) {
-  CandumpDecodeResult result;
+  FrameDecodeResult result;
   std::uint64_t lines = 0;
   std::uint64_t bytes = 0;
   detail::run_blocks_in_order<Piece>(
@@ -180,13 +180,13 @@ CandumpDecodeResult in_blocks(const CandumpDecodeOptions& o, const CandumpDecode
 }
 
 /// The blocks of a file (CaptureBlocks).
-CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOptions& o,
-                             const CandumpDecodeSinks& sinks) {
+FrameDecodeResult parallel(const CaptureBlocks& blocks, const FrameDecodeOptions& o,
+                             const FrameDecodeSinks& sinks) {
   std::optional<std::uint64_t> first;
   if (o.time == TimeMode::relative) first = blocks.first_time(o.keep);
   return in_blocks(o, sinks, first, [&](std::size_t k, Worker& w, Piece& piece) {
     if (!blocks.has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
-    const auto read = blocks.read(k, w.scratch, [&](const CandumpBatch& batch) {
+    const auto read = blocks.read(k, w.scratch, [&](const FrameBatch& batch) {
       emit_batch(batch, w.emitter, o, piece);
       return true;
     });
@@ -198,18 +198,18 @@ CandumpDecodeResult parallel(const CaptureBlocks& blocks, const CandumpDecodeOpt
 
 }  // namespace
 
-bool decodes_candump_text(const CandumpDecodeOptions& options) noexcept {
+bool decodes_candump_text(const FrameDecodeOptions& options) noexcept {
   return options.threads >= 2 && options.time == TimeMode::absolute;
 }
 
-std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const CandumpDecodeOptions& options,
-                                                       const CandumpDecodeSinks& sinks) {
+std::optional<FrameDecodeResult> decode_candump_text(CaptureText& text, const FrameDecodeOptions& options,
+                                                       const FrameDecodeSinks& sinks) {
   if (!decodes_candump_text(options)) return std::nullopt;
   CaptureTextBlocks blocks(text, options.block);
-  CandumpDecodeResult result = in_blocks(options, sinks, std::nullopt, [&](std::size_t k, Worker& w, Piece& piece) {
+  FrameDecodeResult result = in_blocks(options, sinks, std::nullopt, [&](std::size_t k, Worker& w, Piece& piece) {
     if (!blocks.take(k, w.text, piece.bytes)) return false;
     CandumpScanner scanner(std::string_view(w.text), options.block);
-    CandumpBatch& batch = w.scratch.batch;
+    FrameBatch& batch = w.scratch.batch;
     while (scanner.next_batch(batch)) emit_batch(batch, w.emitter, options, piece);
     piece.lines = scanner.lines();
     return true;
@@ -222,8 +222,8 @@ std::optional<CandumpDecodeResult> decode_candump_text(CaptureText& text, const 
   return result;
 }
 
-CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const CandumpDecodeOptions& options,
-                                   const CandumpDecodeSinks& sinks) {
+FrameDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, const FrameDecodeOptions& options,
+                                   const FrameDecodeSinks& sinks) {
   // delta needs the previous frame's time across block boundaries: one thread.
   if (size && options.threads > 1 && *size >= options.parallel_from && options.time != TimeMode::delta)
     return parallel(*CaptureBlocks::of(fd, *size, CaptureFormat::candump, options.block), options, sinks);
@@ -232,20 +232,20 @@ CandumpDecodeResult decode_candump(int fd, std::optional<std::uint64_t> size, co
     return single(scanner, false, options, sinks);
   }
   CandumpScanner scanner(fd);
-  CandumpDecodeResult result = single(scanner, true, options, sinks);
+  FrameDecodeResult result = single(scanner, true, options, sinks);
   result.first_other = scanner.first_other();
   return result;
 }
 
-std::optional<CandumpDecodeResult> decode_candump_file(const std::string& path, const CandumpDecodeOptions& options,
-                                                       const CandumpDecodeSinks& sinks) {
+std::optional<FrameDecodeResult> decode_candump_file(const std::string& path, const FrameDecodeOptions& options,
+                                                       const FrameDecodeSinks& sinks) {
   const auto file = CandumpFile::open(path);
   if (!file) return std::nullopt;
   return decode_candump(file->fd(), file->size(), options, sinks);
 }
 
-CandumpDecodeResult decode_reader(CaptureReader& reader, bool ahead, const CandumpDecodeOptions& options,
-                                  const CandumpDecodeSinks& sinks) {
+FrameDecodeResult decode_reader(CaptureReader& reader, bool ahead, const FrameDecodeOptions& options,
+                                  const FrameDecodeSinks& sinks) {
   InOrder run(options, sinks, false);
   auto take = [&](const ReaderSlot& slot) {
     const std::size_t corrupt_from = run.piece.corrupt.size();
@@ -288,8 +288,8 @@ struct RegularFile {
 
 }  // namespace
 
-std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, const CandumpDecodeOptions& options,
-                                                    const CandumpDecodeSinks& sinks) {
+std::optional<FrameDecodeResult> decode_pcap_file(const std::string& path, const FrameDecodeOptions& options,
+                                                    const FrameDecodeSinks& sinks) {
   const RegularFile file(path);
   if (file.fd < 0) return std::nullopt;
   const int fd = file.fd;
@@ -308,8 +308,8 @@ std::optional<CandumpDecodeResult> decode_pcap_file(const std::string& path, con
   return single(*scanner, false, options, sinks);
 }
 
-std::optional<CandumpDecodeResult> decode_pcapng_file(const std::string& path, const CandumpDecodeOptions& options,
-                                                      const CandumpDecodeSinks& sinks) {
+std::optional<FrameDecodeResult> decode_pcapng_file(const std::string& path, const FrameDecodeOptions& options,
+                                                      const FrameDecodeSinks& sinks) {
   if (options.threads < 2 || options.time == TimeMode::delta) return std::nullopt;
   const RegularFile file(path);
   if (file.fd < 0) return std::nullopt;

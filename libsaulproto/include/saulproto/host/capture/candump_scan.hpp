@@ -29,9 +29,10 @@ namespace saul::host {
 /// The longest candump line the scanner accepts (a real one is under 100 bytes).
 inline constexpr std::size_t kMaxCandumpLine = 64 * 1024;
 
-/// What one call of CandumpScanner::next_batch found: frames in file order, their interfaces (views into the
-/// scanner's buffer, valid until the next call) and the corrupt lines among them.
-struct CandumpBatch {
+/// A batch of frames as every block reader hands them out (CandumpScanner::next_batch, the pcap and pcapng block
+/// readers): frames in file order, their interfaces (views into the reader's buffer, valid until the next call)
+/// and the corrupt records among them.
+struct FrameBatch {
   struct Corrupt {
     std::size_t before = 0;  ///< the corrupt line came before frames[before] (== frames.size(): after the last)
     CaptureError error;      ///< position: line number counted from the scanner's first line (1-based)
@@ -221,11 +222,11 @@ class CandumpScanner {
 
   /// Fills `batch` (cleared first) with the lines of up to one block (at most kMaxBatch frames); false (batch empty) at the end. Throws
   /// std::runtime_error when reading fails.
-  bool next_batch(CandumpBatch& batch) { return next_batch(batch, nullptr); }
+  bool next_batch(FrameBatch& batch) { return next_batch(batch, nullptr); }
   /// The same with the lines `taker` takes left out of the batch: those are handled by then, so that the caller
   /// sees everything in file order a batch ends at the first frame or corrupt line the taker did not take (false
   /// at the end, when the taker may have taken everything).
-  bool next_batch(CandumpBatch& batch, CandumpLineTaker* taker);
+  bool next_batch(FrameBatch& batch, CandumpLineTaker* taker);
   /// Lines seen so far (comments and corrupt lines included).
   [[nodiscard]] std::uint64_t lines() const noexcept { return line_; }
   /// Bytes read so far (from the range's start).
@@ -239,8 +240,8 @@ class CandumpScanner {
   static constexpr std::size_t kMaxBatch = 4096;
 
  private:
-  void line(std::string_view text, CandumpBatch& batch, CandumpLineTaker* taker);
-  void too_long(CandumpBatch& batch);
+  void line(std::string_view text, FrameBatch& batch, CandumpLineTaker* taker);
+  void too_long(FrameBatch& batch);
   std::size_t fill(char* dst, std::size_t n);
   void allocate();
 
@@ -262,7 +263,7 @@ class CandumpScanner {
 
 /// Calls on_frame(frame, interface) and on_corrupt(error) for everything in `batch`, in file order.
 template <class OnFrame, class OnCorrupt>
-void for_each_in_order(const CandumpBatch& batch, OnFrame&& on_frame, OnCorrupt&& on_corrupt) {
+void for_each_in_order(const FrameBatch& batch, OnFrame&& on_frame, OnCorrupt&& on_corrupt) {
   std::size_t c = 0;
   const std::size_t n = batch.frames.size();
   for (std::size_t i = 0; i < n; ++i) {
@@ -298,10 +299,10 @@ class CandumpFile {
 /// kAheadBatches) names where prepare may leave its results for on_batch: slots are reused once on_batch returned.
 /// Rethrows what the scanner, prepare or on_batch threw (the reading thread is stopped first).
 inline constexpr std::size_t kAheadBatches = 4;
-using CandumpBatchSink = std::function<void(const CandumpBatch& batch, std::uint64_t bytes_read, std::size_t slot)>;
-using CandumpBatchPrepare = std::function<void(const CandumpBatch& batch, std::size_t slot)>;
-void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const CandumpBatchSink& on_batch,
-                  const CandumpBatchPrepare& prepare = {});
+using FrameBatchSink = std::function<void(const FrameBatch& batch, std::uint64_t bytes_read, std::size_t slot)>;
+using FrameBatchPrepare = std::function<void(const FrameBatch& batch, std::size_t slot)>;
+void scan_candump(int fd, std::uint64_t begin, std::uint64_t end, bool ahead, const FrameBatchSink& on_batch,
+                  const FrameBatchPrepare& prepare = {});
 
 /// Splits [0, size) of a regular file into ranges of about `block` bytes that start at line starts (a range may
 /// be longer, never empty): returns the range starts, first 0, plus `size` as the last element. Reads only near

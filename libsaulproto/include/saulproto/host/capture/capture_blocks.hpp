@@ -53,7 +53,7 @@ class CaptureBlocks {
 
   /// What a reading thread keeps from block to block (no allocation per block).
   struct Scratch {
-    CandumpBatch batch;
+    FrameBatch batch;
     std::vector<std::uint8_t> bytes;  // pcapng: the header blocks and the block, read in place
   };
   /// What reading a block found besides its frames.
@@ -68,7 +68,7 @@ class CaptureBlocks {
   /// std::system_error when reading fails.
   /// A candump block's lines go to `taker` first (CandumpScanner::next_batch): `each` then sees only the rest, in
   /// order with them; other formats ignore it.
-  Read read(std::size_t k, Scratch& scratch, const std::function<bool(const CandumpBatch&)>& each,
+  Read read(std::size_t k, Scratch& scratch, const std::function<bool(const FrameBatch&)>& each,
             CandumpLineTaker* taker = nullptr) const;
   /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt
   /// when none does. Reads the blocks in order up to that frame.

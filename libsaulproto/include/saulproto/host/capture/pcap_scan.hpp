@@ -1,5 +1,5 @@
 // Fast reading of pcap files (LINKTYPE_CAN_SOCKETCAN): large reads into one buffer, records decoded in place,
-// frames handed out in batches (CandumpBatch, interfaces all "can0"). The same frames and the same corrupt-record
+// frames handed out in batches (FrameBatch, interfaces all "can0"). The same frames and the same corrupt-record
 // reports (byte offsets, messages, recovery) as PcapReader (pcap.hpp), which stays the reader of streams.
 // Memory is one buffer (block size + the longest record accepted), whatever the file size.
 #pragma once
@@ -29,7 +29,7 @@ class PcapScanner {
   ~PcapScanner();
 
   /// Fills `batch` (cleared first) with up to CandumpScanner::kMaxBatch records; false (batch empty) at the end.
-  bool next_batch(CandumpBatch& batch);
+  bool next_batch(FrameBatch& batch);
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
 
   /// Record starts that cut the file into blocks of about `block` bytes, for decoding blocks on several threads:
@@ -42,7 +42,7 @@ class PcapScanner {
  private:
   void read_header();
   std::size_t ensure(std::size_t n);
-  void corrupt(CandumpBatch& batch, std::uint64_t at, Recovery recovery, std::string message);
+  void corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message);
 
   int fd_;
   std::uint64_t size_;

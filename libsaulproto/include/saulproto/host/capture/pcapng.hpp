@@ -45,7 +45,7 @@ class PcapngReader final : public CaptureReader {
   /// interface that reads cleanly) is decoded straight from the bytes, ~4x faster than next() one by one;
   /// anything else goes through next(), which may come only first in a batch, so the interface names the batch
   /// points into stay put until the next call. frame() and interface() are not kept up to date by it.
-  bool next_batch(CandumpBatch& batch, std::size_t max);
+  bool next_batch(FrameBatch& batch, std::size_t max);
   [[nodiscard]] const CanFrame& frame() const override { return frame_; }
   [[nodiscard]] std::string_view interface() const override { return name_; }
   [[nodiscard]] const CaptureError& error() const override { return error_; }
@@ -69,7 +69,7 @@ class PcapngReader final : public CaptureReader {
   Step packet_block(std::uint64_t start);
   Step simple_packet_block(std::uint64_t start);
   /// The packet at offset_ into `batch` when it is the usual clean one (next_batch); false, nothing read, else.
-  bool usual_packet(CandumpBatch& batch);
+  bool usual_packet(FrameBatch& batch);
   /// An Enhanced Packet Block's time in ns since 1970 from its ticks, in the interface's resolution and offset.
   static std::uint64_t packet_time(const Interface& iface, std::uint64_t ticks);
   Step socketcan_packet(std::uint64_t start, const Interface& iface, std::span<const std::uint8_t> packet);
