@@ -52,25 +52,35 @@ class ProgressReader final : public saul::host::CaptureReader {
   Progress& progress_;
 };
 
+/// The MCAP writer's options from the command line.
+saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
+  saul::host::McapWriterOptions mcap;
+  mcap.compression = *saul::host::mcap_compression_from_name(opt.compression);
+  mcap.zstd_level = opt.zstd_level;
+  // Chunks by size only: a file is no live recording, and chunks closed every second of log time (a slow bus:
+  // ~770 frames, 220 KB) made 4.5x as many chunk indexes for the summary to keep (~0.4 KB each): 130 MB on 10 GB.
+  mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
+  mcap.library = "saulctl " SAULCTL_VERSION;
+  return mcap;
+}
+
 int run_convert(const ConvertOptions& opt) {
   using namespace saul::host;
-  if (is_trace(opt.in)) return convert_trace(opt.in, opt.out);  // a loop trace (saulctl tune record): CSV
   std::optional<CaptureFormat> format;
   if (!opt.format.empty()) format = capture_format_from_name(opt.format);
+  if (is_trace(opt.in)) {  // a loop trace (saulctl tune record): MCAP, or else CSV
+    if ((format ? format : capture_format_from_extension(opt.out)) == CaptureFormat::mcap)
+      return convert_trace_mcap(opt.in, opt.out, mcap_options(opt),
+                                {{"saulctl", SAULCTL_VERSION}, {"source", opt.in}, {"source_format", "loop trace"}});
+    return convert_trace(opt.in, opt.out);
+  }
   std::unique_ptr<CaptureReader> reader;
   std::unique_ptr<CaptureWriter> writer;
   try {
     reader = open_capture_reader(opt.in, input_format(opt.input_format));
     const auto out_format = format ? format : capture_format_from_extension(opt.out);
     if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
-      McapWriterOptions mcap;
-      mcap.compression = *mcap_compression_from_name(opt.compression);
-      mcap.zstd_level = opt.zstd_level;
-      // Chunks by size only: a file is no live recording, and chunks closed every second of log time (a slow bus:
-      // ~770 frames, 220 KB) made 4.5x as many chunk indexes for the summary to keep (~0.4 KB each): 130 MB on 10 GB.
-      mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
-      mcap.library = "saulctl " SAULCTL_VERSION;
-      writer = open_mcap_signal_writer(opt.out, mcap,
+      writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
                                        {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
                                         {"source_format", std::string(to_string(reader->format()))}});
     } else {

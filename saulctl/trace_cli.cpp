@@ -2,7 +2,10 @@
 
 #include <fmt/core.h>
 
+#include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iostream>
 #include <stdexcept>
 
 #include "commands.hpp"
@@ -86,6 +89,44 @@ int convert_trace(const std::string& in, const std::string& out) {
     return kFailure;
   }
   fmt::print(stderr, "saulctl convert: {} records from {} into {} (CSV)\n", stats->records(), in, out);
+  return kOk;
+}
+
+int convert_trace_mcap(const std::string& in, const std::string& out, const saul::host::McapWriterOptions& options,
+                       const saul::host::McapMap& metadata) {
+  using namespace saul::host;
+  std::ofstream file;
+  if (out != "-") file.open(out, std::ios::binary | std::ios::trunc);
+  std::ostream& stream = out == "-" ? std::cout : file;
+  if (!stream) {
+    fmt::print(stderr, "saulctl convert: cannot create '{}'\n", out);
+    return kFailure;
+  }
+  std::optional<TraceStats> stats;
+  try {
+    McapWriter mcap(stream, options);
+    mcap.add_metadata("saulctl", metadata);
+    const auto schema = mcap.add_schema("saul.loop_trace", "jsonschema", trace_json_schema());
+    const auto channel = mcap.add_channel(schema, "/saul/loop_trace", "json");
+    stats = read("convert", in, [&](const saul::trace::LoopTrace& r, double t) {
+      // Log time in ns from the record's whole microseconds (t is their unwrapped count times 1e-6).
+      const auto ns = static_cast<std::uint64_t>(std::llround(t * 1e6)) * 1000;
+      mcap.add_message(channel, ns, json_line(trace_json(r, t)));
+    });
+    mcap.close();
+  } catch (const std::runtime_error& e) {  // the stream failed (a full disk)
+    stats.reset();
+    fmt::print(stderr, "saulctl convert: cannot write '{}': {}\n", out, e.what());
+  }
+  if (!stats) {
+    if (out != "-") {
+      file.close();
+      std::remove(out.c_str());
+    }
+    return kFailure;
+  }
+  fmt::print(stderr, "saulctl convert: {} records from {} into {} (MCAP, channel /saul/loop_trace)\n",
+             stats->records(), in, out);
   return kOk;
 }
 

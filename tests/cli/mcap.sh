@@ -43,6 +43,23 @@ check "--format mcap whatever the name" cmp -s <(frames_of "$out/f.x") <(frames_
 check "stats reads MCAP: the same counts as from the log" \
   cmp -s <("$saulctl" stats --json "$out/run.mcap" | jq -c '.ids') <("$saulctl" stats --json "$root/captures/robot_bus.log" | jq -c '.ids')
 
+# 1b. A loop trace (saulctl tune record) to MCAP: its records on /saul/loop_trace, as decode --json prints them.
+"$saulctl" tune record --sim --seed 1 --duration 2s -o "$out/t.trace" >/dev/null 2>&1
+"$saulctl" decode --json "$out/t.trace" >"$out/t.jsonl" 2>/dev/null
+for c in zstd lz4 none; do
+  "$saulctl" convert --compression "$c" "$out/t.trace" "$out/t.mcap" 2>/dev/null
+  check "convert run.trace (--compression $c): /saul/loop_trace = decode --json's $(wc -l <"$out/t.jsonl") records" \
+    test "$(node_check trace "$out/t.mcap" "$out/t.jsonl")" = "$(wc -l <"$out/t.jsonl")" -a -s "$out/t.jsonl"
+done
+# A corrupt record (the middle byte of the file flipped): reported as for CSV, the rest converted.
+python3 -c "import sys; d=bytearray(open(sys.argv[1],'rb').read()); d[len(d)//2]^=0xFF; open(sys.argv[2],'wb').write(d)" \
+  "$out/t.trace" "$out/bad.trace"
+"$saulctl" decode --json "$out/bad.trace" >"$out/t.jsonl" 2>/dev/null
+"$saulctl" convert "$out/bad.trace" "$out/t.mcap" 2>"$out/e"
+check "convert of a trace with a corrupt record: reported with its byte, the rest on /saul/loop_trace" \
+  bash -c 'grep -q "corrupt record at byte" "$0" && test "$(timeout 120 node --single-threaded "$1" trace "$2" "$3")" = "$(wc -l <"$3")"' \
+  "$out/e" "$npm_dir/mcap_check.mjs" "$out/t.mcap" "$out/t.jsonl"
+
 # 2. A file written by @mcap/core's McapWriter (frames in our schema, plus a channel saulctl must pass over).
 "$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/d.jsonl" 2>/dev/null
 node_check write "$out/theirs.mcap" "$out/d.jsonl"

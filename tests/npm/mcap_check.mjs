@@ -13,6 +13,10 @@
 //   node mcap_check.mjs write OUT.mcap DECODE.jsonl
 //       Writes the frames of DECODE.jsonl with @mcap/core's McapWriter on "/can/frames" in saulctl's schema (and
 //       a channel of another topic that saulctl must pass over), in chunks of 4 KiB, uncompressed.
+//   node mcap_check.mjs trace FILE.mcap DECODE.jsonl
+//       A loop trace's MCAP (indexed reader): "/saul/loop_trace" holds one message per line of `saulctl decode
+//       --json` of the trace (DECODE.jsonl), each valid against the channel's schema; the first and last equal
+//       decode's, log time = time_s in ns; a Metadata record "saulctl" names the source. Prints the count.
 import { McapIndexedReader, McapStreamReader, McapWriter } from "@mcap/core";
 import { loadDecompressHandlers } from "@mcap/support";
 import Ajv from "ajv";
@@ -63,6 +67,15 @@ async function streamAll(bytes, handlers) {
     error = String(e.message ?? e);
   }
   return { channels, schemas, messages, error, done: reader.done() };
+}
+
+// The indexed reader over a file in memory.
+async function indexedOf(bytes) {
+  const readable = {
+    size: async () => BigInt(bytes.length),
+    read: async (offset, length) => bytes.subarray(Number(offset), Number(offset + length)),
+  };
+  return McapIndexedReader.Initialize({ readable, decompressHandlers: await loadDecompressHandlers() });
 }
 
 async function verify() {
@@ -156,13 +169,8 @@ async function stream() {
 }
 
 async function chunks() {
-  const handlers = await loadDecompressHandlers();
   const bytes = readFileSync(file);
-  const readable = {
-    size: async () => BigInt(bytes.length),
-    read: async (offset, length) => bytes.subarray(Number(offset), Number(offset + length)),
-  };
-  const indexed = await McapIndexedReader.Initialize({ readable, decompressHandlers: handlers });
+  const indexed = await indexedOf(bytes);
   const frames = [...indexed.channelsById.values()].find((c) => c.topic === "/can/frames").id;
   for (const c of indexed.chunkIndexes) {
     // The chunk's Message Index record of the frames channel (opcode, length u64, channel u16, then the array's
@@ -202,7 +210,36 @@ async function write() {
   writeFileSync(file, Buffer.concat(chunks));
 }
 
+async function trace() {
+  const bytes = readFileSync(file);
+  const indexed = await indexedOf(bytes);
+  const channel = [...indexed.channelsById.values()].find((c) => c.topic === "/saul/loop_trace");
+  if (!channel || channel.messageEncoding !== "json") fail("no json channel /saul/loop_trace");
+  const schema = indexed.schemasById.get(channel.schemaId);
+  if (!schema || schema.encoding !== "jsonschema") fail("/saul/loop_trace: no jsonschema schema");
+  const validate = new Ajv({ strict: false }).compile(JSON.parse(text.decode(schema.data)));
+  const messages = [];
+  for await (const m of indexed.readMessages({ topics: ["/saul/loop_trace"] })) {
+    const value = JSON.parse(text.decode(m.data));
+    if (!validate(value)) fail(`${JSON.stringify(value)} fails its schema`);
+    messages.push({ value, logTime: m.logTime });
+  }
+  const decoded = lines(arg2);
+  if (messages.length !== decoded.length) fail(`${messages.length} messages, decode --json has ${decoded.length} lines`);
+  for (const i of [0, decoded.length - 1]) {
+    const { value, logTime } = messages[i];
+    if (!same(value, decoded[i])) fail(`message ${i}: ${JSON.stringify(value)} != decode's ${JSON.stringify(decoded[i])}`);
+    if (logTime !== BigInt(Math.round(decoded[i].time_s * 1e6)) * 1000n) fail(`message ${i}: log time ${logTime}`);
+  }
+  const metadata = [];
+  for await (const m of indexed.readMetadata({ name: "saulctl" })) metadata.push(m);
+  if (metadata.length !== 1 || metadata[0].metadata.get("source_format") !== "loop trace")
+    fail("no Metadata record saulctl with source_format 'loop trace'");
+  console.log(messages.length);
+}
+
 if (mode === "verify") await verify();
+else if (mode === "trace") await trace();
 else if (mode === "stream") await stream();
 else if (mode === "write") await write();
 else if (mode === "chunks") await chunks();

@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <cmath>
+#include <string_view>
 
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/capture/trace_file.hpp"
@@ -23,26 +24,43 @@ struct Column {
   const char* name;
   int decimals;
   double (*value)(const trace::LoopTrace&);
+  const char* meaning;  ///< what it is, with its unit (the MCAP schema's description)
 };
 
 // time_s is not in the table: it comes from the unwrapped clock.
 constexpr Column kColumns[] = {
-    {"seq", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.seq); }},
-    {"pitch_deg", 2, [](const trace::LoopTrace& r) { return r.pitch_x100 / 100.0; }},
-    {"rate_dps", 1, [](const trace::LoopTrace& r) { return r.rate_x10 / 10.0; }},
-    {"setpoint_deg", 2, [](const trace::LoopTrace& r) { return r.setpoint_x100 / 100.0; }},
-    {"p_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.p_term); }},
-    {"i_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.i_term); }},
-    {"d_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.d_term); }},
-    {"output", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.output); }},
-    {"erpm_left", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.erpm_left); }},
-    {"erpm_right", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.erpm_right); }},
-    {"wheel_mmps", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.wheel_mmps); }},
-    {"request_mmps", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.request_mmps); }},
-    {"state", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.state); }},
-    {"faults", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.faults); }},
-    {"excite", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.excite); }},
-    {"excite_deg", 2, [](const trace::LoopTrace& r) { return r.excite_x100 / 100.0; }},
+    {"seq", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.seq); },
+     "record sequence number (counts loop iterations)"},
+    {"pitch_deg", 2, [](const trace::LoopTrace& r) { return r.pitch_x100 / 100.0; },
+     "pitch, in degrees"},
+    {"rate_dps", 1, [](const trace::LoopTrace& r) { return r.rate_x10 / 10.0; },
+     "pitch rate, in degrees per second"},
+    {"setpoint_deg", 2, [](const trace::LoopTrace& r) { return r.setpoint_x100 / 100.0; },
+     "pitch setpoint, in degrees"},
+    {"p_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.p_term); },
+     "PID proportional term, in permille of the output range"},
+    {"i_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.i_term); },
+     "PID integral term, in permille of the output range"},
+    {"d_term", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.d_term); },
+     "PID derivative term, in permille of the output range"},
+    {"output", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.output); },
+     "PID output after saturation, in permille of the output range"},
+    {"erpm_left", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.erpm_left); },
+     "left motor speed commanded, in electrical RPM"},
+    {"erpm_right", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.erpm_right); },
+     "right motor speed commanded, in electrical RPM"},
+    {"wheel_mmps", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.wheel_mmps); },
+     "wheel speed, in mm/s"},
+    {"request_mmps", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.request_mmps); },
+     "requested speed, in mm/s"},
+    {"state", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.state); },
+     "robot state (its name)"},
+    {"faults", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.faults); },
+     "the 0x401 fault bits (a bit mask, no unit)"},
+    {"excite", 0, [](const trace::LoopTrace& r) { return static_cast<double>(r.excite); },
+     "excitation kind (its name)"},
+    {"excite_deg", 2, [](const trace::LoopTrace& r) { return r.excite_x100 / 100.0; },
+     "excitation added to the setpoint, in degrees"},
 };
 
 std::string state_name(std::uint8_t state) {
@@ -84,6 +102,24 @@ nlohmann::json trace_json(const trace::LoopTrace& r, double time_s) {
   j["state"] = state_name(r.state);
   j["excite"] = excite_name(r.excite);
   return j;
+}
+
+std::string trace_json_schema() {
+  nlohmann::json props = {
+      {"time_s", {{"type", "number"}, {"description", "time since the trace's start, in seconds"}}}};
+  nlohmann::json required = nlohmann::json::array({"time_s"});
+  for (const Column& c : kColumns) {
+    const bool named = std::string_view(c.name) == "state" || std::string_view(c.name) == "excite";  // as trace_json()
+    props[c.name] = {{"type", named ? "string" : c.decimals == 0 ? "integer" : "number"}, {"description", c.meaning}};
+    required.push_back(c.name);
+  }
+  const nlohmann::json schema = {{"title", "loop_trace"},
+                                 {"description", "one balance-loop iteration, as saulctl decode --json shows it"},
+                                 {"type", "object"},
+                                 {"properties", props},
+                                 {"required", required},
+                                 {"additionalProperties", false}};
+  return schema.dump();
 }
 
 std::string trace_text(const trace::LoopTrace& r, double time_s) {

@@ -33,6 +33,9 @@ std::string trace_csv_header();
 std::string trace_csv_row(const trace::LoopTrace& r, double time_s);
 /// One record in physical units, the CSV's keys (state and excite by name).
 nlohmann::json trace_json(const trace::LoopTrace& r, double time_s);
+/// The JSON Schema of trace_json()'s objects (each field's meaning and unit in its description): the schema of the
+/// MCAP channel "/saul/loop_trace" that `saulctl convert run.trace run.mcap` writes.
+std::string trace_json_schema();
 /// One greppable line: "  1.000000  seq 1000  pitch -1.23 deg  rate 45.6 deg/s ..." (no newline).
 std::string trace_text(const trace::LoopTrace& r, double time_s);
 
