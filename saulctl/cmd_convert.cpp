@@ -142,6 +142,8 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "  saulctl convert run.log run.csv --format gvret-csv     for SavvyCAN\n"
       "  saulctl convert captures/robot_bus.log run.mcap        for Foxglove, Lichtblick, PlotJuggler: a\n"
       "                                                         channel per message kind, physical values\n"
+      "  saulctl convert run.trace run.mcap                     a loop trace (tune record) on /saul/loop_trace\n"
+      "                                                         (or run.csv: a column per field)\n"
       "  saulctl convert vector.asc run.log && canplayer -I run.log\n"
       "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
       "                                                         '-': standard input, standard output\n");
