@@ -41,3 +41,25 @@ TEST_CASE("trace CSV: the agreed columns, physical units, one row per record") {
   CHECK(j["excite"] == "chirp");
   CHECK(j["pitch_deg"].get<double>() == Approx(-1.23));
 }
+
+TEST_CASE("trace JSON Schema (MCAP /saul/loop_trace): exactly trace_json()'s keys, each typed and described") {
+  const auto schema = nlohmann::json::parse(host::trace_json_schema());
+  const LoopTrace r{1'000'000, 1000, -123, 456, -50, 200, -15, -30, 155, 400, 410, 180, 0, 1, 0x02, 2, 100};
+  const auto j = host::trace_json(r, 1.0);
+  CHECK(schema["properties"].size() == j.size());
+  CHECK(schema["required"].size() == j.size());
+  CHECK(schema["additionalProperties"] == false);
+  for (const auto& [key, value] : j.items()) {
+    INFO(key);
+    REQUIRE(schema["properties"].contains(key));
+    const auto& p = schema["properties"][key];
+    const std::string type = value.is_string() ? "string" : value.is_number_integer() ? "integer" : "number";
+    CHECK(p["type"] == type);
+    CHECK(!p["description"].get<std::string>().empty());
+  }
+  // The units, written out by hand.
+  CHECK(schema["properties"]["pitch_deg"]["description"] == "pitch, in degrees");
+  CHECK(schema["properties"]["rate_dps"]["description"] == "pitch rate, in degrees per second");
+  CHECK(schema["properties"]["wheel_mmps"]["description"] == "wheel speed, in mm/s");
+  CHECK(schema["properties"]["time_s"]["description"] == "time since the trace's start, in seconds");
+}
