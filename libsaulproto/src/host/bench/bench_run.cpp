@@ -71,6 +71,17 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
     }
   };
 
+  // expect / expect none: the first frame matching the step within its time from t0, the streams running meanwhile.
+  const auto first_match = [&](const Step& step, std::uint64_t t0) {
+    std::optional<CanFrame> seen;
+    pump(t0 + step.duration_us, [&](const CanFrame& f) {
+      if (!matches(f, step.message, step.conditions)) return true;
+      seen = f;
+      return false;
+    });
+    return seen;
+  };
+
   // The last `trace` step's analysis, for `expect tune` (none yet, or the trace step was skipped on this target).
   std::optional<tune::Report> traced;
   bool trace_skipped = false;
@@ -120,13 +131,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           pump(t0 + step.duration_us, [](const CanFrame&) { return true; });
           break;
         case Step::Kind::expect: {
-          std::optional<CanFrame> seen;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, step.conditions)) return true;
-            seen = f;
-            return false;
-          });
-          if (seen) {
+          if (first_match(step, t0)) {
             r.message = fmt::format("seen after {}", us_text(target.now_us() - t0));
           } else {
             r.status = StepResult::Status::failed;
@@ -136,13 +141,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           break;
         }
         case Step::Kind::expect_none: {
-          std::optional<CanFrame> seen;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, step.conditions)) return true;
-            seen = f;
-            return false;
-          });
-          if (seen) {
+          if (first_match(step, t0)) {
             r.status = StepResult::Status::failed;
             r.message = fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0));
           }
