@@ -104,8 +104,9 @@ void add_tune_report_commands(CLI::App& tune_cmd, Runner& run) {
   auto opt = std::make_shared<TuneReportOptions>();
   auto* report = tune_cmd.add_subcommand("report", "What a trace says about the balance loop's tuning");
   report->footer(
-      "\nFILE is a CSV with a header naming its columns (time_s, setpoint_deg, pitch_deg needed; rate_dps, p_term,\n"
-      "i_term, d_term, output, excite, state used when there; saulctl convert run.trace out.csv writes one) or a\n"
+      "\nFILE is a loop trace (saulctl tune record: 1 kHz, with the gains it ran with), a CSV with a header naming\n"
+      "its columns (time_s, setpoint_deg, pitch_deg needed; rate_dps, p_term, i_term, d_term, output, excite, state\n"
+      "used when there; saulctl convert run.trace out.csv writes one) or a\n"
       "CAN capture, whose 10 Hz telemetry (0x400) gives pitch RMS, offset, drift, saturation and falls only: a step\n"
       "response or a spectrum from 10 Hz samples would be wrong, so it is refused with the reason.\n"
       "The step response (setpoint -> pitch) is estimated by regularised deconvolution over 4 s windows where the\n"
@@ -121,18 +122,18 @@ void add_tune_report_commands(CLI::App& tune_cmd, Runner& run) {
   report->add_option("-o,--output", opt->output,
                      "also write the charts as one HTML page (report.html: step response, spectra, the trace with "
                      "the excitation marked)");
-  wire(report, opt, run, run_report, {"FILE", "a CSV of named columns, or a CAN capture", 1, 1,
+  wire(report, opt, run, run_report, {"FILE", "a loop trace, a CSV of named columns, or a CAN capture", 1, 1,
                                       "one JSON object instead of the text (docs/tuning.md lists its keys)"});
 
   auto copt = std::make_shared<TuneReportOptions>();
   auto* compare = tune_cmd.add_subcommand("compare", "The figures of several traces side by side, with their gains");
   compare->footer(
-      "\nEach FILE is analysed as tune report does; the table has one column a file: gains (from a CSV comment\n"
+      "\nEach FILE is analysed as tune report does; the table has one column a file: gains (a trace's own, or a CSV comment\n"
       "'# kp=30 ki=2 kd=1.5'), sample rate, gaps, pitch RMS, saturation, step response figures, oscillation.\n"
       "\nExamples:\n"
       "  saulctl tune compare soft.csv shipped.csv stiff.csv\n"
       "  saulctl tune compare --json a.csv b.csv | jq '.[].step.overshoot_pct'\n");
-  wire(compare, copt, run, run_compare, {"FILES", "two or more CSVs or captures", 2, 64,
+  wire(compare, copt, run, run_compare, {"FILES", "two or more traces, CSVs or captures", 2, 64,
                                          "a JSON array of tune report's objects instead of the table"});
 }
 
