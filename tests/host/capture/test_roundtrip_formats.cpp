@@ -201,3 +201,26 @@ TEST_CASE("copy_frames leaves out what the output format cannot hold and says so
   REQUIRE(!notes.empty());
   CHECK(notes.back() == "gvret-csv holds no remote or error frames: 2 of them left out (1 remote, 1 error)");
 }
+
+// The tail every writer shares (StreamCaptureWriter): close() ends the file once, a write after it is refused, and
+// a stream that failed is reported with the format's name rather than a file silently cut short.
+TEST_CASE("every capture format's writer: close once, no write after close, a failed stream named") {
+  const CanFrame one = frame(0x400, false, {1, 2, 3}, 1'000'000'000ULL);
+  for (const FormatCase& fc : kFormats) {
+    INFO(to_string(fc.format));
+    std::ostringstream out;
+    auto w = make_capture_writer(out, fc.format);
+    w->write(one, "can0");
+    w->close();
+    const std::string closed = out.str();
+    w->close();  // idempotent: no second trailer (ASC's "End TriggerBlock", BLF's header rewrite)
+    CHECK(out.str() == closed);
+    CHECK_THROWS_WITH(w->write(one, "can0"), Catch::Matchers::Contains("after close") || Catch::Matchers::Contains("writer is closed"));
+
+    std::ostringstream broken;
+    auto b = make_capture_writer(broken, fc.format);
+    broken.setstate(std::ios::badbit);
+    if (fc.format == CaptureFormat::mcap) continue;  // McapWriter keeps its own chunk buffer (test_mcap.cpp)
+    CHECK_THROWS_WITH((b->write(one, "can0"), b->flush()), Catch::Matchers::Contains("write failed"));
+  }
+}

@@ -383,7 +383,7 @@ void AscWriter::header(std::uint64_t first_ns) {
 }
 
 void AscWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("ASC writer: write after close");
+  check_open();
   check_writable(frame);
   const std::size_t index = detail::channel_index(channels_, interface, 255, "ASC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
@@ -404,17 +404,12 @@ void AscWriter::write(const CanFrame& frame, std::string_view interface) {
   }
   line += '\n';
   out_ << line;
-  if (!out_) throw std::runtime_error("ASC: write failed");
+  check_written();
 }
 
-void AscWriter::flush() { detail::flush_checked(out_, "ASC"); }
-
-void AscWriter::close() {
-  if (closed_) return;
-  closed_ = true;
+void AscWriter::finish() {
   if (!header_written_) header(0);
   out_ << "End TriggerBlock\n";
-  flush();
 }
 
 }  // namespace saul::host

@@ -458,7 +458,7 @@ BlfReader::Status BlfReader::next() {
 
 // ---- writer ----
 
-BlfWriter::BlfWriter(std::ostream& out) : out_(out) {}
+BlfWriter::BlfWriter(std::ostream& out) : StreamCaptureWriter(out, "BLF") {}
 
 void BlfWriter::write_header(std::uint64_t file_size) {
   std::array<std::uint8_t, kFileHeaderSize> h{};
@@ -478,7 +478,7 @@ void BlfWriter::write_header(std::uint64_t file_size) {
     store_systemtime(h.data() + 56, std::max(stop_ns_, *start_ns_));
   }
   detail::write_bytes(out_, h.data(), h.size());
-  if (!out_) throw std::runtime_error("BLF: write failed");
+  check_written();
 }
 
 void BlfWriter::write_container() {
@@ -506,14 +506,14 @@ void BlfWriter::write_container() {
   detail::write_bytes(out_, packed.data(), packed_size);
   const std::array<std::uint8_t, 3> padding{};
   detail::write_bytes(out_, padding.data(), size % 4);
-  if (!out_) throw std::runtime_error("BLF: write failed");
+  check_written();
   file_bytes_ += size + size % 4;
   uncompressed_bytes_ += kBaseHeader + kContainerHeader + chunk;
   buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(chunk));
 }
 
 void BlfWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("BLF writer: write after close");
+  check_open();
   check_writable(frame);
   const std::size_t index = detail::channel_index(channels_, interface, 0xFFFF, "BLF");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
@@ -546,18 +546,15 @@ void BlfWriter::write(const CanFrame& frame, std::string_view interface) {
 }
 
 void BlfWriter::flush() {
-  if (!closed_ && !buffer_.empty()) write_container();
-  out_.flush();
-  if (!out_) throw std::runtime_error("BLF: write failed");
+  if (!closed() && !buffer_.empty()) write_container();
+  StreamCaptureWriter::flush();
 }
 
-void BlfWriter::close() {
-  if (closed_) return;
-  closed_ = true;
+void BlfWriter::finish() {
   while (!buffer_.empty()) write_container();
   if (!header_written_) write_container();  // an empty file still gets its header
   out_.flush();
-  if (!out_) throw std::runtime_error("BLF: write failed");
+  check_written();
   const auto end = out_.tellp();
   if (end != std::ostream::pos_type(-1)) {  // a file: put the final sizes, count and stop time in the header
     out_.seekp(0);
@@ -568,8 +565,6 @@ void BlfWriter::close() {
       out_.clear();  // the stream cannot seek after all: the first header stays
     }
   }
-  out_.flush();
-  if (!out_) throw std::runtime_error("BLF: write failed");
 }
 
 }  // namespace saul::host

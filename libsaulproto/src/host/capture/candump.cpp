@@ -170,21 +170,10 @@ CandumpReader::Status CandumpReader::next() {
 }
 
 void CandumpWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("candump writer: write after close");
+  check_open();
   check_writable(frame);
   out_ << format_candump_line(frame, interface) << '\n';
-  if (!out_) throw std::runtime_error("candump: write failed");
-}
-
-void CandumpWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("candump: write failed");
-}
-
-void CandumpWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  flush();
+  check_written();
 }
 
 }  // namespace saul::host

@@ -168,27 +168,19 @@ CsvLogReader::Status CsvLogReader::next() {
 
 // ---- writer ----
 
-CsvLogWriter::CsvLogWriter(std::ostream& out) : out_(out) {
+CsvLogWriter::CsvLogWriter(std::ostream& out) : StreamCaptureWriter(out, "CSV") {
   out_ << "timestamp,arbitration_id,extended,remote,error,dlc,data\n";
-  if (!out_) throw std::runtime_error("CSV: write failed");
+  check_written();
 }
 
 void CsvLogWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
-  if (closed_) throw std::runtime_error("CSV writer: write after close");
+  check_open();
   check_writable(frame);
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   out_ << fmt::format("{}.{:06},0x{:x},{},{},{},{},{}\n", ns / 1'000'000'000ULL, ns % 1'000'000'000ULL / 1000,
                       frame.id, frame.extended ? 1 : 0, frame.remote ? 1 : 0, frame.error ? 1 : 0, frame.dlc,
                       base64_encode(frame.payload()));
-  if (!out_) throw std::runtime_error("CSV: write failed");
-}
-
-void CsvLogWriter::flush() { detail::flush_checked(out_, "CSV"); }
-
-void CsvLogWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  flush();
+  check_written();
 }
 
 }  // namespace saul::host

@@ -97,13 +97,13 @@ GvretCsvReader::Status GvretCsvReader::next() {
 
 // ---- writer ----
 
-GvretCsvWriter::GvretCsvWriter(std::ostream& out) : out_(out) {
+GvretCsvWriter::GvretCsvWriter(std::ostream& out) : StreamCaptureWriter(out, "GVRET CSV") {
   out_ << "Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n";
-  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
+  check_written();
 }
 
 void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("GVRET CSV writer: write after close");
+  check_open();
   check_writable(frame);
   if (frame.remote || frame.error) return;  // the format has neither
   const std::size_t bus = detail::channel_index(buses_, interface, 256, "GVRET CSV");
@@ -111,15 +111,7 @@ void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
                                  frame.extended ? "true" : "false", bus, frame.dlc);
   for (std::size_t i = 0; i < 8; ++i) line += fmt::format("{:02X},", i < frame.dlc ? frame.data[i] : 0);
   out_ << line << '\n';
-  if (!out_) throw std::runtime_error("GVRET CSV: write failed");
-}
-
-void GvretCsvWriter::flush() { detail::flush_checked(out_, "GVRET CSV"); }
-
-void GvretCsvWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  flush();
+  check_written();
 }
 
 }  // namespace saul::host

@@ -151,7 +151,7 @@ PcapReader::Status PcapReader::next() {
 
 // ---- writer ----
 
-PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : out_(out), options_(options) {
+PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : StreamCaptureWriter(out, "pcap"), options_(options) {
   std::array<std::uint8_t, 24> h{};
   detail::store_u32le(h.data(), options_.nanosecond ? kMagicNano : kMagicMicro);
   detail::store_u16le(h.data() + 4, 2);
@@ -160,11 +160,11 @@ PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : out_(out)
   detail::store_u32le(h.data() + 16, detail::kSnaplen);
   detail::store_u32le(h.data() + 20, kLinktypeCanSocketcan);
   detail::write_bytes(out_, h.data(), h.size());
-  if (!out_) throw std::runtime_error("pcap: write failed");
+  check_written();
 }
 
 void PcapWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
-  if (closed_) throw std::runtime_error("pcap writer: write after close");
+  check_open();
   check_writable(frame);
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   const std::uint64_t sec = ns / 1'000'000'000ULL;
@@ -178,18 +178,7 @@ void PcapWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
   const auto packet = encode_socketcan_packet(frame);
   for (std::size_t i = 0; i < packet.size(); ++i) r[16 + i] = packet[i];
   detail::write_bytes(out_, r.data(), r.size());
-  if (!out_) throw std::runtime_error("pcap: write failed");
-}
-
-void PcapWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("pcap: write failed");
-}
-
-void PcapWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  flush();
+  check_written();
 }
 
 }  // namespace saul::host

@@ -492,7 +492,7 @@ PcapngReader::Step PcapngReader::simple_packet_block(std::uint64_t start) {
 
 // ---- writer ----
 
-PcapngWriter::PcapngWriter(std::ostream& out) : out_(out) {
+PcapngWriter::PcapngWriter(std::ostream& out) : StreamCaptureWriter(out, "pcapng") {
   BlockBuilder b(kShb);
   b.u32(kByteOrderMagic);
   b.u16(1);  // version 1.0
@@ -502,11 +502,11 @@ PcapngWriter::PcapngWriter(std::ostream& out) : out_(out) {
   b.option(kShbUserAppl, as_bytes("libsaulproto"));
   b.option(kOptEnd, {});
   b.finish_and_write(out_);
-  if (!out_) throw std::runtime_error("pcapng: write failed");
+  check_written();
 }
 
 void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("pcapng writer: write after close");
+  check_open();
   check_writable(frame);
   if (interface.empty()) interface = "can0";
   if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
@@ -537,18 +537,7 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
   b.u32(static_cast<std::uint32_t>(packet.size()));
   b.raw(packet);
   b.finish_and_write(out_);
-  if (!out_) throw std::runtime_error("pcapng: write failed");
-}
-
-void PcapngWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("pcapng: write failed");
-}
-
-void PcapngWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  flush();
+  check_written();
 }
 
 }  // namespace saul::host

@@ -245,7 +245,7 @@ void TrcWriter::header(std::uint64_t first_ns) {
 }
 
 void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("TRC writer: write after close");
+  check_open();
   check_writable(frame);
   const std::size_t index = detail::channel_index(buses_, interface, 255, "TRC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
@@ -263,16 +263,11 @@ void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
     while (!line.empty() && line.back() == ' ') line.pop_back();
   }
   out_ << line << "\r\n";
-  if (!out_) throw std::runtime_error("TRC: write failed");
+  check_written();
 }
 
-void TrcWriter::flush() { detail::flush_checked(out_, "TRC"); }
-
-void TrcWriter::close() {
-  if (closed_) return;
-  closed_ = true;
+void TrcWriter::finish() {
   if (!header_written_) header(0);
-  flush();
 }
 
 }  // namespace saul::host

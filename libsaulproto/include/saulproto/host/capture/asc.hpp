@@ -90,24 +90,21 @@ class AscReader final : public CaptureReader {
   CaptureError error_;
 };
 
-class AscWriter final : public CaptureWriter {
+class AscWriter final : public StreamCaptureWriter {
  public:
   /// Nothing is written before the first frame (the header carries its date) or close().
-  explicit AscWriter(std::ostream& out) : out_(out) {}
+  explicit AscWriter(std::ostream& out) : StreamCaptureWriter(out, "ASC") {}
 
   /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
  private:
+  void finish() override;
   void header(std::uint64_t first_ns);
 
-  std::ostream& out_;
   std::uint64_t start_ns_ = 0;
   bool header_written_ = false;
-  bool closed_ = false;
   InterfaceIndex channels_;  ///< index + 1 = ASC channel
 };
 

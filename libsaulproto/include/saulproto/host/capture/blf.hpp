@@ -108,19 +108,19 @@ class BlfReader final : public CaptureReader {
   std::uint64_t containers_ = 0;
 };
 
-class BlfWriter final : public CaptureWriter {
+class BlfWriter final : public StreamCaptureWriter {
  public:
   static constexpr std::size_t kContainerBytes = 128 * 1024;
   explicit BlfWriter(std::ostream& out);
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
+  void flush() override;
+
  private:
+  void finish() override;
   void write_header(std::uint64_t file_size);
   void write_container();
-  std::ostream& out_;
   InterfaceIndex channels_;
   std::vector<std::uint8_t> buffer_;  // uncompressed objects not yet in a container
   std::optional<std::uint64_t> start_ns_;
@@ -129,7 +129,6 @@ class BlfWriter final : public CaptureWriter {
   std::uint64_t uncompressed_bytes_ = 0;
   std::uint32_t objects_ = 0;
   bool header_written_ = false;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

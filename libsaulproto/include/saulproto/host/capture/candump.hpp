@@ -69,18 +69,14 @@ class CandumpReader final : public CaptureReader {
 
 /// Writes `candump -l` lines ("(sec.usec) iface ID#DATA", LF), which canplayer replays and candump's tools read.
 /// Microsecond resolution. White space in an interface name is written as '_'.
-class CandumpWriter final : public CaptureWriter {
+class CandumpWriter final : public StreamCaptureWriter {
  public:
-  explicit CandumpWriter(std::ostream& out) : out_(out) {}
+  explicit CandumpWriter(std::ostream& out) : StreamCaptureWriter(out, "candump") {}
 
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
 
  private:
-  std::ostream& out_;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

@@ -177,6 +177,43 @@ class CaptureWriter {
   [[nodiscard]] virtual CaptureFormat format() const = 0;
 };
 
+/// The tail every writer onto a caller's std::ostream shares, so each format says only how it writes a frame and
+/// how it ends: flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
+/// format ("ASC: write failed", "ASC writer: write after close").
+class StreamCaptureWriter : public CaptureWriter {
+ public:
+  void flush() override {
+    out_.flush();
+    check_written();
+  }
+  void close() final {
+    if (closed_) return;
+    closed_ = true;
+    finish();
+    flush();
+  }
+
+ protected:
+  StreamCaptureWriter(std::ostream& out, const char* name) : out_(out), name_(name) {}
+  /// What the format writes at its end (a trailer, a header put right), before close()'s flush. Runs once.
+  virtual void finish() {}
+  /// Every write() starts with it: a closed writer refuses.
+  void check_open() const {
+    if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
+  }
+  /// After writing to out_: a failed stream throws.
+  void check_written() const {
+    if (!out_) throw std::runtime_error(std::string(name_) + ": write failed");
+  }
+  [[nodiscard]] bool closed() const { return closed_; }
+
+  std::ostream& out_;
+
+ private:
+  const char* name_;
+  bool closed_ = false;
+};
+
 /// The name a capture path is opened by: "-" is standard input ("/dev/stdin"; a file called "-" is "./-"), any
 /// other path itself. Every function here that opens a path for reading goes through it, so every verb reads
 /// `-` as decode does.

@@ -54,17 +54,13 @@ class CsvLogReader final : public CaptureReader {
   std::uint64_t line_number_ = 0;
 };
 
-class CsvLogWriter final : public CaptureWriter {
+class CsvLogWriter final : public StreamCaptureWriter {
  public:
   explicit CsvLogWriter(std::ostream& out);
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:
-  std::ostream& out_;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

@@ -47,19 +47,15 @@ class GvretCsvReader final : public CaptureReader {
   std::uint64_t line_number_ = 0;
 };
 
-class GvretCsvWriter final : public CaptureWriter {
+class GvretCsvWriter final : public StreamCaptureWriter {
  public:
   explicit GvretCsvWriter(std::ostream& out);
   /// Remote and error frames are left out (the format has none).
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:
-  std::ostream& out_;
   InterfaceIndex buses_;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

@@ -65,21 +65,17 @@ struct PcapWriterOptions {
   bool nanosecond = false;  ///< write the A1B23C4D magic and nanosecond fractions (tcpdump/Wireshark read both)
 };
 
-class PcapWriter final : public CaptureWriter {
+class PcapWriter final : public StreamCaptureWriter {
  public:
   /// Writes the file header at once.
   explicit PcapWriter(std::ostream& out, PcapWriterOptions options = {});
 
   /// `interface` is not stored: pcap has no interface names.
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
 
  private:
-  std::ostream& out_;
   PcapWriterOptions options_;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

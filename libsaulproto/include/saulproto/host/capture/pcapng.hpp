@@ -106,20 +106,16 @@ struct PcapngBlocks {
 };
 PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block);
 
-class PcapngWriter final : public CaptureWriter {
+class PcapngWriter final : public StreamCaptureWriter {
  public:
   /// Writes the Section Header Block at once.
   explicit PcapngWriter(std::ostream& out);
 
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
  private:
-  std::ostream& out_;
   InterfaceIndex interfaces_;  ///< index = pcapng interface id
-  bool closed_ = false;
 };
 
 }  // namespace saul::host

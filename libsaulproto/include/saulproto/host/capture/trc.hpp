@@ -80,22 +80,19 @@ class TrcReader final : public CaptureReader {
   std::uint64_t line_number_ = 0;
 };
 
-class TrcWriter final : public CaptureWriter {
+class TrcWriter final : public StreamCaptureWriter {
  public:
-  explicit TrcWriter(std::ostream& out) : out_(out) {}
+  explicit TrcWriter(std::ostream& out) : StreamCaptureWriter(out, "TRC") {}
   void write(const CanFrame& frame, std::string_view interface) override;
-  void flush() override;
-  void close() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
 
  private:
+  void finish() override;
   void header(std::uint64_t first_ns);
-  std::ostream& out_;
   InterfaceIndex buses_;
   std::uint64_t start_ns_ = 0;
   std::uint64_t number_ = 0;
   bool header_written_ = false;
-  bool closed_ = false;
 };
 
 }  // namespace saul::host
