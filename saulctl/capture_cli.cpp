@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "saulproto/core/quantity.hpp"
 #include "saulproto/host/capture/recorder.hpp"
 
 namespace saulctl {
@@ -54,7 +55,7 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
 }
 
 std::uint64_t parse_rate_hz(const std::string& text) {
-  const auto hz = saul::host::parse_quantity(text, {"Hz", "hz"}, 1e3);
+  const auto hz = saul::quantity::parse(text, {"Hz", "hz"}, 1e3);
   if (!hz || *hz > 1'000'000'000'000ULL)
     throw CLI::ValidationError("--samplerate", "bad sample rate '" + text + "' (use e.g. 10M, 1MHz, 1000000)");
   return *hz;

@@ -3,6 +3,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "saulproto/core/quantity.hpp"
 #include "saulproto/host/bench/bench_test.hpp"
 #include "saulproto/host/replay/replay.hpp"
 
@@ -89,7 +90,7 @@ std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& id
 }
 
 std::chrono::milliseconds parse_duration(const std::string& text) {
-  const auto us = saul::host::benchtest::parse_duration_us(text);  // the bench suites' reading of "500ms", "2s", "1m"
+  const auto us = saul::quantity::parse_duration_us(text);  // as bench suites read "500ms", "2s", "1m"
   if (!us) throw CLI::ValidationError("duration", "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)");
   return std::chrono::milliseconds(static_cast<long long>(*us / 1000));
 }

@@ -101,9 +101,21 @@ sim=$!
 for _ in $(seq 200); do [[ -s $work/paths2 ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' "$work/paths2")
 control=$(sed -n 's/^control=//p' "$work/paths2")
-sleep 1.5
+# Waits on the simulator's own clock and state (its BALANCE console's status line), not on the wall clock: a
+# loaded machine runs the simulator slower than real time.
+status_field() { timeout 10 "$saulctl" console "$balance" status 2>/dev/null | sed -n "s/^report=status .*\<$1=\([^ ]*\).*/\1/p"; }
+wait_for() {  # wait_for FIELD VALUE|">=N": up to 120 s
+  for _ in $(seq 1200); do
+    v=$(status_field "$1")
+    if [[ $2 == ">="* ]]; then [[ -n $v && $v -ge ${2#>=} ]] && return 0; else [[ $v == "$2" ]] && return 0; fi
+    sleep 0.1
+  done
+  echo "timed out waiting for $1 $2 (last: $v)"; return 1
+}
 exec 3<>"$control"
-printf 'button down\n' >&3; sleep 3.4; printf 'button up\n' >&3; sleep 6; printf 'tilt 40\n' >&3; sleep 1
+printf 'button down\n' >&3; wait_for state BALANCE; printf 'button up\n' >&3
+armed_ms=$(status_field uptime_ms)
+wait_for uptime_ms ">=$((armed_ms + 6000))"; printf 'tilt 40\n' >&3; wait_for state TILT_CUTOFF
 "$saulctl" tune record --console-balance "$balance" --dump -o "$work/livedump.trace" >"$work/livedump" 2>&1
 check "live --dump exits 0" test $? -eq 0
 exec 3>&-

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "fuzz_util.hpp"
+#include "saulproto/core/quantity.hpp"
 #include "saulproto/host/bench/bench_test.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -13,6 +14,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     (void)parse_suite(in, "fuzz.saul");
   } catch (const ParseError&) {
   }
-  (void)parse_duration_us(text.substr(0, 32));
+  (void)saul::quantity::parse_duration_us(text.substr(0, 32));
   return 0;
 }

@@ -12,6 +12,7 @@
 #include <type_traits>
 
 #include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/quantity.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/bench/bench_tune.hpp"
 #include "saulproto/host/capture/candump.hpp"
@@ -156,7 +157,7 @@ Step::Clause parse_clause(const std::vector<std::string>& w, std::size_t& i, std
 }
 
 std::uint64_t need_duration(const std::string& w, const std::string& path, int line) {
-  const auto d = parse_duration_us(w);
+  const auto d = quantity::parse_duration_us(w);
   if (!d) throw ParseError(path, line, "bad duration '" + w + "' (use 500ms, 2s, 1.5s, 1m)");
   return *d;
 }
@@ -261,25 +262,6 @@ Condition parse_tune_condition(const std::string& word, const std::string& path,
     throw ParseError(path, line, "'" + word + "': the value must be a number (oscillation also takes none)");
   }
   return c;
-}
-
-std::optional<std::uint64_t> parse_duration_us(const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (...) {
-    return std::nullopt;
-  }
-  const std::string unit = text.substr(used);
-  double us = 0;
-  if (unit == "ms") us = v * 1e3;
-  else if (unit == "s" || unit.empty()) us = v * 1e6;
-  else if (unit == "us") us = v;
-  else if (unit == "m" || unit == "min") us = v * 60e6;
-  else return std::nullopt;
-  if (us < 0) return std::nullopt;
-  return static_cast<std::uint64_t>(std::llround(us));
 }
 
 bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions) {

@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "saulproto/core/quantity.hpp"
+
 namespace saul::host {
 namespace {
 
@@ -125,34 +127,8 @@ std::string numbered_path(const std::string& path, unsigned index) {
   return fmt::format("{}-{:03}{}", path.substr(0, dot), index, path.substr(dot));
 }
 
-std::optional<std::uint64_t> parse_quantity(const std::string& text, std::initializer_list<std::string_view> units,
-                                            double kilo) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (...) {
-    return std::nullopt;
-  }
-  std::string_view unit = std::string_view(text).substr(used);
-  for (const std::string_view u : units) {
-    if (unit.ends_with(u)) {
-      unit.remove_suffix(u.size());
-      break;
-    }
-  }
-  double scale = 0;
-  if (unit.empty()) scale = 1;
-  if (unit == "k" || unit == "K") scale = kilo;
-  if (unit == "M") scale = kilo * kilo;
-  if (unit == "G") scale = kilo * kilo * kilo;
-  // (above 2^63 llround has no answer: such a number is refused, not wrapped)
-  if (used == 0 || scale == 0 || !(v > 0) || !(v * scale < 9.2e18)) return std::nullopt;
-  return static_cast<std::uint64_t>(std::llround(v * scale));
-}
-
 std::uint64_t parse_size(const std::string& text) {
-  if (const auto bytes = parse_quantity(text, {"iB", "B"}, 1024.0)) return *bytes;
+  if (const auto bytes = quantity::parse(text, {"iB", "B"}, 1024.0)) return *bytes;
   throw std::invalid_argument(fmt::format("bad size '{}' (use e.g. 100M, 1.5G, 64k)", text));
 }
 

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "saulproto/core/quantity.hpp"
 #include "saulproto/host/link/shared_link.hpp"
 #include "saulproto/host/link/slcan_link.hpp"
 #include "saulproto/host/link/socketcan.hpp"
@@ -12,15 +13,10 @@ namespace {
 const char* kForms =
     "use can0 | socketcan:can0 | slcan:/dev/ttyACM0[@500000] | serial:/dev/ttyUSB0@460800[:8N1]";
 
+// A bit or baud rate as every rate is typed: 500000, 500k, 1M (k and M are 1000s).
 std::uint32_t parse_rate(const std::string& text, const std::string& whole) {
-  std::size_t used = 0;
-  unsigned long v = 0;
-  try {
-    v = std::stoul(text, &used, 10);
-  } catch (...) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || v == 0 || v > 20'000'000)
+  const auto v = quantity::parse(text, {}, 1e3).value_or(0);
+  if (v == 0 || v > 20'000'000)
     throw std::invalid_argument(fmt::format("bad rate '{}' in link '{}': {}", text, whole, kForms));
   return static_cast<std::uint32_t>(v);
 }

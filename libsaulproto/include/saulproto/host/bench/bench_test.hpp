@@ -99,9 +99,6 @@ class ParseError : public std::runtime_error {
 Suite parse_suite(std::istream& in, const std::string& path);
 Suite load_suite(const std::string& path);
 
-/// Parses "500ms", "2s", "1.5s", "1m" into microseconds; nullopt when malformed.
-std::optional<std::uint64_t> parse_duration_us(const std::string& text);
-
 /// What a suite runs against.
 class Target {
  public:

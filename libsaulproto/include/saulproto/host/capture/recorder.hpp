@@ -53,12 +53,8 @@ class FileCompressor {
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
 std::string numbered_path(const std::string& path, unsigned index);
 
-/// The one reader of a number with a unit (sizes here, sample and bit rates in saulctl): a positive number
-/// (std::stod's), then optionally k/K, M or G (`kilo`, its square, its cube), then optionally one of `units`
-/// (tried in order: "iB" before "B"). The value times the prefix's scale, rounded; nullopt for anything else.
-std::optional<std::uint64_t> parse_quantity(const std::string& text, std::initializer_list<std::string_view> units,
-                                            double kilo);
-/// Parses "100M", "1.5G", "64k", "4096" (bytes; k/M/G are powers of 1024, an optional trailing "B" or "iB").
+/// Parses "100M", "1.5G", "64k", "4096" (bytes; k/M/G are powers of 1024, an optional trailing "B" or "iB"; read
+/// by core/quantity.hpp).
 /// Throws std::invalid_argument.
 std::uint64_t parse_size(const std::string& text);
 
