@@ -72,14 +72,13 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
       fmt::print("{}: applied ({:.1f} ms); {}\n", what, ms, state->text());
     else
       fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
-    if (state && state->result != StateCheck::Result::confirmed) fmt::print(stderr, "saulctl: {}: {}\n", what, state->text());
+    if (state && state->result != StateCheck::Result::confirmed) error("{}: {}", what, state->text());
   } else if (out.status == CommandOutcome::Status::rejected) {
-    fmt::print(stderr, "saulctl: {}: {} - {}\n", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
+    error("{}: {} - {}", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
   } else {
-    fmt::print(stderr,
-               "saulctl: {}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
-               "'saulctl sniff' shows the traffic)\n",
-               what, timeout.count(), link.name());
+    error("{}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
+          "'saulctl sniff' shows the traffic)",
+          what, timeout.count(), link.name());
   }
   switch (out.status) {
     case CommandOutcome::Status::applied: return differs ? kFailure : kOk;
@@ -177,7 +176,7 @@ void attach_runner(CLI::App* cmd, const std::shared_ptr<CommandOptions>& o, Runn
       try {
         return f(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

@@ -131,12 +131,11 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
   } else {
     for (const auto& l : reply.lines) fmt::print("{}\n", l);
     if (reply.end == Reply::End::ok) fmt::print("ok\n");
-    else if (reply.end == Reply::End::error) fmt::print(stderr, "saulctl: {}: {}\n", port.path(), reply.final_line);
+    else if (reply.end == Reply::End::error) error("{}: {}", port.path(), reply.final_line);
     else
-      fmt::print(stderr,
-                 "saulctl: {}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
-                 "and is the board running? try 'saulctl ports')\n",
-                 port.path(), line, timeout.count());
+      error("{}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
+            "and is the board running? try 'saulctl ports')",
+            port.path(), line, timeout.count());
   }
   std::fflush(stdout);
   return exit_code(reply);
@@ -194,7 +193,7 @@ void add_console_command(CLI::App& app, Runner& run) {
       try {
         return run_console(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

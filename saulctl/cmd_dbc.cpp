@@ -23,13 +23,13 @@ int run_dbc(const DbcCliOptions& opt) {
   }
   std::ofstream out(opt.output, std::ios::binary | std::ios::trunc);
   if (!out) {
-    fmt::print(stderr, "saulctl dbc: cannot open '{}' for writing\n", opt.output);
+    error("cannot open '{}' for writing", opt.output);
     return kFailure;
   }
   out << text;
   out.close();
   if (!out) {
-    fmt::print(stderr, "saulctl dbc: writing '{}' failed\n", opt.output);
+    error("writing '{}' failed", opt.output);
     return kFailure;
   }
   return kOk;

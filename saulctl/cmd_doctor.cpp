@@ -404,7 +404,7 @@ void add_doctor_command(CLI::App& app, Runner& run) {
       try {
         return run_doctor(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

@@ -71,7 +71,7 @@ int run_drive(const DriveOptions& opt) {
                    saul::saulcan::to_string(last_a->state), last_a->pitch_x100 / 100.0, last_a->speed_mmps);
     }
   } catch (const std::exception& e) {
-    fmt::print(stderr, "saulctl: {}\n", e.what());
+    error("{}", e.what());
     why = "error";
     status = kFailure;
   }
@@ -80,8 +80,8 @@ int run_drive(const DriveOptions& opt) {
     link->send(stop, milliseconds(200));
     stopped = true;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "saulctl: could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
-                       "timeout\n", e.what());
+    error("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
+          "timeout", e.what());
     status = kFailure;
   }
   if (opt.json) {
@@ -117,7 +117,7 @@ void add_drive_command(CLI::App& app, Runner& run) {
       try {
         return run_drive(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

@@ -366,7 +366,7 @@ int run_monitor(const MonitorOptions& opt) {
     fmt::print("monitor: 0x400 {} frames, 0x401 {}; link rx {} tx {} dropped {}\n", tm.sa.count(), tm.sb.count(),
                st.rx_frames, st.tx_frames, st.rx_dropped);
     if (const auto k = keys->summary(); !k.empty()) fmt::print("monitor: {}\n", k);
-    if (!lost.empty()) fmt::print(stderr, "saulctl: link lost: {}\n", lost);
+    if (!lost.empty()) error("link lost: {}", lost);
   }
   keys.reset();
   return status;
@@ -393,7 +393,7 @@ void add_monitor_command(CLI::App& app, Runner& run) {
       try {
         return run_monitor(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

@@ -77,7 +77,7 @@ int run_plot(const PlotOptions& opt) {
   const TelemetryPlotter plotter(request,
                                  capture_plot_source(opt.file, serial_read_options(opt.serial),
                                                      fallback_protocol(opt.serial)));
-  for (const auto& note : plotter.left_out()) fmt::print(stderr, "saulctl plot: {}\n", note);
+  for (const auto& note : plotter.left_out()) error("{}", note);
 
   if (format == "svg" || format == "png" || format == "pdf") {
     std::fflush(stdout);  // gnuplot writes to the same standard output with -o -
@@ -89,7 +89,7 @@ int run_plot(const PlotOptions& opt) {
     if (output != "-") {
       file.open(output, std::ios::out | std::ios::trunc);
       if (!file) {
-        fmt::print(stderr, "saulctl plot: cannot create '{}': check the folder exists and is writable\n", output);
+        error("cannot create '{}': check the folder exists and is writable", output);
         return kFailure;
       }
     }
@@ -101,7 +101,7 @@ int run_plot(const PlotOptions& opt) {
     out.flush();
     if (file.is_open()) file.close();
     if (!out) {
-      fmt::print(stderr, "saulctl plot: cannot write '{}': is the disk full?\n", output);
+      error("cannot write '{}': is the disk full?", output);
       return kFailure;
     }
   }
@@ -110,22 +110,22 @@ int run_plot(const PlotOptions& opt) {
   for (const auto& panel : plotter.panels()) titles.push_back(panel.title);
   const std::string where = output == "-" ? std::string("stdout") : output;
   if (plotter.dashboard()) {
-    fmt::print(stderr, "saulctl plot: {} over {:.3f} s in {} ({}) written to {}\n",
-               plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
-               fmt::join(titles, ", "), where);
+    error("{} over {:.3f} s in {} ({}) written to {}",
+          plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
+          fmt::join(titles, ", "), where);
   } else {
     std::vector<std::string> fields;
     for (const auto& panel : plotter.panels()) fields.push_back(panel.series.at(0).field);
-    fmt::print(stderr, "saulctl plot: {} points of {} ({}) over {:.3f} s written to {}\n", plotter.messages(),
-               opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
+    error("{} points of {} ({}) over {:.3f} s written to {}", plotter.messages(),
+          opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
   }
   const auto& changes = plotter.changes();
   if (format != "csv" && changes.total() > 0) {
     if (changes.kept().size() == changes.total())
-      fmt::print(stderr, "saulctl plot: {} marked\n", plural(changes.total(), "state/fault change"));
+      error("{} marked", plural(changes.total(), "state/fault change"));
     else
-      fmt::print(stderr, "saulctl plot: {} state/fault changes, the first {} marked (--max-markers)\n",
-                 changes.total(), changes.kept().size());
+      error("{} state/fault changes, the first {} marked (--max-markers)",
+            changes.total(), changes.kept().size());
   }
   return kOk;
 }
@@ -187,19 +187,19 @@ void add_plot_command(CLI::App& app, Runner& run) {
       try {
         return run_plot(*opt);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const saul::host::PlotUsageError& e) {
-        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const saul::host::PlotEmptyError& e) {
-        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        error("{}", e.what());
         return kFailure;
       } catch (const saul::host::CaptureOpenError& e) {
-        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        error("{}", e.what());
         return kFailure;
       } catch (const saul::host::PlotOutputError& e) {
-        fmt::print(stderr, "saulctl plot: {}\n", e.what());
+        error("{}", e.what());
         return kFailure;
       }
     };

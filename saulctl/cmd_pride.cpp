@@ -134,7 +134,7 @@ void add_pride_command(CLI::App& app, Runner& run) {
       try {
         return run_pride_vcu(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

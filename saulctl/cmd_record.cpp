@@ -296,10 +296,10 @@ void add_record_command(CLI::App& app, Runner& run) {
       try {
         return run_record(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const saul::host::CaptureOpenError& e) {
-        fmt::print(stderr, "saulctl record: {}\n", e.what());
+        error("{}", e.what());
         return kFailure;
       } catch (const std::exception& e) {
         return report_link_error(e);

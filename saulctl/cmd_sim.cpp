@@ -108,10 +108,10 @@ void add_sim_command(CLI::App& app, Runner& run) {
       try {
         return run_sim(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
-        fmt::print(stderr, "saulctl sim: {}\n", e.what());
+        error("{}", e.what());
         return kFailure;
       }
     };

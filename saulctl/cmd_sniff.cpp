@@ -295,7 +295,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   screen.reset();
   if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
   keys.reset();
-  if (!lost.empty()) fmt::print(stderr, "saulctl: link lost: {}\n", lost);
+  if (!lost.empty()) error("link lost: {}", lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.
   fmt::print("{}", top_table(stats, rows, link->name(), recent_load));
   std::fflush(stdout);
@@ -390,7 +390,7 @@ void add_sniff_command(CLI::App& app, Runner& run) {
       try {
         return run_sniff(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

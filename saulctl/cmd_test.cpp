@@ -52,7 +52,7 @@ int run_tests(const TestOptions& opt) {
     try {
       suites.push_back(bt::load_suite(path));
     } catch (const bt::ParseError& e) {
-      fmt::print(stderr, "saulctl test: {}\n", e.what());
+      error("{}", e.what());
       return kUsage;
     }
   }
@@ -94,7 +94,7 @@ int run_tests(const TestOptions& opt) {
     std::ofstream out(opt.junit);
     out << bt::junit_xml(results);
     if (!out) {
-      fmt::print(stderr, "saulctl test: cannot write JUnit file '{}'\n", opt.junit);
+      error("cannot write JUnit file '{}'", opt.junit);
       return kFailure;
     }
   }
@@ -128,7 +128,7 @@ void add_test_command(CLI::App& app, Runner& run) {
       try {
         return run_tests(*o);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl: {}\n", e.what());
+        error("{}", e.what());
         return kUsage;
       } catch (const std::exception& e) {
         return report_link_error(e);

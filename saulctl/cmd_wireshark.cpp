@@ -27,7 +27,7 @@ int write_dissector(const std::string& path, bool fields) {
   out << text;
   out.close();
   if (out) return kOk;
-  fmt::print(stderr, "saulctl wireshark: cannot write '{}'\n", path);
+  error("cannot write '{}'", path);
   return kFailure;
 }
 

@@ -1,10 +1,14 @@
 // How saulctl's verbs plug in: each cmd_*.cpp adds one CLI11 subcommand and, when chosen, sets the
-// function main() runs. Exit codes are shared by all verbs.
+// function main() runs. Exit codes and the error line are shared by all verbs.
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include <functional>
+#include <string>
+#include <string_view>
+#include <utility>
 
 namespace saulctl {
 
@@ -16,6 +20,15 @@ enum ExitCode : int {
 };
 
 using Runner = std::function<int()>;
+
+/// The one way every verb reports a failure, a refusal or a warning: one line "saulctl VERB: message" on stderr
+/// (VERB as typed, "saulctl tune report: ..."; "saulctl: ..." before a verb is known). main() names the verb.
+void set_error_verb(std::string verb_path);
+void print_error(std::string_view message);
+template <class... Args>
+void error(fmt::format_string<Args...> format, Args&&... args) {
+  print_error(fmt::format(format, std::forward<Args>(args)...));
+}
 
 void add_decode_command(CLI::App& app, Runner& run);
 void add_convert_command(CLI::App& app, Runner& run);

@@ -58,20 +58,20 @@ saul::host::LinkSpec resolve_link(const std::string& link) {
 bool confirm_motion(bool yes, const std::string& what) {
   if (yes) return true;
   if (!::isatty(STDIN_FILENO)) {
-    fmt::print(stderr, "saulctl: refusing to {} without confirmation: this can make the motors move; add --yes\n",
-               what);
+    error("refusing to {} without confirmation: this can make the motors move; add --yes",
+          what);
     return false;
   }
   fmt::print(stderr, "This can make the motors move. Type 'yes' to {}: ", what);
   std::string answer;
   std::getline(std::cin, answer);
   if (answer == "yes") return true;
-  fmt::print(stderr, "saulctl: not confirmed, nothing sent\n");
+  error("not confirmed, nothing sent");
   return false;
 }
 
 int report_link_error(const std::exception& e) {
-  fmt::print(stderr, "saulctl: {}\n", e.what());
+  error("{}", e.what());
   if (const auto* le = dynamic_cast<const saul::host::LinkError*>(&e)) {
     if (le->kind() == saul::host::LinkError::Kind::timeout) return kTimeout;
   }
@@ -94,8 +94,8 @@ ViewCommands::ViewCommands(saul::host::CanLink& link) : link_(&link) {
 ViewCommands::~ViewCommands() {
   saul::host::set_share_notice(nullptr);
   std::lock_guard lock(g_view_notice_mu);
-  if (!g_view_notice.empty()) fmt::print(stderr, "saulctl: {}\n", g_view_notice);  // the view is gone: say it once
-  g_view_notice.clear();
+  if (!g_view_notice.empty()) error("{}", g_view_notice);  // the view is gone: say it once
+                                    g_view_notice.clear();
 }
 
 void ViewCommands::send(std::uint8_t mode, const char* what) {

@@ -79,13 +79,15 @@ int run_saulctl(int argc, char** argv) {
     fmt::print(stderr, "saulctl: no verb to run (see saulctl --help)\n");
     return saulctl::kUsage;
   }
+  const std::string verb = saulctl::verb_path(app);
+  saulctl::set_error_verb(verb);
   try {
     const int rc = run();
     // A verb's own usage errors (its checks after parsing) point to its help too.
-    if (rc == saulctl::kUsage) fmt::print(stderr, "saulctl: see '{} --help'\n", saulctl::verb_path(app));
+    if (rc == saulctl::kUsage) saulctl::error("see '{} --help'", verb);
     return rc;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "saulctl: {}\n", e.what());
+    saulctl::error("{}", e.what());
     return saulctl::kFailure;
   }
 }

@@ -108,6 +108,14 @@ std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** 
   return args;
 }
 
+namespace {
+std::string g_error_prefix = "saulctl";
+}  // namespace
+
+void set_error_verb(std::string verb_path) { g_error_prefix = std::move(verb_path); }
+
+void print_error(std::string_view message) { fmt::print(stderr, "{}: {}\n", g_error_prefix, message); }
+
 std::string verb_path(const CLI::App& app) {
   std::string path;
   for (const CLI::App* a : parsed_chain(app)) path += (path.empty() ? "" : " ") + a->get_name();

@@ -279,7 +279,7 @@ check("CRSF replay at 420000 baud: RC frames left out, the rest byte for byte",
 # ---- usage errors: a capture of one kind onto a link of the other ----------------------------------------------------
 def usage_lines(err):
     """The error lines of a usage error: saulctl ends every one with a pointer to the verb's --help
-    ("saulctl: see 'saulctl replay --help'"), which is not part of the one-line message itself."""
+    ("saulctl replay: see 'saulctl replay --help'"), which is not part of the one-line message itself."""
     lines = err.strip().splitlines()
     return lines[:-1] if len(lines) > 1 and lines[-1].endswith("--help'") else lines
 

@@ -219,7 +219,7 @@ def fake_scenarios():
     b.wait_for("err", "through saulctl sniff")
     p.close_master()
     code_a, code_b = a.wait(), b.wait()
-    lines_b = [l for l in b.err.splitlines() if l.startswith("saulctl:")]
+    lines_b = [l for l in b.err.splitlines() if l.startswith("saulctl sniff:")]
     check("adapter gone: the owner ends with 'disappeared', exit 1", code_a == 1 and "disappeared" in a.err,
           f"{code_a} {a.err}")
     check("adapter gone: the client ends with one line saying so, exit 1",

@@ -60,7 +60,7 @@ check "a value out of its set points to the verb's help, exit 2" \
   bash -c "test $(rc value) -eq 2 && grep -q \"^saulctl completion: .*fish.*(see 'saulctl completion --help')$\" '$out/value.err'"
 run late flash --board balance --port /dev/null
 check "a usage error found by the verb itself points to its help too, exit 2" \
-  bash -c "test $(rc late) -eq 2 && tail -n1 '$out/late.err' | grep -qx \"saulctl: see 'saulctl flash --help'\""
+  bash -c "test $(rc late) -eq 2 && tail -n1 '$out/late.err' | grep -qx \"saulctl flash: see 'saulctl flash --help'\""
 
 echo "$fails failed"
 [ "$fails" -eq 0 ]

@@ -37,9 +37,20 @@ void PtyServer::open_end(End& e) {
   e.path = name;
 }
 
+void PtyServer::flush_pending(End& e) {
+  if (e.pending.empty()) return;
+  const ssize_t n = ::write(e.master, e.pending.data(), e.pending.size());
+  if (n > 0) e.pending.erase(0, static_cast<std::size_t>(n));
+}
+
 void PtyServer::write_host(End& e, const std::string& text) {
-  const ssize_t n = ::write(e.master, text.data(), text.size());
-  if (n < 0 || static_cast<std::size_t>(n) < text.size()) ++dropped_;  // nobody reading: the pty is full
+  flush_pending(e);
+  if (e.pending.size() + text.size() > kMaxPending) {
+    ++dropped_;  // nobody reading: the pty and the buffer behind it are full
+    return;
+  }
+  e.pending += text;
+  flush_pending(e);
 }
 
 void PtyServer::on_slcan_event(const slcan::Event& e) {
@@ -71,6 +82,7 @@ void PtyServer::service() {
     decoder_.push(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(buf.data()), static_cast<std::size_t>(n)),
                   [&](const slcan::Event& e) { on_slcan_event(e); });
   }
+  for (End* e : {&balance_, &io_, &control_}) flush_pending(*e);
   // host -> consoles
   for (auto [end, board] : {std::pair<End*, const char*>{&balance_, "balance"}, {&io_, "io"}}) {
     for (;;) {

@@ -45,7 +45,13 @@ class PtyServer {
     int slave = -1;  // kept open so the pty survives clients coming and going
     std::string path;
     std::string line;  // partial input line (control console)
+    /// Console output the pty did not take yet (a reader that fell behind), written first on the next service():
+    /// the USB console's buffers on the real board, so a slow reader gets every record late, not a cut one.
+    std::string pending;
   };
+  /// More than this waiting for a reader (nobody reading the console) and further output is dropped, counted.
+  static constexpr std::size_t kMaxPending = 1 << 20;
+  void flush_pending(End& e);
   void open_end(End& e);
   void on_slcan_event(const slcan::Event& e);
   void write_host(End& e, const std::string& text);
