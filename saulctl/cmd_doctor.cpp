@@ -398,19 +398,7 @@ void add_doctor_command(CLI::App& app, Runner& run) {
       "up, bitrate and controller state (netlink), bus traffic, the robot's telemetry, error state.\n"
       "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
       "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_doctor(*o);
-      } catch (const CLI::ValidationError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const std::exception& e) {
-        return report_link_error(e);
-      }
-    };
-  });
+  attach_live_runner(cmd, o, run, run_doctor);
 }
 
 }  // namespace saulctl

@@ -498,22 +498,7 @@ void add_flash_command(CLI::App& app, Runner& run) {
       "else the USB-Serial/JTAG reset (restarts a running application). The robot check applies as for a flash.\n"
       "\nExit codes: 0 flashed and verified, 1 failure (wrong chip, file, verify, port gone: regions UNVERIFIED),\n"
       "2 usage, 3 no answer (no bootloader, or no acknowledgement from the robot).\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_flash(*o);
-      } catch (const CLI::ValidationError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const FlashError& e) {
-        error("{}", e.what());
-        return e.kind() == FlashError::Kind::no_answer ? kTimeout : kFailure;
-      } catch (const std::exception& e) {
-        return report_link_error(e);
-      }
-    };
-  });
+  attach_live_runner(cmd, o, run, run_flash);
 }
 
 }  // namespace saulctl

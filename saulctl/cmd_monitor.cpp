@@ -387,19 +387,7 @@ void add_monitor_command(CLI::App& app, Runner& run) {
       "one plain line a second (and on every state change).\n"
       "\nExamples:\n  saulctl monitor --link can0\n"
       "  saulctl monitor --json --duration 10s --link slcan:/dev/ttyACM0 > run.jsonl\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_monitor(*o);
-      } catch (const CLI::ValidationError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const std::exception& e) {
-        return report_link_error(e);
-      }
-    };
-  });
+  attach_live_runner(cmd, o, run, run_monitor);
 }
 
 }  // namespace saulctl

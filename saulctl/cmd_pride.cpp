@@ -128,19 +128,7 @@ void add_pride_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl pride vcu /dev/ttyUSB0 --speed-level 2               neutral, watch the controller\n"
       "  saulctl pride vcu /dev/ttyUSB0 --fb 20 --speed-level 2 --duration 2s --yes\n"
       "\nExit codes: 0 ok, 1 port error, 2 usage or not confirmed.\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_pride_vcu(*o);
-      } catch (const CLI::ValidationError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const std::exception& e) {
-        return report_link_error(e);
-      }
-    };
-  });
+  attach_live_runner(cmd, o, run, run_pride_vcu);
 }
 
 }  // namespace saulctl

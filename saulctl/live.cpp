@@ -11,6 +11,8 @@
 
 #include "commands.hpp"
 #include "saulproto/core/saul_can.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/flash/esp_connection.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/serial_port.hpp"
 #include "saulproto/host/link/shared_link.hpp"
@@ -78,6 +80,24 @@ int report_link_error(const std::exception& e) {
   return kFailure;
 }
 
+int run_guarded(const std::function<int()>& body) {
+  install_signal_handlers();
+  try {
+    return body();
+  } catch (const CLI::ValidationError& e) {
+    error("{}", e.what());
+    return kUsage;
+  } catch (const saul::host::CaptureOpenError& e) {
+    error("{}", e.what());
+    return kFailure;
+  } catch (const saul::host::FlashError& e) {
+    error("{}", e.what());
+    return e.kind() == saul::host::FlashError::Kind::no_answer ? kTimeout : kFailure;
+  } catch (const std::exception& e) {
+    return report_link_error(e);
+  }
+}
+
 namespace {
 // The shared link's notices while a view is up (they may come from the owner's serving thread).
 std::mutex g_view_notice_mu;
@@ -95,7 +115,7 @@ ViewCommands::~ViewCommands() {
   saul::host::set_share_notice(nullptr);
   std::lock_guard lock(g_view_notice_mu);
   if (!g_view_notice.empty()) error("{}", g_view_notice);  // the view is gone: say it once
-                                    g_view_notice.clear();
+  g_view_notice.clear();
 }
 
 void ViewCommands::send(std::uint8_t mode, const char* what) {
