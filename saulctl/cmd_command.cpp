@@ -186,14 +186,14 @@ void add_command_commands(CLI::App& app, Runner& run) {
                             "scripts. They are only accepted when the robot is already armed.\n"
                             "\nExamples:\n  saulctl mode off --link can0\n"
                             "  saulctl mode balance --yes --link slcan:/dev/ttyACM0\n") + exits);
-    attach_live_runner(cmd, o, run, run_mode);
+    attach_runner(cmd, o, run, run_mode);
   }
   {
     auto o = std::make_shared<CommandOptions>();
     auto* cmd = app.add_subcommand("estop", "Emergency stop: send mode 3 at once, no questions");
     common(cmd, *o);
     cmd->footer(std::string("\nSent immediately, never asks. Leaving ESTOP needs disarm and a fresh arming.\n") + exits);
-    attach_live_runner(cmd, o, run, run_estop);
+    attach_runner(cmd, o, run, run_estop);
   }
   {
     auto o = std::make_shared<CommandOptions>();
@@ -202,7 +202,7 @@ void add_command_commands(CLI::App& app, Runner& run) {
     common(cmd, *o);
     cmd->footer(std::string("\nThe robot applies all three gains together or none (within 100 ms).\n"
                             "\nExample:\n  saulctl pid 1.5 0.25 0.05 --link can0\n") + exits);
-    attach_live_runner(cmd, o, run, run_pid);
+    attach_runner(cmd, o, run, run_pid);
   }
   {
     auto o = std::make_shared<CommandOptions>();
@@ -213,7 +213,7 @@ void add_command_commands(CLI::App& app, Runner& run) {
         ->check(CLI::Range(0, 65535));
     common(cmd, *o);
     cmd->footer(std::string("\nExample:\n  saulctl config --tilt-limit 20 --max-speed 800 --link can0\n") + exits);
-    attach_live_runner(cmd, o, run, run_config);
+    attach_runner(cmd, o, run, run_config);
   }
 }
 

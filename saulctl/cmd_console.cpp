@@ -187,7 +187,7 @@ void add_console_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl console /dev/ttyACM1 status\n  saulctl console /dev/ttyACM1 status --json | jq .report\n"
       "  saulctl console /dev/ttyACM1 pid 1.5 0.25 0.05\n  saulctl console /dev/ttyACM1\n"
       "\nExit codes: 0 ok, 1 error reply or port error, 2 usage, 3 no answer within --timeout.\n");
-  attach_live_runner(cmd, o, run, run_console);
+  attach_runner(cmd, o, run, run_console);
 }
 
 }  // namespace saulctl

@@ -398,7 +398,7 @@ void add_doctor_command(CLI::App& app, Runner& run) {
       "up, bitrate and controller state (netlink), bus traffic, the robot's telemetry, error state.\n"
       "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
       "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");
-  attach_live_runner(cmd, o, run, run_doctor);
+  attach_runner(cmd, o, run, run_doctor);
 }
 
 }  // namespace saulctl

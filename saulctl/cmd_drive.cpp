@@ -111,7 +111,7 @@ void add_drive_command(CLI::App& app, Runner& run) {
       "link error it sends speed 0 before leaving.\n"
       "\nExamples:\n  saulctl drive --link can0 --speed 200 --duration 3s\n"
       "  saulctl drive --link slcan:/dev/ttyACM0 --speed 0 --steer 300 --duration 1s --yes\n");
-  attach_live_runner(cmd, o, run, run_drive);
+  attach_runner(cmd, o, run, run_drive);
 }
 
 }  // namespace saulctl

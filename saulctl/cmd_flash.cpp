@@ -498,7 +498,7 @@ void add_flash_command(CLI::App& app, Runner& run) {
       "else the USB-Serial/JTAG reset (restarts a running application). The robot check applies as for a flash.\n"
       "\nExit codes: 0 flashed and verified, 1 failure (wrong chip, file, verify, port gone: regions UNVERIFIED),\n"
       "2 usage, 3 no answer (no bootloader, or no acknowledgement from the robot).\n");
-  attach_live_runner(cmd, o, run, run_flash);
+  attach_runner(cmd, o, run, run_flash);
 }
 
 }  // namespace saulctl

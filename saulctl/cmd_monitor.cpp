@@ -387,7 +387,7 @@ void add_monitor_command(CLI::App& app, Runner& run) {
       "one plain line a second (and on every state change).\n"
       "\nExamples:\n  saulctl monitor --link can0\n"
       "  saulctl monitor --json --duration 10s --link slcan:/dev/ttyACM0 > run.jsonl\n");
-  attach_live_runner(cmd, o, run, run_monitor);
+  attach_runner(cmd, o, run, run_monitor);
 }
 
 }  // namespace saulctl

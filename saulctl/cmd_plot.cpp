@@ -13,6 +13,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
+#include "live.hpp"
 #include "trace_cli.hpp"
 #include "grammar.hpp"
 #include "saulproto/host/capture/capture.hpp"
@@ -182,27 +183,13 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "  saulctl plot run.log --id 944 -o status.svg     # every field of VESC STATUS from controller 68\n"
       "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n"
       "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
-  cmd->callback([opt, &run] {
-    run = [opt]() -> int {
-      try {
-        return run_plot(*opt);
-      } catch (const CLI::ValidationError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const saul::host::PlotUsageError& e) {
-        error("{}", e.what());
-        return kUsage;
-      } catch (const saul::host::PlotEmptyError& e) {
-        error("{}", e.what());
-        return kFailure;
-      } catch (const saul::host::CaptureOpenError& e) {
-        error("{}", e.what());
-        return kFailure;
-      } catch (const saul::host::PlotOutputError& e) {
-        error("{}", e.what());
-        return kFailure;
-      }
-    };
+  attach_runner(cmd, opt, run, [](const PlotOptions& o) {
+    try {
+      return run_plot(o);
+    } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: the verb's own usage error
+      error("{}", e.what());
+      return static_cast<int>(kUsage);
+    }
   });
 }
 

@@ -128,7 +128,7 @@ void add_pride_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl pride vcu /dev/ttyUSB0 --speed-level 2               neutral, watch the controller\n"
       "  saulctl pride vcu /dev/ttyUSB0 --fb 20 --speed-level 2 --duration 2s --yes\n"
       "\nExit codes: 0 ok, 1 port error, 2 usage or not confirmed.\n");
-  attach_live_runner(cmd, o, run, run_pride_vcu);
+  attach_runner(cmd, o, run, run_pride_vcu);
 }
 
 }  // namespace saulctl

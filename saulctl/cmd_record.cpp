@@ -290,7 +290,7 @@ void add_record_command(CLI::App& app, Runner& run) {
       "  saulctl record --link slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
       "  saulctl record --link can0 -o run.blf --rotate-size 1G --compress zst   run-000.blf.zst, ...\n"
       "  saulctl record --link serial:/dev/ttyUSB0@460800 -o uart.serial --duration 2m   inter-board bytes\n");
-  attach_live_runner(cmd, o, run, run_record);
+  attach_runner(cmd, o, run, run_record);
 }
 
 }  // namespace saulctl

@@ -389,7 +389,7 @@ void add_replay_command(CLI::App& app, Runner& run) {
       "  saulctl replay uart.serial --link serial:/dev/ttyUSB0    inter-board bytes at 460800, rc_cmd left out\n"
       "  saulctl replay pride.serial --link serial:/dev/ttyUSB1 --allow-motion --loop 10\n"
       "  saulctl replay --protocol pride --samplerate 1M la.txt --link serial:/dev/ttyUSB1@38400:8E1\n");
-  attach_live_runner(cmd, o, run, run_replay);
+  attach_runner(cmd, o, run, run_replay);
 }
 
 }  // namespace saulctl

@@ -102,7 +102,7 @@ void add_sim_command(CLI::App& app, Runner& run) {
       "disturbances (firmware/sim/README.md): it needs balancing, and different --seed values differ.\n"
       "\nExamples:\n  saulctl sim &\n  CAN=$(sed -n 's/^can=//p' sim.paths); CONTROL=$(sed -n 's/^control=//p' sim.paths)\n"
       "  python3 -c \"import can; b=can.Bus(interface='slcan', channel='$CAN', bitrate=500000); print(b.recv(1))\"\n");
-  attach_live_runner(cmd, o, run, run_sim);
+  attach_runner(cmd, o, run, run_sim);
 }
 
 }  // namespace saulctl

@@ -384,7 +384,7 @@ void add_sniff_command(CLI::App& app, Runner& run) {
       "  saulctl sniff --link can0 --id 00000900:0000FF00   all VESC STATUS frames\n"
       "  saulctl sniff --link serial:/dev/ttyUSB0@460800 --protocol interboard\n"
       "  saulctl sniff --link can0 --top --duration 10s   per-id table with rates, jitter and bus load\n");
-  attach_live_runner(cmd, o, run, run_sniff);
+  attach_runner(cmd, o, run, run_sniff);
 }
 
 }  // namespace saulctl

@@ -122,7 +122,7 @@ void add_test_command(CLI::App& app, Runner& run) {
       "  saulctl sim & saulctl test tests/bench/*.saul --link slcan:CAN --console-balance BAL --sim-control CTL\n"
       "  saulctl test tests/bench/arm_and_balance.saul --link can0 --console-balance /dev/ttyACM1 --junit out.xml\n"
       "\nExit codes: 0 all passed (or skipped), 1 a suite failed, 2 a suite file has an error.\n");
-  attach_live_runner(cmd, o, run, run_tests);
+  attach_runner(cmd, o, run, run_tests);
 }
 
 }  // namespace saulctl

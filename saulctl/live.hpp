@@ -32,14 +32,14 @@ bool confirm_motion(bool yes, const std::string& what);
 /// Maps a LinkError to saulctl's exit code and prints it as one line.
 int report_link_error(const std::exception& e);
 
-/// The one runner of every verb that touches a link, a port or a robot: Ctrl-C handled (install_signal_handlers);
+/// The one runner of every verb (attach_runner): Ctrl-C handled (install_signal_handlers);
 /// a check failing after parsing (CLI::ValidationError) is a usage error (2); a capture that cannot be opened a
 /// failure (1); a flash error 1, or 3 when the chip never answered; anything else as report_link_error says.
 int run_guarded(const std::function<int()>& body);
 
 /// Makes `verb(*options)` what main() runs when `cmd` is chosen, through run_guarded.
 template <class Options, class Verb>
-void attach_live_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb) {
+void attach_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb) {
   cmd->callback([options, &run, verb] { run = [options, verb] { return run_guarded([&] { return verb(*options); }); }; });
 }
 
