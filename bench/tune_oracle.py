@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The scipy/numpy oracle of tests/tune doing what saulctl tune report does to a 10-minute 1 kHz trace (the step
-response over 4 s windows every 0.5 s, Welch spectra of three signals and their peak search), timed, for the ratio
+response over 8 s windows every 0.5 s, Welch spectra of three signals and their peak search), timed, for the ratio
 with BM_TuneAnalyse600k (bench/README.md). Run: /usr/bin/python3 bench/tune_oracle.py [RECORDS]"""
 import os
 import sys

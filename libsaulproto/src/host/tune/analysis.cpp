@@ -262,10 +262,11 @@ void measure_steps(const Series& s, const std::vector<Segment>& segments, const 
     for (std::size_t i = seg.begin + before; i + kept <= seg.end; ++i) {
       const double jump = sp[i] - sp[i - 1];
       if (std::abs(jump) < opt.direct_step_min_deg) continue;
-      const double tol = 0.02 * std::abs(jump);
+      // Steady before within 10 % of the jump (an outer loop may still move it a little: the level is the mean of
+      // the pitch just before), held after within 2 % (the response must be to this jump alone).
       bool held = true;
-      for (std::size_t j = i - before; j < i && held; ++j) held = std::abs(sp[j] - sp[i - 1]) <= tol;
-      for (std::size_t j = i; j < i + kept && held; ++j) held = std::abs(sp[j] - sp[i]) <= tol;
+      for (std::size_t j = i - before; j < i && held; ++j) held = std::abs(sp[j] - sp[i - 1]) <= 0.1 * std::abs(jump);
+      for (std::size_t j = i; j < i + kept && held; ++j) held = std::abs(sp[j] - sp[i]) <= 0.02 * std::abs(jump);
       if (!held) continue;
       double start = 0;
       for (std::size_t j = i - base; j < i; ++j) start += s.pitch_deg[j];
