@@ -4,8 +4,8 @@ on the simulated robot (simulated time, no sleeps), for three gain sets and seed
 records a chirp trace and a step trace with the same gains; `tune report` estimates the step response from the
 chirp by deconvolution (`step`) and measures it at the steps of the other trace (`step_direct`). The overshoot
 must agree within 5 percentage points in all 15 cases; the settling time within 15 % in at least 12 of them and
-within 30 % in all (measured: seed 3 is 20-26 % off in all three gain sets: its direct response creeps down by
-0.02 in the last 0.3 s, which moves the last crossing of the 5 % band; the curves differ by under 0.06). Both see
+within 30 % in all (measured: 13 of 15 within 15 %, the others 16-17 % off; settling is the fragile figure, the
+last crossing of a 5 % band around a response that creeps for seconds: docs/tuning.md). Both see
 the pitch loop alone: while a test signal runs BALANCE holds the speed loop's lean (docs/tuning.md, "Estimate and
 direct step").
 Run: /usr/bin/python3 tests/tune/check_sim_agreement.py SAULCTL [--table]"""
@@ -44,7 +44,7 @@ def record(name, gains, seed, duration, *excite):
     return json.loads(p.stdout)
 
 
-fails = hard_fails = 0
+agreed = hard_fails = 0
 rows = []
 for label, gains in GAINS.items():
     for seed in SEEDS:
@@ -54,14 +54,14 @@ for label, gains in GAINS.items():
         what = f"{label} seed {seed}"
         if est is None or direct is None:
             print(f"FAIL {what}: estimate {chirp.get('step_reason')}, direct {step.get('step_direct_reason')}")
-            fails += 1
+            hard_fails += 1
             continue
         d_os = est["overshoot_pct"] - direct["overshoot_pct"]
         es, ds = est["settling_time_s"], direct["settling_time_s"]
         d_set = None if es is None or ds is None else (es - ds) / ds
         ok = abs(d_os) <= OVERSHOOT_POINTS and d_set is not None and abs(d_set) <= SETTLING_SHARE
         hard_fail = abs(d_os) > OVERSHOOT_POINTS or d_set is None or abs(d_set) > SETTLING_WORST
-        fails += 0 if ok else 1
+        agreed += 1 if ok else 0
         hard_fails += 1 if hard_fail else 0
         rows.append((what, est, direct, d_os, d_set, ok))
         print(f"{'ok  ' if ok else 'FAIL'} {what}: overshoot {est['overshoot_pct']:.1f} % estimated "
@@ -75,7 +75,6 @@ if "--table" in sys.argv:  # the table of docs/tuning.md
         label, _, seed = what.split()
         print(f"| {label} | {seed} | {est['overshoot_pct']:.1f} % | {direct['overshoot_pct']:.1f} % | "
               f"{est['settling_time_s']:.3f} s | {direct['settling_time_s']:.3f} s |")
-agree = len(rows) - fails
-print(f"{agree} of {len(GAINS) * len(SEEDS)} agree within {OVERSHOOT_POINTS:g} points and {100 * SETTLING_SHARE:g} %; "
+print(f"{agreed} of {len(GAINS) * len(SEEDS)} agree within {OVERSHOOT_POINTS:g} points and {100 * SETTLING_SHARE:g} %; "
       f"{hard_fails} beyond {OVERSHOOT_POINTS:g} points or {100 * SETTLING_WORST:g} %")
-sys.exit(1 if hard_fails or agree < SETTLING_AGREE else 0)
+sys.exit(1 if hard_fails or agreed < SETTLING_AGREE else 0)
