@@ -1,6 +1,6 @@
 // saulctl tune auto --sim: proposes balance gains from experiments on the simulated robot, and verifies them there
 // before showing them. The experiment: the shipped gains scaled together (ratios kept) by 1.0 .. 2.0, each run with
-// a 10 s chirp on the seed given and its step response estimated (host/tune/analysis.hpp); the stiffest scale whose
+// a 20 s chirp (8 s deconvolution windows) on the seed given and its step response estimated (host/tune/analysis.hpp); the stiffest scale whose
 // estimate overshoots under 25 %, shows no oscillation and never falls is proposed, then run 60 s untouched on every
 // verification seed against the shipped gains: proposed only when it never falls and its mean pitch RMS is lower.
 // Gains are never applied to anything: they are printed (send them with 'saulctl pid'). Without --sim it prints the
@@ -68,7 +68,7 @@ int print_live_plan(const TuneAutoOptions& o) {
   fmt::print("  gains:      the robot's own (read from its status), scaled together by 1.0 .. 2.0 in steps of 0.2; each\n"
              "              set sent as one PID set (0x301) and its acknowledgement awaited; the robot's gains restored\n"
              "              at the end, and every change printed as it is sent\n");
-  fmt::print("  excitation: chirp of {:g} deg on the pitch setpoint, 0.5-15 Hz, 10 s per set (6 sets: 60 s), the loop\n"
+  fmt::print("  excitation: chirp of {:g} deg on the pitch setpoint, 0.5-15 Hz, 20 s per set (6 sets: 120 s), the loop\n"
              "              traced at 1 kHz on BALANCE's console; the robot armed in BALANCE on its tether beforehand\n",
              1.0);
   fmt::print("  limits:     amplitude at most {:g} deg and {:g} s per excitation (BALANCE refuses more); a set whose\n"
@@ -87,7 +87,7 @@ int print_live_plan(const TuneAutoOptions& o) {
 int run_tune_auto(const TuneAutoOptions& o) {
   if (!o.sim) return print_live_plan(o);
   fmt::print("experiment: the shipped gains (Kp {} Ki {} Kd {}) scaled together by 1.0 .. 2.0; each scale balances\n"
-             "  10 s with a 1 deg chirp (0.5-15 Hz) on seed {}; the stiffest whose estimated step response overshoots\n"
+             "  20 s with a 1 deg chirp (0.5-15 Hz) on seed {}; the stiffest whose estimated step response overshoots\n"
              "  under {:g} % without oscillation is verified: 60 s on seeds 1-{}, never falling, mean pitch RMS below\n"
              "  the shipped gains'. Nothing is applied: the gains are printed for you to send ('saulctl pid').\n",
              kShippedKp, kShippedKi, kShippedKd, o.seed, kMaxOvershootPct, o.verify_seeds);
@@ -99,9 +99,9 @@ int run_tune_auto(const TuneAutoOptions& o) {
   for (int k = 10; k <= 20; k += 2) {
     const float scale = static_cast<float>(k) / 10.0F;
     const saul::saulcan::PidGains g{kShippedKp * scale, kShippedKi * scale, kShippedKd * scale};
-    const auto r = run(g, o.seed, 10.0, true, file);
+    const auto r = run(g, o.seed, 20.0, true, file);
     if (!r || !r->step) {
-      fmt::print("  x{:.1f}: {}\n", scale, r ? "no step response: " + r->step_reason : "did not balance the 10 s");
+      fmt::print("  x{:.1f}: {}\n", scale, r ? "no step response: " + r->step_reason : "did not balance the 20 s");
       continue;
     }
     const auto& f = r->step->figures;

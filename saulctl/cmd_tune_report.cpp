@@ -109,7 +109,7 @@ void add_tune_report_commands(CLI::App& tune_cmd, Runner& run) {
       "used when there; saulctl convert run.trace out.csv writes one) or a\n"
       "CAN capture, whose 10 Hz telemetry (0x400) gives pitch RMS, offset, drift, saturation and falls only: a step\n"
       "response or a spectrum from 10 Hz samples would be wrong, so it is refused with the reason.\n"
-      "The step response (setpoint -> pitch) is estimated by regularised deconvolution over 4 s windows where the\n"
+      "The step response (setpoint -> pitch) is estimated by regularised deconvolution over 8 s windows where the\n"
       "setpoint moves (an excitation: chirp, PRBS, steps) and measured directly at held setpoint steps; spectra of\n"
       "the pitch rate, D term and output show an oscillation as a peak 40x the median of its octave (1-100 Hz).\n"
       "A CSV comment '# kp=30 ki=2 kd=1.5' gives the gains. Rows that are not numbers or go back in time are left\n"

@@ -625,8 +625,13 @@ float BalanceBoard::balance_output(float request_mmps, std::int32_t cap, TimeUs 
   const bool away = delta * speed_target_mps_ > 0.0F || speed_target_mps_ == 0.0F;  // the target grows
   const bool wait = away && std::fabs(lag) > config_.speed_guard_share * static_cast<float>(cap) * 1e-3F;
   if (!wait) speed_target_mps_ += step > 0.0F ? (delta > step ? step : (delta < -step ? -step : delta)) : delta;
-  lean_deg_ = speed_pid_.update(speed_target_mps_ - speed_filtered_mps_, 0.0F, dt) * config_.max_lean_deg /
-              BalancePid::kOutputLimit;
+  // While a test signal runs the speed loop's lean is held where it was when the signal began (its PI is not
+  // updated, so nothing winds up meanwhile): the signal then meets the pitch loop alone. Otherwise the speed loop
+  // answers a step by moving the setpoint back, and no direct step test sees the pitch loop by itself
+  // (docs/tuning.md). excite_check() ends the signal before the held lean can drive the robot into the speed cap.
+  if (!excite_.active())
+    lean_deg_ = speed_pid_.update(speed_target_mps_ - speed_filtered_mps_, 0.0F, dt) * config_.max_lean_deg /
+                BalancePid::kOutputLimit;
   // Inner loop: the balance PID holds that lean, plus the test signal while one runs (excite_check() stops it).
   setpoint_deg_ = config_.pitch_setpoint_deg - lean_deg_ + excite_.update(now);
   return pid_.update(setpoint_deg_ - filter_.pitch_deg(), filter_.rate_dps(), dt);

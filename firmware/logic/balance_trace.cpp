@@ -39,6 +39,10 @@ void BalanceBoard::excite_check() noexcept {
   if (orin_active() &&
       (beyond(velocity_.speed_mmps, kOrinDeadBandMmps) || beyond(velocity_.steer_mrad, kOrinDeadBandMrad)))
     stop = true;
+  // The speed loop's lean is held while the signal runs (balance_output), so nothing but the signal keeps the
+  // robot's speed: past half the speed cap the signal ends, and the speed loop brings the robot back with the
+  // other half.
+  if (balancing_ && std::fabs(speed_filtered_mps_) * 2000.0F > static_cast<float>(speed_cap_mmps())) stop = true;
   if (stop) excite_.stop();
 }
 

@@ -22,7 +22,7 @@ check "without --yes: exit 0" test $? -eq 0
 cat plan.txt
 check "the plan names the robot's console" grep -q "^live plan (robot: BALANCE console $balance)" plan.txt
 check "the plan gives the excitation, its amplitude and duration" \
-  grep -q "excitation: chirp of 1 deg on the pitch setpoint, 0.5-15 Hz, 10 s per set" plan.txt
+  grep -q "excitation: chirp of 1 deg on the pitch setpoint, 0.5-15 Hz, 20 s per set" plan.txt
 check "the plan gives the limits" grep -q "limits:     amplitude at most 2 deg and 20 s per excitation" plan.txt
 check "it says nothing was sent" grep -q "^nothing sent: this is the plan only" plan.txt
 check "no gains proposed or applied" bash -c "! grep -Eq '^(proposed|applied)' plan.txt"

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bench suites asserting tuning figures (docs/bench-tests.md, "Tuning figures"): `trace chirp 1 for 10s` then
+# Bench suites asserting tuning figures (docs/bench-tests.md, "Tuning figures"): `trace chirp 1 for 20s` then
 # `expect tune ...` on the simulated robot. A limit the shipped gains cannot meet fails the suite with the figure, its
 # measured value and the limit; the figures are the ones `tune record --sim` + `tune report --json` find in the same
 # run (the suite arms on the same simulated schedule, 20 ms for the status reply included, so the traces are the same); a wrong unit or an unknown figure is
@@ -12,8 +12,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
 
-suite() {  # NAME EXPECT-LINE: armed on tune record --sim's schedule, a 10 s 1 deg chirp, then the expectation
-  printf 'requires: sim\nwait 1500ms\nsim button down\nwait 3200ms\nsim button up\nwait 2520ms\ntrace chirp 1 for 10s\n%s\n' "$2" >"$1"
+suite() {  # NAME EXPECT-LINE: armed on tune record --sim's schedule, a 20 s 1 deg chirp, then the expectation
+  printf 'requires: sim\nsim type balance speed_limit 20\nsim type balance speed_limit 30\nsim type balance speed_limit 40\nsim type balance speed_limit 50\nwait 1500ms\nsim button down\nwait 3200ms\nsim button up\nwait 2520ms\ntrace chirp 1 for 20s\n%s\n' "$2" >"$1"
 }
 
 suite pass.saul "expect tune overshoot<25% settling<1.2s rise<200ms delay<100ms oscillation=none saturation<5% falls=0"
@@ -25,11 +25,11 @@ suite tight.saul "expect tune settling<2s overshoot<0.1%"
 check "overshoot<0.1% fails the suite (exit 1)" test $? -eq 1
 cat tight.txt
 check "the failure names the figure, its value and the limit" \
-  grep -Eq "FAIL .*tight.saul:8 expect tune .* -> overshoot [0-9.]+ % breaks overshoot<0.1%" tight.txt
+  grep -Eq "FAIL .*tight.saul:12 expect tune .* -> overshoot [0-9.]+ % breaks overshoot<0.1%" tight.txt
 check "the JUnit report has the failure" grep -q '<failure message="overshoot [0-9.]* % breaks overshoot&lt;0.1%' tight.xml
 
 # The same figures from outside the suite engine: tune record + tune report on the same seed and schedule.
-"$saulctl" tune record --sim --seed 2 --duration 10s --excite chirp --amplitude 1 -o run.trace >/dev/null &&
+"$saulctl" tune record --sim --seed 2 --duration 20s --excite chirp --amplitude 1 -o run.trace >/dev/null &&
   "$saulctl" tune report run.trace --json >run.json
 check "tune record + report of the same run" test $? -eq 0
 measured=$(sed -n 's/.*-> overshoot \([0-9.]*\) % breaks.*/\1/p' tight.txt)
@@ -48,7 +48,7 @@ check "oscillation!=none fails when none is found" grep -q -- "-> oscillation no
 suite unit.saul "expect tune overshoot<0.6s"
 "$saulctl" test --sim unit.saul >unit.txt 2>unit.err
 check "a wrong unit is a suite error (exit 2)" test $? -eq 2
-check "... naming the figure's unit" grep -q "unit.saul:8: 'overshoot<0.6s': overshoot is in %, not s" unit.err
+check "... naming the figure's unit" grep -q "unit.saul:12: 'overshoot<0.6s': overshoot is in %, not s" unit.err
 
 suite name.saul "expect tune wobble<3"
 "$saulctl" test --sim name.saul >name.txt 2>name.err
@@ -69,8 +69,8 @@ status=$?
 kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
 cat live.txt
 check "live (saulctl sim's ptys): tests/bench/tune_figures.saul passes" test $status -eq 0
-records=$(sed -n 's/.*trace chirp 1 for 10s  -> \([0-9]*\) records at.*/\1/p' live.txt)
-check "live: the 10 s trace came through the console port (${records:-no} records)" test "${records:-0}" -ge 9000
+records=$(sed -n 's/.*trace chirp 1 for 20s  -> \([0-9]*\) records at.*/\1/p' live.txt)
+check "live: the 20 s trace came through the console port (${records:-no} records)" test "${records:-0}" -ge 18000
 
 echo "$fails failed"
 exit $((fails > 0))

@@ -89,9 +89,21 @@ def exact_step(zeta, fn, seconds=1.5, fs=1000.0):
 
 # --- the oracle: the same method written again with numpy and scipy, from the description in docs/tuning.md ---
 
-def oracle_step(sp, pitch, fs, window_s=4.0, hop_s=0.5, response_s=1.5, min_input=0.3, reg=0.01):
+def next_fast_size(m):
+    """The smallest 2^a 3^b 5^c >= m (docs/tuning.md: the FFT length of the deconvolution)."""
+    while True:
+        r = m
+        for f in (2, 3, 5):
+            while r % f == 0:
+                r //= f
+        if r == 1:
+            return m
+        m += 1
+
+
+def oracle_step(sp, pitch, fs, window_s=8.0, hop_s=0.5, response_s=1.5, min_input=0.3, reg=0.01):
     L, hop, R = round(window_s * fs), round(hop_s * fs), round(response_s * fs)
-    n = 1 << int(np.ceil(np.log2(L + R)))
+    n = next_fast_size(L + R)
     w = sg.get_window("hann", L)
     sxy = np.zeros(n // 2 + 1, complex)
     sxx = np.zeros(n // 2 + 1)

@@ -52,6 +52,11 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
     return result;
   };
 
+  // The speed cap raised to 50 % (one 10 % step per line, disarmed), typed at power-on as a suite's `sim type`
+  // lines are: a test signal holds the speed loop's lean and ends at half the cap, and at the power-on 10 %
+  // (200 mm/s) a 1 deg chirp reaches that within seconds.
+  for (const char* raise : {"speed_limit 20\n", "speed_limit 30\n", "speed_limit 40\n", "speed_limit 50\n"})
+    world.console_input("balance", raise);
   // Arm as the bench suites do: the IO board up, the 3 s hold of the button, then a moment to find the balance.
   if (!run_to(1500 * kMs)) return finish("interrupted");
   (void)world.command("button down");
@@ -70,14 +75,35 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
   if (!options.dump)
     world.console_input("balance", line_of(trace::TraceOn{options.divider == 0 ? std::uint16_t{1} : options.divider}));
   const fw::TimeUs end = world.now_us() + options.duration_us;
-  if (options.excite) {
-    trace::ExciteStart e = *options.excite;  // for the trace's duration, at most the 20 s an excitation may last
-    // A step starts after a quiet second of trace, so the trace holds the level before it and the step response
-    // can be measured directly (tune report's step_direct); the other signals start with the trace.
-    const fw::TimeUs quiet = e.kind == trace::Excite::step ? std::min<fw::TimeUs>(1000 * kMs, options.duration_us / 4) : 0;
-    if (quiet > 0 && !run_to(world.now_us() + quiet)) return finish("interrupted");
-    e.duration_s = std::min(trace::kMaxDurationS, static_cast<float>(end - world.now_us()) * 1e-6F);
-    world.console_input("balance", line_of(e));
+  if (options.excite && options.excite->kind == trace::Excite::step) {
+    // A direct step test: after a quiet second, steps of the amplitude held kStepHold (the step response's 1.5 s
+    // and a margin), each followed by kStepRest of the speed loop bringing the robot back, the sign alternating
+    // so that it drives to and fro. The held lean (BalanceBoard::balance_output) keeps the setpoint flat during
+    // each step, so tune report measures the pitch loop's response at every one of them (step_direct).
+    constexpr fw::TimeUs kStepHold = 2000 * kMs;
+    constexpr fw::TimeUs kStepRest = 3500 * kMs;
+    trace::ExciteStart e = *options.excite;
+    e.duration_s = static_cast<float>(kStepHold) * 1e-6F;
+    const fw::TimeUs quiet = std::min<fw::TimeUs>(1000 * kMs, options.duration_us / 4);
+    if (!run_to(world.now_us() + quiet)) return finish("interrupted");
+    for (float sign = 1.0F; world.now_us() + kStepHold <= end; sign = -sign) {
+      e.amplitude_deg = sign * options.excite->amplitude_deg;
+      world.console_input("balance", line_of(e));
+      if (!run_to(std::min(end, world.now_us() + kStepHold + kStepRest))) return finish("interrupted");
+    }
+  } else if (options.excite) {
+    // The signal for the trace's duration: at most 20 s at a time (an excitation's limit), and when one ends early
+    // (the robot's speed reached half the cap) or the trace is longer, kRest of the speed loop and the next.
+    constexpr fw::TimeUs kRest = 2000 * kMs;
+    while (world.now_us() + kRest < end) {
+      trace::ExciteStart e = *options.excite;
+      e.duration_s = std::min(trace::kMaxDurationS, static_cast<float>(end - world.now_us()) * 1e-6F);
+      world.console_input("balance", line_of(e));
+      if (!run_to(world.now_us() + 10 * kMs)) return finish("interrupted");
+      while (world.now_us() < end && world.balance().excitation() != trace::Excite::none)
+        if (!run_to(world.now_us() + 10 * kMs)) return finish("interrupted");
+      if (!run_to(std::min(end, world.now_us() + kRest))) return finish("interrupted");
+    }
   }
   if (!run_to(end)) return finish("interrupted");
   world.console_input("balance", line_of(trace::TraceOff{}));

@@ -25,7 +25,7 @@ namespace saul::host::tune {
 
 /// The method's constants, in one place (defaults as documented in docs/tuning.md).
 struct AnalysisOptions {
-  double window_s = 4.0;           ///< deconvolution window
+  double window_s = 8.0;           ///< deconvolution window
   double hop_s = 0.5;              ///< a new window every hop_s (8x overlap)
   double response_s = 1.5;         ///< step response kept
   double min_input_deg = 0.3;      ///< a window's setpoint must move this much peak to peak
