@@ -72,13 +72,13 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
       fmt::print("{}: applied ({:.1f} ms); {}\n", what, ms, state->text());
     else
       fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
-    if (state && state->result != StateCheck::Result::confirmed) error("{}: {}", what, state->text());
+    if (state && state->result != StateCheck::Result::confirmed) say("{}: {}", what, state->text());
   } else if (out.status == CommandOutcome::Status::rejected) {
-    error("{}: {} - {}", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
+    say("{}: {} - {}", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
   } else {
-    error("{}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
-          "'saulctl sniff' shows the traffic)",
-          what, timeout.count(), link.name());
+    say("{}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
+        "'saulctl sniff' shows the traffic)",
+        what, timeout.count(), link.name());
   }
   switch (out.status) {
     case CommandOutcome::Status::applied: return differs ? kFailure : kOk;

@@ -131,11 +131,11 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
   } else {
     for (const auto& l : reply.lines) fmt::print("{}\n", l);
     if (reply.end == Reply::End::ok) fmt::print("ok\n");
-    else if (reply.end == Reply::End::error) error("{}: {}", port.path(), reply.final_line);
+    else if (reply.end == Reply::End::error) say("{}: {}", port.path(), reply.final_line);
     else
-      error("{}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
-            "and is the board running? try 'saulctl ports')",
-            port.path(), line, timeout.count());
+      say("{}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
+          "and is the board running? try 'saulctl ports')",
+          port.path(), line, timeout.count());
   }
   std::fflush(stdout);
   return exit_code(reply);

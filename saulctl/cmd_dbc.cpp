@@ -23,13 +23,13 @@ int run_dbc(const DbcCliOptions& opt) {
   }
   std::ofstream out(opt.output, std::ios::binary | std::ios::trunc);
   if (!out) {
-    error("cannot open '{}' for writing", opt.output);
+    say("cannot open '{}' for writing", opt.output);
     return kFailure;
   }
   out << text;
   out.close();
   if (!out) {
-    error("writing '{}' failed", opt.output);
+    say("writing '{}' failed", opt.output);
     return kFailure;
   }
   return kOk;

@@ -71,7 +71,7 @@ int run_drive(const DriveOptions& opt) {
                    saul::saulcan::to_string(last_a->state), last_a->pitch_x100 / 100.0, last_a->speed_mmps);
     }
   } catch (const std::exception& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     why = "error";
     status = kFailure;
   }
@@ -80,8 +80,8 @@ int run_drive(const DriveOptions& opt) {
     link->send(stop, milliseconds(200));
     stopped = true;
   } catch (const std::exception& e) {
-    error("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
-          "timeout", e.what());
+    say("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
+        "timeout", e.what());
     status = kFailure;
   }
   if (opt.json) {

@@ -109,7 +109,7 @@ saul::host::FlashPlan build_plan(const FlashOptions& opt) {
     plan.flash_size_source = "--flash-size";
   }
   saul::host::check_plan(plan, opt.force);
-  for (const auto& w : plan.warnings) error("warning: {}", w);
+  for (const auto& w : plan.warnings) say("warning: {}", w);
   return plan;
 }
 
@@ -160,9 +160,9 @@ std::pair<std::string, ResetStyle> pick_port(const FlashOptions& opt, std::optio
 // Before flashing: mode off, then an 0x400 saying OFF. Returns an exit code (kOk to go on).
 int check_robot(const FlashOptions& opt) {
   if (opt.skip_robot_check) {
-    error("WARNING: --skip-robot-check: the robot's state is NOT checked before flashing. A BALANCE "
-          "board that is balancing stops controlling the motors the moment it resets: hold the robot or put it "
-          "on its stand.");
+    say("WARNING: --skip-robot-check: the robot's state is NOT checked before flashing. A BALANCE "
+        "board that is balancing stops controlling the motors the moment it resets: hold the robot or put it "
+        "on its stand.");
     return kOk;
   }
   const char* home = std::getenv("HOME");
@@ -182,15 +182,15 @@ int check_robot(const FlashOptions& opt) {
   saul::host::RobotClient client(*link);
   const auto ack = client.set_mode(saul::saulcan::Mode::off, timeout);
   if (ack.status == saul::host::CommandOutcome::Status::no_answer) {
-    error("robot check: no acknowledgement of mode off within {} ms on {}: is the BALANCE board powered "
-          "and on the bus? (if it is already in download mode or not running, use --skip-robot-check)",
-          timeout.count(), link->name());
+    say("robot check: no acknowledgement of mode off within {} ms on {}: is the BALANCE board powered "
+        "and on the bus? (if it is already in download mode or not running, use --skip-robot-check)",
+        timeout.count(), link->name());
     return kTimeout;
   }
   if (ack.status == saul::host::CommandOutcome::Status::rejected) {
-    error("robot check: the robot refused mode off ({}): not flashing; see why with 'saulctl monitor "
-          "--link {}', or hold the robot and use --skip-robot-check",
-          saul::saulcan::to_string(ack.result), link->name());
+    say("robot check: the robot refused mode off ({}): not flashing; see why with 'saulctl monitor "
+        "--link {}', or hold the robot and use --skip-robot-check",
+        saul::saulcan::to_string(ack.result), link->name());
     return kFailure;
   }
   // The acknowledgement says the command was taken; the telemetry says what the robot is doing now.
@@ -204,15 +204,15 @@ int check_robot(const FlashOptions& opt) {
     if (auto t = saul::saulcan::decode_telemetry_a(*frame)) state = t->state;
   }
   if (!state) {
-    error("robot check: mode off was acknowledged but no 0x400 telemetry came within {} ms on {}: "
-          "cannot confirm the robot is OFF (use --skip-robot-check to flash anyway)",
-          timeout.count(), link->name());
+    say("robot check: mode off was acknowledged but no 0x400 telemetry came within {} ms on {}: "
+        "cannot confirm the robot is OFF (use --skip-robot-check to flash anyway)",
+        timeout.count(), link->name());
     return kTimeout;
   }
   if (*state != saul::saulcan::RobotState::off && *state != saul::saulcan::RobotState::estop) {
-    error("robot check: the robot still reports state {} after mode off: not flashing; bring it to rest "
-          "and disarm it (saulctl mode off, or its RC kill switch), then run again",
-          saul::saulcan::to_string(*state));
+    say("robot check: the robot still reports state {} after mode off: not flashing; bring it to rest "
+        "and disarm it (saulctl mode off, or its RC kill switch), then run again",
+        saul::saulcan::to_string(*state));
     return kFailure;
   }
   fmt::print("robot check: state {} on {} (0x400 telemetry)\n", saul::saulcan::to_string(*state), link->name());
@@ -280,9 +280,9 @@ void warn_holders(const std::string& path) {
   std::error_code ec;
   const bool is_pty = std::filesystem::weakly_canonical(path, ec).string().rfind("/dev/pts/", 0) == 0;
   if (const auto holders = is_pty ? std::vector<std::string>{} : holders_of(path); !holders.empty())
-    error("warning: {} is also open in {}: a serial monitor there would swallow the "
-          "bootloader's answers; close it",
-          path, fmt::join(holders, ", "));
+    say("warning: {} is also open in {}: a serial monitor there would swallow the "
+        "bootloader's answers; close it",
+        path, fmt::join(holders, ", "));
 }
 
 // Opens the board's port at 115200 8N1; nullptr (after saying who holds it) when another program has it.
@@ -293,10 +293,10 @@ std::unique_ptr<saul::host::SerialPort> open_board_port(const std::string& path)
     if (e.kind() == saul::host::SerialError::Kind::busy) {
       const auto holders = holders_of(path);
       if (holders.empty())
-        error("{}", e.what());
+        say("{}", e.what());
       else
-        error("{}: busy, held by {}: close it (a serial monitor?) and run again", path,
-              fmt::join(holders, ", "));
+        say("{}: busy, held by {}: close it (a serial monitor?) and run again", path,
+            fmt::join(holders, ", "));
       return nullptr;
     }
     throw;
@@ -414,13 +414,13 @@ int run_flash(const FlashOptions& opt) {
     for (const auto& r : flasher.outcomes())
       if (r.state == saul::host::RegionOutcome::State::unverified) print_outcome(r);
     if (const auto* fe = dynamic_cast<const FlashError*>(&e)) {
-      error("{}", e.what());
+      say("{}", e.what());
       return fe->kind() == FlashError::Kind::no_answer ? kTimeout : kFailure;
     }
     // The port failing under us (a write that would not go out, a driver error): FlashError's lines carry their
     // fix, the port's own do not.
-    error("{}: replug the board and flash again{}", e.what(),
-          flasher.outcomes().empty() ? "" : " (regions listed UNVERIFIED may not boot until then)");
+    say("{}: replug the board and flash again{}", e.what(),
+        flasher.outcomes().empty() ? "" : " (regions listed UNVERIFIED may not boot until then)");
     return kFailure;
   }
 
@@ -432,9 +432,9 @@ int run_flash(const FlashOptions& opt) {
     const auto back =
         saul::host::wait_for_usb_port(info->serial_number, info->usb_vid, path, seconds(10), saul::host::sleep_real);
     if (back.empty())
-      error("warning: the IO board (serial {}) did not come back on USB within 10 s: unplug "
-            "and replug it; the flash itself is verified",
-            info->serial_number);
+      say("warning: the IO board (serial {}) did not come back on USB within 10 s: unplug "
+          "and replug it; the flash itself is verified",
+          info->serial_number);
     else
       fmt::print("the IO board is back on {}{}\n", back, back == path ? "" : " (a new name)");
   }

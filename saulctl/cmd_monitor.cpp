@@ -366,7 +366,7 @@ int run_monitor(const MonitorOptions& opt) {
     fmt::print("monitor: 0x400 {} frames, 0x401 {}; link rx {} tx {} dropped {}\n", tm.sa.count(), tm.sb.count(),
                st.rx_frames, st.tx_frames, st.rx_dropped);
     if (const auto k = keys->summary(); !k.empty()) fmt::print("monitor: {}\n", k);
-    if (!lost.empty()) error("link lost: {}", lost);
+    if (!lost.empty()) say("link lost: {}", lost);
   }
   keys.reset();
   return status;

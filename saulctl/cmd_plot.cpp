@@ -78,7 +78,7 @@ int run_plot(const PlotOptions& opt) {
   const TelemetryPlotter plotter(request,
                                  capture_plot_source(opt.file, serial_read_options(opt.serial),
                                                      fallback_protocol(opt.serial)));
-  for (const auto& note : plotter.left_out()) error("{}", note);
+  for (const auto& note : plotter.left_out()) say("{}", note);
 
   if (format == "svg" || format == "png" || format == "pdf") {
     std::fflush(stdout);  // gnuplot writes to the same standard output with -o -
@@ -90,7 +90,7 @@ int run_plot(const PlotOptions& opt) {
     if (output != "-") {
       file.open(output, std::ios::out | std::ios::trunc);
       if (!file) {
-        error("cannot create '{}': check the folder exists and is writable", output);
+        say("cannot create '{}': check the folder exists and is writable", output);
         return kFailure;
       }
     }
@@ -102,7 +102,7 @@ int run_plot(const PlotOptions& opt) {
     out.flush();
     if (file.is_open()) file.close();
     if (!out) {
-      error("cannot write '{}': is the disk full?", output);
+      say("cannot write '{}': is the disk full?", output);
       return kFailure;
     }
   }
@@ -111,22 +111,22 @@ int run_plot(const PlotOptions& opt) {
   for (const auto& panel : plotter.panels()) titles.push_back(panel.title);
   const std::string where = output == "-" ? std::string("stdout") : output;
   if (plotter.dashboard()) {
-    error("{} over {:.3f} s in {} ({}) written to {}",
-          plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
-          fmt::join(titles, ", "), where);
+    say("{} over {:.3f} s in {} ({}) written to {}",
+        plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
+        fmt::join(titles, ", "), where);
   } else {
     std::vector<std::string> fields;
     for (const auto& panel : plotter.panels()) fields.push_back(panel.series.at(0).field);
-    error("{} points of {} ({}) over {:.3f} s written to {}", plotter.messages(),
-          opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
+    say("{} points of {} ({}) over {:.3f} s written to {}", plotter.messages(),
+        opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
   }
   const auto& changes = plotter.changes();
   if (format != "csv" && changes.total() > 0) {
     if (changes.kept().size() == changes.total())
-      error("{} marked", plural(changes.total(), "state/fault change"));
+      say("{} marked", plural(changes.total(), "state/fault change"));
     else
-      error("{} state/fault changes, the first {} marked (--max-markers)",
-            changes.total(), changes.kept().size());
+      say("{} state/fault changes, the first {} marked (--max-markers)",
+          changes.total(), changes.kept().size());
   }
   return kOk;
 }
@@ -187,7 +187,7 @@ void add_plot_command(CLI::App& app, Runner& run) {
     try {
       return run_plot(o);
     } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: the verb's own usage error
-      error("{}", e.what());
+      say("{}", e.what());
       return static_cast<int>(kUsage);
     }
   });

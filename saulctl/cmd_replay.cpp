@@ -135,7 +135,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   hooks.write = [&port](std::span<const std::uint8_t> bytes) { port->write(bytes, std::chrono::milliseconds(1000)); };
   hooks.stop = [] { return g_interrupted.load(); };
   hooks.on_corrupt = [&opt](const CaptureError& e) {
-    error("{}", format_capture_error(opt.file, e));
+    say("{}", format_capture_error(opt.file, e));
   };
   std::uint64_t stepped = 0;
   if (opt.step) {
@@ -158,7 +158,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   try {
     report = replay_serial(open_pass, options, clock, hooks);
   } catch (const CaptureOpenError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return kFailure;
   } catch (const SerialError& e) {
     status = report_link_error(e);
@@ -239,7 +239,7 @@ int run_replay(const ReplayCliOptions& opt) {
   try {
     opened = open_capture(opt.file, serial_read_options(opt.serial));
   } catch (const CaptureOpenError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return kFailure;
   }
   // The kind of link --link names: a serial link may leave its rate out (it follows the capture), so it is parsed
@@ -287,7 +287,7 @@ int run_replay(const ReplayCliOptions& opt) {
   hooks.send = [&link](const saul::CanFrame& f) { link->send(f, std::chrono::milliseconds(1000)); };
   hooks.stop = [] { return g_interrupted.load(); };
   hooks.on_corrupt = [&opt](const CaptureError& e) {
-    error("{}", format_capture_error(opt.file, e));
+    say("{}", format_capture_error(opt.file, e));
   };
   std::uint64_t stepped = 0;
   if (opt.step) {
@@ -305,7 +305,7 @@ int run_replay(const ReplayCliOptions& opt) {
   try {
     report = replay(open_pass, options, clock, hooks);
   } catch (const CaptureOpenError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return kFailure;
   } catch (const LinkError& e) {
     status = report_link_error(e);

@@ -295,7 +295,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   screen.reset();
   if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
   keys.reset();
-  if (!lost.empty()) error("link lost: {}", lost);
+  if (!lost.empty()) say("link lost: {}", lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.
   fmt::print("{}", top_table(stats, rows, link->name(), recent_load));
   std::fflush(stdout);

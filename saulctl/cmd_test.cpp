@@ -52,7 +52,7 @@ int run_tests(const TestOptions& opt) {
     try {
       suites.push_back(bt::load_suite(path));
     } catch (const bt::ParseError& e) {
-      error("{}", e.what());
+      say("{}", e.what());
       return kUsage;
     }
   }
@@ -94,7 +94,7 @@ int run_tests(const TestOptions& opt) {
     std::ofstream out(opt.junit);
     out << bt::junit_xml(results);
     if (!out) {
-      error("cannot write JUnit file '{}'", opt.junit);
+      say("cannot write JUnit file '{}'", opt.junit);
       return kFailure;
     }
   }

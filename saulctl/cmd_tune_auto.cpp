@@ -15,6 +15,7 @@
 #include <unistd.h>  // getpid: a temporary file of this process
 
 #include "commands.hpp"
+#include "live.hpp"
 #include "saulproto/core/trace.hpp"
 #include "saulproto/host/capture/trace_file.hpp"
 #include "saulproto/host/tune/analysis.hpp"
@@ -79,8 +80,8 @@ int print_live_plan(const TuneAutoOptions& o) {
     fmt::print("nothing sent: this is the plan only (--yes would run it on the robot: not implemented yet)\n");
     return kOk;
   }
-  fmt::print(stderr, "saulctl tune auto: --yes: running the experiment is not implemented for live robots yet; nothing "
-                     "was sent (use --sim, or 'tune record --excite' and 'tune report' by hand)\n");
+  say("--yes: running the experiment is not implemented for live robots yet; nothing "
+      "was sent (use --sim, or 'tune record --excite' and 'tune report' by hand)");
   return kFailure;
 }
 
@@ -171,17 +172,7 @@ void add_tune_auto_command(CLI::App& tune, Runner& run) {
               "implemented yet). Gains are never applied without saying so: --sim prints them for 'saulctl pid'.\n"
               "\nExit codes: 0 gains proposed (or the live plan printed), 1 --yes on a live robot (refused), 2 usage,\n"
               "3 no gains passed the verification.\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_tune_auto(*o);
-      } catch (const std::runtime_error& e) {
-        fmt::print(stderr, "saulctl tune auto: {}\n", e.what());
-        return kFailure;
-      }
-    };
-  });
+  attach_runner(cmd, o, run, run_tune_auto);
 }
 
 }  // namespace saulctl

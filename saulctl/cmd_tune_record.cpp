@@ -152,20 +152,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
       "  saulctl tune record --console-balance /dev/ttyACM1 --dump -o fall.trace     the 5 s before the last latch\n"
       "  saulctl stats run.trace; saulctl convert run.trace run.csv\n"
       "\nExit codes: 0 recorded, 1 nothing recorded or BALANCE refused (the reason is printed), 2 usage.\n");
-  cmd->callback([o, &run] {
-    run = [o]() -> int {
-      install_signal_handlers();
-      try {
-        return run_tune_record(*o);
-      } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl tune record: {}\n", e.what());
-        return kUsage;
-      } catch (const std::runtime_error& e) {
-        fmt::print(stderr, "saulctl tune record: {}\n", e.what());
-        return kFailure;
-      }
-    };
-  });
+  attach_runner(cmd, o, run, run_tune_record);
 }
 
 }  // namespace saulctl

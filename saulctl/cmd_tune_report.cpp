@@ -40,12 +40,12 @@ int run_report(const TuneReportOptions& opt) {
   try {
     series = tune::read_series(opt.files.front());
   } catch (const tune::SeriesError& e) {
-    fmt::print(stderr, "saulctl tune report: {}\n", e.what());
+    say("{}", e.what());
     return kFailure;
   }
   if (series->size() < 2) {
-    fmt::print(stderr, "saulctl tune report: {}: {} record(s) read: nothing to analyse{}\n", opt.files.front(),
-               series->size(), series->problems.empty() ? "" : " (the first problem: " + series->problems.front() + ")");
+    say("{}: {} record(s) read: nothing to analyse{}", opt.files.front(),
+        series->size(), series->problems.empty() ? "" : " (the first problem: " + series->problems.front() + ")");
     return kFailure;
   }
   const auto report = std::optional<tune::Report>(tune::analyse(*series));
@@ -54,19 +54,19 @@ int run_report(const TuneReportOptions& opt) {
     page << tune::render_html(*report, *series, dygraphs);
     page.close();
     if (!page) {
-      fmt::print(stderr, "saulctl tune report: cannot write '{}': check the folder exists and is writable\n",
-                 opt.output);
+      say("cannot write '{}': check the folder exists and is writable",
+          opt.output);
       return kFailure;
     }
-    fmt::print(stderr, "saulctl tune report: the page is {}\n", opt.output);
+    say("the page is {}", opt.output);
   }
   if (opt.json)
     fmt::print("{}\n", tune::to_json(*report).dump());
   else
     fmt::print("{}", tune::to_text(*report));
   if (opt.json && report->problems_total > 0)
-    fmt::print(stderr, "saulctl tune report: {} input problem(s), the first: {}\n", report->problems_total,
-               report->problems.front());
+    say("{} input problem(s), the first: {}", report->problems_total,
+        report->problems.front());
   return kOk;
 }
 

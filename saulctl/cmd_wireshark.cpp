@@ -27,7 +27,7 @@ int write_dissector(const std::string& path, bool fields) {
   out << text;
   out.close();
   if (out) return kOk;
-  error("cannot write '{}'", path);
+  say("cannot write '{}'", path);
   return kFailure;
 }
 

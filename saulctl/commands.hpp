@@ -21,13 +21,14 @@ enum ExitCode : int {
 
 using Runner = std::function<int()>;
 
-/// The one way every verb reports a failure, a refusal or a warning: one line "saulctl VERB: message" on stderr
-/// (VERB as typed, "saulctl tune report: ..."; "saulctl: ..." before a verb is known). main() names the verb.
-void set_error_verb(std::string verb_path);
-void print_error(std::string_view message);
+/// The one way every verb tells the user something on stderr (an error, a refusal, a warning, a note): one line
+/// "saulctl VERB: message" (VERB as typed: "saulctl tune report: ..."; "saulctl: ..." before a verb is known).
+/// main() names the verb once the command line is parsed.
+void set_say_verb(std::string verb_path);
+void say_line(std::string_view message);
 template <class... Args>
-void error(fmt::format_string<Args...> format, Args&&... args) {
-  print_error(fmt::format(format, std::forward<Args>(args)...));
+void say(fmt::format_string<Args...> format, Args&&... args) {
+  say_line(fmt::format(format, std::forward<Args>(args)...));
 }
 
 void add_decode_command(CLI::App& app, Runner& run);

@@ -60,20 +60,20 @@ saul::host::LinkSpec resolve_link(const std::string& link) {
 bool confirm_motion(bool yes, const std::string& what) {
   if (yes) return true;
   if (!::isatty(STDIN_FILENO)) {
-    error("refusing to {} without confirmation: this can make the motors move; add --yes",
-          what);
+    say("refusing to {} without confirmation: this can make the motors move; add --yes",
+        what);
     return false;
   }
   fmt::print(stderr, "This can make the motors move. Type 'yes' to {}: ", what);
   std::string answer;
   std::getline(std::cin, answer);
   if (answer == "yes") return true;
-  error("not confirmed, nothing sent");
+  say("not confirmed, nothing sent");
   return false;
 }
 
 int report_link_error(const std::exception& e) {
-  error("{}", e.what());
+  say("{}", e.what());
   if (const auto* le = dynamic_cast<const saul::host::LinkError*>(&e)) {
     if (le->kind() == saul::host::LinkError::Kind::timeout) return kTimeout;
   }
@@ -85,13 +85,13 @@ int run_guarded(const std::function<int()>& body) {
   try {
     return body();
   } catch (const CLI::ValidationError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return kUsage;
   } catch (const saul::host::CaptureOpenError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return kFailure;
   } catch (const saul::host::FlashError& e) {
-    error("{}", e.what());
+    say("{}", e.what());
     return e.kind() == saul::host::FlashError::Kind::no_answer ? kTimeout : kFailure;
   } catch (const std::exception& e) {
     return report_link_error(e);
@@ -114,7 +114,7 @@ ViewCommands::ViewCommands(saul::host::CanLink& link) : link_(&link) {
 ViewCommands::~ViewCommands() {
   saul::host::set_share_notice(nullptr);
   std::lock_guard lock(g_view_notice_mu);
-  if (!g_view_notice.empty()) error("{}", g_view_notice);  // the view is gone: say it once
+  if (!g_view_notice.empty()) say("{}", g_view_notice);  // the view is gone: say it once
   g_view_notice.clear();
 }
 

@@ -80,14 +80,14 @@ int run_saulctl(int argc, char** argv) {
     return saulctl::kUsage;
   }
   const std::string verb = saulctl::verb_path(app);
-  saulctl::set_error_verb(verb);
+  saulctl::set_say_verb(verb);
   try {
     const int rc = run();
     // A verb's own usage errors (its checks after parsing) point to its help too.
-    if (rc == saulctl::kUsage) saulctl::error("see '{} --help'", verb);
+    if (rc == saulctl::kUsage) saulctl::say("see '{} --help'", verb);
     return rc;
   } catch (const std::exception& e) {
-    saulctl::error("{}", e.what());
+    saulctl::say("{}", e.what());
     return saulctl::kFailure;
   }
 }

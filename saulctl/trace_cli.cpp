@@ -71,7 +71,7 @@ int stats_trace(const std::string& path, bool json) {
 int convert_trace(const std::string& in, const std::string& out) {
   std::FILE* f = out == "-" ? stdout : std::fopen(out.c_str(), "w");
   if (f == nullptr) {
-    fmt::print(stderr, "saulctl convert: cannot create '{}'\n", out);
+    say("cannot create '{}'", out);
     return kFailure;
   }
   std::fputs(saul::host::trace_csv_header().c_str(), f);
@@ -85,10 +85,10 @@ int convert_trace(const std::string& in, const std::string& out) {
     return kFailure;
   }
   if (!written) {
-    fmt::print(stderr, "saulctl convert: cannot write '{}'\n", out);
+    say("cannot write '{}'", out);
     return kFailure;
   }
-  fmt::print(stderr, "saulctl convert: {} records from {} into {} (CSV)\n", stats->records(), in, out);
+  say("{} records from {} into {} (CSV)", stats->records(), in, out);
   return kOk;
 }
 
@@ -99,7 +99,7 @@ int convert_trace_mcap(const std::string& in, const std::string& out, const saul
   if (out != "-") file.open(out, std::ios::binary | std::ios::trunc);
   std::ostream& stream = out == "-" ? std::cout : file;
   if (!stream) {
-    fmt::print(stderr, "saulctl convert: cannot create '{}'\n", out);
+    say("cannot create '{}'", out);
     return kFailure;
   }
   std::optional<TraceStats> stats;
@@ -116,7 +116,7 @@ int convert_trace_mcap(const std::string& in, const std::string& out, const saul
     mcap.close();
   } catch (const std::runtime_error& e) {  // the stream failed (a full disk)
     stats.reset();
-    fmt::print(stderr, "saulctl convert: cannot write '{}': {}\n", out, e.what());
+    say("cannot write '{}': {}", out, e.what());
   }
   if (!stats) {
     if (out != "-") {
@@ -125,8 +125,8 @@ int convert_trace_mcap(const std::string& in, const std::string& out, const saul
     }
     return kFailure;
   }
-  fmt::print(stderr, "saulctl convert: {} records from {} into {} (MCAP, channel /saul/loop_trace)\n",
-             stats->records(), in, out);
+  say("{} records from {} into {} (MCAP, channel /saul/loop_trace)",
+      stats->records(), in, out);
   return kOk;
 }
 
@@ -147,10 +147,10 @@ int plot_trace(const std::string& in, const std::string& format, const std::stri
       return convert_trace(in, out);  // csv: the trace's own columns
     }
   } catch (const std::runtime_error& e) {
-    fmt::print(stderr, "saulctl plot: {}\n", e.what());
+    say("{}", e.what());
     return kFailure;
   }
-  fmt::print(stderr, "saulctl plot: the loop trace {} written to {}\n", in, out == "-" ? "stdout" : out);
+  say("the loop trace {} written to {}", in, out == "-" ? "stdout" : out);
   return kOk;
 }
 

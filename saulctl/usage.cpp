@@ -109,12 +109,12 @@ std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** 
 }
 
 namespace {
-std::string g_error_prefix = "saulctl";
+std::string g_say_prefix = "saulctl";
 }  // namespace
 
-void set_error_verb(std::string verb_path) { g_error_prefix = std::move(verb_path); }
+void set_say_verb(std::string verb_path) { g_say_prefix = std::move(verb_path); }
 
-void print_error(std::string_view message) { fmt::print(stderr, "{}: {}\n", g_error_prefix, message); }
+void say_line(std::string_view message) { fmt::print(stderr, "{}: {}\n", g_say_prefix, message); }
 
 std::string verb_path(const CLI::App& app) {
   std::string path;
