@@ -116,7 +116,7 @@ void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::
   slot.frame = frame;
   slot.channel = channel->second;
   slot.json.clear();
-  emitter_.message_json(message.value(), slot.json);
+  append_message(slot.json, MessageFormat::json, *d, signals::Wire{frame.id, frame.payload()});
   out.add_message(slot.channel, log_time, slot.json);
 }
 
