@@ -1,8 +1,8 @@
 // The one renderer of decoded messages (format.hpp's append_message, through describe(), to_json() and decode's
 // FrameEmitter lines): every line here is written out by hand from the bytes and docs/protocol.md (the VESC
 // status frame is protocols.md's test vector), never produced by the code under test. Plus a property on random
-// frames of every CAN message: each integer signal's value in the JSON is the one read from the bytes by the
-// plain reader below, and every line parses.
+// frames of every CAN message: each wire integer in the JSON is the one read from the bytes by the plain reader
+// below, and every line parses.
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -57,31 +57,31 @@ const std::vector<Case> kCases = {
      R"({"speed_mmps":1000,"steer_mrad":-500,"type":"velocity_cmd"})"},
     // gain 1 = ki, sequence 7, bytes 2..3 reserved, 1.5f = 0x3FC00000 little-endian
     {frame(0x301, false, {0x01, 0x07, 0x00, 0x00, 0x00, 0x00, 0xC0, 0x3F}), "301#010700000000C03F",
-     "pid_gain gain=ki sequence=7 value=1.5",
-     R"({"gain":"ki","sequence":7,"type":"pid_gain","value":1.5})"},
+     "pid_gain gain=ki sequence=7 ki=1.5",
+     R"({"gain":"ki","ki":1.5,"sequence":7,"type":"pid_gain"})"},
     {frame(0x302, false, {0x03}), "302#03", "mode_cmd mode=estop", R"({"mode":"estop","type":"mode_cmd"})"},
     // tilt 0x05DC = 1500 x 1/100 deg, max speed 0x0320 = 800 mm/s
     {frame(0x303, false, {0xDC, 0x05, 0x20, 0x03}), "303#DC052003",
      "config_cmd tilt_limit=15.00\u00B0 max_speed_mmps=800",
-     R"({"max_speed_mmps":800,"tilt_limit_deg":15.0,"tilt_limit_x100":1500,"type":"config_cmd"})"},
+     R"({"max_speed_mmps":800,"tilt_limit":15.0,"tilt_limit_raw":1500,"type":"config_cmd"})"},
     // pitch 0x04D2 = 1234 x 1/100 deg, pid_out 0x78 = 120, speed 0x190 = 400, state 1 = BALANCE
     {frame(0x400, false, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01}), "400#D2047800900101",
      "telemetry_a pitch=12.34\u00B0 pid_out=120 speed_mmps=400 state=BALANCE",
-     R"({"pid_out":120,"pitch_deg":12.34,"pitch_x100":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})"},
+     R"({"pid_out":120,"pitch":12.34,"pitch_raw":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})"},
     // pitch 0xFB2E = -1234, pid_out 0xFC18 = -1000, speed 0, state 5 = FAULT
     {frame(0x400, false, {0x2E, 0xFB, 0x18, 0xFC, 0x00, 0x00, 0x05}), "400#2EFB18FC000005",
      "telemetry_a pitch=-12.34\u00B0 pid_out=-1000 speed_mmps=0 state=FAULT",
-     R"({"pid_out":-1000,"pitch_deg":-12.34,"pitch_x100":-1234,"speed_mmps":0,"state":"FAULT","type":"telemetry_a"})"},
+     R"({"pid_out":-1000,"pitch":-12.34,"pitch_raw":-1234,"speed_mmps":0,"state":"FAULT","type":"telemetry_a"})"},
     // 100 rpm, -100 rpm, battery 0x9BC4 = 39876 mV, fault bits 0 and 2
     {frame(0x401, false, {0x64, 0x00, 0x9C, 0xFF, 0xC4, 0x9B, 0x05}), "401#64009CFFC49B05",
-     "telemetry_b vesc_l_rpm=100 vesc_r_rpm=-100 battery=39.876V faults=5",
-     R"({"battery_mv":39876,"battery_v":39.876,"faults":5,"type":"telemetry_b","vesc_l_rpm":100,"vesc_r_rpm":-100})"},
+     "telemetry_b vesc_l_rpm=100 vesc_r_rpm=-100 battery=39.876V fault=5",
+     R"({"battery":39.876,"battery_raw":39876,"fault":5,"type":"telemetry_b","vesc_l_rpm":100,"vesc_r_rpm":-100})"},
     {frame(0x402, false, {0x01, 0x07, 0x00}), "402#010700", "command_ack command=1 sequence=7 result=applied",
      R"({"command":1,"result":"applied","sequence":7,"type":"command_ack"})"},
     // protocols.md: STATUS from 56: ERPM -1200, 3.5 A, duty 0.25 = 0x938 FF FF FB 50 00 23 00 FA
     {frame(0x938, true, {0xFF, 0xFF, 0xFB, 0x50, 0x00, 0x23, 0x00, 0xFA}), "00000938#FFFFFB50002300FA",
-     "vesc_status_1 controller_id=56 erpm=-1200 current_a=3.5 duty=0.25",
-     R"({"controller_id":56,"current_a":3.5,"duty":0.25,"erpm":-1200,"type":"vesc_status_1"})"},
+     "vesc_status_1 controller_id=56 erpm=-1200 current=3.5 duty=0.25",
+     R"({"controller_id":56,"current":3.5,"duty":0.25,"erpm":-1200,"type":"vesc_status_1"})"},
     // protocols.md: SET_RPM 1500 -> ID 68 = 0x344: 00 00 05 DC; SET_DUTY 0.10 -> 0x44: 00 00 27 10
     {frame(0x344, true, {0x00, 0x00, 0x05, 0xDC}), "00000344#000005DC", "vesc_set_rpm controller_id=68 erpm=1500",
      R"({"controller_id":68,"erpm":1500,"type":"vesc_set_rpm"})"},
@@ -89,8 +89,8 @@ const std::vector<Case> kCases = {
      R"({"controller_id":68,"duty":0.1,"type":"vesc_set_duty"})"},
     // STATUS_5 (27 = 0x1B) from 68: tachometer 0x10 = 16, 0x01A4 = 420 x 1/10 V, bytes 6..7 reserved
     {frame(0x1B44, true, {0x00, 0x00, 0x00, 0x10, 0x01, 0xA4, 0x00, 0x00}), "00001B44#0000001001A40000",
-     "vesc_status_5 controller_id=68 tachometer=16 voltage_in_v=42",
-     R"({"controller_id":68,"tachometer":16,"type":"vesc_status_5","voltage_in_v":42.0})"},
+     "vesc_status_5 controller_id=68 tachometer=16 voltage_in=42",
+     R"({"controller_id":68,"tachometer":16,"type":"vesc_status_5","voltage_in":42.0})"},
     // PONG (18 = 0x12) to 68 from 56, hardware type 0 (a VESC)
     {frame(0x1244, true, {0x38, 0x00}), "00001244#3800", "vesc_pong controller_id=68 responder_id=56 hw_type=0",
      R"({"controller_id":68,"hw_type":0,"responder_id":56,"type":"vesc_pong"})"},
@@ -229,8 +229,10 @@ TEST_CASE("render: on random frames of every CAN message, the JSON's wire intege
               s.text != saul::signals::Text::raw || s.mux != saul::signals::Mux::none)
             continue;
           const std::int64_t want = s.place == saul::signals::Place::can_id ? (f.id & 0xFF) : plain_read(f, s);
-          INFO(d.name << "." << s.key << " " << json);
-          CHECK(m.at(s.key) == want);
+          // a scaled wire integer is kept under its name + "_raw" (its name holds the physical value)
+          const std::string key = saul::signals::text_in_unit(s) ? std::string(s.name) + "_raw" : s.name;
+          INFO(d.name << "." << key << " " << json);
+          CHECK(m.at(key) == want);
           ++checked;
         }
       }

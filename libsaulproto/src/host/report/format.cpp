@@ -188,15 +188,7 @@ void append_value_text(std::string& out, const signals::SignalDesc& s, std::int6
 }
 
 
-std::string physical_key(const signals::SignalDesc& s) {
-  std::string key = s.name;
-  key += '_';
-  for (const char* u = s.unit; *u != '\0'; ++u) {
-    if (*u == '/') continue;
-    key += static_cast<char>(*u >= 'A' && *u <= 'Z' ? *u - 'A' + 'a' : *u);
-  }
-  return key;
-}
+std::string raw_key(const signals::SignalDesc& s) { return std::string(s.name) + "_raw"; }
 
 void append_json_string(std::string& out, std::string_view s) {
   bool plain = true;  // printable ASCII without '"' or '\\': copied as it is (nearly always)
@@ -320,44 +312,33 @@ Readings read_fields(const MessageDesc& d, const M& m) {
 // ---- what a message's lines repeat, made once per description -----------------------------------------------------
 
 struct Layout {
-  std::vector<std::string> text_keys;  ///< " key=" per signal: a value shown in its unit is named by the signal's name
+  std::vector<std::string> text_keys;  ///< " name=" per signal
   std::string type_value;              ///< the message's name as a JSON string
   struct Member {
-    int signal = -1;        ///< index into the description's signals; -1: "type"
-    bool physical = false;  ///< the signal's physical value (physical_key()), not its wire value
+    std::string prefix;  ///< "\"key\":"
+    int signal = -1;     ///< index into the description's signals; -1: "type"
+    bool raw = false;    ///< a scaled wire integer's integer (raw_key()), not its physical value
   };
-  struct Group {
-    std::vector<Member> members;  ///< with this JSON key, in description order
-    std::string prefix;           ///< "\"key\":"
-  };
-  std::vector<Group> groups;  ///< by key, sorted as nlohmann sorts an object
+  std::vector<Member> members;  ///< by key, sorted as nlohmann sorts an object
 };
 
 Layout make_layout(const MessageDesc& d) {
   if (d.signals.size() > kMaxSignals) throw std::logic_error(fmt::format("{} has more than {} signals", d.name, kMaxSignals));
   Layout l;
   append_json_string(l.type_value, d.name);
-  for (const auto& s : d.signals) l.text_keys.push_back(fmt::format(" {}=", signals::text_in_unit(s) ? s.name : s.key));
-  // JSON: "type", then per signal its key and, for a scaled one, its physical key; equal keys form one group (the
-  // multiplexed signals of one key: the frame carries one of them).
-  struct Keyed {
-    std::string key;
-    Layout::Member member;
-  };
-  std::vector<Keyed> keyed{{"type", {}}};
+  // JSON: "type", every signal's name and, for a scaled wire integer, its raw_key() (unique: test_signals_text.cpp)
+  l.members.push_back({"type", -1, false});
   for (std::size_t i = 0; i < d.signals.size(); ++i) {
     const auto& s = d.signals[i];
-    keyed.push_back({s.key, {static_cast<int>(i), false}});
-    if (signals::text_in_unit(s)) keyed.push_back({physical_key(s), {static_cast<int>(i), true}});
+    l.text_keys.push_back(fmt::format(" {}=", s.name));
+    l.members.push_back({s.name, static_cast<int>(i), false});
+    if (signals::text_in_unit(s)) l.members.push_back({raw_key(s), static_cast<int>(i), true});
   }
-  std::stable_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) { return a.key < b.key; });
-  for (std::size_t k = 0; k < keyed.size(); ++k) {
-    if (k == 0 || keyed[k].key != keyed[k - 1].key) {
-      l.groups.emplace_back();
-      append_json_string(l.groups.back().prefix, keyed[k].key);
-      l.groups.back().prefix += ':';
-    }
-    l.groups.back().members.push_back(keyed[k].member);
+  std::sort(l.members.begin(), l.members.end(), [](const auto& a, const auto& b) { return a.prefix < b.prefix; });
+  for (auto& m : l.members) {
+    std::string key;
+    append_json_string(key, m.prefix);
+    m.prefix = key + ':';
   }
   return l;
 }
@@ -388,20 +369,17 @@ void write_json(std::string& out, const MessageDesc& d, const Readings& r) {
   const Layout& l = layout_of(d);
   out += '{';
   bool any = false;
-  for (const auto& group : l.groups) {
-    const Layout::Member* chosen = nullptr;  // the last one present, as with repeated j[key] = ...
-    for (const auto& m : group.members)
-      if (m.signal < 0 || r[static_cast<std::size_t>(m.signal)].present) chosen = &m;
-    if (chosen == nullptr) continue;
+  for (const auto& m : l.members) {
+    const auto i = static_cast<std::size_t>(m.signal);
+    if (m.signal >= 0 && !r[i].present) continue;  // a multiplexed signal this frame does not carry
     if (any) out += ',';
     any = true;
-    out += group.prefix;
-    if (chosen->signal < 0) {
+    out += m.prefix;
+    if (m.signal < 0) {
       out += l.type_value;
-      continue;
-    }
-    const auto i = static_cast<std::size_t>(chosen->signal);
-    if (chosen->physical) {
+    } else if (m.raw) {
+      append_int(out, r[i].raw);
+    } else if (signals::text_in_unit(d.signals[i])) {
       append_json_physical(out, d.signals[i], r[i].raw);
     } else {
       append_json_value(out, d.signals[i], r[i].raw, r[i].chars);

@@ -1,11 +1,10 @@
 // Text and JSON renderings of decoded messages, for saulctl and for logs: one renderer, append_message().
 //
-// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp): JSON has each
-// signal's key and its value as the wire integer, its value name or its physical value, as the description says,
-// and a scaled wire integer (signals::text_in_unit) also as its physical value under physical_key()
-// ("pitch_x100": 1234 and "pitch_deg": 12.34); text shows such a value only in its unit, under the signal's name
-// (pitch_x100 1234 -> "pitch=12.34°", docs/cli.md). Any other
-// message type with kName and fields(visitor) (Pride) prints its fields(), so it needs no change here either.
+// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp), each signal under
+// its one name (docs/cli.md's table): its value as the wire integer, its value name or its physical value, as the
+// description says; a scaled wire integer (signals::text_in_unit) in its unit ("pitch=12.34°"; JSON "pitch":12.34
+// and the integer as "pitch_raw":1234). Pride's messages and CRSF's subset RC channels have no fixed layout to
+// describe and print their structs' fields().
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -47,10 +46,9 @@ SignalValues signal_values(const crsf::Message& message);
 /// text.
 void append_value_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars);
 
-/// The JSON key of a scaled wire integer's physical value: the signal's name and its unit as a word, lower case,
-/// '/' dropped ("pitch" in deg -> "pitch_deg", "battery" in V -> "battery_v", "ch1" in us -> "ch1_us", km/h ->
-/// "kmh"). tests/unit/test_signals_text.cpp holds it unique within each message.
-std::string physical_key(const signals::SignalDesc& s);
+/// The JSON key of a scaled wire integer's integer (signals::text_in_unit), beside its physical value under the
+/// signal's name: "pitch_raw" (1234) beside "pitch" (12.34).
+std::string raw_key(const signals::SignalDesc& s);
 
 /// THE renderer of a described message (every CAN message, every inter-board and CRSF message with a fixed
 /// layout), appended to `out`: text "velocity_cmd speed_mmps=1000 steer_mrad=-500", or its JSON object
@@ -69,7 +67,7 @@ std::string describe(const interboard::Message& message);
 std::string describe(const crsf::Message& message);
 std::string describe(const pride::Message& message);
 
-/// {"type":"velocity_cmd","speed_mmps":1000,"steer_mrad":-500}; {"pitch_deg":12.34,"pitch_x100":1234,...}
+/// {"type":"velocity_cmd","speed_mmps":1000,"steer_mrad":-500}; {"pitch":12.34,"pitch_raw":1234,...}
 nlohmann::json to_json(const BusMessage& message);
 nlohmann::json to_json(const interboard::Message& message);
 nlohmann::json to_json(const crsf::Message& message);
