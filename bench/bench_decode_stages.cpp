@@ -1,7 +1,7 @@
 // saulctl decode and stats stage by stage, on a generated robot-bus candump log (the mix of bench_capture_decode.cpp
 // with payloads that vary): scan (CandumpScanner: big reads, lines in place, batches), parse (parse_candump_line
-// alone), decode (decode_bus_frame), emit (FrameEmitter text / CSV / JSON into one buffer, and the reference path
-// it replaced), stuff bits (table-driven against the bit-by-bit count), and the whole decode_candump on one thread
+// alone), decode (decode_bus_frame), emit (FrameEmitter text / CSV / JSON into one buffer; a message's JSON by
+// append_message and by nlohmann's dump), stuff bits (table-driven against the bit-by-bit count), and the whole decode_candump on one thread
 // and two. Run: build/bench/saul_bench --benchmark_filter='Scan|Parse|Emit|Stuff|Decode'
 #include <benchmark/benchmark.h>
 #include <unistd.h>
@@ -17,6 +17,7 @@
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
+#include "saulproto/host/report/format.hpp"
 
 namespace {
 
@@ -154,18 +155,35 @@ BENCHMARK(BM_EmitText)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EmitCsv)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EmitJson)->Unit(benchmark::kMillisecond);
 
-void BM_EmitJsonReference(benchmark::State& state) {
-  const auto frames = parsed_frames();
-  std::uint64_t n = 0;
-  for (auto _ : state) {
-    for (std::size_t i = 0; i < frames.size(); i += 10)  // a tenth: it is slow
-      benchmark::DoNotOptimize(
-          reference_frame_line(DecodeFormat::jsonl, "(1763800000.000000)", frames[i].second, frames[i].first));
-    n += (frames.size() + 9) / 10;
-  }
-  rate(state, n);
+// JSON through one writer: format.hpp's append_message (reading the values and writing them) against nlohmann's
+// dump() of the same messages' DOMs made beforehand (the writer alone), on the decoded frames of the mix.
+std::vector<std::pair<const saul::signals::MessageDesc*, saul::CanFrame>> decoded_frames() {
+  std::vector<std::pair<const saul::signals::MessageDesc*, saul::CanFrame>> out;
+  for (const auto& [f, iface] : parsed_frames())
+    if (saul::decode_bus_frame(f)) out.emplace_back(saul::signals::find_can(f.id, f.extended), f);
+  return out;
 }
-BENCHMARK(BM_EmitJsonReference)->Unit(benchmark::kMillisecond);
+void BM_MessageJson(benchmark::State& state) {
+  const auto frames = decoded_frames();
+  std::string out;
+  for (auto _ : state) {
+    for (const auto& [d, f] : frames) {
+      out.clear();
+      append_message(out, MessageFormat::json, *d, saul::signals::Wire{f.id, f.payload()});
+      benchmark::DoNotOptimize(out.data());
+    }
+  }
+  rate(state, static_cast<std::uint64_t>(state.iterations()) * frames.size());
+}
+void BM_MessageJsonNlohmannDump(benchmark::State& state) {
+  std::vector<nlohmann::json> doms;
+  for (const auto& [d, f] : decoded_frames()) doms.push_back(to_json(saul::decode_bus_frame(f).value()));
+  for (auto _ : state)
+    for (const auto& j : doms) benchmark::DoNotOptimize(json_line(j));
+  rate(state, static_cast<std::uint64_t>(state.iterations()) * doms.size());
+}
+BENCHMARK(BM_MessageJson)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MessageJsonNlohmannDump)->Unit(benchmark::kMillisecond);
 
 void BM_StuffBits(benchmark::State& state) {
   const auto frames = parsed_frames();

@@ -61,7 +61,7 @@ def saul_tele_a(d):
 
 def saul_tele_b(d):
     l, r, b, f = S_hhHB.unpack(d)
-    return {"type": "telemetry_b", "vesc_l_rpm": l, "vesc_r_rpm": r, "battery": b / 1000, "faults": f}
+    return {"type": "telemetry_b", "vesc_l_rpm": l, "vesc_r_rpm": r, "battery": b / 1000, "fault": f}
 
 
 def saul_ack(d):
@@ -79,7 +79,7 @@ def vesc_set_rpm(c, d):
 
 def vesc_status_1(c, d):
     e, i, u = S_ihh.unpack(d)
-    return {"type": "vesc_status_1", "controller_id": c, "erpm": e, "current_a": i / 10, "duty": u / 1000}
+    return {"type": "vesc_status_1", "controller_id": c, "erpm": e, "current": i / 10, "duty": u / 1000}
 
 
 def vesc_status_2(c, d):

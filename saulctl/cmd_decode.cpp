@@ -328,7 +328,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       "  (1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
       "  (1700000000.100000) can0 400#D2047800900101       telemetry_a pitch=12.34\u00B0 pid_out=120 ...\n"
       "Scaled values are shown in their unit (pitch in degrees, battery in V, RC channels in \u00B5s); JSON has\n"
-      "both the wire integer and the physical value: \"pitch_x100\":1234,\"pitch_deg\":12.34 (docs/cli.md).\n"
+      "the physical value and the wire integer: \"pitch\":12.34,\"pitch_raw\":1234 (docs/cli.md names every signal).\n"
       "A frame that does not decode shows '!' and the reason, e.g. '!wrong_dlc' or '!unknown_id'.\n"
       "Corrupt lines are reported on stderr as FILE:LINE:COLUMN (FILE: byte OFFSET in pcap/pcapng) and\n"
       "skipped; the rest still decodes. The format of a file is told by its content (docs/captures.md).\n"

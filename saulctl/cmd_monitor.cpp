@@ -167,13 +167,13 @@ double unix_seconds() { return static_cast<double>(saul::host::realtime_ns()) / 
 nlohmann::json json_line(Telemetry& tm, steady_clock::time_point t) {
   return nlohmann::json{{"time", unix_seconds()},
                         {"state", sc::to_string(tm.a->state)},
-                        {"pitch_deg", tm.a->pitch_x100 / 100.0},
+                        {"pitch", tm.a->pitch_x100 / 100.0},
                         {"pid_out", tm.a->pid_out},
                         {"speed_mmps", tm.a->speed_mmps},
                         {"vesc_l_rpm", tm.b->vesc_l_rpm},
                         {"vesc_r_rpm", tm.b->vesc_r_rpm},
-                        {"battery_v", tm.b->battery_mv / 1000.0},
-                        {"faults", fault_names(tm.b->faults)},
+                        {"battery", tm.b->battery_mv / 1000.0},
+                        {"fault", fault_names(tm.b->faults)},
                         {"rate_400_hz", tm.sa.rate(t)},
                         {"rate_401_hz", tm.sb.rate(t)}};
 }

@@ -44,7 +44,7 @@ void add_wireshark_command(CLI::App& app, Runner& run) {
       "same message descriptions the codecs use.\n"
       "\nExamples:\n"
       "  saulctl wireshark -o saul.lua && wireshark -X lua_script:saul.lua run.pcapng\n"
-      "  tshark -X lua_script:saul.lua -r run.pcapng -Y saul.message -T fields -e saul.telemetry_a.pitch_x100\n"
+      "  tshark -X lua_script:saul.lua -r run.pcapng -Y saul.message -T fields -e saul.telemetry_a.pitch\n"
       "  cp saul.lua ~/.local/lib/wireshark/plugins/            for every capture\n"
       "  saulctl wireshark --fields                             the field names\n");
   cmd->add_option("-o,--output", *output, "file to write (default: standard output)");

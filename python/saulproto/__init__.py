@@ -21,7 +21,7 @@ Decode serial links live: ``saulproto.StreamDecoder("interboard" | "crsf" | "pri
 Fields come from the messages' signal descriptions (libsaulproto core/signals*.hpp): a wire integer with a scale
 becomes its physical value under the signal's name (``pitch_x100`` -250 -> ``pitch`` -2.5 deg, ``battery_mv`` ->
 ``battery`` in V, ``tilt_limit_x100`` -> ``tilt_limit`` in deg); every other field keeps the name and value
-``saulctl decode --json`` gives it (``speed_mmps``, ``state`` 'BALANCE', VESC ``current_a``). ``units(type)`` gives
+``saulctl decode --json`` gives it (``speed_mmps``, ``state`` 'BALANCE', VESC ``current``). ``units(type)`` gives
 each field's unit. docs/python.md has a bus loop and an analysis of a log.
 """
 

@@ -11,24 +11,22 @@ const saul::signals::MessageDesc* description_of(const char* type) {
   return nullptr;
 }
 
-FieldView view_of(const saul::signals::MessageDesc* d, const char* key) {
+FieldView view_of(const saul::signals::MessageDesc* d, const char* field) {
   FieldView f;
-  f.name = key;
+  f.name = field;
   if (!d) return f;
   const saul::signals::SignalDesc* found = nullptr;
   for (const auto& s : d->signals) {
-    if (std::string_view(s.key) != key) continue;
-    if (found) return f;  // several signals share the key (multiplexed, as 0x301's value): no one unit or name
+    if (std::string_view(s.field) != field) continue;
+    if (found) return f;  // several signals share the struct field (multiplexed, as 0x301's value): kept as it is
     found = &s;
   }
   if (!found) return f;
+  f.name = found->name;  // the signal's one name, as decode and the DBC say it
   f.unit = found->unit;
   const bool integer = found->kind == saul::signals::Kind::signed_int || found->kind == saul::signals::Kind::unsigned_int;
-  if (integer && found->text == saul::signals::Text::raw &&
-      (found->scale_num != found->scale_den || found->offset != 0)) {
-    f.name = found->name;
+  if (integer && found->text == saul::signals::Text::raw && (found->scale_num != found->scale_den || found->offset != 0))
     f.scale = found;
-  }
   return f;
 }
 

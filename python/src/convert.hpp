@@ -28,15 +28,15 @@ namespace py = pybind11;
 
 /// How one field of a message type reaches Python.
 struct FieldView {
-  const char* name = "";  ///< the signal's name when the value is scaled, else the field's key
+  const char* name = "";  ///< the signal's name (the struct's field name when no one signal has that field)
   const char* unit = "";  ///< "" when the field has none or no description
   const saul::signals::SignalDesc* scale = nullptr;  ///< set: an integer to turn into its physical value
 };
 
 /// The description of the message type called `type` (kName), in any protocol; nullptr when there is none.
 const saul::signals::MessageDesc* description_of(const char* type);
-/// The view of field `key` of a message described by d (d may be nullptr).
-FieldView view_of(const saul::signals::MessageDesc* d, const char* key);
+/// The view of struct field `field` of a message described by d (d may be nullptr).
+FieldView view_of(const saul::signals::MessageDesc* d, const char* field);
 /// Remembers a type's field names and units for units().
 void register_units(const char* type, const std::vector<FieldView>& views);
 /// {field: unit} of a message type; KeyError for a type no decoder produces.

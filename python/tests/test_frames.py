@@ -23,10 +23,10 @@ def frame(text):
     ("400#06FFA4012C0101", {"type": "telemetry_a", "pitch": -2.5, "pid_out": 420, "speed_mmps": 300,
                             "state": "BALANCE"}),
     ("401#B00464FBB09A11", {"type": "telemetry_b", "vesc_l_rpm": 1200, "vesc_r_rpm": -1180, "battery": 39.6,
-                            "faults": 0x11}),
+                            "fault": 0x11}),
     ("402#010703", {"type": "command_ack", "command": 1, "sequence": 7, "result": "rejected_incomplete"}),
     ("00000344#000005DC", {"type": "vesc_set_rpm", "controller_id": 68, "erpm": 1500}),
-    ("00000938#FFFFFB50002300FA", {"type": "vesc_status_1", "controller_id": 56, "erpm": -1200, "current_a": 3.5,
+    ("00000938#FFFFFB50002300FA", {"type": "vesc_status_1", "controller_id": 56, "erpm": -1200, "current": 3.5,
                                    "duty": 0.25}),
 ])
 def test_decode_worked_examples(text, want):
@@ -75,7 +75,7 @@ def test_units_name_the_physical_fields():
     assert saulproto.units("telemetry_a") == {"pitch": "deg", "pid_out": "permille", "speed_mmps": "mm/s", "state": ""}
     assert saulproto.units("telemetry_b")["battery"] == "V"
     assert saulproto.units("config_cmd")["tilt_limit"] == "deg"
-    assert saulproto.units("vesc_status_1")["current_a"] == "A"
+    assert saulproto.units("vesc_status_1")["current"] == "A"
     # every key decode() gives has a unit entry
     assert set(saulproto.decode(0x401, bytes.fromhex("B00464FBB09A11"))) - {"type"} == set(saulproto.units("telemetry_b"))
     with pytest.raises(KeyError):

@@ -15,9 +15,9 @@ import sys
 # multiplexed group) is listed. Values from the "reading" columns of docs/protocol.md's worked examples.
 GOLDEN = [
     ("300#E8030CFE", "velocity_cmd", {"speed_mmps": 1000, "steer_mrad": -500}),
-    ("301#000700000000C03F", "pid_gain", {"gain_index": 0, "sequence": 7, "kp": 1.5}),
-    ("301#010700000000803E", "pid_gain", {"gain_index": 1, "sequence": 7, "ki": 0.25}),
-    ("301#02070000CDCC4C3D", "pid_gain", {"gain_index": 2, "sequence": 7, "kd": 0.05}),
+    ("301#000700000000C03F", "pid_gain", {"gain": 0, "sequence": 7, "kp": 1.5}),
+    ("301#010700000000803E", "pid_gain", {"gain": 1, "sequence": 7, "ki": 0.25}),
+    ("301#02070000CDCC4C3D", "pid_gain", {"gain": 2, "sequence": 7, "kd": 0.05}),
     ("302#01", "mode_cmd", {"mode": 1}),
     ("303#D007DC05", "config_cmd", {"tilt_limit": 20.0, "max_speed_mmps": 1500}),
     ("400#06FFA4012C0101", "telemetry_a", {"pitch": -2.5, "pid_out": 420, "speed_mmps": 300, "state": 1}),

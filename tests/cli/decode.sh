@@ -13,7 +13,7 @@ check "sample decodes with exit 0" test $? -eq 0
 check "mode balance while OFF is acknowledged not_allowed" \
   grep -q '^(1763800000.100400) can0 402#020002 *command_ack command=2 sequence=0 result=rejected_not_allowed$' "$out/text"
 check "PID gains decode to 1.5 0.25 0.05" \
-  bash -c "grep -c 'pid_gain gain=kp sequence=1 value=1.5\$\|pid_gain gain=ki sequence=1 value=0.25\$\|pid_gain gain=kd sequence=1 value=0.05\$' '$out/text' | grep -qx 3"
+  bash -c "grep -c 'pid_gain gain=kp sequence=1 kp=1.5\$\|pid_gain gain=ki sequence=1 ki=0.25\$\|pid_gain gain=kd sequence=1 kd=0.05\$' '$out/text' | grep -qx 3"
 check "config 20.00 deg / 1200 mm/s" grep -q 'config_cmd tilt_limit=20.00° max_speed_mmps=1200$' "$out/text"
 check "velocity reaches 400 mm/s" grep -q '300#90010000 *velocity_cmd speed_mmps=400 steer_mrad=0$' "$out/text"
 check "telemetry shows BALANCE after arming" grep -q 'telemetry_a .* state=BALANCE$' "$out/text"
@@ -25,9 +25,9 @@ check "no SAUL frame of the sample is rejected" bash -c "! grep -E '^\\(.* (30[0
 check "VESC SET_RPM to 68 decodes to 133 ERPM" \
   grep -q '^(1763800001.500200) can0 00000344#00000085 *vesc_set_rpm controller_id=68 erpm=133$' "$out/text"
 check "VESC STATUS from 68 decodes ERPM, current and duty" \
-  grep -q '^(1763800001.550500) can0 00000944#00000093000C000B *vesc_status_1 controller_id=68 erpm=147 current_a=1.2 duty=0.011$' "$out/text"
+  grep -q '^(1763800001.550500) can0 00000944#00000093000C000B *vesc_status_1 controller_id=68 erpm=147 current=1.2 duty=0.011$' "$out/text"
 check "VESC STATUS_5 from 56 decodes tachometer and voltage" \
-  grep -q '00001B38#000001D1018C0000 *vesc_status_5 controller_id=56 tachometer=465 voltage_in_v=39.6$' "$out/text"
+  grep -q '00001B38#000001D1018C0000 *vesc_status_5 controller_id=56 tachometer=465 voltage_in=39.6$' "$out/text"
 check "all 340 VESC frames decode (250 SET_RPM, 60 STATUS, 30 STATUS_5)" \
   test "$(grep -c ' vesc_\(set_rpm\|status_1\|status_5\) controller_id=' "$out/text")" -eq 340
 check "the sample has 0 unknown ids and no rejected frame" \
@@ -35,9 +35,9 @@ check "the sample has 0 unknown ids and no rejected frame" \
 
 "$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/json" 2>/dev/null
 check "--json gives one object per frame" test "$(wc -l <"$out/json")" -eq 452
-check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit_deg":20.0,"tilt_limit_x100":2000,"type":"config_cmd"}' "$out/json"
+check "--json carries typed fields" grep -q '"message":{"max_speed_mmps":1200,"tilt_limit":20.0,"tilt_limit_raw":2000,"type":"config_cmd"}' "$out/json"
 check "--json carries VESC values as plain decimals" \
-  grep -q '"message":{"controller_id":68,"current_a":1.2,"duty":0.011,"erpm":147,"type":"vesc_status_1"}' "$out/json"
+  grep -q '"message":{"controller_id":68,"current":1.2,"duty":0.011,"erpm":147,"type":"vesc_status_1"}' "$out/json"
 
 "$saulctl" decode --id 0x300 --time delta "$root/captures/robot_bus.log" >"$out/delta" 2>/dev/null
 check "--id filters to 0x300 only" bash -c "! grep -v ' 300#' '$out/delta'"

@@ -135,7 +135,7 @@ code, out, err = finish(proc)
 lines = out.strip().split("\n")
 check("sniff prints 3 decoded lines and exits 0",
       code == 0 and len(lines) == 3 and "telemetry_a pitch=-2.46° pid_out=300 speed_mmps=300 state=BALANCE" in lines[0]
-      and "vesc_status_1 controller_id=56 erpm=-1200 current_a=3.5 duty=0.25" in lines[1]
+      and "vesc_status_1 controller_id=56 erpm=-1200 current=3.5 duty=0.25" in lines[1]
       and "!wrong_dlc" in lines[2], f"{code} {out} {err}")
 p.close()
 
@@ -159,8 +159,8 @@ out_line = proc.stdout.readline().decode()
 p.close_master()
 code, out, err = finish(proc)
 check("monitor --json reports state, pitch, battery and fault names",
-      '"state":"BALANCE"' in out_line and '"pitch_deg":-2.46' in out_line and '"battery_v":39.6' in out_line
-      and '"faults":"rc_loss,orin_timeout"' in out_line, out_line + err)
+      '"state":"BALANCE"' in out_line and '"pitch":-2.46' in out_line and '"battery":39.6' in out_line
+      and '"fault":"rc_loss,orin_timeout"' in out_line, out_line + err)
 p.close()
 
 # 14. A device that does not exist, and one we may not open.

@@ -53,25 +53,25 @@ got = {(m, s): (n, avg, unit) for m, s, n, avg, unit in
 
 # The same from JSON: key -> (signal, factor to the physical unit, unit), by hand from docs/protocol.md.
 SCALES = {
-    ("telemetry_a", "pitch_x100"): ("pitch", 0.01, "deg"),
+    ("telemetry_a", "pitch_raw"): ("pitch", 0.01, "deg"),
     ("telemetry_a", "pid_out"): ("pid_out", 1, "permille"),
     ("telemetry_a", "speed_mmps"): ("speed_mmps", 1, "mm/s"),
-    ("telemetry_b", "battery_mv"): ("battery", 0.001, "V"),
+    ("telemetry_b", "battery_raw"): ("battery", 0.001, "V"),
     ("telemetry_b", "vesc_l_rpm"): ("vesc_l_rpm", 1, "rpm"),
     ("velocity_cmd", "speed_mmps"): ("speed_mmps", 1, "mm/s"),
     ("velocity_cmd", "steer_mrad"): ("steer_mrad", 1, "mrad"),
     ("vesc_status_1", "erpm"): ("erpm", 1, "rpm"),
-    ("vesc_status_1", "current_a"): ("current", 1, "A"),
-    ("vesc_status_5", "voltage_in_v"): ("voltage_in", 1, "V"),
+    ("vesc_status_1", "current"): ("current", 1, "A"),
+    ("vesc_status_5", "voltage_in"): ("voltage_in", 1, "V"),
     ("vesc_set_rpm", "erpm"): ("erpm", 1, "rpm"),
 }
 code, jsonl, err = saulctl.run(["decode", "--json", log])
 sums = {}
 signals_in_json = 0
-# JSON has a scaled wire integer twice: raw ("pitch_x100": 1234) and physical ("pitch_deg": 12.34), written here
+# JSON has a scaled wire integer twice: raw ("pitch_raw": 1234) and physical ("pitch": 12.34), written here
 # by hand; the long CSV has it once, physical. The twin must be the raw value times the factor.
-PHYSICAL_TWINS = {("telemetry_a", "pitch_deg"): "pitch_x100", ("telemetry_b", "battery_v"): "battery_mv",
-                  ("config_cmd", "tilt_limit_deg"): "tilt_limit_x100"}
+PHYSICAL_TWINS = {("telemetry_a", "pitch"): "pitch_raw", ("telemetry_b", "battery"): "battery_raw",
+                  ("config_cmd", "tilt_limit"): "tilt_limit_raw"}
 twins_checked, twins_wrong = 0, []
 for line in jsonl.splitlines():
     msg = json.loads(line).get("message", {})
@@ -82,7 +82,7 @@ for line in jsonl.splitlines():
             signals_in_json += k != "type"
             continue
         twins_checked += 1
-        want = msg[raw_key] * (0.001 if raw_key == "battery_mv" else 0.01)
+        want = msg[raw_key] * (0.001 if raw_key == "battery_raw" else 0.01)
         if not isinstance(msg[k], float) or abs(msg[k] - want) > 1e-9:
             twins_wrong.append((msg["type"], k, msg[k], msg[raw_key]))
     for key, value in msg.items():

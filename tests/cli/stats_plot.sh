@@ -127,7 +127,7 @@ check "without -o: the page, named after the capture (robot_bus.html)" cmp -s "$
 # At t = 1.0 s (0x400 at +1.0009 s): pitch round(150 sin 3) = 21 -> 0.21 deg, pid_out int(21 x 0.8) = 16,
 # speed 0 (the ramp starts at 1.0 s), state 1; one row per message that gives a column: 194 + the header.
 check "plot -o .csv without --id: the dashboard's columns, one row per message, 0.21 deg at 1.0 s" \
-  bash -c "head -n 1 '$out/run.csv' | grep -qx 'time_s,pitch_deg,pid_out,speed_mmps,speed_cmd_mmps,wheel_l_rpm,wheel_r_rpm,vesc_l_erpm,vesc_r_erpm,battery_v,vesc_l_v,vesc_r_v,state,faults' && test \$(wc -l <'$out/run.csv') -eq 195 && grep -qx '1.000000,0.21,16,0,,,,,,,,,1,' '$out/run.csv'"
+  bash -c "head -n 1 '$out/run.csv' | grep -qx 'time_s,pitch,pid_out,speed_mmps,speed_cmd_mmps,wheel_l_rpm,wheel_r_rpm,vesc_l_erpm,vesc_r_erpm,battery,vesc_l_v,vesc_r_v,state,faults' && test \$(wc -l <'$out/run.csv') -eq 195 && grep -qx '1.000000,0.21,16,0,,,,,,,,,1,' '$out/run.csv'"
 
 # glitches.log has no valid 0x400 and no VESC STATUS: pitch, pid_out and ERPM are left out, and said so; its 0x401
 # (+0.070 s) sets faults 0x11 = rc_loss + orin_timeout, 70 ms after the first plotted message (0x300 at +0.000 s).
@@ -149,7 +149,7 @@ check "--max-markers 5: 5 of 12 changes drawn on each panel, the other 7 counted
 check "--id plots keep the markers: OFF and BALANCE on the one panel" \
   bash -c "test \$(texts '$out/id.svg' OFF) -eq 1 && test \$(texts '$out/id.svg' BALANCE) -eq 1"
 "$saulctl" plot "$log" --format csv -o "$out/p.dat" 2>/dev/null
-check "--format csv whatever the extension" bash -c "test $? -eq 0 && head -n 1 '$out/p.dat' | grep -q '^time_s,pitch_deg,'"
+check "--format csv whatever the extension" bash -c "test $? -eq 0 && head -n 1 '$out/p.dat' | grep -q '^time_s,pitch,'"
 "$saulctl" plot "$log" -o "$out/p.txt" 2>"$out/ext.err"
 check "an unknown extension without --format is a usage error (exit 2)" \
   bash -c "test $? -eq 2 && grep -q 'html|svg|png|pdf|csv' '$out/ext.err'"

@@ -29,9 +29,9 @@ check("saulctl wireshark -o saul.lua exits 0", code == 0 and os.path.getsize(lua
 code, out, _ = saulctl.run(["wireshark", "--fields"])
 fields = out.split()
 check("the fields: saul.message, saul.problem, one per signal key and one per physical value of a scaled key",
-      fields[:2] == ["saul.message", "saul.problem"] and "saul.telemetry_a.pitch_x100" in fields
-      and "saul.telemetry_a.pitch_deg" in fields and "saul.telemetry_b.battery_v" in fields
-      and "saul.vesc_status_1.erpm" in fields and "saul.pid_gain.value" in fields, fields[:6])
+      fields[:2] == ["saul.message", "saul.problem"] and "saul.telemetry_a.pitch_raw" in fields
+      and "saul.telemetry_a.pitch" in fields and "saul.telemetry_b.battery" in fields
+      and "saul.vesc_status_1.erpm" in fields and "saul.pid_gain.kd" in fields, fields[:6])
 
 
 def same(expected, got):
@@ -89,7 +89,7 @@ for sample in ("robot_bus.log", "glitches.log"):
 run = subprocess.run(["tshark", "-X", "lua_script:" + lua, "-r", os.path.join(tmp, "robot_bus.log.pcapng"), "-V",
                       "-Y", "saul.message == \"telemetry_b\""], capture_output=True, text=True)
 check("the tree shows physical units and names (battery in V, faults by name)",
-      "battery: 39.6 V  [battery_mv = 39600]" in run.stdout and "SAUL-TEE SAUL telemetry_b" in run.stdout,
+      "battery: 39.6 V  [battery_raw = 39600]" in run.stdout and "SAUL-TEE SAUL telemetry_b" in run.stdout,
       run.stdout[:800])
 run = subprocess.run(["tshark", "-X", "lua_script:" + lua, "-r", os.path.join(tmp, "glitches.log.pcapng"), "-V",
                       "-Y", "saul.problem"], capture_output=True, text=True)

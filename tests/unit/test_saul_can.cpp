@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <limits>
+#include <string>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/saul_can.hpp"
@@ -189,4 +190,22 @@ TEST_CASE("CanFrame::data_frame checks id range and length") {
   CHECK(CanFrame::data_frame(0x1FFFFFFF, true, std::span(d, 1)).ok());
   CHECK(CanFrame::data_frame(0x20000000, true, std::span(d, 1)).reason() == Reason::invalid_frame);
   CHECK(CanFrame::data_frame(0x1, false, std::span(d, 9)).reason() == Reason::invalid_frame);
+}
+
+TEST_CASE("value names, written out by hand from docs/protocol.md (their one home is signals_saul.hpp)") {
+  using namespace saul::saulcan;
+  CHECK(std::string(to_string(Mode::off)) + to_string(Mode::balance) + to_string(Mode::manual) +
+            to_string(Mode::estop) == "offbalancemanualestop");
+  CHECK(std::string(to_string(RobotState::off)) + " " + to_string(RobotState::balance) + " " +
+            to_string(RobotState::manual) + " " + to_string(RobotState::estop) + " " +
+            to_string(RobotState::tilt_cutoff) + " " + to_string(RobotState::fault) ==
+        "OFF BALANCE MANUAL ESTOP TILT_CUTOFF FAULT");
+  CHECK(std::string(to_string(AckResult::applied)) + " " + to_string(AckResult::out_of_range) + " " +
+            to_string(AckResult::not_allowed) + " " + to_string(AckResult::incomplete) ==
+        "applied rejected_out_of_range rejected_not_allowed rejected_incomplete");
+  CHECK(std::string(to_string(Gain::kp)) + to_string(Gain::ki) + to_string(Gain::kd) == "kpkikd");
+  std::string bits;
+  for (unsigned b = 0; b < 9; ++b) bits += std::string(fault::bit_name(b)) + " ";
+  CHECK(bits == "rc_loss motor_fault estop tilt_cutoff orin_timeout watchdog_reset io_link_loss low_battery ? ");
+  CHECK(std::string(to_string(static_cast<Mode>(9))) == "?");  // a value no table names
 }

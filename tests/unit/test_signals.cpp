@@ -92,7 +92,7 @@ std::vector<Field> described_fields(const MessageDesc& d, const Frame& frame) {
   const auto mux = mux_of(d, w);
   for (const auto& s : d.signals) {
     if (!present(s, mux)) continue;
-    Field f{s.key, std::int64_t{0}, ""};
+    Field f{s.field, std::int64_t{0}, ""};
     if (s.kind == Kind::string) {
       const auto text = read_string(s, frame.payload);
       REQUIRE(text);
@@ -568,7 +568,7 @@ TEST_CASE("signals: SAUL golden frames (docs/protocol.md 3)") {
   const auto& gain = *find(Protocol::saul_can, 0x301);
   const Frame kd = bytes(0x301, {0x02, 0x07, 0x00, 0x00, 0xCD, 0xCC, 0x4C, 0x3D});  // 301#02070000CDCC4C3D
   CHECK(mux_of(gain, kd.wire()) == 2);
-  CHECK(named(gain, kd, "gain_index") == "kd");
+  CHECK(named(gain, kd, "gain") == "kd");
   CHECK(physical(gain, kd, "sequence") == 7);
   CHECK(physical(gain, kd, "kd") == Approx(0.05));
   CHECK_FALSE(present(*find_signal(gain, "kp"), mux_of(gain, kd.wire())));

@@ -12,15 +12,13 @@
 using namespace saul::signals;
 
 TEST_CASE("text_in_unit picks exactly the scaled wire integers, with the decimals of their resolution") {
-  // message, key -> decimals (-1: whole units rounded down)
+  // message, signal -> decimals (-1: whole units rounded down)
   const std::set<std::tuple<std::string, std::string, int>> expected{
-      {"config_cmd", "tilt_limit_x100", 2},  {"telemetry_a", "pitch_x100", 2},
-      {"telemetry_b", "battery_mv", 3},      {"state", "pitch_x100", 2},
-      {"battery_sensor", "voltage_x10", 1},  {"battery_sensor", "current_x10", 1},
-      {"gps", "latitude_e7", 7},             {"gps", "longitude_e7", 7},
-      {"gps", "groundspeed_x10", 1},         {"gps", "heading_x100", 2},
-      {"attitude", "pitch_rad_x10000", 4},   {"attitude", "roll_rad_x10000", 4},
-      {"attitude", "yaw_rad_x10000", 4},
+      {"config_cmd", "tilt_limit", 2},   {"telemetry_a", "pitch", 2},     {"telemetry_b", "battery", 3},
+      {"state", "pitch", 2},             {"battery_sensor", "voltage", 1}, {"battery_sensor", "current", 1},
+      {"gps", "latitude", 7},            {"gps", "longitude", 7},         {"gps", "groundspeed", 1},
+      {"gps", "heading", 2},             {"attitude", "pitch", 4},        {"attitude", "roll", 4},
+      {"attitude", "yaw", 4},
   };
   std::set<std::tuple<std::string, std::string, int>> found;
   int channels = 0;
@@ -34,10 +32,23 @@ TEST_CASE("text_in_unit picks exactly the scaled wire integers, with the decimal
           ++channels;
           continue;
         }
-        found.emplace(m.name, s.key, text_decimals(s));
+        found.emplace(m.name, s.name, text_decimals(s));
       }
   CHECK(found == expected);
   CHECK(channels == 16);
+}
+
+TEST_CASE("every signal's output name, and a scaled wire integer's name + \"_raw\", is unique in its message") {
+  // one name per signal (docs/cli.md): JSON keys, DBC signals and dissector fields are these names
+  for (const auto protocol : kProtocols)
+    for (const auto& m : messages(protocol)) {
+      std::set<std::string> names{"type"};
+      for (const auto& s : m.signals) {
+        INFO(m.name << "." << s.name);
+        CHECK(names.insert(s.name).second);
+        if (text_in_unit(s)) CHECK(names.insert(std::string(s.name) + "_raw").second);
+      }
+    }
 }
 
 TEST_CASE("text_decimals of plain scales") {

@@ -1,6 +1,7 @@
 #include "saulproto/core/saul_can.hpp"
 
 #include "saulproto/core/bytes.hpp"
+#include "saulproto/core/signals_saul.hpp"
 
 namespace saul::saulcan {
 namespace {
@@ -21,56 +22,27 @@ Reason check_shape(const CanFrame& f, std::uint32_t id, std::uint8_t dlc) noexce
   return Reason::ok;
 }
 
+// The names of values live in the signal tables (signals_saul.hpp), which decode, the DBC and the dissector print.
+const char* name_in(std::span<const signals::ValueName> names, std::int64_t value) noexcept {
+  for (const auto& v : names)
+    if (v.value == value) return v.name;
+  return "?";
+}
+
 }  // namespace
 
 namespace fault {
-const char* bit_name(unsigned bit) noexcept {
-  static constexpr const char* kNames[8] = {"rc_loss",        "motor_fault",    "estop",         "tilt_cutoff",
-                                            "orin_timeout",   "watchdog_reset", "io_link_loss",  "low_battery"};
-  return bit < 8 ? kNames[bit] : "?";
-}
+const char* bit_name(unsigned bit) noexcept { return name_in(signals::of_saul::kFaultBitNames, bit); }
 }  // namespace fault
 
-const char* to_string(Mode mode) noexcept {
-  switch (mode) {
-    case Mode::off: return "off";
-    case Mode::balance: return "balance";
-    case Mode::manual: return "manual";
-    case Mode::estop: return "estop";
-  }
-  return "?";
-}
-
+const char* to_string(Mode mode) noexcept { return name_in(signals::of_saul::kModeNames, static_cast<int>(mode)); }
 const char* to_string(RobotState state) noexcept {
-  switch (state) {
-    case RobotState::off: return "OFF";
-    case RobotState::balance: return "BALANCE";
-    case RobotState::manual: return "MANUAL";
-    case RobotState::estop: return "ESTOP";
-    case RobotState::tilt_cutoff: return "TILT_CUTOFF";
-    case RobotState::fault: return "FAULT";
-  }
-  return "?";
+  return name_in(signals::of_saul::kRobotStateNames, static_cast<int>(state));
 }
-
 const char* to_string(AckResult result) noexcept {
-  switch (result) {
-    case AckResult::applied: return "applied";
-    case AckResult::out_of_range: return "rejected_out_of_range";
-    case AckResult::not_allowed: return "rejected_not_allowed";
-    case AckResult::incomplete: return "rejected_incomplete";
-  }
-  return "?";
+  return name_in(signals::of_saul::kAckResultNames, static_cast<int>(result));
 }
-
-const char* to_string(Gain gain) noexcept {
-  switch (gain) {
-    case Gain::kp: return "kp";
-    case Gain::ki: return "ki";
-    case Gain::kd: return "kd";
-  }
-  return "?";
-}
+const char* to_string(Gain gain) noexcept { return name_in(signals::of_saul::kGainNames, static_cast<int>(gain)); }
 
 CanFrame encode(const VelocityCmd& m) noexcept {
   CanFrame f = make(VelocityCmd::kId, VelocityCmd::kDlc);

@@ -45,9 +45,9 @@ const MessageDesc* find_named(Protocol protocol, std::string_view name) noexcept
   return nullptr;
 }
 
-const SignalDesc* find_signal(const MessageDesc& m, std::string_view name_or_key) noexcept {
+const SignalDesc* find_signal(const MessageDesc& m, std::string_view name_or_field) noexcept {
   for (const auto& s : m.signals)
-    if (name_or_key == s.name || name_or_key == s.key) return &s;
+    if (name_or_field == s.name || name_or_field == s.field) return &s;
   return nullptr;
 }
 

@@ -1,8 +1,6 @@
-// The fast emitter of saulctl decode (text, CSV, JSON Lines) against the reference path it replaces
-// (reference_frame_line: describe(), to_json() and nlohmann's DOM) on random frames of every known message, with
-// random and hostile interface names, in every time mode; every JSON line must parse. And the decode driver: the
-// same bytes, corrupt reports and counts on one thread and on two (threshold forced low), and the same as
-// reading the file with CandumpReader frame by frame.
+// The decode driver (fast_decode.hpp): the same bytes, corrupt reports and counts on one thread and on two
+// (threshold forced low), and the same as reading the file with a CaptureReader frame by frame through one
+// FrameEmitter (the lines themselves: test_render.cpp).
 #include <catch2/catch.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -44,26 +42,6 @@ using saul::CanFrame;
 using namespace saul::host;
 
 namespace {
-
-/// decode's time column, written out again here: "({:010}.{:06})" absolute, "({:>4}.{:06})" otherwise, where a
-/// time before the first (relative) or the previous one (delta) is negative: in signed 128-bit arithmetic here.
-struct Clock {
-  TimeMode mode;
-  std::optional<std::uint64_t> first, previous;
-  std::string operator()(std::uint64_t ns) {
-    if (!first) first = ns;
-    __extension__ typedef __int128 Wide;
-    Wide shown = ns;
-    if (mode == TimeMode::relative) shown = Wide{ns} - Wide{*first};
-    if (mode == TimeMode::delta) shown = previous ? Wide{ns} - Wide{*previous} : 0;
-    previous = ns;
-    const auto magnitude = static_cast<std::uint64_t>(shown < 0 ? -shown : shown);
-    if (mode == TimeMode::absolute)
-      return fmt::format("({:010}.{:06})", magnitude / 1'000'000'000ULL, (magnitude % 1'000'000'000ULL) / 1000);
-    const std::string sec = (shown < 0 ? "-" : "") + std::to_string(magnitude / 1'000'000'000ULL);
-    return fmt::format("({:>4}.{:06})", sec, (magnitude % 1'000'000'000ULL) / 1000);
-  }
-};
 
 /// Frames of every described CAN message (right length, random bytes, so values, names and unnamed values all
 /// occur), plus unknown ids, wrong lengths, remote and error frames; each drawn twice or more now and then, so
@@ -130,204 +108,7 @@ std::vector<CanFrame> random_frames(std::mt19937_64& rng, std::size_t n) {
   return out;
 }
 
-const std::vector<std::string> kInterfaces = {"can0", "vcan1", "", "slcan:/dev/ttyACM0", "a\tb", "x\"y,z",
-                                              "caf\xc3\xa9", "back\\slash"};
-
 }  // namespace
-
-TEST_CASE("fast emitter: text, CSV and JSON lines are byte for byte the reference's, on random frames") {
-  std::mt19937_64 rng(20261123);
-  const auto frames = random_frames(rng, 6000);
-  for (auto format : {DecodeFormat::text, DecodeFormat::csv, DecodeFormat::jsonl}) {
-    for (auto mode : {TimeMode::absolute, TimeMode::relative, TimeMode::delta}) {
-      FrameEmitter emitter(format, mode);
-      Clock clock{mode, {}, {}};
-      fmt::memory_buffer out;
-      DecodeCounts counts;
-      std::string expected;
-      DecodeCounts expected_counts;
-      for (std::size_t i = 0; i < frames.size(); ++i) {
-        const CanFrame& f = frames[i];
-        const std::string& iface = kInterfaces[i % 7 == 0 ? (i / 7) % kInterfaces.size() : 0];
-        emitter.add(f, iface, out, counts);
-        expected += reference_frame_line(format, clock(f.timestamp_ns.value_or(0)), iface, f);
-        expected += '\n';
-        ++expected_counts.frames;
-        const auto r = saul::decode_bus_frame(f);
-        if (r) {
-          ++expected_counts.decoded;
-        } else if (r.reason() == saul::Reason::unknown_id) {
-          ++expected_counts.unknown;
-        } else if (r.reason() == saul::Reason::error_frame) {
-          ++expected_counts.errors;
-        } else {
-          ++expected_counts.rejected;
-        }
-      }
-      const std::string got(out.data(), out.size());
-      INFO("format " << static_cast<int>(format) << " time mode " << static_cast<int>(mode));
-      // Line by line first, so a difference shows where it is.
-      std::istringstream a(got), b(expected);
-      std::string la, lb;
-      std::size_t line = 0;
-      while (std::getline(b, lb)) {
-        ++line;
-        REQUIRE(std::getline(a, la));
-        INFO("line " << line);
-        REQUIRE(la == lb);
-        if (format == DecodeFormat::jsonl) REQUIRE_NOTHROW(nlohmann::json::parse(la));
-      }
-      CHECK(got == expected);
-      CHECK(counts.frames == expected_counts.frames);
-      CHECK(counts.decoded == expected_counts.decoded);
-      CHECK(counts.unknown == expected_counts.unknown);
-      CHECK(counts.rejected == expected_counts.rejected);
-      CHECK(counts.errors == expected_counts.errors);
-      CHECK(expected_counts.decoded > 1000);  // the mix really decodes
-    }
-  }
-}
-
-namespace {
-
-// sniff's lines as it once printed them, frame by frame (an nlohmann DOM each), kept here as the oracle of the
-// emitter with show_error_detail(): the text line, and the JSON record with an error frame's detail.
-std::string sniff_line(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
-  return fmt::format("{} {} {:<24} {}", time_column, interface, format_candump_frame(frame), describe_frame(frame));
-}
-
-nlohmann::json sniff_record(const std::string& time_column, std::string_view interface, const CanFrame& frame) {
-  nlohmann::json j;
-  j["time"] = TimeColumn::bare(time_column);
-  j["interface"] = interface;
-  j["frame"] = frame_to_json(frame);
-  const auto r = saul::decode_bus_frame(frame);
-  if (r) {
-    j["message"] = to_json(r.value());
-  } else {
-    j["error"] = to_string(r.reason());
-    if (frame.error) j["error_detail"] = describe_error_frame(frame);
-  }
-  return j;
-}
-
-}  // namespace
-
-TEST_CASE("fast emitter for sniff: error frames say what they report, other lines are sniff's old lines") {
-  // sniff printed sniff_line() and sniff_record().dump() per frame; it now writes through the emitter with
-  // show_error_detail(). That older path is the oracle, on the same random frames, in every time mode.
-  std::mt19937_64 rng(20261124);
-  const auto frames = random_frames(rng, 4000);
-  const std::vector<std::string> links = {"slcan:/dev/ttyACM0", "can0", "slcan:/dev/pts/3"};
-  for (auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
-    for (auto mode : {TimeMode::absolute, TimeMode::relative, TimeMode::delta}) {
-      FrameEmitter emitter(format, mode);
-      emitter.show_error_detail();
-      Clock clock{mode, {}, {}};
-      fmt::memory_buffer out;
-      DecodeCounts counts;
-      std::string expected;
-      std::size_t error_frames = 0;
-      for (std::size_t i = 0; i < frames.size(); ++i) {
-        const CanFrame& f = frames[i];
-        const std::string& link = links[(i / 100) % links.size()];
-        emitter.add(f, link, out, counts);
-        const std::string column = clock(f.timestamp_ns.value_or(0));
-        expected += format == DecodeFormat::text ? sniff_line(column, link, f) : sniff_record(column, link, f).dump();
-        expected += '\n';
-        error_frames += f.error ? 1 : 0;
-      }
-      INFO("format " << static_cast<int>(format) << " time mode " << static_cast<int>(mode));
-      std::istringstream a(std::string(out.data(), out.size())), b(expected);
-      std::string la, lb;
-      while (std::getline(b, lb)) {
-        REQUIRE(std::getline(a, la));
-        REQUIRE(la == lb);
-      }
-      CHECK(!std::getline(a, la));
-      CHECK(error_frames > 100);
-      CHECK(counts.errors == error_frames);
-    }
-  }
-}
-
-TEST_CASE("names from files that are not UTF-8, or hold a comma or a quote, still give valid JSON and CSV") {
-  // an interface name of bytes that are not UTF-8 made nlohmann throw: decode --json and stats --json ended with
-  // no output at all; a ',' or '"' in a name shifted the frame CSV's columns
-  CanFrame f;
-  f.id = 0x300;
-  f.dlc = 4;
-  f.timestamp_ns = 1'700'000'000'000'000'000ULL;
-  {
-    FrameEmitter json(DecodeFormat::jsonl, TimeMode::absolute);
-    fmt::memory_buffer out;
-    DecodeCounts counts;
-    json.add(f, "c\xff\xfe", out, counts);
-    const auto line = nlohmann::json::parse(std::string(out.data(), out.size()));
-    CHECK(line["interface"] == "c\xEF\xBF\xBD\xEF\xBF\xBD");  // each byte a U+FFFD
-  }
-  {
-    FrameEmitter csv(DecodeFormat::csv, TimeMode::absolute);
-    fmt::memory_buffer out;
-    DecodeCounts counts;
-    csv.add(f, "a,\"b", out, counts);
-    CHECK(std::string(out.data(), out.size()).starts_with("1700000000.000000,\"a,\"\"b\",300,0,0,4,"));
-  }
-  BusStats stats;
-  f.data = {0xE8, 0x03, 0x0C, 0xFE};
-  stats.add(f, "c\xff");
-  const auto j = nlohmann::json::parse(json_line(stats.json("run\xfe.log")));
-  CHECK(j["file"] == "run\xEF\xBF\xBD.log");
-  CHECK(j["load"].contains("c\xEF\xBF\xBD"));
-  // and the text report sends no control character from a name to the terminal (an escape sequence clears it)
-  BusStats escape;
-  escape.add(f, "c\x1b[2J");
-  CHECK(escape.text("run.log").find("bus load on c_[2J at 500 kbit/s") != std::string::npos);
-}
-
-TEST_CASE("a time before the first or the previous frame's is negative, written out by hand") {
-  // a log whose times went back (a merge, a clock step): rel and delta once wrapped to "(18446744073.659551)"
-  const std::uint64_t t0 = 1'700'000'000'100'000'000ULL;
-  const std::uint64_t stamps[] = {t0, t0 - 50'000'000, t0 + 100'000'000, t0 - 2'000'000'000};
-  const std::vector<std::string> rel = {"(   0.000000)", "(  -0.050000)", "(   0.100000)", "(  -2.000000)"};
-  const std::vector<std::string> delta = {"(   0.000000)", "(  -0.050000)", "(   0.150000)", "(  -2.100000)"};
-  for (auto mode : {TimeMode::relative, TimeMode::delta}) {
-    const auto& want = mode == TimeMode::relative ? rel : delta;
-    TimeColumn column(mode);
-    FrameEmitter emitter(DecodeFormat::text, mode);
-    fmt::memory_buffer out;
-    DecodeCounts counts;
-    for (std::size_t i = 0; i < 4; ++i) {
-      CHECK(column(stamps[i]) == want[i]);
-      CanFrame f;
-      f.id = 0x7FF;
-      f.timestamp_ns = stamps[i];
-      out.clear();
-      emitter.add(f, "can0", out, counts);
-      CHECK(std::string(out.data(), out.size()).substr(0, want[i].size()) == want[i]);
-    }
-  }
-}
-
-TEST_CASE("fast emitter: a velocity command, written out by hand in all three formats") {
-  CanFrame f;
-  f.id = 0x300;
-  f.dlc = 4;
-  f.data = {0xE8, 0x03, 0x0C, 0xFE};
-  f.timestamp_ns = 1'700'000'000'050'000'000ULL;
-  fmt::memory_buffer out;
-  DecodeCounts counts;
-  FrameEmitter(DecodeFormat::text, TimeMode::absolute).add(f, "can0", out, counts);
-  FrameEmitter(DecodeFormat::csv, TimeMode::absolute).add(f, "can0", out, counts);
-  FrameEmitter(DecodeFormat::jsonl, TimeMode::relative).add(f, "can0", out, counts);
-  CHECK(std::string(out.data(), out.size()) ==
-        "(1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
-        "1700000000.050000,can0,300,0,0,4,E8030CFE,velocity_cmd,speed_mmps=1000 steer_mrad=-500\n"
-        "{\"frame\":{\"data\":\"E8030CFE\",\"dlc\":4,\"error\":false,\"extended\":false,\"id\":768,\"remote\":false,"
-        "\"timestamp_ns\":1700000000050000000},\"interface\":\"can0\",\"message\":{\"speed_mmps\":1000,"
-        "\"steer_mrad\":-500,\"type\":\"velocity_cmd\"},\"time\":\"   0.000000\"}\n");
-  CHECK(counts.decoded == 3);
-}
 
 namespace {
 
@@ -374,7 +155,8 @@ Decoded run(const std::string& path, const FrameDecodeOptions& o) {
   });
 }
 
-/// The reference: a reader record by record, reference_frame_line per frame that passes `ids` (all when null).
+/// The reference: a reader record by record, its frames that pass `ids` (all when null) through one FrameEmitter
+/// (whose lines test_render.cpp holds to lines written by hand).
 struct Expected {
   std::string out;
   std::vector<std::string> corrupt;
@@ -382,7 +164,9 @@ struct Expected {
 Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode,
                        const std::set<std::uint32_t>* ids = nullptr) {
   Expected e;
-  Clock clock{mode, {}, {}};
+  FrameEmitter emitter(format, mode);
+  fmt::memory_buffer out;
+  DecodeCounts counts;
   for (;;) {
     const auto st = reader.next();
     if (st == CaptureReader::Status::end) break;
@@ -391,9 +175,9 @@ Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode
       continue;
     }
     if (ids != nullptr && !ids->count(reader.frame().id)) continue;
-    e.out += reference_frame_line(format, clock(*reader.frame().timestamp_ns), reader.interface(), reader.frame());
-    e.out += '\n';
+    emitter.add(reader.frame(), reader.interface(), out, counts);
   }
+  e.out.assign(out.data(), out.size());
   return e;
 }
 
@@ -459,7 +243,7 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
         CHECK(one.result.counts.decoded == two.result.counts.decoded);
         CHECK(one.result.counts.rejected == two.result.counts.rejected);
 
-        // The reference: CandumpReader line by line, reference_frame_line per frame.
+        // The reference: CandumpReader line by line, one FrameEmitter.
         std::istringstream in(log);
         CandumpReader reader(in);
         const auto [expected, corrupt] = expected_from(reader, format, mode, ids);

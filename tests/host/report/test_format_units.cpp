@@ -49,7 +49,7 @@ TEST_CASE("text: SAUL pitch, battery and tilt limit in degrees and volts, under 
   CHECK(text_of_frame(0x400, {0x64, 0x00, 0, 0, 0, 0, 0}).find("pitch=1.00\u00B0 ") != std::string::npos);
   // 0x401: battery C4 9B = 39876 mV -> 39.876 V; faults 0x05 = rc_loss + estop (shown as the byte).
   CHECK(text_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05}) ==
-        "telemetry_b vesc_l_rpm=0 vesc_r_rpm=0 battery=39.876V faults=5");
+        "telemetry_b vesc_l_rpm=0 vesc_r_rpm=0 battery=39.876V fault=5");
   // 0x303: tilt D0 07 = 2000 -> 20.00 deg, max speed B0 04 = 1200 mm/s.
   CHECK(text_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04}) == "config_cmd tilt_limit=20.00\u00B0 max_speed_mmps=1200");
 }
@@ -57,23 +57,20 @@ TEST_CASE("text: SAUL pitch, battery and tilt limit in degrees and volts, under 
 TEST_CASE("JSON keeps the wire integers under their keys, the physical values beside them") {
   const auto j = json_of_frame(0x400, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01});
   CHECK(j.dump() ==
-        R"({"pid_out":120,"pitch_deg":12.34,"pitch_x100":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})");
+        R"({"pid_out":120,"pitch":12.34,"pitch_raw":1234,"speed_mmps":400,"state":"BALANCE","type":"telemetry_a"})");
   // -0.05 deg, and a whole degree stays a decimal number (JSON readers see a float column, not ints then floats)
-  CHECK(json_of_frame(0x400, {0xFB, 0xFF, 0, 0, 0, 0, 0}).dump().find(R"("pitch_deg":-0.05,)") != std::string::npos);
-  CHECK(json_of_frame(0x400, {0x64, 0x00, 0, 0, 0, 0, 0}).dump().find(R"("pitch_deg":1.0,)") != std::string::npos);
+  CHECK(json_of_frame(0x400, {0xFB, 0xFF, 0, 0, 0, 0, 0}).dump().find(R"("pitch":-0.05,)") != std::string::npos);
+  CHECK(json_of_frame(0x400, {0x64, 0x00, 0, 0, 0, 0, 0}).dump().find(R"("pitch":1.0,)") != std::string::npos);
   CHECK(json_of_frame(0x401, {0, 0, 0, 0, 0xC4, 0x9B, 0x05}).dump() ==
-        R"({"battery_mv":39876,"battery_v":39.876,"faults":5,"type":"telemetry_b","vesc_l_rpm":0,"vesc_r_rpm":0})");
+        R"({"battery":39.876,"battery_raw":39876,"fault":5,"type":"telemetry_b","vesc_l_rpm":0,"vesc_r_rpm":0})");
   CHECK(json_of_frame(0x303, {0xD0, 0x07, 0xB0, 0x04}).dump() ==
-        R"({"max_speed_mmps":1200,"tilt_limit_deg":20.0,"tilt_limit_x100":2000,"type":"config_cmd"})");
+        R"({"max_speed_mmps":1200,"tilt_limit":20.0,"tilt_limit_raw":2000,"type":"config_cmd"})");
 }
 
-TEST_CASE("physical_key: the signal's name and its unit as a word") {
+TEST_CASE("raw_key: the signal's name and _raw") {
   saul::signals::SignalDesc s;
   s.name = "pitch";
-  CHECK(host::physical_key(s.in("deg")) == "pitch_deg");
-  CHECK(host::physical_key(s.in("V")) == "pitch_v");
-  CHECK(host::physical_key(s.in("km/h")) == "pitch_kmh");
-  CHECK(host::physical_key(s.in("us")) == "pitch_us");
+  CHECK(host::raw_key(s.in("deg")) == "pitch_raw");
 }
 
 TEST_CASE("text: already physical values are unchanged (VESC, speeds)") {
@@ -86,7 +83,7 @@ TEST_CASE("text: already physical values are unchanged (VESC, speeds)") {
   for (int i = 0; i < 8; ++i) f.data[static_cast<std::size_t>(i)] = d[i];
   const auto r = decode_bus_frame(f);
   REQUIRE(r);
-  CHECK(host::describe(r.value()) == "vesc_status_1 controller_id=68 erpm=147 current_a=1.2 duty=0.011");
+  CHECK(host::describe(r.value()) == "vesc_status_1 controller_id=68 erpm=147 current=1.2 duty=0.011");
   CHECK(text_of_frame(0x300, {0x90, 0x01, 0x0C, 0xFE}) == "velocity_cmd speed_mmps=400 steer_mrad=-500");
 }
 
@@ -96,8 +93,8 @@ TEST_CASE("text: inter-board STATE pitch in degrees") {
   s.pid_out = 300;
   s.error_state = 1;
   CHECK(host::describe(interboard::Message{s}) == "state pitch=-12.34\u00B0 pid_out=300 error_state=1");
-  CHECK(host::to_json(interboard::Message{s})["pitch_x100"] == -1234);
-  CHECK(host::to_json(interboard::Message{s}).dump().find(R"("pitch_deg":-12.34,)") != std::string::npos);
+  CHECK(host::to_json(interboard::Message{s})["pitch_raw"] == -1234);
+  CHECK(host::to_json(interboard::Message{s}).dump().find(R"("pitch":-12.34,)") != std::string::npos);
 }
 
 TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, km/h, rad and microseconds") {
@@ -109,8 +106,8 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
   CHECK(host::describe(crsf::Message{b}) ==
         "battery_sensor voltage=16.8V current=0.5A capacity_mah=1200 remaining_pct=80");
   CHECK(host::to_json(crsf::Message{b}).dump() ==
-        R"({"capacity_mah":1200,"current_a":0.5,"current_x10":5,"remaining_pct":80,"type":"battery_sensor",)"
-        R"("voltage_v":16.8,"voltage_x10":168})");
+        R"({"capacity_mah":1200,"current":0.5,"current_raw":5,"remaining_pct":80,"type":"battery_sensor",)"
+        R"("voltage":16.8,"voltage_raw":168})");
 
   crsf::Gps g;
   g.latitude_e7 = 473977420;     // 47.3977420 deg N: all seven decimals kept
@@ -122,12 +119,12 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
   CHECK(host::describe(crsf::Message{g}) ==
         "gps latitude=47.3977420\u00B0 longitude=-122.3456789\u00B0 groundspeed=12.3km/h heading=90.00\u00B0 "
         "altitude_m=500 satellites=9");
-  CHECK(host::to_json(crsf::Message{g})["latitude_e7"] == 473977420);
+  CHECK(host::to_json(crsf::Message{g})["latitude_raw"] == 473977420);
   const std::string gps = host::to_json(crsf::Message{g}).dump();
-  CHECK(gps.find(R"("latitude_deg":47.397742,)") != std::string::npos);  // shortest form: the trailing 0 goes
-  CHECK(gps.find(R"("longitude_deg":-122.3456789,)") != std::string::npos);
-  CHECK(gps.find(R"("groundspeed_kmh":12.3,)") != std::string::npos);
-  CHECK(gps.find(R"("heading_deg":90.0,)") != std::string::npos);
+  CHECK(gps.find(R"("latitude":47.397742,)") != std::string::npos);  // shortest form: the trailing 0 goes
+  CHECK(gps.find(R"("longitude":-122.3456789,)") != std::string::npos);
+  CHECK(gps.find(R"("groundspeed":12.3,)") != std::string::npos);
+  CHECK(gps.find(R"("heading":90.0,)") != std::string::npos);
 
   crsf::Attitude a;
   a.pitch_rad_x10000 = 15708;  // 1.5708 rad
@@ -147,8 +144,8 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
     CHECK(host::describe(crsf::Message{rc}).find(fmt::format("ch1={}\u00B5s ", crsf::ticks_to_us(t))) !=
           std::string::npos);
   }
-  CHECK(host::to_json(crsf::Message{rc})["ch1"] == 2047);  // JSON: ticks, and microseconds beside them
-  CHECK(host::to_json(crsf::Message{rc}).dump().find(R"("ch1_us":2159,)") != std::string::npos);
+  CHECK(host::to_json(crsf::Message{rc})["ch1_raw"] == 2047);  // JSON: microseconds, and the ticks beside them
+  CHECK(host::to_json(crsf::Message{rc}).dump().find(R"("ch1":2159,)") != std::string::npos);
 }
 
 TEST_CASE("append_value_text writes a physical decimal exactly as fmt's {:g} would (its short cut for x/10^k)") {

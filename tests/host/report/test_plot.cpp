@@ -304,7 +304,7 @@ TEST_CASE("plot: the dashboard CSV has one column per series drawn, then state a
   std::ostringstream out;
   plotter.write_csv(out);
   CHECK(out.str() ==
-        "time_s,pitch_deg,pid_out,speed_mmps,speed_cmd_mmps,wheel_l_rpm,wheel_r_rpm,battery_v,state,faults\n"
+        "time_s,pitch,pid_out,speed_mmps,speed_cmd_mmps,wheel_l_rpm,wheel_r_rpm,battery,state,faults\n"
         "0.000000,-2.5,420,300,,,,,1,\n"
         "0.050000,,,,350,,,,,\n"
         "0.100000,,,,,1200,-1180,39.6,,17\n");

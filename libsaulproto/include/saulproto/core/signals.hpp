@@ -45,8 +45,8 @@ enum class Kind : std::uint8_t {
 enum class ByteOrder : std::uint8_t { little_endian, big_endian };
 enum class Place : std::uint8_t { payload, can_id, after_string };
 
-/// How saulctl's JSON shows the value (under SignalDesc::key), and its text too except for the scaled wire
-/// integers that text_in_unit() picks out: text shows those as physical values with units (docs/cli.md).
+/// How saulctl's text and JSON show the value (under SignalDesc::name), except for the scaled wire integers that
+/// text_in_unit() picks out: those show their physical value, and JSON also the wire integer (docs/cli.md).
 enum class Text : std::uint8_t {
   raw,           ///< the wire integer (a float32 as its float)
   name,          ///< the value's name from SignalDesc::values
@@ -81,8 +81,11 @@ constexpr std::int64_t highest_raw(Kind kind, unsigned bits) noexcept {
 }
 
 struct SignalDesc {
-  const char* name = "";  ///< the physical signal: DBC signal, plot, dissector field ("pitch")
-  const char* key = "";   ///< what saulctl's text and JSON call it ("pitch_x100")
+  /// The signal's one name in every output: text, JSON, CSV, DBC, Python, dissector, MCAP, plot ("pitch").
+  const char* name = "";
+  /// The typed struct's field (saul_can.hpp, vesc.hpp, ...: firmware's name for the wire value, "pitch_x100"):
+  /// code only, never an output name; test_signals.cpp pairs the struct's fields() with the signals by it.
+  const char* field = "";
   const char* unit = "";  ///< ASCII: "deg", "V", "mm/s", "us"; "" for none
   Place place = Place::payload;
   std::uint16_t start_bit = 0;
@@ -102,7 +105,7 @@ struct SignalDesc {
   bool value_bits = false;
 
   // Builders, so the data files read as one line per signal.
-  [[nodiscard]] constexpr SignalDesc keyed(const char* k) const noexcept { auto s = *this; s.key = k; return s; }
+  [[nodiscard]] constexpr SignalDesc as_field(const char* f) const noexcept { auto s = *this; s.field = f; return s; }
   [[nodiscard]] constexpr SignalDesc in(const char* u) const noexcept { auto s = *this; s.unit = u; return s; }
   [[nodiscard]] constexpr SignalDesc scaled(std::int32_t num, std::int32_t den) const noexcept {
     auto s = *this;
@@ -139,13 +142,13 @@ struct SignalDesc {
   [[nodiscard]] constexpr SignalDesc at(Place p) const noexcept { auto s = *this; s.place = p; return s; }
 };
 
-/// A number field: `bits` wide from `start_bit` (see the numbering above), key = name, unit none, scale 1, the
+/// A number field: `bits` wide from `start_bit` (see the numbering above), field = name, unit none, scale 1, the
 /// whole encodable range valid.
 constexpr SignalDesc number(const char* name, ByteOrder order, unsigned start_bit, unsigned bits,
                             Kind kind) noexcept {
   SignalDesc s;
   s.name = name;
-  s.key = name;
+  s.field = name;
   s.order = order;
   s.start_bit = static_cast<std::uint16_t>(start_bit);
   s.length = static_cast<std::uint8_t>(bits);
@@ -176,7 +179,7 @@ constexpr SignalDesc le_f32(const char* name, unsigned byte) noexcept {
 constexpr SignalDesc text_field(const char* name, unsigned byte, unsigned max_chars) noexcept {
   SignalDesc s;
   s.name = name;
-  s.key = name;
+  s.field = name;
   s.start_bit = static_cast<std::uint16_t>(byte * 8);
   s.length = static_cast<std::uint8_t>(max_chars);
   s.kind = Kind::string;
@@ -222,8 +225,8 @@ constexpr std::int64_t physical_to_raw(const SignalDesc& s, double physical) noe
 }
 
 /// Whether saulctl's text shows the signal as its physical value with its unit under its name (pitch=12.34°,
-/// battery=39.876V, ch1=1500µs) instead of the wire integer under its key (pitch_x100=1234): a scaled integer
-/// with a unit whose JSON is the wire integer (Text::raw). JSON keeps the key and the integer: scripts, the Python
+/// battery=39.876V, ch1=1500µs) instead of the wire integer: a scaled integer with a unit and Text::raw. JSON
+/// has the physical value under the name and the wire integer under name + "_raw" ("pitch_raw"): scripts, the Python
 /// module and the Wireshark dissector read them.
 constexpr bool text_in_unit(const SignalDesc& s) noexcept {
   return s.text == Text::raw && (s.kind == Kind::signed_int || s.kind == Kind::unsigned_int) && s.unit[0] != '\0' &&
@@ -372,7 +375,7 @@ const MessageDesc* find(Protocol protocol, std::uint32_t id) noexcept;
 const MessageDesc* find_can(std::uint32_t can_id, bool extended) noexcept;
 /// The message of that name, or nullptr.
 const MessageDesc* find_named(Protocol protocol, std::string_view name) noexcept;
-/// The signal of m whose name or key is `name_or_key`, or nullptr.
-const SignalDesc* find_signal(const MessageDesc& m, std::string_view name_or_key) noexcept;
+/// The signal of m whose name or struct field is `name_or_field`, or nullptr.
+const SignalDesc* find_signal(const MessageDesc& m, std::string_view name_or_field) noexcept;
 
 }  // namespace saul::signals

@@ -49,29 +49,29 @@ inline constexpr SignalDesc kLinkStatistics[] = {
 
 /// 0.1 V and 0.1 A as Betaflight, ExpressLRS and EdgeTX send them (the TBS text's 10 uV is taken to be a typo).
 inline constexpr SignalDesc kBatterySensor[] = {
-    be_u("voltage", 0, 16).keyed("voltage_x10").scaled(1, 10).in("V"),
-    be_u("current", 2, 16).keyed("current_x10").scaled(1, 10).in("A"),
+    be_u("voltage", 0, 16).as_field("voltage_x10").scaled(1, 10).in("V"),
+    be_u("current", 2, 16).as_field("current_x10").scaled(1, 10).in("A"),
     be_u("capacity_mah", 4, 24).in("mAh"),
     be_u("remaining_pct", 7, 8).in("%").valid(0, 100, Check::encoder),
 };
 
 /// Altitude travels as metres + 1000; saulctl shows metres.
 inline constexpr SignalDesc kGps[] = {
-    be_i("latitude", 0, 32).keyed("latitude_e7").scaled(1, 10000000).in("deg").valid(-900000000, 900000000),
-    be_i("longitude", 4, 32).keyed("longitude_e7").scaled(1, 10000000).in("deg").valid(-1800000000, 1800000000),
-    be_u("groundspeed", 8, 16).keyed("groundspeed_x10").scaled(1, 10).in("km/h"),
-    be_u("heading", 10, 16).keyed("heading_x100").scaled(1, 100).in("deg").valid(0, 36000),
+    be_i("latitude", 0, 32).as_field("latitude_e7").scaled(1, 10000000).in("deg").valid(-900000000, 900000000),
+    be_i("longitude", 4, 32).as_field("longitude_e7").scaled(1, 10000000).in("deg").valid(-1800000000, 1800000000),
+    be_u("groundspeed", 8, 16).as_field("groundspeed_x10").scaled(1, 10).in("km/h"),
+    be_u("heading", 10, 16).as_field("heading_x100").scaled(1, 100).in("deg").valid(0, 36000),
     be_u("altitude_m", 12, 16).offset_by(-1000).in("m").shown(Text::physical_int),
     be_u("satellites", 14, 8),
 };
 
 /// Radians x 10000 within +-pi; the encoder refuses more.
 inline constexpr SignalDesc kAttitude[] = {
-    be_i("pitch", 0, 16).keyed("pitch_rad_x10000").scaled(1, 10000).in("rad")
+    be_i("pitch", 0, 16).as_field("pitch_rad_x10000").scaled(1, 10000).in("rad")
         .valid(-saul::crsf::Attitude::kLimit, saul::crsf::Attitude::kLimit, Check::encoder),
-    be_i("roll", 2, 16).keyed("roll_rad_x10000").scaled(1, 10000).in("rad")
+    be_i("roll", 2, 16).as_field("roll_rad_x10000").scaled(1, 10000).in("rad")
         .valid(-saul::crsf::Attitude::kLimit, saul::crsf::Attitude::kLimit, Check::encoder),
-    be_i("yaw", 4, 16).keyed("yaw_rad_x10000").scaled(1, 10000).in("rad")
+    be_i("yaw", 4, 16).as_field("yaw_rad_x10000").scaled(1, 10000).in("rad")
         .valid(-saul::crsf::Attitude::kLimit, saul::crsf::Attitude::kLimit, Check::encoder),
 };
 

@@ -26,7 +26,7 @@ inline constexpr SignalDesc kSensor[] = {
 inline constexpr SignalDesc kFault[] = {le_u("flags", 0, 8).bits_named(kFaultBitNames)};
 /// error_state is the robot state (docs/protocol.md §4), as 0x400 state; saulctl shows its number.
 inline constexpr SignalDesc kState[] = {
-    le_i("pitch", 0, 16).keyed("pitch_x100").scaled(1, 100).in("deg"),
+    le_i("pitch", 0, 16).as_field("pitch_x100").scaled(1, 100).in("deg"),
     le_i("pid_out", 2, 16).in("permille").valid(-1000, 1000),
     le_u("error_state", 4, 8).named(of_saul::kRobotStateNames).valid(0, 5),
 };

@@ -35,12 +35,12 @@ inline constexpr SignalDesc kVelocityCmd[] = {
 /// One gain per frame: byte 0 says which (the multiplexer), the float in bytes 4..7 is that gain. Bytes 2..3 are
 /// reserved (sent 0, ignored).
 inline constexpr SignalDesc kPidGain[] = {
-    le_u("gain_index", 0, 8).keyed("gain").shown(Text::name).named(kGainNames).multiplexer()
+    le_u("gain", 0, 8).shown(Text::name).named(kGainNames).multiplexer()
         .valid(0, 2, Check::decoder),
     le_u("sequence", 1, 8),
-    le_f32("kp", 4).keyed("value").when(0),
-    le_f32("ki", 4).keyed("value").when(1),
-    le_f32("kd", 4).keyed("value").when(2),
+    le_f32("kp", 4).as_field("value").when(0),
+    le_f32("ki", 4).as_field("value").when(1),
+    le_f32("kd", 4).as_field("value").when(2),
 };
 
 inline constexpr SignalDesc kModeCmd[] = {
@@ -49,13 +49,13 @@ inline constexpr SignalDesc kModeCmd[] = {
 
 /// Tilt limit 5.00..25.00 deg: the receiving firmware applies the range and acknowledges (docs/protocol.md §5).
 inline constexpr SignalDesc kConfigCmd[] = {
-    le_u("tilt_limit", 0, 16).keyed("tilt_limit_x100").scaled(1, 100).in("deg")
+    le_u("tilt_limit", 0, 16).as_field("tilt_limit_x100").scaled(1, 100).in("deg")
         .valid(saulcan::ConfigCmd::kMinTiltX100, saulcan::ConfigCmd::kMaxTiltX100),
     le_u("max_speed_mmps", 2, 16).in("mm/s"),
 };
 
 inline constexpr SignalDesc kTelemetryA[] = {
-    le_i("pitch", 0, 16).keyed("pitch_x100").scaled(1, 100).in("deg"),
+    le_i("pitch", 0, 16).as_field("pitch_x100").scaled(1, 100).in("deg"),
     le_i("pid_out", 2, 16).in("permille").valid(-1000, 1000),
     le_i("speed_mmps", 4, 16).in("mm/s"),
     le_u("state", 6, 8).shown(Text::name).named(kRobotStateNames).valid(0, 5, Check::decoder),
@@ -65,8 +65,8 @@ inline constexpr SignalDesc kTelemetryA[] = {
 inline constexpr SignalDesc kTelemetryB[] = {
     le_i("vesc_l_rpm", 0, 16).in("rpm"),
     le_i("vesc_r_rpm", 2, 16).in("rpm"),
-    le_u("battery", 4, 16).keyed("battery_mv").scaled(1, 1000).in("V"),
-    le_u("fault", 6, 8).keyed("faults").bits_named(kFaultBitNames),
+    le_u("battery", 4, 16).as_field("battery_mv").scaled(1, 1000).in("V"),
+    le_u("fault", 6, 8).as_field("faults").bits_named(kFaultBitNames),
 };
 
 inline constexpr SignalDesc kCommandAck[] = {

@@ -2,7 +2,7 @@
 // of the 29-bit id. MessageDesc::id is the command. Codec in vesc.hpp.
 //
 // The scaled fields are shown in physical units by saulctl (Text::physical: current_a=3.5), as the structs'
-// fields() do; the names are the DBC's (current), the keys saulctl's (current_a).
+// fields() do, under the signal's name (current; the struct's field is current_a).
 #pragma once
 
 #include "saulproto/core/signals.hpp"
@@ -18,13 +18,13 @@ inline constexpr ValueName kHwTypeNames[] = {
     {saul::vesc::hw_type::kCustomModule, "custom_module"}};
 
 // A scaled int32 (bytes 0..3) or int16 field: raw / den, shown as the physical value.
-constexpr SignalDesc scaled32(const char* name, const char* key, unsigned byte, std::int32_t den,
+constexpr SignalDesc scaled32(const char* name, const char* field, unsigned byte, std::int32_t den,
                               const char* unit) noexcept {
-  return be_i(name, byte, 32).keyed(key).scaled(1, den).in(unit).shown(Text::physical);
+  return be_i(name, byte, 32).as_field(field).scaled(1, den).in(unit).shown(Text::physical);
 }
-constexpr SignalDesc scaled16(const char* name, const char* key, unsigned byte, std::int32_t den,
+constexpr SignalDesc scaled16(const char* name, const char* field, unsigned byte, std::int32_t den,
                               const char* unit) noexcept {
-  return be_i(name, byte, 16).keyed(key).scaled(1, den).in(unit).shown(Text::physical);
+  return be_i(name, byte, 16).as_field(field).scaled(1, den).in(unit).shown(Text::physical);
 }
 
 inline constexpr SignalDesc kSetDuty[] = {kController, scaled32("duty", "duty", 0, 100000, "").valid(-100000, 100000)};

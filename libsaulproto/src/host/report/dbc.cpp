@@ -13,6 +13,7 @@
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/signals.hpp"
 #include "saulproto/core/vesc.hpp"
+#include "saulproto/host/report/format.hpp"
 
 namespace saul::host {
 namespace {
@@ -132,7 +133,7 @@ std::string saul_comment(std::uint32_t id) {
   switch (id) {
     case kVelocityCmdId: return "Velocity command, 20 Hz; the BALANCE board stops driving after 500 ms without one.";
     case kPidGainId:
-      return "One PID gain per frame. gain_index (byte 0) is the multiplexer; the gain is a float32 little-endian in "
+      return "One PID gain per frame. gain (byte 0) is the multiplexer; the gain is a float32 little-endian in "
              "bytes 4-7, declared as a multiplexed signal per index (kp m0, ki m1, kd m2) with SIG_VALTYPE_ 1. Bytes "
              "2-3 are reserved (0). The three gains of one sequence number are applied together (docs/protocol.md "
              "3).";
@@ -218,7 +219,7 @@ std::string make_dbc(const DbcOptions& options) {
   out += "\nCM_ " + quoted(
       "SAUL-TEE robot bus, 500 kbit/s (written by saulctl dbc; docs/protocol.md sections 3 and 6). SAUL frames: "
       "11-bit ids, little-endian. VESC frames: 29-bit ids (bit 31 set here, as DBC marks extended ids), "
-      "big-endian, id = command << 8 | controller id. 0x301 is multiplexed by gain_index; each gain is a "
+      "big-endian, id = command << 8 | controller id. 0x301 is multiplexed by gain; each gain is a "
       "multiplexed float32 signal (SIG_VALTYPE_ 1).") + ";\n";
   out += "CM_ BU_ Orin \"The robot's host computer (Jetson Orin).\";\n";
   out += "CM_ BU_ BALANCE \"The BALANCE board (ESP32-S3): balance loop, drives the VESCs.\";\n";
@@ -227,11 +228,11 @@ std::string make_dbc(const DbcOptions& options) {
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)
     if (!msg.comment.empty()) out += fmt::format("CM_ BO_ {} {};\n", msg.dbc_id, quoted(msg.comment));
-  // A scaled signal saulctl shows as its wire integer gets that integer's name as its comment.
+  // A scaled signal whose wire integer saulctl's JSON keeps gets that integer's key as its comment.
   for (const auto& msg : messages)
     for (const auto& s : msg.signals)
       if (s.desc != nullptr && s.desc->text == signals::Text::raw && (s.scale_num != 1 || s.scale_den != 1))
-        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, quoted(std::string(s.desc->key) + " on the wire"));
+        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, quoted(raw_key(*s.desc) + " on the wire"));
   out += "\n";
 
   // Value tables: the names saulctl decode prints (descending, as DBC editors write them).

@@ -3,14 +3,16 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <iterator>
+#include <stdexcept>
 #include <string_view>
 #include <type_traits>
-
-#include "saulproto/host/capture/candump.hpp"
+#include <variant>
 
 namespace saul::host {
 namespace {
@@ -77,24 +79,18 @@ std::string_view unit_symbol(std::string_view unit) {
   return unit;
 }
 
-}  // namespace
-
-namespace {
 /// raw's physical value times 10^k, exact in integers for a decimal resolution k = text_decimals(s) >= 0.
 std::int64_t scaled_by_ten_k(const signals::SignalDesc& s, std::int64_t raw, int k, std::int64_t& ten_k) {
   ten_k = 1;
   for (int i = 0; i < k; ++i) ten_k *= 10;
   return raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
 }
-}  // namespace
 
-namespace {
 void append_int(std::string& out, std::int64_t v) {
   char tmp[24];
   const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
   out.append(tmp, r.ptr);
 }
-}  // namespace
 
 // A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
 // resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise.
@@ -122,13 +118,6 @@ void append_physical_text(std::string& out, const signals::SignalDesc& s, std::i
   out.append(unit_symbol(s.unit));
 }
 
-std::string physical_text(const signals::SignalDesc& s, std::int64_t raw) {
-  std::string out;
-  append_physical_text(out, s, raw);
-  return out;
-}
-
-namespace {
 /// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
 /// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
 /// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. False
@@ -199,117 +188,215 @@ void append_value_text(std::string& out, const signals::SignalDesc& s, std::int6
 }
 
 
-PhysicalNumber physical_number(const signals::SignalDesc& s, std::int64_t raw) {
-  const int k = signals::text_decimals(s);
-  PhysicalNumber n;
-  if (k < 0) {
-    n.integral = true;
-    n.whole = static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw)));
-    return n;
-  }
-  std::int64_t ten_k = 1;
-  const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
-  if (k == 0) {
-    n.integral = true;
-    n.whole = scaled;
-    return n;
-  }
-  // Both exact in a double (|scaled| < 2^53), so the division is the double nearest to the decimal text shows.
-  n.value = static_cast<double>(scaled) / static_cast<double>(ten_k);
-  return n;
-}
+std::string raw_key(const signals::SignalDesc& s) { return std::string(s.name) + "_raw"; }
 
-std::string physical_key(const signals::SignalDesc& s) {
-  std::string key = s.name;
-  key += '_';
-  for (const char* u = s.unit; *u != '\0'; ++u) {
-    if (*u == '/') continue;
-    key += static_cast<char>(*u >= 'A' && *u <= 'Z' ? *u - 'A' + 'a' : *u);
-  }
-  return key;
+void append_json_string(std::string& out, std::string_view s) {
+  bool plain = true;  // printable ASCII without '"' or '\\': copied as it is (nearly always)
+  for (char c : s) plain = plain && c >= 0x20 && c <= 0x7E && c != '"' && c != '\\';
+  if (!plain) return out.append(json_line(nlohmann::json(std::string(s)))), void();
+  out += '"';
+  out.append(s);
+  out += '"';
 }
 
 namespace {
 
-nlohmann::json json_of(const SignalValue& v) {
-  const auto& s = *v.signal;
-  if (s.kind == Kind::string) return v.text;
+// ---- the JSON values, as nlohmann writes numbers -----------------------------------------------------------------
+
+void append_json_double(std::string& out, double x) {
+  if (!std::isfinite(x)) return out.append("null"), void();
+  char tmp[64];
+  out.append(tmp, nlohmann::detail::to_chars(tmp, tmp + sizeof tmp, x));
+}
+
+/// A scaled wire integer's physical value as JSON holds it: the same number text prints, as the double nearest to
+/// that exact decimal (1234 x 1/100 -> 12.34), or as an integer where text shows whole units (the CRSF RC
+/// channels' microseconds, rounded down).
+void append_json_physical(std::string& out, const signals::SignalDesc& s, std::int64_t raw) {
+  const int k = signals::text_decimals(s);
+  if (k < 0) return append_int(out, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
+  std::int64_t ten_k = 1;
+  const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
+  if (k == 0) return append_int(out, scaled);
+  // Both exact in a double (|scaled| < 2^53), so the division is the double nearest to the decimal text shows.
+  append_json_double(out, static_cast<double>(scaled) / static_cast<double>(ten_k));
+}
+
+void append_json_value(std::string& out, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  if (s.kind == Kind::string) return append_json_string(out, chars);
   switch (s.text) {
     case Text::raw:
-      if (s.kind == Kind::float32) return std::bit_cast<float>(static_cast<std::uint32_t>(v.raw));
-      return v.raw;
+      if (s.kind == Kind::float32)
+        return append_json_double(out, static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(raw))));
+      return append_int(out, raw);
     case Text::name:
-      if (const char* name = signals::value_name(s, v.raw)) return name;
-      return v.raw;
-    case Text::physical: return signals::raw_to_physical(s, v.raw);
-    case Text::physical_int: return static_cast<std::int64_t>(std::llround(signals::raw_to_physical(s, v.raw)));
+      if (const char* name = signals::value_name(s, raw)) return append_json_string(out, name);
+      return append_int(out, raw);
+    case Text::physical: return append_json_double(out, signals::raw_to_physical(s, raw));
+    case Text::physical_int: return append_int(out, std::llround(signals::raw_to_physical(s, raw)));
   }
-  return v.raw;
+  append_int(out, raw);
 }
 
-std::string describe_values(const SignalValues& values) {
-  std::string s = values.message->name;
-  for (const auto& v : values.values) {
-    s += ' ';
-    s += signals::text_in_unit(*v.signal) ? v.signal->name : v.signal->key;
-    s += '=';
-    append_value_text(s, *v.signal, v.raw, v.text);
+// ---- a message's values, read once --------------------------------------------------------------------------------
+
+/// The most signals a message has (the CRSF RC channels: 16); layout_of() holds every description to it.
+constexpr std::size_t kMaxSignals = 16;
+
+/// The value of each signal of a message (present: the frame carries it; a multiplexed one may be absent).
+struct Reading {
+  bool present = false;
+  std::int64_t raw = 0;
+  std::string_view chars;  ///< a string signal's characters
+};
+using Readings = std::array<Reading, kMaxSignals>;
+
+/// signals::read(...).value_or(0), with whole bytes in the payload read a byte at a time (most signals: decode's
+/// speed on payloads that never repeat).
+std::int64_t read_number(const MessageDesc& d, const signals::SignalDesc& s, const signals::Wire& wire) {
+  const std::size_t n = s.length / 8u;
+  const bool le = s.order == signals::ByteOrder::little_endian;
+  if (s.place == signals::Place::payload && s.length % 8 == 0 && n >= 1 && n <= 7 && s.start_bit % 8 == (le ? 0 : 7) &&
+      s.start_bit / 8u + n <= wire.payload.size()) {
+    const std::uint8_t* b = wire.payload.data() + s.start_bit / 8u;
+    std::uint64_t u = 0;
+    for (std::size_t i = 0; i < n; ++i) u |= std::uint64_t{b[i]} << (8 * (le ? i : n - 1 - i));
+    if (s.kind == Kind::signed_int && ((u >> (s.length - 1)) & 1U) != 0) u |= ~std::uint64_t{0} << s.length;
+    return static_cast<std::int64_t>(u);
   }
-  return s;
+  return signals::read(d, s, wire).value_or(0);
 }
 
-nlohmann::json json_values(const SignalValues& values) {
-  nlohmann::json j;
-  j["type"] = values.message->name;
-  for (const auto& v : values.values) {
-    j[v.signal->key] = json_of(v);
-    if (signals::text_in_unit(*v.signal)) {
-      const PhysicalNumber n = physical_number(*v.signal, v.raw);
-      j[physical_key(*v.signal)] = n.integral ? nlohmann::json(n.whole) : nlohmann::json(n.value);
-    }
-  }
-  return j;
-}
-
-// Every signal present in the frame, read from its bytes.
-SignalValues values_from_wire(const MessageDesc& d, const signals::Wire& wire) {
-  SignalValues out{&d, {}};
+/// Every signal's value in the message's bytes.
+Readings read_wire(const MessageDesc& d, const signals::Wire& wire) {
+  Readings r;
   const auto mux = signals::mux_of(d, wire);
-  for (const auto& s : d.signals) {
+  for (std::size_t i = 0; i < d.signals.size(); ++i) {
+    const auto& s = d.signals[i];
     if (!signals::present(s, mux)) continue;
-    SignalValue v{&s, 0, {}};
+    r[i].present = true;
     if (s.kind == Kind::string) {
-      v.text = std::string(signals::read_string(s, wire.payload).value_or(""));
+      r[i].chars = signals::read_string(s, wire.payload).value_or("");
     } else {
-      v.raw = signals::read(d, s, wire).value_or(0);
+      r[i].raw = read_number(d, s, wire);
     }
-    out.values.push_back(std::move(v));
   }
-  return out;
+  return r;
 }
 
 // A CRSF message reaches the formatter without its bytes (the serial decoders hand on the typed message), so
 // its fields() give the values, in the description's order, turned back into wire integers (exact: CRSF's
 // scales and offsets are integers) and then shown exactly as the bytes would be.
 template <class M>
-SignalValues values_from_fields(const MessageDesc& d, const M& m) {
-  SignalValues out{&d, {}};
+Readings read_fields(const MessageDesc& d, const M& m) {
+  Readings r;
   std::size_t i = 0;
   m.fields([&](const char*, const auto& value) {
     using T = std::decay_t<decltype(value)>;
     if (i >= d.signals.size()) return;
-    const auto& s = d.signals[i++];
-    SignalValue v{&s, 0, {}};
+    const auto& s = d.signals[i];
+    Reading& v = r[i++];
+    v.present = true;
     if constexpr (std::is_same_v<T, const char*>) {
-      v.text = value;
+      v.chars = value;
     } else if constexpr (std::is_floating_point_v<T>) {
       v.raw = signals::physical_to_raw(s, static_cast<double>(value));
     } else {
       const auto n = static_cast<std::int64_t>(value);
       v.raw = s.text == Text::physical_int ? signals::physical_to_raw(s, static_cast<double>(n)) : n;
     }
-    out.values.push_back(std::move(v));
   });
+  return r;
+}
+
+// ---- what a message's lines repeat, made once per description -----------------------------------------------------
+
+struct Layout {
+  std::vector<std::string> text_keys;  ///< " name=" per signal
+  std::string type_value;              ///< the message's name as a JSON string
+  struct Member {
+    std::string prefix;  ///< "\"key\":"
+    int signal = -1;     ///< index into the description's signals; -1: "type"
+    bool raw = false;    ///< a scaled wire integer's integer (raw_key()), not its physical value
+  };
+  std::vector<Member> members;  ///< by key, sorted as nlohmann sorts an object
+};
+
+Layout make_layout(const MessageDesc& d) {
+  if (d.signals.size() > kMaxSignals) throw std::logic_error(fmt::format("{} has more than {} signals", d.name, kMaxSignals));
+  Layout l;
+  append_json_string(l.type_value, d.name);
+  // JSON: "type", every signal's name and, for a scaled wire integer, its raw_key() (unique: test_signals_text.cpp)
+  l.members.push_back({"type", -1, false});
+  for (std::size_t i = 0; i < d.signals.size(); ++i) {
+    const auto& s = d.signals[i];
+    l.text_keys.push_back(fmt::format(" {}=", s.name));
+    l.members.push_back({s.name, static_cast<int>(i), false});
+    if (signals::text_in_unit(s)) l.members.push_back({raw_key(s), static_cast<int>(i), true});
+  }
+  std::sort(l.members.begin(), l.members.end(), [](const auto& a, const auto& b) { return a.prefix < b.prefix; });
+  for (auto& m : l.members) {
+    std::string key;
+    append_json_string(key, m.prefix);
+    m.prefix = key + ':';
+  }
+  return l;
+}
+
+const Layout& layout_of(const MessageDesc& d) {
+  static const auto layouts = [] {  // [protocol][message], made on first use (thread-safe)
+    std::array<std::vector<Layout>, std::size(signals::kProtocols)> all;
+    for (const auto p : signals::kProtocols)
+      for (const auto& m : signals::messages(p)) all[static_cast<std::size_t>(p)].push_back(make_layout(m));
+    return all;
+  }();
+  return layouts[static_cast<std::size_t>(d.protocol)][static_cast<std::size_t>(&d - signals::messages(d.protocol).data())];
+}
+
+// ---- the renderer ----------------------------------------------------------------------------------------------------
+
+void write_text(std::string& out, const MessageDesc& d, const Readings& r) {
+  const Layout& l = layout_of(d);
+  out += d.name;
+  for (std::size_t i = 0; i < d.signals.size(); ++i) {
+    if (!r[i].present) continue;
+    out += l.text_keys[i];
+    append_value_text(out, d.signals[i], r[i].raw, r[i].chars);
+  }
+}
+
+void write_json(std::string& out, const MessageDesc& d, const Readings& r) {
+  const Layout& l = layout_of(d);
+  out += '{';
+  bool any = false;
+  for (const auto& m : l.members) {
+    const auto i = static_cast<std::size_t>(m.signal);
+    if (m.signal >= 0 && !r[i].present) continue;  // a multiplexed signal this frame does not carry
+    if (any) out += ',';
+    any = true;
+    out += m.prefix;
+    if (m.signal < 0) {
+      out += l.type_value;
+    } else if (m.raw) {
+      append_int(out, r[i].raw);
+    } else if (signals::text_in_unit(d.signals[i])) {
+      append_json_physical(out, d.signals[i], r[i].raw);
+    } else {
+      append_json_value(out, d.signals[i], r[i].raw, r[i].chars);
+    }
+  }
+  out += '}';
+}
+
+void write(std::string& out, MessageFormat format, const MessageDesc& d, const Readings& r) {
+  if (format == MessageFormat::json) return write_json(out, d, r);
+  write_text(out, d, r);
+}
+
+SignalValues values_of(const MessageDesc& d, const Readings& r) {
+  SignalValues out{&d, {}};
+  for (std::size_t i = 0; i < d.signals.size(); ++i)
+    if (r[i].present) out.values.push_back({&d.signals[i], r[i].raw, std::string(r[i].chars)});
   return out;
 }
 
@@ -326,47 +413,69 @@ InterboardWire interboard_wire(const interboard::Message& m) {
   return w;
 }
 
-}  // namespace
-
-SignalValues signal_values(const BusMessage& message) {
+/// Calls with(description, readings) for a described message and returns its result, or without(m) for the
+/// alternative that has none (Pride, the CRSF subset RC channels: no fixed layout).
+template <class With, class Without>
+auto render(const BusMessage& message, With&& with, Without&&) {
   const CanFrame f = encode_bus_message(message);
-  const MessageDesc* d = signals::find_can(f.id, f.extended);
-  if (d == nullptr) return {};
-  return values_from_wire(*d, signals::Wire{f.id, f.payload()});
+  const MessageDesc& d = *signals::find_can(f.id, f.extended);  // every bus message is described (test_signals)
+  return with(d, read_wire(d, signals::Wire{f.id, f.payload()}));
 }
-
-SignalValues signal_values(const interboard::Message& message) {
-  const MessageDesc* d =
-      signals::find(signals::Protocol::interboard, static_cast<std::uint8_t>(interboard::type_of(message)));
-  if (d == nullptr) return {};
+template <class With, class Without>
+auto render(const interboard::Message& message, With&& with, Without&&) {
+  const MessageDesc& d =
+      *signals::find(signals::Protocol::interboard, static_cast<std::uint8_t>(interboard::type_of(message)));
   const InterboardWire w = interboard_wire(message);
-  return values_from_wire(*d, w.wire);
+  return with(d, read_wire(d, w.wire));
 }
-
-SignalValues signal_values(const crsf::Message& message) {
+template <class With, class Without>
+auto render(const crsf::Message& message, With&& with, Without&& without) {
   const MessageDesc* d = signals::find(signals::Protocol::crsf, static_cast<std::uint8_t>(crsf::type_of(message)));
-  if (d == nullptr) return {};
-  return std::visit([d](const auto& m) { return values_from_fields(*d, m); }, message);
+  return std::visit([&](const auto& m) { return d != nullptr ? with(*d, read_fields(*d, m)) : without(m); }, message);
+}
+template <class With, class Without>
+auto render(const pride::Message& message, With&&, Without&& without) {
+  return std::visit(without, message);
 }
 
-namespace {
-// Described messages through their description; anything else (Pride) through its fields().
 template <class Message>
 std::string describe_any(const Message& message) {
-  if constexpr (requires { signal_values(message); }) {
-    if (const auto values = signal_values(message); values.message != nullptr) return describe_values(values);
-  }
-  return std::visit([](const auto& m) { return describe_one(m); }, message);
+  return render(
+      message,
+      [](const MessageDesc& d, const Readings& r) {
+        std::string s;
+        write_text(s, d, r);
+        return s;
+      },
+      [](const auto& m) { return describe_one(m); });
 }
 template <class Message>
 nlohmann::json json_any(const Message& message) {
-  if constexpr (requires { signal_values(message); }) {
-    if (const auto values = signal_values(message); values.message != nullptr) return json_values(values);
-  }
-  return std::visit([](const auto& m) { return json_one(m); }, message);
+  return render(
+      message,
+      [](const MessageDesc& d, const Readings& r) {
+        std::string s;
+        write_json(s, d, r);
+        return nlohmann::json::parse(s);
+      },
+      [](const auto& m) { return json_one(m); });
 }
+template <class Message>
+SignalValues values_any(const Message& message) {
+  return render(
+      message, [](const MessageDesc& d, const Readings& r) { return values_of(d, r); },
+      [](const auto&) { return SignalValues{}; });
+}
+
 }  // namespace
 
+void append_message(std::string& out, MessageFormat format, const MessageDesc& message, const signals::Wire& wire) {
+  write(out, format, message, read_wire(message, wire));
+}
+
+SignalValues signal_values(const BusMessage& message) { return values_any(message); }
+SignalValues signal_values(const interboard::Message& message) { return values_any(message); }
+SignalValues signal_values(const crsf::Message& message) { return values_any(message); }
 std::string describe(const BusMessage& message) { return describe_any(message); }
 std::string describe(const interboard::Message& message) { return describe_any(message); }
 std::string describe(const crsf::Message& message) { return describe_any(message); }
@@ -375,19 +484,5 @@ nlohmann::json to_json(const BusMessage& message) { return json_any(message); }
 nlohmann::json to_json(const interboard::Message& message) { return json_any(message); }
 nlohmann::json to_json(const crsf::Message& message) { return json_any(message); }
 nlohmann::json to_json(const pride::Message& message) { return json_any(message); }
-
-nlohmann::json frame_to_json(const CanFrame& frame) {
-  nlohmann::json j;
-  j["id"] = frame.id;
-  j["extended"] = frame.extended;
-  j["remote"] = frame.remote;
-  j["error"] = frame.error;
-  j["dlc"] = frame.dlc;
-  std::string hex;
-  for (std::uint8_t b : frame.payload()) hex += fmt::format("{:02X}", b);
-  j["data"] = hex;
-  if (frame.timestamp_ns) j["timestamp_ns"] = *frame.timestamp_ns;
-  return j;
-}
 
 }  // namespace saul::host

@@ -45,7 +45,7 @@ nlohmann::json property(const signals::SignalDesc& s) {
   } else {
     p["type"] = "integer";
     if (signals::text_in_unit(s))
-      what = fmt::format("{}: the wire integer, {} x {}/{}{}", s.key, s.name, s.scale_num, s.scale_den,
+      what = fmt::format("{}: the wire integer, {} x {}/{}{}", raw_key(s), s.name, s.scale_num, s.scale_den,
                          s.unit[0] != '\0' ? fmt::format(" {}", s.unit) : std::string());
   }
   p["description"] = what;
@@ -64,14 +64,16 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
   nlohmann::json required = nlohmann::json::array({"type"});
   props["type"] = {{"const", message.name}, {"description", "the message's name"}};
   for (const auto& s : message.signals) {
-    props[s.key] = property(s);
     const bool always = s.mux != signals::Mux::multiplexed;
-    if (always) required.push_back(s.key);
-    if (signals::text_in_unit(s)) {
+    if (always) required.push_back(s.name);
+    if (signals::text_in_unit(s)) {  // the physical value under the name, the wire integer under raw_key()
       const bool whole = signals::text_decimals(s) < 0;
-      props[physical_key(s)] = {{"type", whole ? "integer" : "number"},
-                                {"description", fmt::format("{} in {} (physical value)", s.name, s.unit)}};
-      if (always) required.push_back(physical_key(s));
+      props[s.name] = {{"type", whole ? "integer" : "number"},
+                       {"description", fmt::format("{} in {} (physical value)", s.name, s.unit)}};
+      props[raw_key(s)] = property(s);
+      if (always) required.push_back(raw_key(s));
+    } else {
+      props[s.name] = property(s);
     }
   }
   nlohmann::json schema = {{"title", message.name},
@@ -116,7 +118,7 @@ void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::
   slot.frame = frame;
   slot.channel = channel->second;
   slot.json.clear();
-  emitter_.message_json(message.value(), slot.json);
+  append_message(slot.json, MessageFormat::json, *d, signals::Wire{frame.id, frame.payload()});
   out.add_message(slot.channel, log_time, slot.json);
 }
 

@@ -102,7 +102,7 @@ const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t i
   return *signals::find_signal(*signals::find(protocol, id), name);
 }
 
-// A series of one described signal: the message's field is the signal's key, scaled into physical units when
+// A series of one described signal: the message's field is the signal's struct field, scaled into physical units when
 // saulctl shows it as the wire integer (pitch_x100 / 100); its unit is the signal's.
 PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
                          std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
@@ -110,7 +110,7 @@ PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, s
   s.label = std::move(label);
   s.column = std::move(column);
   s.message = std::move(message);
-  s.field = signal.key;
+  s.field = signal.field;
   s.divisor = signal.text == signals::Text::raw ? static_cast<double>(signal.scale_den) / signal.scale_num : 1.0;
   s.controller = controller;
   return s;
@@ -149,8 +149,8 @@ std::vector<PlotPanelSpec> dashboard_panels() {
   return {
       {with_unit(pitch.name, pitch),
        "no 0x400 telemetry_a or inter-board state messages",
-       {series_of(pitch, "0x400", "pitch_deg", TelemetryA::kName),
-        series_of(uart_pitch, "UART state", "uart_pitch_deg", uart_state)}},
+       {series_of(pitch, "0x400", "pitch", TelemetryA::kName),
+        series_of(uart_pitch, "UART state", "uart_pitch", uart_state)}},
       {with_unit(pid_out.name, pid_out),
        "no 0x400 telemetry_a or inter-board state messages",
        {series_of(pid_out, "0x400", "pid_out", TelemetryA::kName),
@@ -170,7 +170,7 @@ std::vector<PlotPanelSpec> dashboard_panels() {
       {with_unit(battery.name, battery),
        fmt::format("no 0x401 telemetry_b or VESC STATUS_5 (vesc_status_5) frames from controllers {} and {}", left,
                    right),
-       {series_of(battery, "0x401", "battery_v", TelemetryB::kName),
+       {series_of(battery, "0x401", "battery", TelemetryB::kName),
         series_of(voltage_in, fmt::format("VESC {}", left), "vesc_l_v", status5, left),
         series_of(voltage_in, fmt::format("VESC {}", right), "vesc_r_v", status5, right)}},
   };

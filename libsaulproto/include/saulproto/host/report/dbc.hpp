@@ -6,7 +6,7 @@
 // - SAUL frames are little-endian (@1), VESC frames big-endian (@0, Motorola: the start bit is the position of the
 //   most significant bit in DBC's sawtooth numbering, 8 * byte + 7 for a field starting at a byte boundary).
 // - 29-bit VESC ids carry bit 31 (0x80000000), as DBC marks extended ids.
-// - 0x301 is multiplexed: gain_index (byte 0) is the multiplexer M, and each gain (kp m0, ki m1, kd m2) is a
+// - 0x301 is multiplexed: gain (byte 0) is the multiplexer M, and each gain (kp m0, ki m1, kd m2) is a
 //   32-bit IEEE float in bytes 4-7 declared with SIG_VALTYPE_ 1.
 // - Scaled integers keep saulctl's raw meaning with a DBC factor (pitch_x100 -> pitch, factor 0.01, "deg").
 #pragma once

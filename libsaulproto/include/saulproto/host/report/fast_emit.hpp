@@ -1,12 +1,8 @@
-// saulctl decode's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output buffer:
-// no JSON DOM, no std::string per frame. The bytes are those of reference_frame_line() (the describe()/to_json()
-// path, which decode printed before), tests/host/report/test_fast_emit.cpp checks that on random frames.
-//
-// Values come from the same descriptions (core/signals.hpp) as format.cpp's describe() and to_json(): the fast
-// path mirrors their text_of()/json_of(); when they change, that test fails until this file follows. A message
-// without a description, or text the fast path does not handle (a non-printable interface name in JSON), goes
-// through reference_frame_line() itself. Robot buses repeat payloads, so the rendered message of a frame is kept
-// in a small cache keyed by the frame's id, flags and bytes.
+// saulctl decode's and sniff's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output
+// buffer: no JSON DOM, no std::string per frame. The message part is format.hpp's append_message() (the one
+// renderer, which describe() and to_json() call too); this file adds the time, interface and frame columns.
+// Robot buses repeat payloads, so the rendered columns of a frame are kept in a small cache keyed by the frame's
+// id, flags and bytes. tests/host/report/test_render.cpp holds the lines to ones written out by hand.
 #pragma once
 
 #include <fmt/format.h>
@@ -63,12 +59,6 @@ inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended
 /// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma or a quote.
 std::string csv_quote(const std::string& s);
 
-/// The reference: one frame's line as saulctl decode wrote it through describe(), to_json() and nlohmann's DOM
-/// (without newline). `time_column` is "(sec.usec)" with its parentheses. With `error_detail`, an error frame also
-/// says what it reports, as sniff shows it: "!error_frame bus-off" after the reason, or an "error_detail" member.
-std::string reference_frame_line(DecodeFormat format, std::string_view time_column, std::string_view interface,
-                                 const CanFrame& frame, bool error_detail = false);
-
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
  public:
@@ -83,9 +73,6 @@ class FrameEmitter {
   void set_first(std::uint64_t ns) noexcept { first_ = ns; }
   /// Error frames with what they report (sniff's lines), not only "!error_frame" (decode's).
   void show_error_detail() noexcept { error_detail_ = true; }
-  /// Appends a decoded message's JSON object to `out`: the "message" member of the JSON lines (the bytes of
-  /// json_line(to_json(message))), for writers that keep messages apart (MCAP's channels). DecodeFormat::jsonl only.
-  void message_json(const BusMessage& message, std::string& out);
 
  private:
   struct Entry {
@@ -96,31 +83,14 @@ class FrameEmitter {
     std::string text;
     std::size_t split = 0;  // JSON: where the '\0' in text is (the timestamp and the interface go there)
   };
-  struct Layout {  // per message description, made once: what its lines repeat
-    const signals::MessageDesc* desc = nullptr;
-    std::string name;
-    std::string type_value;              // the name as a JSON string
-    std::vector<std::string> text_keys;  // " key=" per signal
-    struct Member {
-      int signal = -1;        // index into the description's signals; -1: "type"
-      bool physical = false;  // the signal's physical value (physical_key()), not its wire value
-    };
-    struct Group {
-      std::vector<Member> members;  // with this JSON key, in the order json_values() sets them
-      std::string prefix;           // "\"key\":"
-    };
-    std::vector<Group> groups;  // by key, as nlohmann sorts an object
-  };
-  void time_column(std::uint64_t ns, fmt::memory_buffer& out, bool parens);
-  /// time_column's text written at `w` (room for kTimeColumnMax characters); returns its end.
+  /// The time column's text written at `w` (room for kTimeColumnMax characters); returns its end.
   char* time_chars(std::uint64_t ns, char* w, bool parens);
   static constexpr std::size_t kTimeColumnMax = 30;  // "(" "-" 20 digits "." 6 digits ")"
   /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
   char* stamp_chars(std::uint64_t ns, char* w);
   const Entry& rendered(const CanFrame& frame);
   void render(const CanFrame& frame, Entry& e);
-  bool render_message(const CanFrame& encoded, std::string& out);
-  const Layout& layout(const signals::MessageDesc& d);
+  void render_message(const CanFrame& decoded, std::string& out);
 
   DecodeFormat format_;
   TimeMode time_;
@@ -134,10 +104,7 @@ class FrameEmitter {
   std::string stamp_text_;
   std::vector<Entry> cache_;
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
-  bool interface_plain_ = true;               // JSON: no escapes needed
   bool error_detail_ = false;
-  std::vector<Layout> layouts_;
-  std::string scratch_;
 };
 
 }  // namespace saul::host

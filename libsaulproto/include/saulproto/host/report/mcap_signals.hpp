@@ -1,7 +1,7 @@
 // The decoded signals of a CAN capture as MCAP channels, for Foxglove, Lichtblick and PlotJuggler: one channel per
 // message kind (and per VESC controller), each with a JSON Schema of its fields (units in the descriptions) made
 // from the signal descriptions (core/signals.hpp), and messages that are exactly the "message" object of
-// `saulctl decode --json` (format.hpp's to_json()), so a plot in a viewer shows the numbers decode prints.
+// `saulctl decode --json` (format.hpp's append_message()), so a plot in a viewer shows the numbers decode prints.
 //
 // Topics: "/saul/<name>" for the robot's own messages ("/saul/telemetry_a"), "/vesc/<controller>/<name>" for a
 // VESC's status messages ("/vesc/68/status_1"). Frames that do not decode (unknown id, rejected, error and
@@ -17,7 +17,7 @@
 
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/mcap.hpp"
-#include "saulproto/host/report/fast_emit.hpp"
+#include "saulproto/core/can_frame.hpp"
 
 namespace saul::host {
 
@@ -42,7 +42,6 @@ class McapSignalChannels final : public McapFrameExtra {
   };
   static constexpr std::size_t kCache = 4096;
   std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
-  FrameEmitter emitter_{DecodeFormat::jsonl, TimeMode::absolute};  ///< renders a message as decode --json does
   std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
   std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
 };
