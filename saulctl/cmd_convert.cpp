@@ -16,6 +16,7 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "trace_cli.hpp"
+#include "saulproto/host/capture/candump_batch_reader.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -139,8 +140,12 @@ int run_convert(const ConvertOptions& opt) {
   std::unique_ptr<CaptureReader> reader;
   std::unique_ptr<CaptureWriter> writer;
   try {
-    auto opened = open_capture(opt.in, serial_read_options(opt.serial));
     const auto out_format = format ? format : capture_format_from_extension(opt.out);
+    // A plain candump file is read in blocks, parsed in place (the same frames and errors as any reader gives).
+    const auto forced = input_format(opt.serial.input_format);
+    if (!forced || forced == CaptureFormat::candump) reader = CandumpBatchReader::open(opt.in);
+    OpenedCapture opened;
+    if (!reader) opened = open_capture(opt.in, serial_read_options(opt.serial));
     if (opened.chunks) {  // serial bytes: their decoded messages, to MCAP only
       if (out_format == CaptureFormat::mcap) return run_convert_serial(opt, *opened.chunks);
       fmt::print(stderr,
@@ -149,7 +154,7 @@ int run_convert(const ConvertOptions& opt) {
                  opt.in, to_string(opened.format));
       return kFailure;
     }
-    reader = std::move(opened.frames);
+    if (!reader) reader = std::move(opened.frames);
     if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
       writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
                                        {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
