@@ -123,4 +123,20 @@ void Progress::finish() {
   drawn_ = false;
 }
 
+void read_serial_chunks(std::string_view verb, const std::string& path, saul::host::SerialCaptureReader& reader,
+                        ::saulctl::Progress& progress, std::uint64_t& corrupt,
+                        const std::function<void(const saul::host::SerialChunk&)>& on_chunk) {
+  using Status = saul::host::SerialCaptureReader::Status;
+  for (Status st; (st = reader.next()) != Status::end;) {
+    progress.update(reader.bytes_read(), reader.bytes_total());
+    if (st == Status::corrupt) {
+      ++corrupt;
+      progress.finish();  // the message gets its own line; the progress line comes back at the next draw
+      fmt::print(stderr, "saulctl {}: {}\n", verb, saul::host::format_capture_error(path, reader.error()));
+      continue;
+    }
+    on_chunk(reader.chunk());
+  }
+}
+
 }  // namespace saulctl

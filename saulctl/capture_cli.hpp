@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -87,5 +88,11 @@ class Progress {
   std::uint64_t records_ = 0;
   std::chrono::steady_clock::time_point start_, last_;
 };
+
+/// Reads every chunk of a serial capture, drawing `progress`: a corrupt line is reported on stderr ("saulctl VERB:
+/// FILE:LINE:COL: what (line skipped)") and counted in `corrupt`, every other chunk handed to `on_chunk`.
+void read_serial_chunks(std::string_view verb, const std::string& path, saul::host::SerialCaptureReader& reader,
+                        ::saulctl::Progress& progress, std::uint64_t& corrupt,
+                        const std::function<void(const saul::host::SerialChunk&)>& on_chunk);
 
 }  // namespace saulctl

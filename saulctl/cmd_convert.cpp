@@ -4,17 +4,23 @@
 #include <fmt/core.h>
 
 #include <cstdio>
+#include <fstream>
+#include <iostream>
 #include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "trace_cli.hpp"
+#include "saulproto/host/capture/candump_batch_reader.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/mcap.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
+#include "saulproto/host/report/mcap_serial.hpp"
 #include "saulproto/host/report/mcap_signals.hpp"
 
 #ifndef SAULCTL_VERSION
@@ -28,7 +34,7 @@ struct ConvertOptions {
   std::string in;
   std::string out;
   std::string format;  // output format; empty = from OUT's extension
-  std::string input_format;  // empty = from IN's content
+  SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks
   int zstd_level = 1;                 // MCAP chunks in zstd
 };
@@ -64,6 +70,63 @@ saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   return mcap;
 }
 
+/// A serial byte capture to MCAP: each link's decoded messages on channels of their own, the bytes on
+/// /serial/bytes (report/mcap_serial.hpp). Corrupt lines and each link's decoder counters reported as decode does.
+int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReader& reader) {
+  using namespace saul::host;
+  std::ofstream file;
+  if (opt.out != "-") file.open(opt.out, std::ios::binary | std::ios::trunc);
+  std::ostream& stream = opt.out == "-" ? std::cout : file;
+  if (!stream) {
+    fmt::print(stderr, "saulctl convert: cannot create '{}'\n", opt.out);
+    return kFailure;
+  }
+  std::uint64_t chunks = 0, corrupt = 0, untimed = 0;
+  std::optional<std::uint64_t> messages;
+  std::vector<SerialCaptureDecoder::Link> links;
+  Progress progress("convert", false);
+  try {
+    McapWriter mcap(stream, mcap_options(opt));
+    mcap.add_metadata("saulctl", {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
+                                  {"source_format", std::string(to_string(reader.format()))}});
+    McapSerialChannels channels(mcap, fallback_protocol(opt.serial));
+    read_serial_chunks("convert", opt.in, reader, progress, corrupt, [&](const SerialChunk& chunk) {
+      ++chunks;
+      if (!chunk.timestamp_ns) ++untimed;
+      channels.add(chunk);
+    });
+    channels.finish();
+    mcap.close();
+    messages = channels.messages();
+    links = channels.decoder().links();
+  } catch (const std::runtime_error& e) {  // the stream failed (a full disk)
+    progress.finish();
+    fmt::print(stderr, "saulctl convert: cannot write '{}': {}\n", opt.out, e.what());
+  }
+  progress.finish();
+  if (messages && chunks == 0 && corrupt > 0) {
+    fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt lines); {} not written\n", opt.in,
+               corrupt, opt.out);
+    messages.reset();
+  }
+  if (!messages) {
+    if (opt.out != "-") {
+      file.close();
+      std::remove(opt.out.c_str());
+    }
+    return kFailure;
+  }
+  if (untimed > 0)
+    fmt::print(stderr, "saulctl convert: {}: {} chunks carry no time, written at log time 0 (sample numbers need "
+                       "--samplerate)\n", opt.in, untimed);
+  for (const auto& link : links)
+    fmt::print(stderr, "saulctl convert: {}: {} ({}{}): {}\n", opt.in, link.name, to_string(link.protocol),
+               link.guessed ? ", guessed from the bytes" : "", link.counters_text);
+  fmt::print(stderr, "saulctl convert: {} serial messages from {} ({}) to {} (MCAP, /serial/...); {} corrupt lines "
+                     "skipped\n", *messages, opt.in, to_string(reader.format()), opt.out, corrupt);
+  return kOk;
+}
+
 int run_convert(const ConvertOptions& opt) {
   using namespace saul::host;
   std::optional<CaptureFormat> format;
@@ -77,8 +140,21 @@ int run_convert(const ConvertOptions& opt) {
   std::unique_ptr<CaptureReader> reader;
   std::unique_ptr<CaptureWriter> writer;
   try {
-    reader = open_capture_reader(opt.in, input_format(opt.input_format));
     const auto out_format = format ? format : capture_format_from_extension(opt.out);
+    // A plain candump file is read in blocks, parsed in place (the same frames and errors as any reader gives).
+    const auto forced = input_format(opt.serial.input_format);
+    if (!forced || forced == CaptureFormat::candump) reader = CandumpBatchReader::open(opt.in);
+    OpenedCapture opened;
+    if (!reader) opened = open_capture(opt.in, serial_read_options(opt.serial));
+    if (opened.chunks) {  // serial bytes: their decoded messages, to MCAP only
+      if (out_format == CaptureFormat::mcap) return run_convert_serial(opt, *opened.chunks);
+      fmt::print(stderr,
+                 "saulctl convert: '{}' holds serial bytes ({}), which convert writes as MCAP only (each link's "
+                 "decoded messages): name the output .mcap or give --format mcap; saulctl decode prints them\n",
+                 opt.in, to_string(opened.format));
+      return kFailure;
+    }
+    if (!reader) reader = std::move(opened.frames);
     if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
       writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
                                        {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
@@ -144,6 +220,11 @@ void add_convert_command(CLI::App& app, Runner& run) {
       "                                                         channel per message kind, physical values\n"
       "  saulctl convert run.trace run.mcap                     a loop trace (tune record) on /saul/loop_trace\n"
       "                                                         (or run.csv: a column per field)\n"
+      "  saulctl convert captures/interboard_uart.serial run.mcap\n"
+      "                                                         a serial capture: each link's decoded messages\n"
+      "                                                         (/serial/interboard/state, /serial/crsf/...)\n"
+      "  saulctl convert --protocol pride --samplerate 1M uart.sigrok.txt run.mcap\n"
+      "                                                         a sigrok/PulseView UART export, likewise\n"
       "  saulctl convert vector.asc run.log && canplayer -I run.log\n"
       "  ssh robot cat run.log.zst | saulctl convert - - --format pcap | wireshark -k -i -\n"
       "                                                         '-': standard input, standard output\n");
@@ -158,7 +239,7 @@ void add_convert_command(CLI::App& app, Runner& run) {
   cmd->add_option("--zstd-level", opt->zstd_level,
                   "MCAP: zstd's level, -7 (fastest, largest) to 19 (smallest, slowest); default 1")
       ->check(CLI::Range(-7, 19));
-  add_input_format_option(cmd, opt->input_format);
+  add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }
 

@@ -60,6 +60,57 @@ check "convert of a trace with a corrupt record: reported with its byte, the res
   bash -c 'grep -q "corrupt record at byte" "$0" && test "$(timeout 120 node --single-threaded "$1" trace "$2" "$3")" = "$(wc -l <"$3")"' \
   "$out/e" "$npm_dir/mcap_check.mjs" "$out/t.mcap" "$out/t.jsonl"
 
+# 1c. Serial byte captures to MCAP: each link's decoded messages on /serial/<protocol>/<message>, as decode --json
+# prints them (value, link, log time = its time), the chunks on /serial/bytes, a Metadata record per link; decoder
+# counters and corrupt lines reported as decode reports them. sigrok exports in sample numbers at 10 MHz carry
+# times decode prints to the microsecond: their log times are checked to within 1 us.
+serial_check() {  # serial_check NAME TOLERANCE_NS COMPRESSION ARGS...: the MCAP of `convert ARGS` against `decode ARGS`
+  local name=$1 tolerance=$2 compression=$3; shift 3
+  "$saulctl" decode --json "$@" >"$out/s.jsonl" 2>"$out/de"
+  "$saulctl" convert --compression "$compression" "$@" "$out/s.mcap" 2>"$out/ce"
+  check "convert $name: @mcap/core reads it, schemas, each message = decode --json's ($(wc -l <"$out/s.jsonl"))" \
+    bash -c 'timeout 120 node --single-threaded "$0" serial "$1" "$2" "$3" >"$4" && test -s "$2"' \
+    "$npm_dir/mcap_check.mjs" "$out/s.mcap" "$out/s.jsonl" "$tolerance" "$out/topics"
+  check "convert $name: each link's decoder counters reported as decode reports them" \
+    cmp -s <(grep -E '\((interboard|crsf|pride|raw)' "$out/de" | sed 's/^saulctl decode/saulctl convert/') \
+           <(grep -E '\((interboard|crsf|pride|raw)' "$out/ce")
+}
+for c in zstd lz4 none; do
+  serial_check "interboard_uart.serial (--compression $c)" 0 "$c" "$root/captures/interboard_uart.serial"
+done
+check "interboard_uart.serial: a channel per message kind, every chunk on /serial/bytes" \
+  bash -c '[[ $(cat "$0") == *\"/serial/interboard/state\":1[,}]* && $(cat "$0") == *\"/serial/bytes\":$1,* ]]' \
+  "$out/topics" "$(grep -c '^(' "$root/captures/interboard_uart.serial")"
+serial_check pride_uart.serial 0 zstd "$root/captures/pride_uart.serial"
+serial_check "interboard_uart.sigrok.txt (sigrok-cli, 10 MHz)" 999 lz4 --samplerate 10M "$root/captures/interboard_uart.sigrok.txt"
+serial_check "pride_uart.sigrok.txt (sigrok-cli, 1 MHz)" 999 none --protocol pride --samplerate 1M "$root/captures/pride_uart.sigrok.txt"
+serial_check "pride_uart.sigrok.json (sigrok-cli JSON trace)" 0 zstd --protocol pride "$root/captures/pride_uart.sigrok.json"
+# Four links in one log: two inter-board links (the second gets /serial/interboard_2/...), Pride, and CRSF with
+# protocols.md's test frames (T1 RC channels, T3 link statistics, T5 attitude, a 0x32 command frame that does not
+# decode, on /serial/crsf/undecoded, T8 device ping), plus a corrupt line.
+{
+  cat "$root/captures/interboard_uart.serial"
+  sed 's#/dev/ttyUSB0#/dev/ttyUSB2#' "$root/captures/interboard_uart.serial"
+  cat "$root/captures/pride_uart.serial"
+  crsf="serial:/dev/ttyACM0@420000:8N1 crsf"
+  echo "(1763800000.000100) $crsf C81816E0031FF8C0073EF0810F7CE0031FF8C0073EF0810F7CAD"
+  echo "(1763800000.002150) $crsf C80C143C3E640900040337620895"
+  echo "(1763800000.004000) $crsf C8081E03E8F8303D5C0AC80C32C8EC0A7001001E84802272"
+  echo "(1763800000.006001) $crsf C8042800EA54"
+  echo "(1763800000.0070 $crsf C8"
+} >"$out/multi.serial"
+serial_check "four links in one serial log" 0 zstd "$out/multi.serial"
+for topic in /serial/interboard/state /serial/interboard_2/state /serial/pride/vcu_command /serial/crsf/rc_channels \
+  /serial/crsf/link_statistics /serial/crsf/undecoded; do
+  check "four links: $topic" grep -q "\"$topic\":" "$out/topics"
+done
+check "four links: the corrupt line reported with its line and column, as decode does" \
+  bash -c 'grep -q "1 corrupt lines skipped" "$0" && grep -q "multi.serial:[0-9]*:[0-9]*: .*(line skipped)" "$0" &&
+           cmp -s <(grep "(line skipped)" "$1" | sed "s/^saulctl decode/saulctl convert/") <(grep "(line skipped)" "$0")' \
+  "$out/ce" "$out/de"
+check "a serial capture to a CAN format: refused, exit 1, no file" \
+  bash -c '! "$0" convert "$1" "$2" 2>/dev/null && test ! -e "$2"' "$saulctl" "$out/multi.serial" "$out/multi.log"
+
 # 2. A file written by @mcap/core's McapWriter (frames in our schema, plus a channel saulctl must pass over).
 "$saulctl" decode --json "$root/captures/robot_bus.log" >"$out/d.jsonl" 2>/dev/null
 node_check write "$out/theirs.mcap" "$out/d.jsonl"

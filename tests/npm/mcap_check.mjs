@@ -17,6 +17,11 @@
 //       A loop trace's MCAP (indexed reader): "/saul/loop_trace" holds one message per line of `saulctl decode
 //       --json` of the trace (DECODE.jsonl), each valid against the channel's schema; the first and last equal
 //       decode's, log time = time_s in ns; a Metadata record "saulctl" names the source. Prints the count.
+//   node mcap_check.mjs serial FILE.mcap DECODE.jsonl [TOLERANCE_NS]
+//       A serial capture's MCAP: both readers, every message valid against its schema (as verify); the messages
+//       off /serial/bytes, in file order, equal the lines of `saulctl decode --json` of the capture (DECODE.jsonl)
+//       one for one (value, link and protocol of the channel, log time = the line's time, exactly or within
+//       TOLERANCE_NS); a Metadata record per link. Prints the counts per topic.
 import { McapIndexedReader, McapStreamReader, McapWriter } from "@mcap/core";
 import { loadDecompressHandlers } from "@mcap/support";
 import Ajv from "ajv";
@@ -78,7 +83,9 @@ async function indexedOf(bytes) {
   return McapIndexedReader.Initialize({ readable, decompressHandlers: await loadDecompressHandlers() });
 }
 
-async function verify() {
+// FILE through both readers: the indexed one (summary, chunk indexes; log-time order) and the streaming one (CRCs
+// checked; file order), which must hold the same messages; the Statistics record must count them.
+async function readBoth() {
   const handlers = await loadDecompressHandlers();
   const bytes = readFileSync(file);
   const handle = await fs.open(file, "r");
@@ -94,7 +101,7 @@ async function verify() {
   if (indexed.chunkIndexes.length === 0) fail("no chunk indexes in the summary");
   const fromIndex = [];
   for await (const m of indexed.readMessages()) fromIndex.push(m);
-  await handle.close();
+  // the handle stays open: serial() reads Metadata through the indexed reader later (closed at exit)
   const streamed = await streamAll(bytes, handlers);
   if (streamed.error || !streamed.done) fail(`streaming reader: ${streamed.error ?? "did not reach the end"}`);
   if (streamed.messages.length !== fromIndex.length)
@@ -108,8 +115,11 @@ async function verify() {
   if (indexed.statistics === undefined) fail("no Statistics record");
   if (Number(indexed.statistics.messageCount) !== fromIndex.length)
     fail(`Statistics says ${indexed.statistics.messageCount} messages, the file holds ${fromIndex.length}`);
+  return { indexed, streamed };
+}
 
-  // Every message against its channel's JSON Schema.
+// Every message against its channel's JSON Schema (jsonschema, json messages); the counts per topic.
+function validateAll(indexed, streamed) {
   const ajv = new Ajv({ strict: false, allErrors: false });
   const validators = new Map();
   const counts = {};
@@ -126,6 +136,12 @@ async function verify() {
       fail(`${channel.topic} at ${m.logTime}: ${JSON.stringify(value)} fails its schema: ${ajv.errorsText(validate.errors)}`);
     counts[channel.topic] = (counts[channel.topic] ?? 0) + 1;
   }
+  return counts;
+}
+
+async function verify() {
+  const { indexed, streamed } = await readBoth();
+  const counts = validateAll(indexed, streamed);
 
   // Counts per channel = saulctl stats: all frames on /can/frames, each id's decoded frames on its topic.
   const stats = JSON.parse(readFileSync(arg3, "utf8"));
@@ -238,8 +254,48 @@ async function trace() {
   console.log(messages.length);
 }
 
+// decode --json's time text ("1763800000.000100") in ns, exactly.
+const nsOf = (time) => {
+  const [sec, frac = ""] = time.split(".");
+  return BigInt(sec) * 1000000000n + BigInt((frac + "000000000").slice(0, 9));
+};
+
+async function serial() {
+  const { indexed, streamed } = await readBoth();
+  const counts = validateAll(indexed, streamed);
+  const tolerance = BigInt(arg3 ?? 0);
+  // The decoded channels in file order = decode --json's lines in order: the same value (its "message", or its
+  // "error" on .../undecoded), on a channel of the line's link and protocol, at the line's time.
+  const decoded = readFileSync(arg2, "utf8").split("\n").filter((l) => l.length > 0).map((l) => JSON.parse(l));
+  const messages = streamed.messages.filter((m) => indexed.channelsById.get(m.channelId).topic !== "/serial/bytes");
+  if (messages.length !== decoded.length) fail(`${messages.length} decoded messages, decode --json has ${decoded.length} lines`);
+  decoded.forEach((line, i) => {
+    const m = messages[i];
+    const channel = indexed.channelsById.get(m.channelId);
+    const value = JSON.parse(text.decode(m.data));
+    const want = line.message ?? line.error;
+    if (!same(value, want)) fail(`message ${i} on ${channel.topic}: ${JSON.stringify(value)} != decode's ${JSON.stringify(want)}`);
+    const kind = line.message ? want.type : "undecoded";
+    if (!new RegExp(`^/serial/${line.protocol}(_[0-9]+)?/${kind}$`).test(channel.topic))
+      fail(`message ${i} (${line.protocol} ${kind}) on ${channel.topic}`);
+    if (channel.metadata.get("link") !== line.link || channel.metadata.get("protocol") !== line.protocol)
+      fail(`${channel.topic}: link ${channel.metadata.get("link")}, decode says ${line.link}`);
+    const d = m.logTime - nsOf(line.time);
+    if (d > tolerance || -d > tolerance) fail(`message ${i} on ${channel.topic}: log time ${m.logTime}, decode's time ${line.time}`);
+  });
+  // A Metadata record per link, and saulctl's.
+  const links = new Set();
+  for await (const r of indexed.readMetadata({ name: "serial_link" })) links.add(r.metadata.get("link"));
+  for (const line of decoded) if (!links.has(line.link)) fail(`no serial_link Metadata record for ${line.link}`);
+  let ours = 0;
+  for await (const _ of indexed.readMetadata({ name: "saulctl" })) ours++;
+  if (ours !== 1) fail(`${ours} Metadata records "saulctl"`);
+  console.log(JSON.stringify(canon(counts)));
+}
+
 if (mode === "verify") await verify();
 else if (mode === "trace") await trace();
+else if (mode === "serial") await serial();
 else if (mode === "stream") await stream();
 else if (mode === "write") await write();
 else if (mode === "chunks") await chunks();

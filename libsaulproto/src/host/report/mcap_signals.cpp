@@ -88,17 +88,21 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
 
 void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::uint64_t log_time, McapWriter& out) {
   if (frame.error || frame.remote) return;
-  std::uint64_t key = frame.id * 0x9E3779B97F4A7C15ULL ^ frame.dlc;
-  for (std::uint8_t b : frame.payload()) key = (key ^ b) * 0x100000001B3ULL;
-  Rendered& slot = cache_[(key ^ (key >> 29)) % kCache];
-  if (slot.used && slot.frame.same_wire(frame)) {
-    out.add_message(slot.channel, log_time, slot.json);
-    return;
+  const FrameKey key = frame_key(frame);
+  const std::size_t at = key.slot(kCache);
+  Rendered& slot = cache_[at];
+  if (keys_[at] != key) {
+    keys_[at] = key;
+    slot.decoded = render(frame, slot, out);
   }
+  if (slot.decoded) out.add_message(slot.channel, log_time, slot.json);
+}
+
+bool McapSignalChannels::render(const CanFrame& frame, Rendered& slot, McapWriter& out) {
   const signals::MessageDesc* d = signals::find_can(frame.id, frame.extended);
-  if (d == nullptr) return;
+  if (d == nullptr) return false;
   const auto message = decode_bus_frame(frame);
-  if (!message) return;  // rejected: on /can/frames only
+  if (!message) return false;  // rejected: on /can/frames only
   const std::uint32_t controller = d->protocol == signals::Protocol::vesc_can ? (frame.id & 0xFF) : 0;
   auto channel = channels_.find({d, controller});
   if (channel == channels_.end()) {
@@ -114,12 +118,10 @@ void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::
                                 out.add_channel(schema->second, mcap_topic(*d, controller), "json", metadata))
                   .first;
   }
-  slot.used = true;
-  slot.frame = frame;
   slot.channel = channel->second;
   slot.json.clear();
   append_message(slot.json, MessageFormat::json, *d, signals::Wire{frame.id, frame.payload()});
-  out.add_message(slot.channel, log_time, slot.json);
+  return true;
 }
 
 std::unique_ptr<CaptureWriter> open_mcap_signal_writer(const std::string& path, McapWriterOptions options,

@@ -18,6 +18,7 @@
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/core/can_frame.hpp"
+#include "saulproto/host/report/frame_key.hpp"
 
 namespace saul::host {
 
@@ -32,15 +33,20 @@ class McapSignalChannels final : public McapFrameExtra {
   void on_frame(const CanFrame& frame, std::string_view interface, std::uint64_t log_time, McapWriter& out) override;
 
  private:
-  /// Robot buses repeat payloads: the JSON of a frame's message is kept in a small table keyed by the frame's id,
-  /// flags and bytes (as decode's FrameEmitter keeps its lines), so most frames are not decoded and rendered again.
+  /// Robot buses repeat payloads: what a frame's content gives (its message's channel and JSON, or nothing for a
+  /// frame that does not decode) is kept in a direct-mapped table by frame_key(), as decode's FrameEmitter keeps its
+  /// lines, so most frames are not decoded and rendered again. The keys sit in an array of their own (64 KiB, in
+  /// the CPU's cache), looked at for every frame; the JSON only on a hit.
   struct Rendered {
-    bool used = false;
-    CanFrame frame;  ///< the key (its timestamp is not part of it)
     std::uint16_t channel = 0;
+    bool decoded = false;
     std::string json;
   };
+  /// Decodes and renders a frame not in the table into `slot` (adding its schema and channel when new); false when
+  /// it does not decode.
+  bool render(const CanFrame& frame, Rendered& slot, McapWriter& out);
   static constexpr std::size_t kCache = 4096;
+  std::vector<FrameKey> keys_ = std::vector<FrameKey>(kCache, FrameKey{~std::uint64_t{0}, 0});  ///< ~0: no frame's
   std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
   std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
   std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
