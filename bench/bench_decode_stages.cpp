@@ -1,19 +1,20 @@
 // saulctl decode and stats stage by stage, on a generated robot-bus candump log (the mix of bench_capture_decode.cpp
 // with payloads that vary): scan (CandumpScanner: big reads, lines in place, batches), parse (parse_candump_line
 // alone), decode (decode_bus_frame), emit (FrameEmitter text / CSV / JSON into one buffer; a message's JSON by
-// append_message and by nlohmann's dump), stuff bits (table-driven against the bit-by-bit count), and the whole decode_candump on one thread
+// append_message and by nlohmann's dump), stuff bits (table-driven against the bit-by-bit count), and the whole decode_capture on one thread
 // and two. Run: build/bench/saul_bench --benchmark_filter='Scan|Parse|Emit|Stuff|Decode'
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
@@ -93,11 +94,11 @@ void rate(benchmark::State& state, std::uint64_t frames) {
 }
 
 void BM_Scan(benchmark::State& state) {
-  const auto file = CandumpFile::open(log_file().path);
   std::uint64_t frames = 0;
   FrameBatch batch;
   for (auto _ : state) {
-    CandumpScanner scanner(file->fd(), 0, file->size());
+    std::ifstream in(log_file().path, std::ios::binary);
+    CandumpScanner scanner(in);
     while (scanner.next_batch(batch)) frames += batch.frames.size();
   }
   rate(state, frames);
@@ -243,14 +244,17 @@ BENCHMARK(BM_BusStatsAdd)->Unit(benchmark::kMillisecond);
 void BM_DecodeFile(benchmark::State& state) {
   FrameDecodeOptions o;
   o.format = static_cast<DecodeFormat>(state.range(0));
-  o.threads = static_cast<unsigned>(state.range(1));
-  o.parallel_from = 0;
+  o.read.threads = static_cast<unsigned>(state.range(1));
+  o.read.parallel_from = 0;
   FrameDecodeSinks sinks;
   std::uint64_t bytes = 0;
   sinks.write = [&](std::string_view s) { bytes += s.size(); };
   sinks.corrupt = [](const CaptureError&) {};
   std::uint64_t n = 0;
-  for (auto _ : state) n += decode_candump_file(log_file().path, o, sinks)->records;
+  for (auto _ : state) {
+    auto opened = open_capture(log_file().path);
+    n += decode_capture(log_file().path, opened.frames, opened.compressed, o, sinks).records;
+  }
   benchmark::DoNotOptimize(bytes);
   rate(state, n);
 }

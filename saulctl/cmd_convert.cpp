@@ -16,7 +16,6 @@
 #include "capture_cli.hpp"
 #include "commands.hpp"
 #include "trace_cli.hpp"
-#include "saulproto/host/capture/candump_batch_reader.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -51,10 +50,10 @@ class ProgressReader final : public saul::host::CaptureReader {
   [[nodiscard]] const saul::CanFrame& frame() const override { return inner_.frame(); }
   [[nodiscard]] std::string_view interface() const override { return inner_.interface(); }
   [[nodiscard]] const saul::host::CaptureError& error() const override { return inner_.error(); }
-  [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
-
- private:
-  saul::host::CaptureReader& inner_;
+                                                      [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
+                                                      
+                                                      private:
+                                                      saul::host::CaptureReader& inner_;
   Progress& progress_;
 };
 
@@ -78,7 +77,7 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
   if (opt.out != "-") file.open(opt.out, std::ios::binary | std::ios::trunc);
   std::ostream& stream = opt.out == "-" ? std::cout : file;
   if (!stream) {
-    fmt::print(stderr, "saulctl convert: cannot create '{}'\n", opt.out);
+    say("cannot create '{}'", opt.out);
     return kFailure;
   }
   std::uint64_t chunks = 0, corrupt = 0, untimed = 0;
@@ -101,12 +100,12 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
     links = channels.decoder().links();
   } catch (const std::runtime_error& e) {  // the stream failed (a full disk)
     progress.finish();
-    fmt::print(stderr, "saulctl convert: cannot write '{}': {}\n", opt.out, e.what());
+    say("cannot write '{}': {}", opt.out, e.what());
   }
   progress.finish();
   if (messages && chunks == 0 && corrupt > 0) {
-    fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt lines); {} not written\n", opt.in,
-               corrupt, opt.out);
+    say("nothing could be read from {} ({} corrupt lines); {} not written", opt.in,
+        corrupt, opt.out);
     messages.reset();
   }
   if (!messages) {
@@ -117,13 +116,13 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
     return kFailure;
   }
   if (untimed > 0)
-    fmt::print(stderr, "saulctl convert: {}: {} chunks carry no time, written at log time 0 (sample numbers need "
-                       "--samplerate)\n", opt.in, untimed);
+    say("{}: {} chunks carry no time, written at log time 0 (sample numbers need "
+        "--samplerate)", opt.in, untimed);
   for (const auto& link : links)
-    fmt::print(stderr, "saulctl convert: {}: {} ({}{}): {}\n", opt.in, link.name, to_string(link.protocol),
-               link.guessed ? ", guessed from the bytes" : "", link.counters_text);
-  fmt::print(stderr, "saulctl convert: {} serial messages from {} ({}) to {} (MCAP, /serial/...); {} corrupt lines "
-                     "skipped\n", *messages, opt.in, to_string(reader.format()), opt.out, corrupt);
+    say("{}: {} ({}{}): {}", opt.in, link.name, to_string(link.protocol),
+        link.guessed ? ", guessed from the bytes" : "", link.counters_text);
+  say("{} serial messages from {} ({}) to {} (MCAP, /serial/...); {} corrupt lines "
+      "skipped", *messages, opt.in, to_string(reader.format()), opt.out, corrupt);
   return kOk;
 }
 
@@ -141,20 +140,15 @@ int run_convert(const ConvertOptions& opt) {
   std::unique_ptr<CaptureWriter> writer;
   try {
     const auto out_format = format ? format : capture_format_from_extension(opt.out);
-    // A plain candump file is read in blocks, parsed in place (the same frames and errors as any reader gives).
-    const auto forced = input_format(opt.serial.input_format);
-    if (!forced || forced == CaptureFormat::candump) reader = CandumpBatchReader::open(opt.in);
-    OpenedCapture opened;
-    if (!reader) opened = open_capture(opt.in, serial_read_options(opt.serial));
+    OpenedCapture opened = open_capture(opt.in, serial_read_options(opt.serial));
     if (opened.chunks) {  // serial bytes: their decoded messages, to MCAP only
       if (out_format == CaptureFormat::mcap) return run_convert_serial(opt, *opened.chunks);
-      fmt::print(stderr,
-                 "saulctl convert: '{}' holds serial bytes ({}), which convert writes as MCAP only (each link's "
-                 "decoded messages): name the output .mcap or give --format mcap; saulctl decode prints them\n",
-                 opt.in, to_string(opened.format));
+      say("'{}' holds serial bytes ({}), which convert writes as MCAP only (each link's "
+          "decoded messages): name the output .mcap or give --format mcap; saulctl decode prints them",
+          opt.in, to_string(opened.format));
       return kFailure;
     }
-    if (!reader) reader = std::move(opened.frames);
+    reader = std::move(opened.frames);
     if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
       writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
                                        {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
@@ -163,7 +157,7 @@ int run_convert(const ConvertOptions& opt) {
       writer = open_capture_writer(opt.out, format);
     }
   } catch (const CaptureOpenError& e) {
-    fmt::print(stderr, "saulctl convert: {}\n", e.what());
+    say("{}", e.what());
     return kFailure;
   }
   Progress progress("convert", false);
@@ -172,30 +166,29 @@ int run_convert(const ConvertOptions& opt) {
   try {
     stats = copy_frames(shown, *writer, [&opt, &progress](const CaptureError& error) {
       progress.finish();  // the message gets its own line
-      fmt::print(stderr, "saulctl convert: {}\n", format_capture_error(opt.in, error));
+      say("{}", format_capture_error(opt.in, error));
     });
     writer->close();
   } catch (const std::invalid_argument& e) {  // a frame the output format cannot hold (more interfaces than it numbers)
     progress.finish();
     writer.reset();
     if (opt.out != "-") std::remove(opt.out.c_str());  // half a file is no capture
-    fmt::print(stderr,
-               "saulctl convert: cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds "
-               "any number)\n",
-               opt.in, opt.out, e.what(), opt.out);
+    say("cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds "
+        "any number)",
+        opt.in, opt.out, e.what(), opt.out);
     return kFailure;
   }
   progress.finish();
   if (stats.frames == 0 && stats.corrupt > 0) {  // as decode: nothing could be read is a failure, not an empty file
     if (opt.out != "-") std::remove(opt.out.c_str());
-    fmt::print(stderr, "saulctl convert: nothing could be read from {} ({} corrupt records); {} not written\n", opt.in,
-               stats.corrupt, opt.out);
+    say("nothing could be read from {} ({} corrupt records); {} not written", opt.in,
+        stats.corrupt, opt.out);
     return kFailure;
   }
   for (const auto& note : conversion_losses(stats, writer->format()))
-    fmt::print(stderr, "saulctl convert: note: {}\n", note);
-  fmt::print(stderr, "saulctl convert: {} frames from {} ({}) to {} ({}); {} corrupt records skipped\n", stats.frames,
-             opt.in, to_string(reader->format()), opt.out, to_string(writer->format()), stats.corrupt);
+    say("note: {}", note);
+  say("{} frames from {} ({}) to {} ({}); {} corrupt records skipped", stats.frames,
+      opt.in, to_string(reader->format()), opt.out, to_string(writer->format()), stats.corrupt);
   return kOk;
 }
 

@@ -6,7 +6,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <iostream>
 #include <memory>
 #include <optional>
 #include <system_error>
@@ -36,32 +35,6 @@ struct DecodeOptions {
   bool strict = false;
   std::string parallel_from;  // --parallel-from
   SerialCliOptions serial;
-};
-
-// Standard input as the candump reader sees it, line by line, keeping the first line that is no candump -L line
-// (the reader skips those): when no frame came, what that line looks like is the error ('candump can0' without
-// -L, above all). Whole lines are handed on as they come, so a live pipe is decoded at once.
-class WatchedLines : public std::streambuf {
- public:
-  explicit WatchedLines(std::istream& in) : in_(in) {}
-  [[nodiscard]] const std::string& first_other() const { return first_other_; }
-
- protected:
-  int_type underflow() override {
-    if (!std::getline(in_, line_)) return traits_type::eof();
-    if (first_other_.empty() && !line_.empty() && line_[0] != '(' &&
-        line_.find_first_not_of(" \t\r") != std::string::npos)
-      first_other_ = line_;
-    if (!in_.eof()) line_ += '\n';
-    if (line_.empty()) return underflow();
-    setg(line_.data(), line_.data(), line_.data() + line_.size());
-    return traits_type::to_int_type(line_[0]);
-  }
-
- private:
-  std::istream& in_;
-  std::string line_;
-  std::string first_other_;
 };
 
 using saul::host::csv_quote;
@@ -109,7 +82,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
     if (st == SerialCaptureReader::Status::corrupt) {
       ++corrupt;
       progress.finish();  // the message gets its own line; the progress line comes back at the next draw
-      fmt::print(stderr, "saulctl decode: {}\n", format_capture_error(path, reader.error()));
+      say("{}", format_capture_error(path, reader.error()));
       continue;
     }
     ++records;
@@ -118,15 +91,15 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
   }
   decoder.finish(print);
   if (untimed > 0)
-    fmt::print(stderr, "saulctl decode: {}: {} chunks carry no time (sample numbers need --samplerate; sigrok-cli "
-                       "prints them with --protocol-decoder-samplenum)\n", path, untimed);
+    say("{}: {} chunks carry no time (sample numbers need --samplerate; sigrok-cli "
+        "prints them with --protocol-decoder-samplenum)", path, untimed);
   for (const auto& link : decoder.links())
-    fmt::print(stderr, "saulctl decode: {}: {} ({}{}): {}\n", path, link.name, to_string(link.protocol),
-               link.guessed ? ", guessed from the bytes" : "", link.counters_text);
+    say("{}: {} ({}{}): {}", path, link.name, to_string(link.protocol),
+        link.guessed ? ", guessed from the bytes" : "", link.counters_text);
   if (const auto& other = decoder.unlisted(); other.chunks > 0)
-    fmt::print(stderr, "saulctl decode: {}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the "
-                       "capture's link column noise?)\n",
-               path, other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
+    say("{}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the "
+        "capture's link column noise?)",
+        path, other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
   return messages;
 }
 
@@ -146,66 +119,57 @@ int run_decode(const DecodeOptions& opt) {
   if (format == "long") fmt::print("{}\n", saul::host::kLongCsvHeader);
   Progress progress("decode", true);
 
-  // CAN frames go through the fast path: candump files (and '-') with the batch scanner, decoded on both cores
-  // when large; every other format frame by frame from its reader, written by the same emitter.
+  // CAN frames, whatever their format, go through the one read path (large files on both cores) into one emitter.
   using saul::host::DecodeFormat;
-  using saul::host::TimeMode;
   saul::host::FrameDecodeOptions fast;
   fast.format = format == "jsonl" ? DecodeFormat::jsonl : format == "csv" ? DecodeFormat::csv : DecodeFormat::text;
   fast.time = time_mode(opt.time);
   if (!ids.empty()) fast.keep = [&ids](const saul::CanFrame& f) { return saul::host::passes(ids, f); };
-  // From --parallel-from bytes on, candump, pcap and pcapng files are decoded in blocks on both cores and the other
-  // formats are read on a second thread.
-  fast.parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
-  const std::uint64_t read_ahead_from = fast.parallel_from;
+  fast.read.parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
   auto write_out = [](std::string_view text) { std::fwrite(text.data(), 1, text.size(), stdout); };
-  auto count = [&](const saul::host::DecodeCounts& c) {
-    frames += c.frames;
-    decoded += c.decoded;
-    unknown += c.unknown;
-    rejected += c.rejected;
-    errors += c.errors;
-  };
 
-  // Standard input that held lines but not one candump -L line: what it looks like, and exit 1.
-  auto not_candump_on_stdin = [&](const std::string& first_other) {
-    progress.finish();
-    fmt::print(stderr, "saulctl decode: -: not a capture ({}); standard input is read as candump -L lines\n",
-               saul::host::describe_non_capture(first_other));
-    status = kFailure;
-  };
   for (const auto& path : opt.files) {
     std::uint64_t progress_records = 0;
+    std::optional<std::uint64_t> total;
     saul::host::FrameDecodeSinks sinks;
     sinks.write = write_out;
     sinks.corrupt = [&](const saul::host::CaptureError& e) {
       progress.finish();
-      fmt::print(stderr, "saulctl decode: {}\n", saul::host::format_capture_error(path, e));
+      say("{}", saul::host::format_capture_error(path, e));
     };
     sinks.progress = [&](std::uint64_t n, std::uint64_t bytes) {
-      progress.update_many(n - progress_records, bytes, std::nullopt);
+      progress.update_many(n - progress_records, bytes, total);
       progress_records = n;
     };
-    std::optional<saul::host::FrameDecodeResult> fast_result;
-    // '-' is candump text from standard input; files are any capture format, told by their content.
-    std::unique_ptr<saul::host::CaptureReader> opened;
-    std::unique_ptr<WatchedLines> watched;
-    std::unique_ptr<std::istream> watched_in;
-    const std::uint64_t records_before = records, corrupt_before = corrupt;
+    saul::host::TimeColumn time_column(fast.time);  // the long CSV's times
+    saul::host::FrameDecodeOptions options = fast;
+    if (format == "long")
+      options.render = [&](const saul::CanFrame& f, std::string_view interface, fmt::memory_buffer& out,
+                           saul::host::DecodeCounts& counts) {
+        const auto result = saul::decode_bus_frame(f);
+        counts.count(result);
+        const std::string stamp = time_column(f.timestamp_ns.value_or(0));
+        const std::string rows = saul::host::long_csv_rows(
+            stamp.substr(1, stamp.size() - 2), interface,
+            f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
+            result ? saul::host::signal_values(result.value()) : saul::host::SignalValues{});
+        out.append(rows.data(), rows.data() + rows.size());
+      };
+    // '-' is candump text from standard input, read as it comes (a pipe from candump stays live: each read's lines
+    // are written at once); files are any capture format, told by their content.
+    std::unique_ptr<saul::host::CaptureReader> reader;
+    const saul::host::CandumpReader* from_stdin = nullptr;
+    bool compressed = false;
     try {
-      if (path == "-" && format != "long") {
-        // Standard input through the scanner (big reads, each written at once, so a pipe from candump stays live);
-        // its first line that is not candump -L gives the hint below when nothing decoded.
-        sinks.write = [&](std::string_view text) {  // every read's lines out at once: stdout to a pipe buffers
+      if (path == "-") {
+        auto candump = std::make_unique<saul::host::CandumpReader>(STDIN_FILENO);
+        from_stdin = candump.get();
+        reader = std::move(candump);
+        options.read.live = true;
+        sinks.write = [&](std::string_view text) {  // stdout to a pipe buffers
           write_out(text);
           std::fflush(stdout);
         };
-        fast_result = saul::host::decode_candump(STDIN_FILENO, std::nullopt, fast, sinks);
-      } else if (path == "-") {
-        // The long CSV frame by frame, watching for a first line that is not candump -L (the hint below).
-        watched = std::make_unique<WatchedLines>(std::cin);
-        watched_in = std::make_unique<std::istream>(watched.get());
-        opened = std::make_unique<saul::host::CandumpReader>(*watched_in);
       } else {
         auto any = saul::host::open_capture(path, serial_options);
         if (any.chunks) {
@@ -213,105 +177,48 @@ int run_decode(const DecodeOptions& opt) {
           messages += decode_serial(opt, format, path, *any.chunks, corrupt, records, progress);
           continue;
         }
-        const auto total = any.frames->bytes_total();
-        sinks.progress = [&, total](std::uint64_t n, std::uint64_t bytes) {
-          progress.update_many(n - progress_records, bytes, total);
-          progress_records = n;
-        };
-        if (format == "long") {
-          // the long CSV is written frame by frame below
-        } else if (any.frames->format() == saul::host::CaptureFormat::candump) {
-          fast_result = saul::host::decode_candump_file(path, fast, sinks);
-          // A compressed log: its text cut into blocks on both cores as it inflates (whatever its size: a few MB
-          // of zstd hold 40 MB of text), taken from the file already open (a pipe is read once).
-          if (!fast_result && any.compressed && saul::host::decodes_candump_text(fast)) {
-            if (const auto text = saul::host::take_capture_text(any.frames))
-              fast_result = saul::host::decode_candump_text(*text, fast, sinks);
-          }
-        } else if (any.frames->format() == saul::host::CaptureFormat::pcap) {
-          fast_result = saul::host::decode_pcap_file(path, fast, sinks);
-        } else if (any.frames->format() == saul::host::CaptureFormat::pcapng) {
-          fast_result = saul::host::decode_pcapng_file(path, fast, sinks);  // large ones on both cores
-        }
-        if (!fast_result) opened = std::move(any.frames);
+        total = any.frames->bytes_total();
+        reader = std::move(any.frames);
+        compressed = any.compressed;
+      }
+      any_can = true;
+      const auto result = saul::host::decode_capture(path, reader, compressed, options, sinks);
+      frames += result.counts.frames;
+      decoded += result.counts.decoded;
+      unknown += result.counts.unknown;
+      rejected += result.counts.rejected;
+      errors += result.counts.errors;
+      records += result.records;
+      corrupt += result.corrupt;
+      // Standard input that held lines but not one candump -L line: what it looks like, and exit 1.
+      if (from_stdin && result.records == 0 && result.corrupt == 0 && !from_stdin->first_other().empty()) {
+        progress.finish();
+        say("-: not a capture ({}); standard input is read as candump -L lines",
+            saul::host::describe_non_capture(from_stdin->first_other()));
+        status = kFailure;
       }
     } catch (const saul::host::CaptureOpenError& e) {
-      fmt::print(stderr, "saulctl decode: {}\n", e.what());
+      say("{}", e.what());
       status = kFailure;
-      continue;
     } catch (const std::system_error& e) {
-      fmt::print(stderr, "saulctl decode: {}: {}\n", path, e.what());
+      say("{}: {}", path, e.what());
       status = kFailure;
-      continue;
     }
-    any_can = true;
-    if (!fast_result && format != "long" && !watched) {
-      // Any other file format: its reader in batches through the same emitter, reading ahead on a second thread
-      // from read_ahead_from bytes on.
-      const auto total = opened->bytes_total();
-      fast_result = saul::host::decode_reader(*opened, total && *total >= read_ahead_from, fast, sinks);
-    }
-    if (fast_result) {
-      count(fast_result->counts);
-      records += fast_result->records;
-      corrupt += fast_result->corrupt;
-      if (path == "-" && records == records_before && corrupt == corrupt_before && !fast_result->first_other.empty())
-        not_candump_on_stdin(fast_result->first_other);
-      continue;
-    }
-    saul::host::CaptureReader& reader = *opened;
-    saul::host::FrameEmitter emitter(fast.format, fast.time);
-    saul::host::DecodeCounts counts;
-    fmt::memory_buffer out;
-    saul::host::TimeColumn time_column(fast.time);  // the long CSV's times
-    for (;;) {
-      const auto st = reader.next();
-      if (st == saul::host::CaptureReader::Status::end) break;
-      progress.update(reader.bytes_read(), reader.bytes_total());
-      if (st == saul::host::CaptureReader::Status::corrupt) {
-        ++corrupt;
-        sinks.corrupt(reader.error());
-        continue;
-      }
-      ++records;
-      const saul::CanFrame& f = reader.frame();
-      if (!ids.empty() && !saul::host::passes(ids, f)) continue;
-      if (format == "long") {
-        const auto result = saul::decode_bus_frame(f);
-        counts.count(result);
-        const std::string stamp = time_column(f.timestamp_ns.value_or(0));
-        fmt::print("{}", saul::host::long_csv_rows(stamp.substr(1, stamp.size() - 2), reader.interface(),
-                                                   f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
-                                                   result ? saul::host::signal_values(result.value())
-                                                          : saul::host::SignalValues{}));
-        continue;
-      }
-      emitter.add(f, reader.interface(), out, counts);
-      if (out.size() >= fast.flush_at) {
-        write_out(std::string_view(out.data(), out.size()));
-        out.clear();
-      }
-    }
-    write_out(std::string_view(out.data(), out.size()));
-    count(counts);
-    if (watched && records == records_before && corrupt == corrupt_before && !watched->first_other().empty())
-      not_candump_on_stdin(watched->first_other());
   }
   progress.finish();
   if (any_can || !any_serial)
-    fmt::print(stderr,
-               "saulctl decode: {} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines\n",
-               frames, decoded, unknown, rejected, errors, corrupt);
+    say("{} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines",
+        frames, decoded, unknown, rejected, errors, corrupt);
   if (any_serial)
-    fmt::print(stderr, "saulctl decode: {} serial messages; {} corrupt lines\n", messages, corrupt);
+    say("{} serial messages; {} corrupt lines", messages, corrupt);
   // Exit 1 when nothing at all could be read (every file unopenable, or only corrupt records), or with --strict
   // when any record was corrupt; otherwise corrupt records are reported above and the exit stays 0.
   if (records == 0 && corrupt > 0) {
-    fmt::print(stderr, "saulctl decode: nothing could be read\n");
+    say("nothing could be read");
     status = kFailure;
   }
   if (opt.strict && corrupt > 0) {
-    fmt::print(stderr, "saulctl decode: --strict: {} corrupt record(s)\n", corrupt);
+    say("--strict: {} corrupt record(s)", corrupt);
     status = kFailure;
   }
   return status;
@@ -369,7 +276,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
       try {
         return run_decode(*opt);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl decode: {}\n", e.what());
+        say("{}", e.what());
         return static_cast<int>(kUsage);
       }
     };

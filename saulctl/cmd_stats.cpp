@@ -10,9 +10,7 @@
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/signal_stats.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture.hpp"
-#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 
 namespace saulctl {
@@ -51,14 +49,14 @@ int run_stats(const StatsOptions& opt) {
   try {
     opened = open_capture(opt.file, serial_read_options(opt.serial));
   } catch (const CaptureOpenError& e) {
-    fmt::print(stderr, "saulctl stats: {}\n", e.what());
+    say("{}", e.what());
     return kFailure;
   }
 
   Progress progress("stats", false);
   auto report_corrupt = [&](const CaptureError& error) {
     progress.finish();  // the message gets its own line
-    fmt::print(stderr, "saulctl stats: {}\n", format_capture_error(opt.file, error));
+    say("{}", format_capture_error(opt.file, error));
   };
   SignalStats signal_stats;  // --signals: per signal count, mean, min, max in its unit
   // Both reports, text or JSON: the bus's, then the signals' when asked for.
@@ -74,53 +72,22 @@ int run_stats(const StatsOptions& opt) {
   };
   if (opened.frames) {
     BusStats stats(bus);
-    // Uncompressed pcap and pcapng files from --parallel-from bytes on: blocks on both cores (not with --signals,
-    // which needs the frames in order on one thread). An uncompressed candump file: big reads and batches
-    // (capture/candump_scan.hpp), in blocks on both cores when large; a compressed one in blocks cut as it
-    // inflates. Any other format frame by frame.
-    const CaptureFormat format = opened.frames->format();
+    // The one read path: large files on both cores (blocks of --block-size from --parallel-from bytes on; not with
+    // --signals, which needs the frames in order on one thread: a reading thread ahead then).
+    ReadOptions read;
+    read.parallel_from = parallel_from;
+    read.block = block;
     const auto total = opened.frames->bytes_total();
-    std::unique_ptr<CaptureBlocks> blocks;
-    if (!opt.signals && (format == CaptureFormat::pcap || format == CaptureFormat::pcapng) && total &&
-        *total >= parallel_from)
-      blocks = CaptureBlocks::open(opt.file, block);
-    if (blocks)
-      add_capture_blocks(stats, *blocks, report_corrupt, [&](std::uint64_t records, std::uint64_t bytes) {
-        progress.update_many(records, bytes, blocks->size());
-      });
-    const auto file = !blocks && format == CaptureFormat::candump ? CandumpFile::open(opt.file) : nullptr;
-    // From --parallel-from bytes on, both cores count (add_candump_file: blocks, or with --signals a reading thread).
-    if (file) {
-      std::function<void(const saul::CanFrame&)> also;
-      if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
-      add_candump_file(
-          stats, file->fd(), file->size(), file->size() >= parallel_from, report_corrupt,
-          [&](std::uint64_t records, std::uint64_t bytes) { progress.update_many(records, bytes, file->size()); }, also,
-          block);
-    }
-    // A compressed candump log (any size: a few MB of zstd hold 40 MB of text), or one from a pipe: its text cut
-    // into blocks as it comes, counted on both cores; taken from the file already open (a pipe is read once).
-    bool counted = file || blocks;
-    if (!counted && !opt.signals && format == CaptureFormat::candump) {
-      if (const auto text = take_capture_text(opened.frames)) {
-        add_capture_text(stats, *text, report_corrupt, [&](std::uint64_t records, std::uint64_t bytes) {
-          progress.update_many(records, bytes, text->bytes_total());
-        });
-        counted = true;
-      }
-    }
-    for (; !counted;) {
-      const auto st = opened.frames->next();
-      if (st == CaptureReader::Status::end) break;
-      progress.update(opened.frames->bytes_read(), opened.frames->bytes_total());
-      if (st == CaptureReader::Status::corrupt) {
-        stats.add_corrupt();
-        report_corrupt(opened.frames->error());
-        continue;
-      }
-      stats.add(opened.frames->frame(), opened.frames->interface());
-      if (opt.signals) signal_stats.add(opened.frames->frame());
-    }
+    std::uint64_t shown = 0;
+    std::function<void(const saul::CanFrame&)> also;
+    if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
+    add_capture(
+        stats, opt.file, opened.frames, opened.compressed, read, report_corrupt,
+        [&](std::uint64_t records, std::uint64_t bytes) {
+          progress.update_many(records - shown, bytes, total);
+          shown = records;
+        },
+        also);
     progress.finish();
     print(stats);
     return kOk;
@@ -184,7 +151,7 @@ void add_stats_command(CLI::App& app, Runner& run) {
       try {
         return run_stats(*opt);
       } catch (const CLI::ValidationError& e) {
-        fmt::print(stderr, "saulctl stats: {}\n", e.what());
+        say("{}", e.what());
         return kUsage;
       }
     };

@@ -172,7 +172,11 @@ if command -v strace >/dev/null && strace -f -o /dev/null true 2>/dev/null; then
       "$saulctl" "$@" >/dev/null 2>&1
     grep -c 'clone' "$out/strace"
   }
-  for verb in "decode $out/bus.log" "decode $out/bus.pcapng" "stats $out/bus.log" "stats $out/bus.pcap"; do
+  # the one read path's ways: blocks of a file (candump, pcap), a reader read ahead (pcapng of one block, ASC
+  # through the batch interface's default, stats --signals in order)
+  "$saulctl" convert "$out/bus.log" "$out/bus.asc" >/dev/null 2>&1
+  for verb in "decode $out/bus.log" "decode $out/bus.pcapng" "decode $out/bus.asc" \
+      "stats $out/bus.log" "stats $out/bus.pcap" "stats --signals $out/bus.log"; do
     # shellcheck disable=SC2086
     few=$(clones ${verb% *} --parallel-from 999999999999 "${verb##* }") more=$(clones ${verb% *} --parallel-from 1 "${verb##* }")
     check "${verb% *} $(basename "${verb##* }") --parallel-from 1 starts a thread ($more clones, $few with one core)" test "$more" -gt "$few"

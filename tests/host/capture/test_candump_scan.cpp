@@ -1,4 +1,5 @@
-// CandumpScanner (large reads, lines scanned in place, batches) reads what CandumpReader reads: the same frames,
+// CandumpScanner (large reads, lines scanned in place, batches) reads what the log read line by line with
+// parse_candump_line gives (test::CandumpLineModel): the same frames,
 // interfaces and corrupt-line reports, whatever the block size; an over-long line (200 MB here, written through a
 // pipe on the fly) is reported at its line and skipped without being held, and the lines after it still read;
 // split_candump_blocks cuts at line starts only.
@@ -17,8 +18,8 @@
 #include <vector>
 
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
-#include "saulproto/host/capture/pcap_scan.hpp"
+#include "saulproto/host/capture/pcap.hpp"
+#include "host/capture/candump_model.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
@@ -45,7 +46,7 @@ struct Seen {
 
 Seen with_reader(const std::string& text) {
   std::istringstream in(text);
-  CandumpReader reader(in);
+  test::CandumpLineModel reader(in);
   Seen s;
   for (;;) {
     const auto st = reader.next();
@@ -105,7 +106,7 @@ void write_all(int fd, const char* p, std::size_t n) {
 
 }  // namespace
 
-TEST_CASE("candump scanner: the frames, interfaces and reports of CandumpReader, at any block size") {
+TEST_CASE("candump scanner: the frames, interfaces and reports of the line-by-line model, at any block size") {
   const Seen expected = with_reader(kLog);
   REQUIRE(expected.frames.size() == 5);
   REQUIRE(expected.errors.size() == 2);
@@ -202,7 +203,7 @@ std::string pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t id_
 
 }  // namespace
 
-TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at any block size") {
+TEST_CASE("pcap reader: a regular file read with pread gives the frames and byte-offset reports of the stream, at any block size") {
   std::string pcap;
   le32(pcap, 0xA1B2C3D4);
   pcap += std::string("\x02\x00\x04\x00", 4);
@@ -249,15 +250,14 @@ TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at an
     Seen got;
     FrameBatch batch;
     while (scanner.next_batch(batch)) {
-      for_each_in_order(
-          batch,
-          [&](const CanFrame& f, std::string_view iface) {
-            got.frames.push_back(f);
-            got.interfaces.emplace_back(iface);
-          },
-          [&](const CaptureError& e) {
-            got.errors.push_back(std::to_string(got.frames.size()) + ": " + format_capture_error("f", e));
-          });
+      std::size_t c = 0;
+      for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
+        for (; c < batch.corrupt.size() && batch.corrupt[c].before == i; ++c)
+          got.errors.push_back(std::to_string(got.frames.size()) + ": " + format_capture_error("f", batch.corrupt[c].error));
+        if (i == batch.frames.size()) break;
+        got.frames.push_back(batch.frames[i]);
+        got.interfaces.emplace_back(batch.interfaces[i]);
+      }
     }
     CHECK(got.frames == expected.frames);
     CHECK(got.interfaces == expected.interfaces);
@@ -267,7 +267,7 @@ TEST_CASE("pcap scanner: the frames and byte-offset reports of PcapReader, at an
   std::remove(name);
 }
 
-TEST_CASE("candump scanner: a line taker's lines and the batches give CandumpReader's frames and reports in order") {
+TEST_CASE("candump scanner: a line taker's lines and the batches give the line-by-line model's frames and reports in order") {
   // The taker (stats' line memo) takes every other line it can read with parse_candump_usual; the rest go into
   // batches. Frames and reports put together in the order they come must be the reader's, at any block size and
   // through a pipe, and every line given to the taker is followed by kCandumpLineSlack readable bytes (ASan checks

@@ -15,14 +15,28 @@
 
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture_blocks.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
 #include "host/temp_file.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
 
 namespace {
+
+/// stats of the candump file at `path` through add_capture: with `ahead` in blocks of `block` bytes on two threads
+/// (whatever its size), else in batches on one thread.
+void add_candump_path(BusStats& stats, const std::string& path, bool ahead,
+                      const std::function<void(const saul::host::CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t, std::uint64_t)>& on_progress,
+                      const std::function<void(const saul::CanFrame&)>& also, std::uint64_t block) {
+  auto opened = saul::host::open_capture(path);
+  saul::host::ReadOptions read;
+  read.threads = ahead ? 2 : 1;
+  read.parallel_from = 0;
+  read.block = block;
+  add_capture(stats, path, opened.frames, opened.compressed, read, on_corrupt, on_progress, also);
+}
 
 constexpr std::uint64_t kMs = 1'000'000ULL;
 
@@ -670,15 +684,13 @@ TEST_CASE("stats of a candump file on both cores equal one thread: figures, corr
     std::uint64_t last_bytes = 0;
   };
   auto run = [&](bool ahead, std::uint64_t block) {
-    auto candump = CandumpFile::open(file.path);
-    REQUIRE(candump);
     BusStats stats(BusStatsOptions{250'000, 7 * kMs});  // not the defaults: the blocks must count with these
     Run r;
-    add_candump_file(
-        stats, candump->fd(), candump->size(), ahead,
+    add_candump_path(
+        stats, file.path, ahead,
         [&](const saul::host::CaptureError& e) { r.corrupt_lines.push_back(e.position); },
         [&](std::uint64_t records, std::uint64_t bytes) {
-          r.records += records;
+          r.records = records;
           r.last_bytes = bytes;
         },
         {}, block);
@@ -783,12 +795,10 @@ TEST_CASE("stats' line tables on random lines near their edges equal one thread'
   log += "(1763800099.000001) can0 300#0011";  // the last line without its newline
   TempFile file(log);
   auto run = [&](bool ahead, std::uint64_t block) {
-    auto candump = CandumpFile::open(file.path);
-    REQUIRE(candump);
     BusStats stats(BusStatsOptions{500'000, 3 * kMs});
     std::vector<std::uint64_t> corrupt;
-    add_candump_file(
-        stats, candump->fd(), candump->size(), ahead,
+    add_candump_path(
+        stats, file.path, ahead,
         [&](const saul::host::CaptureError& e) { corrupt.push_back(e.position); }, {}, {}, block);
     return std::pair{stats.text("f") + stats.json("f").dump(), corrupt};
   };
@@ -833,10 +843,8 @@ TEST_CASE("stats of repeated lines whose times go back equal one pass over the p
   }
   TempFile file(log);
   auto run = [&](bool ahead, std::uint64_t block) {
-    auto candump = CandumpFile::open(file.path);
-    REQUIRE(candump);
     BusStats stats(BusStatsOptions{500'000, 20 * kMs});
-    add_candump_file(stats, candump->fd(), candump->size(), ahead, {}, {}, {}, block);
+    add_candump_path(stats, file.path, ahead, {}, {}, {}, block);
     CHECK(stats.first_ns() == first_us * 1000);
     CHECK(stats.last_ns() == last_us * 1000);
     return stats.text("f") + stats.json("f").dump();

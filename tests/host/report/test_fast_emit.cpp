@@ -15,6 +15,7 @@
 #include <iterator>
 #include <numeric>
 #include <random>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -24,17 +25,17 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/signals.hpp"
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
 #include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 #include "saulproto/host/capture/pcap.hpp"
-#include "saulproto/host/capture/pcap_scan.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/report/fast_decode.hpp"
 #include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
+#include "host/capture/candump_model.hpp"
 #include "host/read_count.hpp"
 #include "host/temp_file.hpp"
 
@@ -147,12 +148,15 @@ Decoded run_with(Decode&& decode) {
   return d;
 }
 
+/// decode_capture of the file at `path`, opened as saulctl decode opens it (any format, compressed or not).
+FrameDecodeResult decode_file(const std::string& path, const FrameDecodeOptions& o, const FrameDecodeSinks& sinks) {
+  auto opened = open_capture(path);
+  REQUIRE(opened.frames);
+  return decode_capture(path, opened.frames, opened.compressed, o, sinks);
+}
+
 Decoded run(const std::string& path, const FrameDecodeOptions& o) {
-  return run_with([&](const FrameDecodeSinks& sinks) {
-    auto r = decode_candump_file(path, o, sinks);
-    REQUIRE(r);
-    return *r;
-  });
+  return run_with([&](const FrameDecodeSinks& sinks) { return decode_file(path, o, sinks); });
 }
 
 /// The reference: a reader record by record, its frames that pass `ids` (all when null) through one FrameEmitter
@@ -186,13 +190,13 @@ Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode
 TEST_CASE("fast decode on two threads: what a decoding thread or the writer throws ends the decode with it") {
   // The blocks-in-order engine (host/threads/in_order.hpp) under both failures: a block's work throws (here the --id
   // filter, which runs on the decoding threads), or handing a block on throws (the writer). Either way the
-  // exception comes out of decode_candump_file, the threads are stopped and joined, and nothing hangs.
+  // exception comes out of decode_capture, the threads are stopped and joined, and nothing hangs.
   std::mt19937_64 rng(31);
   TempFile file(random_log(rng, 20000));
   FrameDecodeOptions o;
-  o.threads = 2;
-  o.parallel_from = 0;
-  o.block = 4096;
+  o.read.threads = 2;
+  o.read.parallel_from = 0;
+  o.read.block = 4096;
   FrameDecodeSinks sinks;
   std::size_t writes = 0;
   sinks.write = [&](std::string_view) { ++writes; };
@@ -202,7 +206,7 @@ TEST_CASE("fast decode on two threads: what a decoding thread or the writer thro
     if (++seen == 12345) throw std::runtime_error("filter failed");
     return true;
   };
-  REQUIRE_THROWS_WITH(decode_candump_file(file.path, o, sinks), "filter failed");
+  REQUIRE_THROWS_WITH(decode_file(file.path, o, sinks), "filter failed");
   CHECK(writes < 20000 * 45 / 4096);  // stopped early: not every block was written
 
   o.keep = {};
@@ -210,11 +214,11 @@ TEST_CASE("fast decode on two threads: what a decoding thread or the writer thro
   sinks.write = [&](std::string_view) {
     if (++writes == 7) throw std::runtime_error("disk full");
   };
-  REQUIRE_THROWS_WITH(decode_candump_file(file.path, o, sinks), "disk full");
+  REQUIRE_THROWS_WITH(decode_file(file.path, o, sinks), "disk full");
   CHECK(writes == 7);  // nothing written after the failure
 }
 
-TEST_CASE("fast decode: two threads give the bytes, reports and counts of one thread and of CandumpReader") {
+TEST_CASE("fast decode: two threads give the bytes, reports and counts of one thread and of the line-by-line model") {
   std::mt19937_64 rng(7);
   const std::string log = random_log(rng, 20000);
   TempFile file(log);
@@ -227,11 +231,11 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
         o.format = format;
         o.time = mode;
         if (ids != nullptr) o.keep = [ids](const saul::CanFrame& f) { return ids->count(f.id) != 0; };
-        o.threads = 1;
+        o.read.threads = 1;
         const Decoded one = run(file.path, o);
-        o.threads = 2;
-        o.parallel_from = 0;
-        o.block = 4096;  // many blocks, some inside the over-long line
+        o.read.threads = 2;
+        o.read.parallel_from = 0;
+        o.read.block = 4096;  // many blocks, some inside the over-long line
         const Decoded two = run(file.path, o);
         CHECK(one.out == two.out);
         CHECK(one.corrupt == two.corrupt);
@@ -243,12 +247,12 @@ TEST_CASE("fast decode: two threads give the bytes, reports and counts of one th
         CHECK(one.result.counts.decoded == two.result.counts.decoded);
         CHECK(one.result.counts.rejected == two.result.counts.rejected);
 
-        // The reference: CandumpReader line by line, one FrameEmitter.
+        // The reference: the log line by line (test::CandumpLineModel), one FrameEmitter.
         std::istringstream in(log);
-        CandumpReader reader(in);
+        test::CandumpLineModel reader(in);
         const auto [expected, corrupt] = expected_from(reader, format, mode, ids);
         CHECK(one.out == expected);
-        // CandumpReader holds the over-long line and parses it ("more than 8 data bytes"); the scanner reports
+        // The model holds the over-long line and parses it ("more than 8 data bytes"); the scanner reports
         // it by its length. Every other report is the same.
         REQUIRE(corrupt.size() == one.corrupt.size());
         std::size_t differ = 0;
@@ -298,21 +302,12 @@ std::string raw_pcap_record(std::uint32_t sec, std::uint32_t usec, std::uint32_t
   return r;
 }
 
-Decoded run_pcap(const std::string& path, const FrameDecodeOptions& o) {
-  return run_with([&](const FrameDecodeSinks& sinks) {
-    auto r = decode_pcap_file(path, o, sinks);
-    REQUIRE(r);
-    return *r;
-  });
-}
+Decoded run_pcap(const std::string& path, const FrameDecodeOptions& o) { return run(path, o); }
 
 }  // namespace
 
 namespace {
 
-/// stats of the file at `path` counted in blocks of `block_bytes` on two threads (add_capture_blocks) against stats
-/// of `reader` (the same file) frame by frame: the same report, the same corrupt records in the same order, and
-/// progress up to the file's size.
 /// A capture's statistics as stats counted them before blocks: its reader's records one at a time.
 struct CountedByReader {
   std::string text;
@@ -337,59 +332,67 @@ CountedByReader count_by_reader(CaptureReader& reader) {
   return r;
 }
 
+/// stats of the file at `path` as saulctl stats counts it (add_capture), its corrupt records' reports, records
+/// and progress.
+struct CountedByPath : CountedByReader {
+  std::uint64_t records = 0, progress = 0, counted = 0;
+};
+CountedByPath count_by_path(const std::string& path, const ReadOptions& read) {
+  auto opened = open_capture(path);
+  REQUIRE(opened.frames);
+  BusStats stats;
+  CountedByPath r;
+  add_capture(
+      stats, path, opened.frames, opened.compressed, read,
+      [&](const CaptureError& e) { r.corrupt.push_back(format_capture_error("f", e)); },
+      [&](std::uint64_t n, std::uint64_t bytes) {
+        r.records = n;
+        r.progress = bytes;
+      });
+  r.text = stats.text("f");
+  r.json = stats.json("f").dump();
+  r.counted = stats.frames() + stats.corrupt();
+  return r;
+}
+
+/// stats of the file at `path` counted in blocks of `block_bytes` on two threads against stats of `reader` (the same
+/// file) frame by frame: the same report, the same corrupt records in the same order, and progress up to the file's
+/// size.
 void check_stats_in_blocks(const std::string& path, CaptureReader& reader, std::uint64_t block_bytes,
                            std::uint64_t size) {
   const CountedByReader one = count_by_reader(reader);
   const auto blocks = CaptureBlocks::open(path, block_bytes);
   REQUIRE(blocks);
   CHECK(blocks->count() > 10);
-  BusStats two;
-  std::vector<std::string> two_corrupt;
-  std::uint64_t progress = 0;
-  add_capture_blocks(
-      two, *blocks, [&](const CaptureError& e) { two_corrupt.push_back(format_capture_error("f", e)); },
-      [&](std::uint64_t, std::uint64_t bytes) { progress = bytes; });
-  CHECK(two.text("f") == one.text);
-  CHECK(two.json("f").dump() == one.json);
-  CHECK(two_corrupt == one.corrupt);
+  ReadOptions read;
+  read.parallel_from = 0;
+  read.block = block_bytes;
+  const CountedByPath two = count_by_path(path, read);
+  CHECK(two.text == one.text);
+  CHECK(two.json == one.json);
+  CHECK(two.corrupt == one.corrupt);
   CHECK(one.corrupt.size() > 10);
-  CHECK(progress == size);
+  CHECK(two.progress == size);
 }
 
-/// The statistics of an uncompressed candump file as stats counts it on one thread (add_candump_file).
+/// The statistics of an uncompressed candump file as stats counts it on one thread.
 CountedByReader count_candump_file(const std::string& path) {
-  const auto file = CandumpFile::open(path);
-  REQUIRE(file);
-  BusStats one;
-  CountedByReader r;
-  add_candump_file(
-      one, file->fd(), file->size(), false,
-      [&](const CaptureError& e) { r.corrupt.push_back(format_capture_error("f", e)); }, {});
-  r.text = one.text("f");
-  r.json = one.json("f").dump();
-  return r;
+  ReadOptions read;
+  read.threads = 1;
+  return count_by_path(path, read);
 }
 
-/// stats of the compressed candump log at `path` in blocks of 4 KiB cut as it inflates (add_capture_text) against
-/// `one`: the figures, the corrupt records' reports, the records counted and progress to the compressed size.
+/// stats of the compressed candump log at `path` in blocks of 4 KiB cut as it inflates against `one`: the figures,
+/// the corrupt records' reports, the records counted and progress to the compressed size.
 void check_stats_of_text(const std::string& path, const CountedByReader& one) {
-  const auto text = open_capture_text(path);
-  REQUIRE(text->compressed());
-  BusStats two;
-  std::vector<std::string> two_corrupt;
-  std::uint64_t records = 0, progress = 0;
-  add_capture_text(
-      two, *text, [&](const CaptureError& e) { two_corrupt.push_back(format_capture_error("f", e)); },
-      [&](std::uint64_t n, std::uint64_t bytes) {
-        records += n;
-        progress = bytes;
-      },
-      4096);
-  CHECK(two.text("f") == one.text);
-  CHECK(two.json("f").dump() == one.json);
-  CHECK(two_corrupt == one.corrupt);
-  CHECK(records == two.frames() + two.corrupt());
-  CHECK(progress == std::filesystem::file_size(path));
+  ReadOptions read;
+  read.block = 4096;
+  const CountedByPath two = count_by_path(path, read);
+  CHECK(two.text == one.text);
+  CHECK(two.json == one.json);
+  CHECK(two.corrupt == one.corrupt);
+  CHECK(two.records == two.counted);
+  CHECK(two.progress == std::filesystem::file_size(path));
 }
 
 }  // namespace
@@ -415,11 +418,11 @@ TEST_CASE("fast decode: a pcap file in blocks on two threads gives the bytes and
       FrameDecodeOptions o;
       o.format = format;
       o.time = mode;
-      o.threads = 1;
+      o.read.threads = 1;
       const Decoded one = run_pcap(file.path, o);
-      o.threads = 2;
-      o.parallel_from = 0;
-      o.block = 4096;
+      o.read.threads = 2;
+      o.read.parallel_from = 0;
+      o.read.block = 4096;
       const Decoded two = run_pcap(file.path, o);
       CHECK(one.out == two.out);
       CHECK(one.corrupt == two.corrupt);
@@ -471,14 +474,7 @@ std::string raw_unknown_block(std::uint32_t trailing = 16) {
   return b;
 }
 
-Decoded run_pcapng(const std::string& path, const FrameDecodeOptions& o) {
-  return run_with([&](const FrameDecodeSinks& sinks) {
-    if (auto r = decode_pcapng_file(path, o, sinks)) return *r;
-    std::ifstream in(path, std::ios::binary);  // not cut: the reader, as saulctl decode does then
-    PcapngReader reader(in);
-    return decode_reader(reader, false, o, sinks);
-  });
-}
+Decoded run_pcapng(const std::string& path, const FrameDecodeOptions& o) { return run(path, o); }
 
 }  // namespace
 
@@ -533,9 +529,9 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
       FrameDecodeOptions o;
       o.format = format;
       o.time = mode;
-      o.threads = 2;
-      o.parallel_from = 0;
-      o.block = 4096;
+      o.read.threads = 2;
+      o.read.parallel_from = 0;
+      o.read.block = 4096;
       const Decoded two = run_pcapng(file.path, o);
 
       std::istringstream in(png.str());
@@ -618,9 +614,9 @@ TEST_CASE("fast decode: pcap/pcapng blocks the cutter cannot lend are read from 
   pcap.append(200 * 1024, '\0');
   TempFile png_file(png), pcap_file(pcap);
   FrameDecodeOptions o;
-  o.threads = 2;
-  o.parallel_from = 0;
-  o.block = 4096;
+  o.read.threads = 2;
+  o.read.parallel_from = 0;
+  o.read.block = 4096;
   auto check = [&](const Decoded& two, CaptureReader& reader, std::size_t corrupt_records) {
     const auto [expected, corrupt] = expected_from(reader, o.format, o.time);
     CHECK(two.result.records == 3000);
@@ -731,24 +727,18 @@ TEST_CASE("pcap and pcapng files are cut where a record-by-record walk cuts them
 
 namespace {
 
-/// decode_candump_text of the compressed candump log at `path`.
+/// decode_capture of the compressed candump log at `path`: its text cut into blocks as it inflates.
 Decoded run_text(const std::string& path, const FrameDecodeOptions& o) {
-  const auto text = open_capture_text(path);
-  REQUIRE(text->compressed());
-  REQUIRE(text->format() == CaptureFormat::candump);
-  return run_with([&](const FrameDecodeSinks& sinks) {
-    auto r = decode_candump_text(*text, o, sinks);
-    REQUIRE(r);
-    return *r;
-  });
+  REQUIRE(open_capture(path).compressed);
+  return run(path, o);
 }
 
 }  // namespace
 
 TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates gives the uncompressed file's decode and stats") {
   // random_log has corrupt lines, CRLF, blank lines, a line longer than kMaxCandumpLine, a last line without
-  // newline; here also a comment longer than that. decode_candump_text over the gzip and zstd forms, in blocks of
-  // 4 KiB on two threads, must give what decode_candump_file gives for the plain text on one thread: the same bytes,
+  // newline; here also a comment longer than that. decode_capture over the gzip and zstd forms, in blocks of
+  // 4 KiB on two threads, must give what it gives for the plain text on one thread: the same bytes,
   // reports (line numbers across blocks, the over-long lines reported once), counts, and progress to the size of
   // the compressed file.
   std::mt19937_64 rng(17);
@@ -756,11 +746,11 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
   log.insert(log.find('\n', log.size() / 3) + 1, "# " + std::string(3 * kMaxCandumpLine, 'c') + "\n");
   TempFile plain(log);
   FrameDecodeOptions o;
-  o.threads = 1;
+  o.read.threads = 1;
   const Decoded expected = run(plain.path, o);
   REQUIRE(expected.corrupt.size() > 50);
-  o.threads = 2;
-  o.block = 4096;
+  o.read.threads = 2;
+  o.read.block = 4096;
   for (const Compression compression : {Compression::gzip, Compression::zstd}) {
     INFO(to_string(compression));
     TempFile copy(log);
@@ -771,9 +761,9 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     } remove{packed};
     for (const auto format : {DecodeFormat::text, DecodeFormat::jsonl}) {
       o.format = format;
-      o.threads = 1;
+      o.read.threads = 1;
       const Decoded one = run(plain.path, o);
-      o.threads = 2;
+      o.read.threads = 2;
       const Decoded two = run_text(packed, o);
       CHECK(two.out == one.out);
       CHECK(two.corrupt == one.corrupt);
@@ -787,10 +777,11 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     CHECK(plain_stats.corrupt.size() == expected.corrupt.size());
     check_stats_of_text(packed, plain_stats);
     o.format = DecodeFormat::text;
-    o.time = TimeMode::relative;  // needs the first frame's time before the blocks: the reader's path
-    const auto text = open_capture_text(packed);
-    FrameDecodeSinks none;
-    CHECK_FALSE(decode_candump_text(*text, o, none));
+    o.time = TimeMode::relative;  // needs the first frame's time before the blocks: read in batches, in order
+    o.read.threads = 1;
+    const Decoded relative_one = run(plain.path, o);
+    o.read.threads = 2;
+    CHECK(run_text(packed, o).out == relative_one.out);
     o.time = TimeMode::absolute;
   }
 
@@ -806,12 +797,10 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     }
     std::remove(packed.c_str());
     TempFile cut(bytes.substr(0, bytes.size() * 2 / 3));
-    o.threads = 1;
-    auto reader = open_capture_reader(cut.path);
-    const Decoded by_reader =
-        run_with([&](const FrameDecodeSinks& sinks) { return decode_reader(*reader, false, o, sinks); });
+    o.read.threads = 1;
+    const Decoded by_reader = run(cut.path, o);
     REQUIRE_FALSE(by_reader.corrupt.empty());  // the decompression error, at the end
-    o.threads = 2;
+    o.read.threads = 2;
     const Decoded two = run_text(cut.path, o);
     CHECK(two.out == by_reader.out);
     CHECK(two.corrupt == by_reader.corrupt);

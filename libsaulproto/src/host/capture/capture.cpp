@@ -108,6 +108,14 @@ class FileReader final : public CaptureReader {
     own_error_ = st == Status::end && source_->take_error(error_);
     return own_error_ ? Status::corrupt : st;
   }
+  bool next_batch(FrameBatch& batch) override {
+    started_ = true;
+    if (inner_->next_batch(batch)) return true;
+    CaptureError error;
+    if (!source_->take_error(error)) return false;
+    batch.corrupt.push_back({0, std::move(error)});  // the decompressor stopped: one corrupt record at its end
+    return true;
+  }
   /// The file, for take_capture_text(): only before the first next() (the format reader may buffer what it read).
   /// This reader is not to be used afterwards.
   std::unique_ptr<FileSource> release_source() {
@@ -404,6 +412,62 @@ class FileWriter final : public CaptureWriter {
 }  // namespace
 
 std::string describe_non_capture(std::string_view head) { return describe_other_text(head); }
+
+void FrameBatch::own() {
+  std::string text;
+  std::vector<std::size_t> at(interfaces.size());
+  for (std::size_t i = 0; i < interfaces.size(); ++i) {
+    if (i == 0 || interfaces[i] != interfaces[i - 1]) {  // the same interface as the frame before (nearly always): one copy
+      at[i] = text.size();
+      text.append(interfaces[i]);
+    } else {
+      at[i] = at[i - 1];
+    }
+  }
+  names = std::move(text);  // the views are made after the move (a short string moves its bytes)
+  for (std::size_t i = 0; i < interfaces.size(); ++i)
+    interfaces[i] = std::string_view(names.data() + at[i], interfaces[i].size());
+}
+
+bool CaptureReader::next_batch(FrameBatch& batch) {
+  batch.clear();
+  batch.names.clear();
+  std::vector<std::pair<std::size_t, std::size_t>> spans;  // of the interfaces in names, made views at the end
+  spans.reserve(FrameBatch::kMax);
+  while (batch.frames.size() < FrameBatch::kMax && batch.corrupt.size() < FrameBatch::kMax) {
+    const auto st = next();
+    if (st == Status::end) break;
+    if (st == Status::corrupt) {
+      batch.corrupt.push_back({batch.frames.size(), error()});
+      continue;
+    }
+    batch.frames.push_back(frame());
+    const std::string_view name = interface();
+    if (spans.empty() || name != std::string_view(batch.names).substr(spans.back().first, spans.back().second)) {
+      spans.emplace_back(batch.names.size(), name.size());
+      batch.names.append(name);
+    } else {
+      spans.push_back(spans.back());
+    }
+  }
+  for (const auto& [at, n] : spans) batch.interfaces.emplace_back(batch.names.data() + at, n);
+  return !batch.empty();
+}
+
+CaptureReader::Status BatchCaptureReader::next() {
+  for (;;) {
+    if (corrupt_ < batch_.corrupt.size() && batch_.corrupt[corrupt_].before == frame_) {
+      ++corrupt_;
+      return Status::corrupt;
+    }
+    if (frame_ < batch_.frames.size()) {
+      ++frame_;
+      return Status::frame;
+    }
+    frame_ = corrupt_ = 0;
+    if (!next_batch(batch_)) return Status::end;
+  }
+}
 
 std::string_view to_string(CaptureFormat format) noexcept {
   switch (format) {

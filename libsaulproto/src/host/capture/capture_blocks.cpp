@@ -12,7 +12,7 @@
 
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
-#include "saulproto/host/capture/pcap_scan.hpp"
+#include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
 #include "capture_io.hpp"
 
@@ -188,7 +188,7 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
         bytes = std::span<const std::uint8_t>(scratch.bytes.data(), used);
       }
       PcapngReader reader(bytes);
-      while (reader.next_batch(batch, CandumpScanner::kMaxBatch)) {
+      while (reader.next_batch(batch, FrameBatch::kMax)) {
         for (auto& c : batch.corrupt) c.error.position += begin - prefix;
         if (k > 0) {
           const auto in_prefix = std::remove_if(batch.corrupt.begin(), batch.corrupt.end(),

@@ -1,10 +1,15 @@
 #include "saulproto/host/capture/pcap.hpp"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <bit>
+#include <cerrno>
 #include <cstring>
+#include <limits>
+#include <span>
 #include <stdexcept>
+#include <system_error>
 
 #include "capture_io.hpp"
 
@@ -80,9 +85,33 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
 
 // ---- reader ----
 
-PcapReader::PcapReader(std::istream& in) : in_(in) {
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes)
+    : fd_(fd), size_(size), cap_(block_bytes + kMaxRecord + 16), block_(block_bytes) {
+  buf_.reset(new std::uint8_t[cap_]);
+  data_ = buf_.get();
+  read_header();
+}
+
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+                         std::span<const std::uint8_t> bytes)
+    : fd_(fd), size_(size), cap_(0), block_(0) {
+  read_header();
+  data_ = bytes.data();
+  tail_ = bytes.size();
+  offset_ = begin < 24 ? 24 : begin;
+  read_to_ = offset_ + bytes.size();
+  size_ = end < size ? end : size;
+}
+
+void PcapScanner::read_header() {
   std::array<std::uint8_t, 24> h{};
-  const std::size_t got = detail::read_counted(in_, h.data(), h.size(), offset_);
+  std::size_t got = 0;
+  if (in_ != nullptr) {
+    std::uint64_t counted = 0;
+    got = detail::read_counted(*in_, h.data(), h.size(), counted);
+  } else {
+    got = detail::pread_full(fd_, h.data(), size_ < h.size() ? static_cast<std::size_t>(size_) : h.size(), 0);
+  }
   if (got < h.size())
     throw CaptureOpenError(fmt::format("not a pcap file: {} bytes, a pcap header needs 24", got));
   const std::uint32_t magic = load_u32(h.data(), false);
@@ -104,50 +133,176 @@ PcapReader::PcapReader(std::istream& in) : in_(in) {
                         : ""));
 }
 
-PcapReader::Status PcapReader::corrupt(std::uint64_t offset, Recovery recovery, std::string message) {
-  error_.column = 0;
-  error_.kind = PositionKind::byte_offset;
-  error_.position = offset;
-  error_.recovery = recovery;
-  error_.message = std::move(message);
+PcapScanner::PcapScanner(std::istream& in, std::size_t block_bytes)
+    : in_(&in), size_(std::numeric_limits<std::uint64_t>::max()), cap_(block_bytes + kMaxRecord + 16),
+      block_(block_bytes) {
+  buf_.reset(new std::uint8_t[cap_]);
+  data_ = buf_.get();
+  read_header();
+}
+
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
+    : PcapScanner(fd, size, block_bytes) {
+  offset_ = read_to_ = begin < 24 ? 24 : begin;
+  size_ = end < size ? end : size;
+}
+
+PcapScanner::~PcapScanner() = default;
+
+namespace {
+
+class PcapCutter final : public detail::BlockCutter {
+ public:
+  PcapCutter(int fd, std::uint64_t size, bool big, std::uint64_t block)
+      : BlockCutter(24, size), window_(fd, size, detail::window_bytes(block)), size_(size), block_(block == 0 ? 1 : block),
+        big_(big) {}
+  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) override {
+    return window_.lend(from, to, into, offset);
+  }
+
+ private:
+  bool walk(std::uint64_t& start) override {
+    while (const std::uint8_t* h = window_.at(pos_, 16)) {
+      const std::uint32_t incl = detail::load_u32(h + 8, big_);
+      if (incl > kMaxRecord) break;
+      // Eight records of this one's length in a row (a SocketCAN capture is all 16-byte packets) are stepped over
+      // at once, their lengths loaded side by side: one record at a time, each length waits for the one before.
+      // Only where no record among them would end the walk or start a block.
+      const std::uint64_t stride = 16 + std::uint64_t{incl};
+      if (incl <= kRunRecord && pos_ + 8 * stride < size_ && pos_ + 8 * stride - last_ < block_) {
+        if (const std::uint8_t* run = window_.at(pos_, 7 * stride + 16)) {
+          bool same = true;
+          for (std::uint64_t k = 1; k < 8; ++k) same &= detail::load_u32(run + k * stride + 8, big_) == incl;
+          if (same) {
+            pos_ += 8 * stride;
+            continue;
+          }
+        }
+      }
+      const std::uint64_t next = pos_ + 16 + incl;
+      if (next >= size_) break;
+      pos_ = next;
+      if (next - last_ >= block_) {
+        start = last_ = next;
+        return true;
+      }
+    }
+    return false;  // from the first implausible or cut record on, the rest is one block
+  }
+
+  static constexpr std::uint32_t kRunRecord = 4096;  // longer records are stepped one at a time
+  detail::HeaderWindow window_;
+  std::uint64_t size_;
+  std::uint64_t block_;
+  bool big_;
+  std::uint64_t pos_ = 24;
+  std::uint64_t last_ = 24;  // the last start given
+};
+
+}  // namespace
+
+std::unique_ptr<detail::BlockCutter> detail::pcap_block_cutter(int fd, std::uint64_t size, bool big,
+                                                               std::uint64_t block) {
+  return std::make_unique<PcapCutter>(fd, size, big, block);
+}
+
+std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
+  std::vector<std::uint64_t> starts;
+  const auto cut = detail::pcap_block_cutter(fd_, size_, big_, block);
+  std::uint64_t start = 0;
+  while (cut->next(start)) starts.push_back(start);
+  return starts;
+}
+
+// At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
+std::size_t PcapScanner::ensure(std::size_t n) {
+  if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;
+  if (head_ > 0) {
+    std::memmove(buf_.get(), buf_.get() + head_, tail_ - head_);  // (bytes in memory: all there, never here)
+    tail_ -= head_;
+    head_ = 0;
+  }
+  while (tail_ < n && read_to_ < size_) {
+    std::size_t want = cap_ - tail_ < block_ ? cap_ - tail_ : block_;
+    if (want > size_ - read_to_) want = static_cast<std::size_t>(size_ - read_to_);
+    const ssize_t got = in_ != nullptr ? static_cast<ssize_t>(in_->rdbuf()->sgetn(reinterpret_cast<char*>(buf_.get() + tail_),
+                                                                                  static_cast<std::streamsize>(want)))
+                                       : ::pread(fd_, buf_.get() + tail_, want, static_cast<off_t>(read_to_));
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      throw std::system_error(errno, std::generic_category(), "reading the capture");
+    }
+    if (got == 0) {
+      size_ = read_to_;  // the end of the stream, or the file shrank
+      break;
+    }
+    tail_ += static_cast<std::size_t>(got);
+    read_to_ += static_cast<std::uint64_t>(got);
+  }
+  return tail_ - head_;
+}
+
+void PcapScanner::corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
+  FrameBatch::Corrupt bad;
+  bad.before = batch.frames.size();
+  bad.error.column = 0;
+  bad.error.kind = PositionKind::byte_offset;
+  bad.error.position = at;
+  bad.error.recovery = recovery;
+  bad.error.message = std::move(message);
   if (recovery == Recovery::stop) stopped_ = true;
-  return Status::corrupt;
+  batch.corrupt.push_back(std::move(bad));
 }
 
-PcapReader::Status PcapReader::next() {
-  if (stopped_) return Status::end;
-  const std::uint64_t start = offset_;
-  std::array<std::uint8_t, 16> h{};
-  const std::size_t got = detail::read_counted(in_, h.data(), h.size(), offset_);
-  if (got == 0) return Status::end;
-  if (got < h.size())
-    return corrupt(start, Recovery::stop, fmt::format("file ends inside a record header ({} of 16 bytes)", got));
-  const std::uint32_t sec = load_u32(h.data(), big_);
-  const std::uint32_t frac = load_u32(h.data() + 4, big_);
-  const std::uint32_t incl = load_u32(h.data() + 8, big_);
-  if (incl > kMaxRecord)
-    return corrupt(start, Recovery::stop, fmt::format("record length {} is not plausible", incl));
-
-  std::array<std::uint8_t, kCanFdMtu> packet{};
-  const std::size_t want = incl < packet.size() ? incl : packet.size();
-  const std::size_t have = detail::read_counted(in_, packet.data(), want, offset_);
-  const std::uint64_t rest = incl - want;
-  const std::uint64_t skipped = have == want ? detail::skip_counted(in_, rest, offset_) : 0;
-  if (have < want || skipped < rest)
-    return corrupt(start, Recovery::stop,
-                   fmt::format("file ends inside a record ({} of {} bytes)", have + skipped, incl));
-
-  if (frac >= (nano_ ? 1'000'000'000U : 1'000'000U))
-    return corrupt(start, Recovery::next_record,
-                   fmt::format("timestamp fraction {} is not below one second", frac));
-  frame_.timestamp_ns = std::uint64_t{sec} * 1'000'000'000ULL + (nano_ ? frac : std::uint64_t{frac} * 1000U);
-  if (incl > kCanFdMtu)
-    return corrupt(start, Recovery::next_record,
-                   fmt::format("record of {} bytes is longer than any SocketCAN packet", incl));
-  const std::string_view why = decode_socketcan_packet(std::span<const std::uint8_t>(packet.data(), want), frame_);
-  if (!why.empty()) return corrupt(start, Recovery::next_record, std::string(why));
-  return Status::frame;
+bool PcapScanner::next_batch(FrameBatch& batch) {
+  batch.clear();
+  while (!stopped_ && batch.frames.size() < FrameBatch::kMax) {
+    const std::uint64_t start = offset_;
+    const std::size_t have_header = ensure(16);
+    if (have_header == 0) break;
+    if (have_header < 16) {
+      corrupt(batch, start, Recovery::stop,
+              fmt::format("file ends inside a record header ({} of 16 bytes)", have_header));
+      break;
+    }
+    const std::uint8_t* h = data_ + head_;
+    const std::uint32_t sec = detail::load_u32(h, big_);
+    const std::uint32_t frac = detail::load_u32(h + 4, big_);
+    const std::uint32_t incl = detail::load_u32(h + 8, big_);
+    if (incl > kMaxRecord) {
+      corrupt(batch, start, Recovery::stop, fmt::format("record length {} is not plausible", incl));
+      break;
+    }
+    const std::size_t have = ensure(16 + std::size_t{incl}) - 16;
+    if (have < incl) {
+      corrupt(batch, start, Recovery::stop, fmt::format("file ends inside a record ({} of {} bytes)", have, incl));
+      break;
+    }
+    const std::uint8_t* packet = data_ + head_ + 16;
+    head_ += 16 + std::size_t{incl};
+    offset_ += 16 + std::uint64_t{incl};
+    if (frac >= (nano_ ? 1'000'000'000U : 1'000'000U)) {
+      corrupt(batch, start, Recovery::next_record, fmt::format("timestamp fraction {} is not below one second", frac));
+      continue;
+    }
+    if (incl > kCanFdMtu) {
+      corrupt(batch, start, Recovery::next_record,
+              fmt::format("record of {} bytes is longer than any SocketCAN packet", incl));
+      continue;
+    }
+    CanFrame& f = batch.frames.emplace_back();
+    f.timestamp_ns = std::uint64_t{sec} * 1'000'000'000ULL + (nano_ ? frac : std::uint64_t{frac} * 1000U);
+    const std::string_view why = decode_socketcan_packet(std::span<const std::uint8_t>(packet, incl), f);
+    if (!why.empty()) {
+      batch.frames.pop_back();
+      corrupt(batch, start, Recovery::next_record, std::string(why));
+      continue;
+    }
+    batch.interfaces.push_back("can0");
+  }
+  return !batch.frames.empty() || !batch.corrupt.empty();
 }
+
 
 // ---- writer ----
 

@@ -12,9 +12,7 @@
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
-#include "saulproto/host/capture/capture_blocks.hpp"
-#include "../threads/in_order.hpp"
+#include "../capture/read_path.hpp"
 
 namespace saul::host {
 namespace {
@@ -930,144 +928,68 @@ class LineMemo final : public CandumpLineTaker {
 
 namespace {
 
-/// What a thread counting blocks keeps from block to block.
-struct BlockWorker {
-  FrameFactsCache facts;  // the bus repeats its frames
-  LineMemo lines;
-  CaptureBlocks::Scratch scratch;
-  std::string text;  // add_capture_text: the block's lines
-};
-
-/// Blocks counted on two threads and appended to `stats` in file order (add_capture_blocks, add_capture_text):
-/// read_block(k, worker, each) reads block k (nullopt: there is none), handing its lines to worker.lines and its
-/// other records to each(batch) in batches, and returns what CaptureBlocks::read() would.
-template <class ReadBlock>
-void count_blocks(BusStats& stats, const std::optional<BusStats::FirstTimed>& first,
-                  const std::function<void(const CaptureError&)>& on_corrupt,
-                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                  ReadBlock&& read_block) {
-  struct Counted {
-    BusStats stats{BusStatsOptions{}, BusStats::Block{}};  // restart_block() gives it the options
-    std::vector<CaptureError> corrupt;  // positions: candump lines counted from the block's start
-    std::uint64_t records = 0;
-    CaptureBlocks::Read read;
+/// stats' work on the read path: blocks counted into BusStats blocks of their own (candump lines of the usual shape
+/// through LineMemo) and appended in file order; batches read in order added to the stats themselves.
+struct StatsWork {
+  struct Worker {
+    FrameFactsCache facts;  // the bus repeats its frames
+    LineMemo lines;
   };
-  std::uint64_t lines = 0;
-  std::uint64_t bytes = 0;
-  detail::run_blocks_in_order<Counted>(
-      detail::kBlocksUntilNone, 2, [] { return BlockWorker{}; },
-      [&](std::size_t k, BlockWorker& w, Counted& block) {
-        block.stats.restart_block(stats.options(), first);
-        block.corrupt.clear();
-        block.records = 0;
-        w.lines.start(block.stats);
-        const std::optional<CaptureBlocks::Read> read =
-            read_block(k, w, [&](const FrameBatch& batch) {
-              for (const auto& c : batch.corrupt) {
-                block.stats.add_corrupt();
-                block.corrupt.push_back(c.error);
-              }
-              const std::size_t n = batch.frames.size();
-              for (std::size_t i = 0; i < n; ++i) {
-                const CanFrame& f = batch.frames[i];
-                block.stats.add(f, batch.interfaces[i], w.facts.get(f));
-              }
-              block.records += n + batch.corrupt.size();
-              return true;
-            });
-        w.lines.finish();
-        if (!read) return false;
-        block.read = *read;
-        block.records += w.lines.taken();
-        return true;
-      },
-      [&](std::size_t, Counted& block) {
-        for (CaptureError& e : block.corrupt) {
-          e.position += lines;
-          if (on_corrupt) on_corrupt(e);
-        }
-        lines += block.read.lines;
-        bytes += block.read.bytes;
-        stats.append(block.stats);
-        if (on_progress) on_progress(block.records, bytes);
-      });
-}
+  struct Piece {
+    BusStats stats{BusStatsOptions{}, BusStats::Block{}};  // restart_block() gives it the options
+    bool block = false;
+  };
+  BusStats& stats;
+  const std::function<void(const CanFrame&)>& also;
+  std::optional<BusStats::FirstTimed> first;
+
+  Worker worker() { return Worker{}; }
+  bool in_blocks(const CaptureBlocks* blocks) {
+    if (also) return false;  // it sees the frames in order
+    // the file's first line, read before the blocks: its interface's windows are then worked out in the blocks
+    if (const auto record = blocks ? blocks->first_record() : std::nullopt; record && record->frame.timestamp_ns)
+      first = BusStats::FirstTimed{record->interface, *record->frame.timestamp_ns};
+    return true;
+  }
+  void start(Worker& w, Piece& p, bool block) {
+    p.block = block;
+    if (!block) return;
+    p.stats.restart_block(stats.options(), first);
+    w.lines.start(p.stats);
+  }
+  CandumpLineTaker* taker(Worker& w) { return &w.lines; }
+  void add(Worker& w, Piece& p, const FrameBatch& batch) {
+    BusStats& to = p.block ? p.stats : stats;
+    const std::size_t n = batch.frames.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const CanFrame& f = batch.frames[i];
+      to.add(f, batch.interfaces[i], w.facts.get(f));
+      if (also) also(f);
+    }
+  }
+  std::uint64_t finish(Worker& w, Piece& p) {
+    if (!p.block) return 0;
+    w.lines.finish();
+    return w.lines.taken();
+  }
+  void take(Piece& p) {
+    if (p.block) stats.append(p.stats);
+  }
+};
 
 }  // namespace
 
-void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
-                        const std::function<void(const CaptureError&)>& on_corrupt,
-                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress) {
-  // the file's first line, read before the blocks: its interface's windows are then worked out in the blocks
-  std::optional<BusStats::FirstTimed> first;
-  if (const auto record = blocks.first_record(); record && record->frame.timestamp_ns)
-    first = BusStats::FirstTimed{record->interface, *record->frame.timestamp_ns};
-  count_blocks(stats, first, on_corrupt, on_progress,
-               [&](std::size_t k, BlockWorker& w,
-                   const std::function<bool(const FrameBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
-                 if (!blocks.has(k)) return std::nullopt;  // a pcap or pcapng file is cut as its blocks are read
-                 return blocks.read(k, w.scratch, each, &w.lines);
-               });
-}
-
-void add_capture_text(BusStats& stats, CaptureText& text, const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      std::size_t block_bytes) {
-  CaptureTextBlocks blocks(text, block_bytes);
-  count_blocks(stats, std::nullopt, on_corrupt, on_progress,
-               [&](std::size_t k, BlockWorker& w,
-                   const std::function<bool(const FrameBatch&)>& each) -> std::optional<CaptureBlocks::Read> {
-                 CaptureBlocks::Read read;
-                 if (!blocks.take(k, w.text, read.bytes)) return std::nullopt;
-                 CandumpScanner scanner(std::string_view(w.text), block_bytes);
-                 while (scanner.next_batch(w.scratch.batch, &w.lines))
-                   if (!each(w.scratch.batch)) break;
-                 read.lines = scanner.lines();
-                 return read;
-               });
-  if (const auto e = text.end_error()) {  // the decompressor stopped: what the reader reports at its end
-    stats.add_corrupt();
-    if (on_corrupt) on_corrupt(*e);
-    if (on_progress) on_progress(1, text.bytes_read());
-  }
-}
-
-void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
-                      const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      const std::function<void(const CanFrame&)>& also, std::uint64_t block_bytes) {
-  if (ahead && !also) {
-    add_capture_blocks(stats, *CaptureBlocks::of(fd, size, CaptureFormat::candump, block_bytes), on_corrupt,
-                       on_progress);
-    return;
-  }
-  FrameFactsCache cache;  // on the reading thread when ahead
-  std::array<std::vector<FrameFacts>, kAheadBatches> facts;
-  scan_candump(
-      fd, 0, size, ahead,
-      [&](const FrameBatch& batch, std::uint64_t bytes, std::size_t slot) {
-        if (on_progress) on_progress(batch.frames.size() + batch.corrupt.size(), bytes);
-        const std::vector<FrameFacts>& known = facts[slot];
-        std::size_t c = 0;
-        const std::size_t n = batch.frames.size();
-        auto corrupt_before = [&](std::size_t i) {
-          for (; c < batch.corrupt.size() && batch.corrupt[c].before == i; ++c) {
-            stats.add_corrupt();
-            if (on_corrupt) on_corrupt(batch.corrupt[c].error);
-          }
-        };
-        for (std::size_t i = 0; i < n; ++i) {
-          corrupt_before(i);
-          stats.add(batch.frames[i], batch.interfaces[i], known[i]);
-          if (also) also(batch.frames[i]);
-        }
-        corrupt_before(n);
-      },
-      [&](const FrameBatch& batch, std::size_t slot) {
-        std::vector<FrameFacts>& out = facts[slot];
-        out.clear();
-        for (const CanFrame& f : batch.frames) out.push_back(cache.get(f));
-      });
+void add_capture(BusStats& stats, const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
+                 const ReadOptions& options, const std::function<void(const CaptureError&)>& on_corrupt,
+                 const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                 const std::function<void(const CanFrame&)>& also) {
+  StatsWork work{stats, also, std::nullopt};
+  detail::read_capture(path, reader, compressed, options, work,
+                       {[&](const CaptureError& e) {
+                          stats.add_corrupt();
+                          if (on_corrupt) on_corrupt(e);
+                        },
+                        on_progress});
 }
 
 // ---- serial -----------------------------------------------------------------------------------------------------

@@ -11,6 +11,9 @@
 
 namespace saul::host {
 
+/// Batches a reading thread keeps ready ahead of their consumer.
+inline constexpr std::size_t kAheadBatches = 4;
+
 /// Calls produce(k % slots) -> bool on a new thread for k = 0, 1, ... until it returns false, and consume(k % slots)
 /// on this thread for every slot produced, in order; slot k % slots is produced again only after its consume
 /// returned. Rethrows what produce or consume threw (after stopping and joining the thread).

@@ -131,7 +131,32 @@ class CaptureOpenError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Reads frames one at a time.
+/// A batch of frames as every reader hands them out (CaptureReader::next_batch): frames in file order, their
+/// interfaces (views valid until the reader's next call) and the corrupt records among them.
+struct FrameBatch {
+  /// The most frames one batch holds.
+  static constexpr std::size_t kMax = 4096;
+  struct Corrupt {
+    std::size_t before = 0;  ///< the corrupt record came before frames[before] (== frames.size(): after the last)
+    CaptureError error;      ///< candump read in blocks: the line number counts from the block's first line
+  };
+  std::vector<CanFrame> frames;
+  std::vector<std::string_view> interfaces;
+  std::vector<Corrupt> corrupt;
+  /// The interface names' text when no reader's buffer holds it (own(), CaptureReader::next_batch's default).
+  std::string names;
+  void clear() noexcept {
+    frames.clear();
+    interfaces.clear();
+    corrupt.clear();
+  }
+  [[nodiscard]] bool empty() const noexcept { return frames.empty() && corrupt.empty(); }
+  /// Copies the interface names into `names` and points the views there: the batch then outlives its reader's
+  /// next call (a batch read ahead on another thread).
+  void own();
+};
+
+/// Reads frames, one at a time (next()) or in batches (next_batch()): the one reading interface of every format.
 class CaptureReader {
  public:
   enum class Status { frame, corrupt, end };
@@ -144,6 +169,10 @@ class CaptureReader {
   /// Advances to the next frame. On Status::frame, frame() and interface() describe it; on Status::corrupt,
   /// error() does (a Recovery::stop error is followed by Status::end). Never throws for bad content.
   virtual Status next() = 0;
+  /// Fills `batch` (cleared first) with what next() would give, in order, up to FrameBatch::kMax frames; false
+  /// (batch empty) at the end. Read a reader with next() or with next_batch(), not both. The candump, pcap and
+  /// pcapng readers read in batches; the default calls next() and copies the names into batch.names.
+  virtual bool next_batch(FrameBatch& batch);
   /// The frame last read; timestamp_ns is set whenever the format has one (all four do).
   [[nodiscard]] virtual const CanFrame& frame() const = 0;
   /// Interface or channel name of the frame last read (valid until the next call of next()). Formats without
@@ -155,6 +184,34 @@ class CaptureReader {
   /// Readers of files opened by path know both (a pipe has no size); readers on a caller's stream say 0 / nullopt.
   [[nodiscard]] virtual std::uint64_t bytes_read() const { return 0; }
   [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const { return std::nullopt; }
+};
+
+/// How decode and stats read a capture (read_capture, the one read path): on one thread; with a second thread
+/// reading ahead; or cut into blocks that `threads` threads work on, handed back in file order (the same results).
+struct ReadOptions {
+  unsigned threads = 2;
+  /// Files this big or bigger use `threads` (4 MiB: ~20 ms of work on one core, from where a second thread pays).
+  std::uint64_t parallel_from = std::uint64_t{4} << 20;
+  std::uint64_t block = std::uint64_t{256} << 10;  ///< bytes per block
+  bool live = false;  ///< one thread, each batch handed on as soon as it is read (a pipe from candump -L)
+};
+
+/// A reader whose format reads in batches (candump, pcap): next() hands out the batches' records one at a time.
+class BatchCaptureReader : public CaptureReader {
+ public:
+  Status next() override;
+  bool next_batch(FrameBatch& batch) override = 0;
+  [[nodiscard]] const CanFrame& frame() const override { return batch_.frames[frame_ - 1]; }
+  [[nodiscard]] std::string_view interface() const override { return batch_.interfaces[frame_ - 1]; }
+  /// The last corrupt record of the batch under way (a blank error before any).
+  [[nodiscard]] const CaptureError& error() const override {
+    return corrupt_ > 0 ? batch_.corrupt[corrupt_ - 1].error : none_;
+  }
+
+ private:
+  CaptureError none_;
+  FrameBatch batch_;
+  std::size_t frame_ = 0, corrupt_ = 0;  // what next() handed out of batch_
 };
 
 /// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own
@@ -235,7 +292,7 @@ inline const char* capture_write_name(const std::string& path) noexcept {
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// A capture file's content as bytes in order, through its decompressor when it is gzip or zstd: for candump text
-/// that the caller cuts into blocks and parses on several threads (decode_candump_text).
+/// that the read path cuts into blocks and parses on several threads (CaptureTextBlocks).
 class CaptureText {
  public:
   virtual ~CaptureText() = default;
@@ -255,7 +312,7 @@ class CaptureText {
 /// It opens the path again: for a file already opened (open_capture) that may be a pipe, take_capture_text().
 std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format = std::nullopt);
 /// The content of a candump capture that open_capture() or open_capture_reader() opened, as text from that same
-/// open file, for the callers that cut it into blocks (decode_candump_text, add_capture_text). A pipe or a process
+/// open file, for the read path, which cuts it into blocks (CaptureTextBlocks). A pipe or a process
 /// substitution can be read only once: opening its path again would find the bytes the first look took gone (and a
 /// compressed one unreadable). `reader` is given up for the text; nullptr (and `reader` kept) when it is not such a
 /// reader, not candump, or something has read from it already.

@@ -1,7 +1,7 @@
 // A capture file read in blocks on several threads. Each block starts at a record's start (a candump line, a pcap
 // record, a pcapng packet block), so every thread reads its own blocks with its own scanner and the caller puts
-// what they found back in file order: decode's and stats' two-core paths (report/fast_decode.cpp,
-// report/bus_stats.cpp). Uncompressed regular files of those three formats only; the cuts are found once, up front
+// what they found back in file order: the one read path's blocks (src/host/capture/read_path.hpp, under decode and
+// stats). Uncompressed regular files of those three formats only; the cuts are found once, up front
 // (candump: reads near each nominal cut, up front; pcap and pcapng: a walk over the record headers, as far as the
 // blocks asked for so far, so that the first blocks are read while the rest is still being cut).
 //
@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 
 namespace saul::host {
@@ -35,7 +35,7 @@ class CaptureBlocks {
   /// regular file (read it with open_capture then). Throws std::system_error when reading fails.
   static std::unique_ptr<CaptureBlocks> open(const std::string& path, std::uint64_t block_bytes);
   /// The same over a file already open (`fd` not owned, `size` its size) whose format is known: a candump file
-  /// (CandumpFile), or a pcap or pcapng file (nullptr when its header says otherwise).
+  /// (uncompressed candump text), or a pcap or pcapng file (nullptr when its header says otherwise).
   static std::unique_ptr<CaptureBlocks> of(int fd, std::uint64_t size, CaptureFormat format, std::uint64_t block_bytes);
   CaptureBlocks(const CaptureBlocks&) = delete;
   CaptureBlocks& operator=(const CaptureBlocks&) = delete;
@@ -109,8 +109,8 @@ class CaptureBlocks {
 };
 
 /// A candump log read from a stream (CaptureText: a compressed one, as it inflates) and cut into blocks of whole
-/// lines, each taken by whichever thread asks for the next one, in turn: decode's and stats' two-core paths over
-/// compressed logs. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the scanner
+/// lines, each taken by whichever thread asks for the next one, in turn: the read path's blocks of a compressed
+/// log or a pipe. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the scanner
 /// reports it as too long, at its line) and the rest of it is dropped as it is read: a block holds at most about
 /// twice the block size plus one such line.
 class CaptureTextBlocks {

@@ -9,15 +9,19 @@
 // reported and skipped (its length is known); a truncated record or an implausible record length stops reading.
 // CAN FD packets are reported as unsupported: the robot's bus is classic CAN. Every frame reads as interface
 // "can0" (pcap has no interface names).
+// PcapScanner is the one reader, of regular files and streams alike; PcapReader hands its frames out one at a time.
 // Writing: little-endian, microsecond magic unless asked for nanoseconds, snaplen 65535, 16-byte records.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <istream>
+#include <memory>
 #include <ostream>
 #include <span>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/host/capture/capture.hpp"
@@ -35,30 +39,72 @@ std::string_view decode_socketcan_packet(std::span<const std::uint8_t> packet, C
 /// Wireshark expects). The frame must be valid().
 std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noexcept;
 
-class PcapReader final : public CaptureReader {
+/// The pcap reader: large reads into one buffer, records decoded in place, frames handed out in batches
+/// (FrameBatch, interfaces all "can0"). Reads a regular file with pread(2) (whole, or a range of it for one block of
+/// decode's and stats' two-core paths) or a stream (a compressed file, a pipe). Memory is one buffer (block size +
+/// the longest record accepted), whatever the file size.
+class PcapScanner {
  public:
-  /// Reads the 24-byte file header; throws CaptureOpenError when it is missing, not pcap, or not link type 227.
-  explicit PcapReader(std::istream& in);
+  /// Reads the regular file `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as
+  /// PcapReader does (CaptureOpenError).
+  PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes = std::size_t{1} << 20);
+  /// Reads only the records from byte `begin` (a record's start, e.g. from block_starts()) to `end`.
+  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+              std::size_t block_bytes = std::size_t{1} << 20);
+  /// The same with the file's bytes [begin, end) already in memory (`bytes`, kept alive by the caller): nothing is
+  /// read but the header.
+  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::span<const std::uint8_t> bytes);
+  /// Reads `in` (kept alive by the caller) from its file header on, without seeking.
+  explicit PcapScanner(std::istream& in, std::size_t block_bytes = std::size_t{64} << 10);
+  PcapScanner(const PcapScanner&) = delete;
+  PcapScanner& operator=(const PcapScanner&) = delete;
+  ~PcapScanner();
 
-  Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return "can0"; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
+  /// Fills `batch` (cleared first) with up to FrameBatch::kMax records; false (batch empty) at the end. A record
+  /// with bad content is reported and skipped; a truncated record or an implausible length stops the reading.
+  bool next_batch(FrameBatch& batch);
+  [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
 
+  /// Record starts that cut the file into blocks of about `block` bytes, for decoding blocks on several threads:
+  /// {24, s1, s2, ..., size}. Walks the record headers (one read of the file in large pieces); from the first
+  /// implausible or cut record on, the rest is one block, so a corrupt file reads as it does in one piece.
+  [[nodiscard]] std::vector<std::uint64_t> block_starts(std::uint64_t block) const;
   [[nodiscard]] bool big_endian() const noexcept { return big_; }
   [[nodiscard]] bool nanosecond() const noexcept { return nano_; }
 
  private:
-  Status corrupt(std::uint64_t offset, Recovery recovery, std::string message);
+  void read_header();
+  std::size_t ensure(std::size_t n);
+  void corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message);
 
-  std::istream& in_;
-  std::uint64_t offset_ = 0;
+  int fd_ = -1;
+  std::istream* in_ = nullptr;  // the stream read instead of fd_
+  std::uint64_t size_;
+  std::unique_ptr<std::uint8_t[]> buf_;
+  const std::uint8_t* data_ = nullptr;  // buf_, or the bytes given
+  std::size_t cap_;
+  std::size_t block_;
+  std::size_t head_ = 0, tail_ = 0;
+  std::uint64_t offset_ = 24;   // file offset of data_[head_]
+  std::uint64_t read_to_ = 24;  // file offset of data_[tail_]
   bool big_ = false;
   bool nano_ = false;
   bool stopped_ = false;
-  CanFrame frame_;
-  CaptureError error_;
+};
+
+/// The pcap member of the capture interface: PcapScanner over a stream, its batches handed out frame by frame too.
+class PcapReader final : public BatchCaptureReader {
+ public:
+  /// Reads the 24-byte file header; throws CaptureOpenError when it is missing, not pcap, or not link type 227.
+  explicit PcapReader(std::istream& in) : scanner_(in) {}
+
+  bool next_batch(FrameBatch& batch) override { return scanner_.next_batch(batch); }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
+  [[nodiscard]] bool big_endian() const noexcept { return scanner_.big_endian(); }
+  [[nodiscard]] bool nanosecond() const noexcept { return scanner_.nanosecond(); }
+
+ private:
+  PcapScanner scanner_;
 };
 
 struct PcapWriterOptions {

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
-#include "saulproto/host/capture/candump_scan.hpp"
+#include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/interface_index.hpp"
 
@@ -46,6 +46,7 @@ class PcapngReader final : public CaptureReader {
   /// anything else goes through next(), which may come only first in a batch, so the interface names the batch
   /// points into stay put until the next call. frame() and interface() are not kept up to date by it.
   bool next_batch(FrameBatch& batch, std::size_t max);
+  bool next_batch(FrameBatch& batch) override { return next_batch(batch, FrameBatch::kMax); }
   [[nodiscard]] const CanFrame& frame() const override { return frame_; }
   [[nodiscard]] std::string_view interface() const override { return name_; }
   [[nodiscard]] const CaptureError& error() const override { return error_; }

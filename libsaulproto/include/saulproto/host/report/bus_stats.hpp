@@ -26,7 +26,6 @@
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/core/result.hpp"
 #include "saulproto/host/capture/capture.hpp"
-#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/report/frame_key.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
@@ -376,33 +375,17 @@ class BusStats {
   std::array<IdSlot, 64> id_slots_{};
 };
 
-/// Adds every line of an uncompressed candump file (CandumpFile) to `stats`: frames with stats.add(), corrupt
-/// lines with add_corrupt() and on_corrupt(error), in file order. With `ahead` both cores work: the file is cut
-/// into blocks of about `block_bytes` at line starts and counted by add_capture_blocks(). With `ahead`
-/// and `also` (which must see the frames in order on this thread), the file is read and parsed, and each frame's
-/// FrameFacts worked out, on a second thread while this one adds. on_progress(records, bytes read so far) after
-/// each batch or block; also(frame), when given, after each frame's stats.add() (on this thread).
-void add_candump_file(BusStats& stats, int fd, std::uint64_t size, bool ahead,
-                      const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      const std::function<void(const CanFrame&)>& also = {},
-                      std::uint64_t block_bytes = std::uint64_t{1} << 20);
-
-/// Adds every record of a capture file read in blocks (CaptureBlocks: candump, pcap, pcapng) to `stats`, on two
-/// threads: each block is counted into BusStats(options, Block{}) and appended here in file order, so the figures
-/// are one thread's; corrupt records go to add_corrupt() and on_corrupt(error) in file order. At most four blocks
-/// are held at a time. on_progress(records, bytes read so far) after each block.
-void add_capture_blocks(BusStats& stats, const CaptureBlocks& blocks,
-                        const std::function<void(const CaptureError&)>& on_corrupt,
-                        const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress);
-
-/// Adds every line of a candump log read as text (open_capture_text: a gzip or zstd log, as it inflates) to `stats`
-/// as add_capture_blocks() does: blocks of about `block_bytes` cut at line ends as the text is read
-/// (CaptureTextBlocks) and counted on two threads, appended in file order; then the decompressor's error, if it
-/// stopped early, as one corrupt record (what the file's CaptureReader reports at its end).
-void add_capture_text(BusStats& stats, CaptureText& text, const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
-                      std::size_t block_bytes = std::size_t{1} << 20);
+/// Adds every frame of `reader` (opened from `path` by open_capture; `compressed`: gzip or zstd) to `stats` through
+/// the one read path (capture/read_path.hpp): a large candump, pcap or pcapng file, and a candump log that cannot be
+/// cut up front (compressed, a pipe), in blocks counted on options.threads threads into BusStats(options, Block{})
+/// and appended in file order, so the figures are one thread's; else batch by batch, read ahead on a second thread
+/// from options.parallel_from bytes on. Corrupt records go to add_corrupt() and on_corrupt(error) in file order;
+/// on_progress(records, bytes) says how far it got. also(frame), when given, sees every frame in file order on this
+/// thread, after its stats.add() (no blocks then). `reader` may be given up for the file's text.
+void add_capture(BusStats& stats, const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
+                 const ReadOptions& options, const std::function<void(const CaptureError&)>& on_corrupt,
+                 const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
+                 const std::function<void(const CanFrame&)>& also = {});
 
 /// Statistics of the serial chunks of a capture: one decoder per link (SerialCaptureDecoder).
 class SerialStats {

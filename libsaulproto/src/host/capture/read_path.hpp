@@ -1,0 +1,169 @@
+// The one read path of a capture file's frames (private to the host library): decode (report/fast_decode.cpp) and
+// stats (report/bus_stats.cpp) hand it what they do with a batch of frames, and it reads the file the fastest way
+// the file and the work allow, with the same results whichever way:
+//  - in blocks on ReadOptions::threads threads: an uncompressed candump, pcap or pcapng regular file of at least
+//    parallel_from bytes (CaptureBlocks), or a candump log that cannot be cut up front, compressed or from a pipe,
+//    cut as it is read (CaptureTextBlocks). Each block is worked into a piece of its own; the pieces are taken in
+//    file order, their corrupt records' positions made the file's.
+//  - else in batches (CaptureReader::next_batch, any format) on this thread, with a second thread reading ahead
+//    from parallel_from bytes on. Each batch is a piece, taken at once.
+// The work says whether its results allow blocks (decode --time delta and stats --signals need every frame in order).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/capture_blocks.hpp"
+#include "../threads/in_order.hpp"
+#include "../threads/read_ahead.hpp"
+
+namespace saul::host::detail {
+
+struct ReadSinks {
+  std::function<void(const CaptureError&)> corrupt;  ///< each corrupt record, in file order
+  std::function<void(std::uint64_t records, std::uint64_t bytes)> progress;  ///< so far (frames + corrupt); may be empty
+};
+struct ReadCounts {
+  std::uint64_t frames = 0;  ///< frames read (those a line taker took included)
+  std::uint64_t corrupt = 0;
+};
+
+/// Reads `reader` (opened from `path`; `compressed`: gzip or zstd) through `work`, which has
+///   Worker worker();                       state of a thread, kept from piece to piece
+///   bool in_blocks(const CaptureBlocks*);  whether its pieces may be blocks worked on at once (nullptr: text blocks)
+///   void start(Worker&, Piece&, bool block);  before a piece (block: a block, else a batch taken right after)
+///   CandumpLineTaker* taker(Worker&);      takes candump lines of blocks before they are parsed (or nullptr)
+///   void add(Worker&, Piece&, const FrameBatch&);  a batch's frames (its corrupt records are the path's)
+///   std::uint64_t finish(Worker&, Piece&);  after a piece: the frames its taker took
+///   void take(Piece&);                      the pieces in file order, one at a time
+/// `reader` may be given up for its text (take_capture_text). Throws what reading or the work throws.
+template <class Work>
+ReadCounts read_capture(const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
+                        const ReadOptions& o, Work& work, const ReadSinks& sinks) {
+  using Worker = typename Work::Worker;
+  struct Piece {
+    typename Work::Piece piece;
+    std::vector<CaptureError> corrupt;
+    std::uint64_t frames = 0, lines = 0, bytes = 0;
+  };
+  struct Thread {
+    Worker worker;
+    CaptureBlocks::Scratch scratch;
+    std::string text;  // a text block's lines
+  };
+  ReadCounts counts;
+  std::uint64_t lines = 0, bytes = 0;
+  auto start = [&](Thread& t, Piece& p, bool block) {
+    p.corrupt.clear();
+    p.frames = p.lines = p.bytes = 0;
+    work.start(t.worker, p.piece, block);
+  };
+  auto add = [&](Thread& t, Piece& p, const FrameBatch& batch) {
+    for (const auto& c : batch.corrupt) p.corrupt.push_back(c.error);
+    p.frames += batch.frames.size();
+    work.add(t.worker, p.piece, batch);
+  };
+  // block: positions count from the block's first line (candump), bytes are the block's share
+  auto take = [&](Piece& p, bool block) {
+    for (CaptureError& e : p.corrupt) {
+      if (block) e.position += lines;
+      if (sinks.corrupt) sinks.corrupt(e);
+    }
+    counts.corrupt += p.corrupt.size();
+    counts.frames += p.frames;
+    lines += p.lines;
+    bytes = block ? bytes + p.bytes : p.bytes;
+    work.take(p.piece);
+    if (sinks.progress) sinks.progress(counts.frames + counts.corrupt, bytes);
+  };
+  auto in_blocks = [&](auto&& read_block) {  // read_block(k, thread, piece): false when there is no block k
+    run_blocks_in_order<Piece>(
+        kBlocksUntilNone, o.threads, [&] { return Thread{work.worker(), {}, {}}; },
+        [&](std::size_t k, Thread& t, Piece& p) {
+          start(t, p, true);
+          const bool there = read_block(k, t, p);
+          p.frames += work.finish(t.worker, p.piece);
+          return there;
+        },
+        [&](std::size_t, Piece& p) { take(p, true); });
+  };
+
+  const auto total = reader->bytes_total();
+  const bool parallel = o.threads > 1 && !o.live;
+  if (parallel && total && *total >= o.parallel_from && !compressed) {
+    const auto blocks = CaptureBlocks::open(path, o.block);
+    // a pcapng file of one block: read ahead instead
+    if (blocks && (blocks->format() != CaptureFormat::pcapng || blocks->has(1)) && work.in_blocks(blocks.get())) {
+      in_blocks([&](std::size_t k, Thread& t, Piece& p) {
+        if (!blocks->has(k)) return false;  // a pcap or pcapng file is cut as its blocks are read
+        const auto read = blocks->read(
+            k, t.scratch,
+            [&](const FrameBatch& batch) {
+              add(t, p, batch);
+              return true;
+            },
+            work.taker(t.worker));
+        p.lines = read.lines;
+        p.bytes = read.bytes;
+        return true;
+      });
+      return counts;
+    }
+  }
+  if (parallel && (compressed || !total) && reader->format() == CaptureFormat::candump && work.in_blocks(nullptr)) {
+    if (const auto text = take_capture_text(reader)) {
+      CaptureTextBlocks blocks(*text, o.block);
+      in_blocks([&](std::size_t k, Thread& t, Piece& p) {
+        if (!blocks.take(k, t.text, p.bytes)) return false;
+        CandumpScanner scanner(std::string_view(t.text), o.block);
+        while (scanner.next_batch(t.scratch.batch, work.taker(t.worker))) add(t, p, t.scratch.batch);
+        p.lines = scanner.lines();
+        return true;
+      });
+      if (const auto e = text->end_error()) {  // the decompressor stopped: what the reader reports at its end
+        if (sinks.corrupt) sinks.corrupt(*e);
+        ++counts.corrupt;
+        if (sinks.progress) sinks.progress(counts.frames + counts.corrupt, text->bytes_read());
+      }
+      return counts;
+    }
+  }
+  Thread t{work.worker(), {}, {}};
+  Piece p;
+  auto batch_piece = [&](const FrameBatch& batch, std::uint64_t read) {
+    start(t, p, false);
+    add(t, p, batch);
+    p.frames += work.finish(t.worker, p.piece);
+    p.bytes = read;
+    take(p, false);
+  };
+  if (!(parallel && total && *total >= o.parallel_from)) {
+    FrameBatch batch;
+    while (reader->next_batch(batch)) batch_piece(batch, reader->bytes_read());
+    return counts;
+  }
+  struct Ahead {
+    FrameBatch batch;
+    std::uint64_t bytes = 0;
+  };
+  std::array<Ahead, kAheadBatches> slots;
+  read_ahead(
+      slots.size(),
+      [&](std::size_t k) {
+        if (!reader->next_batch(slots[k].batch)) return false;
+        slots[k].batch.own();  // the reader's next batch reuses its buffer
+        slots[k].bytes = reader->bytes_read();
+        return true;
+      },
+      [&](std::size_t k) { batch_piece(slots[k].batch, slots[k].bytes); });
+  return counts;
+}
+
+}  // namespace saul::host::detail
