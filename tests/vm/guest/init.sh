@@ -277,7 +277,7 @@ test_pid() {
   stop_candump /tmp/dump 3
   [ "$(awk '{print substr($3, 1, 4)}' /tmp/dump | tr '\n' ' ')" = "301# 301# 301# " ] || die "not three 0x301 frames: $(frames /tmp/dump)"
   saulctl decode /tmp/dump >/tmp/decoded || die "saulctl decode failed"
-  expect_in /tmp/decoded "gain=kp sequence=[0-9]* value=1.5"
+  expect_in /tmp/decoded "gain=kp sequence=[0-9]* kp=1.5"
   expect_in /tmp/decoded "gain=ki sequence=[0-9]* value=0.25"
   expect_in /tmp/decoded "gain=kd sequence=[0-9]* value=0.05"
   [ "$(sed -n 's/.*sequence=\([0-9]*\).*/\1/p' /tmp/decoded | sort -u | wc -l)" = 1 ] || die "the three gains carry different sequence numbers"
@@ -314,8 +314,8 @@ test_monitor_json() {
   wait $pid
   expect_rc $? 0 "saulctl monitor"
   expect_in /tmp/out '"state":"BALANCE"'
-  expect_in /tmp/out '"pitch_deg":5.0'
-  expect_in /tmp/out '"battery_v":24.0'
+  expect_in /tmp/out '"pitch":5.0'
+  expect_in /tmp/out '"battery":24.0'
   expect_in /tmp/out '"vesc_r_rpm":-1000'
   show /tmp/out
 }
