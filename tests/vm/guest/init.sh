@@ -278,8 +278,8 @@ test_pid() {
   [ "$(awk '{print substr($3, 1, 4)}' /tmp/dump | tr '\n' ' ')" = "301# 301# 301# " ] || die "not three 0x301 frames: $(frames /tmp/dump)"
   saulctl decode /tmp/dump >/tmp/decoded || die "saulctl decode failed"
   expect_in /tmp/decoded "gain=kp sequence=[0-9]* kp=1.5"
-  expect_in /tmp/decoded "gain=ki sequence=[0-9]* value=0.25"
-  expect_in /tmp/decoded "gain=kd sequence=[0-9]* value=0.05"
+  expect_in /tmp/decoded "gain=ki sequence=[0-9]* ki=0.25"
+  expect_in /tmp/decoded "gain=kd sequence=[0-9]* kd=0.05"
   [ "$(sed -n 's/.*sequence=\([0-9]*\).*/\1/p' /tmp/decoded | sort -u | wc -l)" = 1 ] || die "the three gains carry different sequence numbers"
   show /tmp/decoded
 }
