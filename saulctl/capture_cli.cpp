@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "commands.hpp"
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/host/capture/recorder.hpp"
 
@@ -123,7 +124,7 @@ void Progress::finish() {
   drawn_ = false;
 }
 
-void read_serial_chunks(std::string_view verb, const std::string& path, saul::host::SerialCaptureReader& reader,
+void read_serial_chunks(const std::string& path, saul::host::SerialCaptureReader& reader,
                         ::saulctl::Progress& progress, std::uint64_t& corrupt,
                         const std::function<void(const saul::host::SerialChunk&)>& on_chunk) {
   using Status = saul::host::SerialCaptureReader::Status;
@@ -132,7 +133,7 @@ void read_serial_chunks(std::string_view verb, const std::string& path, saul::ho
     if (st == Status::corrupt) {
       ++corrupt;
       progress.finish();  // the message gets its own line; the progress line comes back at the next draw
-      fmt::print(stderr, "saulctl {}: {}\n", verb, saul::host::format_capture_error(path, reader.error()));
+      say("{}", saul::host::format_capture_error(path, reader.error()));
       continue;
     }
     on_chunk(reader.chunk());

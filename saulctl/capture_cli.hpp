@@ -90,8 +90,9 @@ class Progress {
 };
 
 /// Reads every chunk of a serial capture, drawing `progress`: a corrupt line is reported on stderr ("saulctl VERB:
-/// FILE:LINE:COL: what (line skipped)") and counted in `corrupt`, every other chunk handed to `on_chunk`.
-void read_serial_chunks(std::string_view verb, const std::string& path, saul::host::SerialCaptureReader& reader,
+/// FILE:LINE:COL: what (line skipped)") and counted in `corrupt`, every other chunk handed to `on_chunk` (decode
+/// and convert alike).
+void read_serial_chunks(const std::string& path, saul::host::SerialCaptureReader& reader,
                         ::saulctl::Progress& progress, std::uint64_t& corrupt,
                         const std::function<void(const saul::host::SerialChunk&)>& on_chunk);
 

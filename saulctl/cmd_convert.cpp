@@ -89,7 +89,7 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
     mcap.add_metadata("saulctl", {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
                                   {"source_format", std::string(to_string(reader.format()))}});
     McapSerialChannels channels(mcap, fallback_protocol(opt.serial));
-    read_serial_chunks("convert", opt.in, reader, progress, corrupt, [&](const SerialChunk& chunk) {
+    read_serial_chunks(opt.in, reader, progress, corrupt, [&](const SerialChunk& chunk) {
       ++chunks;
       if (!chunk.timestamp_ns) ++untimed;
       channels.add(chunk);

@@ -75,20 +75,11 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
       fmt::print("{} {} {}\n", stamp, chunk.link, describe(m));
     }
   };
-  for (;;) {
-    const auto st = reader.next();
-    if (st == SerialCaptureReader::Status::end) break;
-    progress.update(reader.bytes_read(), reader.bytes_total());
-    if (st == SerialCaptureReader::Status::corrupt) {
-      ++corrupt;
-      progress.finish();  // the message gets its own line; the progress line comes back at the next draw
-      say("{}", format_capture_error(path, reader.error()));
-      continue;
-    }
+  read_serial_chunks(path, reader, progress, corrupt, [&](const saul::host::SerialChunk& chunk) {
     ++records;
-    if (!reader.chunk().timestamp_ns) ++untimed;
-    decoder.add(reader.chunk(), print);
-  }
+    if (!chunk.timestamp_ns) ++untimed;
+    decoder.add(chunk, print);
+  });
   decoder.finish(print);
   if (untimed > 0)
     say("{}: {} chunks carry no time (sample numbers need --samplerate; sigrok-cli "
