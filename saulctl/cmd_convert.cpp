@@ -38,7 +38,7 @@ struct ConvertOptions {
   int zstd_level = 1;                 // MCAP chunks in zstd
 };
 
-/// Reads through another reader and draws the progress line (copy_frames() does the reading).
+/// Reads through another reader and draws the progress line (copy_frames() does the reading, in batches).
 class ProgressReader final : public saul::host::CaptureReader {
  public:
   ProgressReader(saul::host::CaptureReader& inner, Progress& progress) : inner_(inner), progress_(progress) {}
@@ -47,13 +47,18 @@ class ProgressReader final : public saul::host::CaptureReader {
     if (st != Status::end) progress_.update(inner_.bytes_read(), inner_.bytes_total());
     return st;
   }
+  bool next_batch(saul::host::FrameBatch& batch) override {
+    if (!inner_.next_batch(batch)) return false;
+    progress_.update_many(batch.frames.size() + batch.corrupt.size(), inner_.bytes_read(), inner_.bytes_total());
+    return true;
+  }
   [[nodiscard]] const saul::CanFrame& frame() const override { return inner_.frame(); }
   [[nodiscard]] std::string_view interface() const override { return inner_.interface(); }
   [[nodiscard]] const saul::host::CaptureError& error() const override { return inner_.error(); }
-                                                      [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
-                                                      
-                                                      private:
-                                                      saul::host::CaptureReader& inner_;
+  [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
+
+ private:
+  saul::host::CaptureReader& inner_;
   Progress& progress_;
 };
 
@@ -65,6 +70,9 @@ saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   // Chunks by size only: a file is no live recording, and chunks closed every second of log time (a slow bus:
   // ~770 frames, 220 KB) made 4.5x as many chunk indexes for the summary to keep (~0.4 KB each): 130 MB on 10 GB.
   mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
+  // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end; at 1 MiB that was ~25 MiB of a
+  // 10 GB log's memory (bench/README.md).
+  mcap.chunk_bytes = std::uint64_t{4} << 20;
   mcap.library = "saulctl " SAULCTL_VERSION;
   return mcap;
 }

@@ -829,25 +829,32 @@ CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
   CopyStats stats;
   InterfaceIndex seen;
   const CaptureTraits traits = capture_traits(out.format());
-  for (;;) {
-    const auto status = in.next();
-    if (status == CaptureReader::Status::end) break;
-    if (status == CaptureReader::Status::corrupt) {
-      ++stats.corrupt;
-      if (on_corrupt) on_corrupt(in.error());
-      continue;
+  // In batches: the candump, pcap and pcapng readers hand out thousands of frames a call, where next() cost three
+  // virtual calls a frame (convert to MCAP spent 4 % of its time there).
+  FrameBatch batch;
+  while (in.next_batch(batch)) {
+    std::size_t corrupt = 0;
+    auto corrupt_before = [&](std::size_t frame) {
+      for (; corrupt < batch.corrupt.size() && batch.corrupt[corrupt].before <= frame; ++corrupt) {
+        ++stats.corrupt;
+        if (on_corrupt) on_corrupt(batch.corrupt[corrupt].error);
+      }
+    };
+    for (std::size_t i = 0; i < batch.frames.size(); ++i) {
+      corrupt_before(i);
+      const std::string_view name = batch.interfaces[i];
+      const CanFrame& frame = batch.frames[i];
+      ++stats.frames;
+      if (frame.error) ++stats.error_frames;
+      if (frame.remote) ++stats.remote_frames;
+      if ((frame.error && !traits.error_frames) || (frame.remote && !traits.remote_frames)) {
+        ++stats.left_out;
+        continue;
+      }
+      if (!seen.find_or_add(name, CopyStats::kListed)) stats.more_interfaces = true;
+      out.write(frame, name);
     }
-    const std::string_view name = in.interface();
-    const CanFrame& frame = in.frame();
-    ++stats.frames;
-    if (frame.error) ++stats.error_frames;
-    if (frame.remote) ++stats.remote_frames;
-    if ((frame.error && !traits.error_frames) || (frame.remote && !traits.remote_frames)) {
-      ++stats.left_out;
-      continue;
-    }
-    if (!seen.find_or_add(name, CopyStats::kListed)) stats.more_interfaces = true;
-    out.write(frame, name);
+    corrupt_before(batch.frames.size());
   }
   stats.interfaces = seen.names();
   return stats;

@@ -278,6 +278,9 @@ void McapWriter::add_message(std::uint16_t channel_id, std::uint64_t log_time, s
   // stack and copied in stalled on the copy's wide load of bytes just stored one by one: half this function's time).
   const std::uint64_t length = 2 + 4 + 8 + 8 + data.size();
   const std::size_t at = open_.records.size();
+  // Room for a whole chunk at once: grown by doubling, a 4 MiB chunk's buffer ended at 8 MiB (twice, with the
+  // chunk thread's).
+  if (open_.records.capacity() == 0) open_.records.reserve(options_.chunk_bytes + (std::size_t{64} << 10));
   open_.records.resize(at + kRecordHead + length);
   std::uint8_t* p = open_.records.data() + at;
   *p++ = kMessage;
@@ -306,6 +309,8 @@ void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
 
 void McapWriter::close_chunk() {
   if (open_.records.empty()) return;
+  // The CRC here, not on the chunk thread: compression keeps that one busier than this one (perf: ~54 / 46 %).
+  open_.crc = crc_of(0, open_.records.data(), open_.records.size());
   wait_for_chunk();
   if (!thread_.joinable()) thread_ = std::thread([this] { chunk_thread(); });
   {
@@ -348,7 +353,7 @@ void McapWriter::write_chunk(Chunk& chunk) {
   ix.end_time = chunk.has_messages ? chunk.end : 0;
   ix.offset = offset_;
   ix.uncompressed_size = chunk.records.size();
-  const std::uint32_t crc = crc_of(0, chunk.records.data(), chunk.records.size());
+  const std::uint32_t crc = chunk.crc;
   std::span<const std::uint8_t> records(chunk.records);
   if (options_.compression == McapCompression::zstd) {
     if (!zstd_) {
