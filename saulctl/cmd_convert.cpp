@@ -93,19 +93,18 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
   std::vector<SerialCaptureDecoder::Link> links;
   Progress progress("convert", false);
   try {
-    McapWriter mcap(stream, mcap_options(opt));
-    mcap.add_metadata("saulctl", {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
-                                  {"source_format", std::string(to_string(reader.format()))}});
-    McapSerialChannels channels(mcap, fallback_protocol(opt.serial));
+    McapSerialWriter mcap(stream, mcap_options(opt),
+                          {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
+                           {"source_format", std::string(to_string(reader.format()))}},
+                          fallback_protocol(opt.serial));
     read_serial_chunks(opt.in, reader, progress, corrupt, [&](const SerialChunk& chunk) {
       ++chunks;
       if (!chunk.timestamp_ns) ++untimed;
-      channels.add(chunk);
+      mcap.write(chunk);
     });
-    channels.finish();
     mcap.close();
-    messages = channels.messages();
-    links = channels.decoder().links();
+    messages = mcap.channels().messages();
+    links = mcap.channels().decoder().links();
   } catch (const std::runtime_error& e) {  // the stream failed (a full disk)
     progress.finish();
     say("cannot write '{}': {}", opt.out, e.what());

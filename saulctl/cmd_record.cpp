@@ -13,6 +13,7 @@
 #include "saulproto/host/link/link_spec.hpp"
 #include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/recorder.hpp"
+#include "saulproto/host/report/mcap_serial.hpp"
 #include "saulproto/host/report/mcap_signals.hpp"
 
 #ifndef SAULCTL_VERSION
@@ -182,9 +183,11 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
 
 int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   using namespace saul::host;
-  if (!opt.format.empty() && opt.format != "serial")
+  if (!opt.format.empty() && opt.format != "serial" && opt.format != "mcap")
     throw CLI::ValidationError("--format", spec.text() + " is a serial link: its bytes are written as a serial log "
-                                                         "(--format serial)");
+                                                         "(--format serial) or as MCAP (--format mcap, or -o x.mcap)");
+  const bool mcap = opt.format == "mcap" ||
+                    (opt.format.empty() && capture_format_from_extension(opt.output) == CaptureFormat::mcap);
   const bool limited = !opt.duration.empty();
   const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   SerialChunk chunk;
@@ -192,9 +195,20 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   chunk.protocol = opt.protocol.empty() ? protocol_for_baud(spec.serial.baud) : *serial_protocol_from_name(opt.protocol);
 
   auto port = open_serial_link(spec);  // shared with other saulctl processes (shared_link.hpp)
-  RotatingSerialWriter writer(opt.output, rotation_of(opt), [&](const std::string& path) {
-    if (!opt.quiet) fmt::print(stderr, "record: writing {} (serial)\n", path);
-  });
+  RotatingSerialWriter::MakeWriter make;
+  if (mcap) {  // the decoded messages on channels of their own, as convert writes a serial capture
+    McapWriterOptions options;  // chunks closed at every flush below and every second: crash-safe
+    options.library = "saulctl " SAULCTL_VERSION;
+    const McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()},
+                              {"protocol", std::string(to_string(chunk.protocol))}};
+    make = [options, metadata](std::ostream& out) { return std::make_unique<McapSerialWriter>(out, options, metadata); };
+  }
+  RotatingSerialWriter writer(
+      opt.output, rotation_of(opt),
+      [&](const std::string& path) {
+        if (!opt.quiet) fmt::print(stderr, "record: writing {} ({})\n", path, mcap ? "MCAP" : "serial");
+      },
+      make);
   if (!opt.quiet)
     fmt::print(stderr, "record: {} bytes on {} ({} {}); Ctrl-C to stop\n", to_string(chunk.protocol), port->path(),
                spec.serial.baud, to_string(spec.serial));
@@ -289,7 +303,13 @@ void add_record_command(CLI::App& app, Runner& run) {
       "  saulctl record --link can0 -o run.pcapng                 open it in Wireshark (or: record can0 -o ...)\n"
       "  saulctl record --link slcan:/dev/ttyACM0 -o run.log --rotate-size 100M --rotate-time 10m\n"
       "  saulctl record --link can0 -o run.blf --rotate-size 1G --compress zst   run-000.blf.zst, ...\n"
-      "  saulctl record --link serial:/dev/ttyUSB0@460800 -o uart.serial --duration 2m   inter-board bytes\n");
+      "  saulctl record --link serial:/dev/ttyUSB0@460800 -o uart.serial --duration 2m   inter-board bytes\n"
+      "  saulctl record --link slcan:/dev/ttyACM0 -o run.mcap      for Foxglove, Lichtblick, PlotJuggler: frames\n"
+      "                                                           and decoded signals (docs/captures.md)\n"
+      "  saulctl record --link serial:/dev/ttyUSB0@460800 -o uart.mcap   the link's decoded messages as MCAP\n"
+      "                                                           (/serial/interboard/state, ..., /serial/bytes)\n"
+      "\nMCAP (-o x.mcap) is written in chunks closed at every flush above and at least every second: after a\n"
+      "crash or kill -9 the file reads up to its last closed chunk; Ctrl-C writes its summary.\n");
   attach_runner(cmd, o, run, run_record);
 }
 

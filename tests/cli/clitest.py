@@ -4,8 +4,11 @@ Every check prints one line ("ok   name" or "FAIL name" with the detail indented
 code is 1 when any check failed, which is what ctest looks at. A saulctl that does not end within its timeout is
 killed and reported as hung (exit code None), so a test never waits forever.
 """
+import os
+import select
 import subprocess
 import sys
+import time
 
 
 class Saulctl:
@@ -31,6 +34,22 @@ def finish(proc, timeout=10, feed=None):
         out, err = proc.communicate()
         return None, out.decode(), err.decode() + "\n[killed: saulctl hung]"
     return proc.returncode, out.decode(), err.decode()
+
+
+def wait_stderr_line(proc, needle, timeout=5.0):
+    """Reads saulctl's stderr line by line until one contains needle; returns what was read."""
+    seen = b""
+    end = time.monotonic() + timeout
+    fd = proc.stderr.fileno()
+    while needle.encode() not in seen and time.monotonic() < end:
+        r, _, _ = select.select([fd], [], [], max(0.0, end - time.monotonic()))
+        if not r:
+            break
+        chunk = os.read(fd, 4096)
+        if not chunk:
+            break
+        seen += chunk
+    return seen.decode()
 
 
 class Checks:

@@ -13,7 +13,6 @@ sleeps to synchronise.
 Usage: fake_recording.py SAULCTL
 """
 import os
-import select
 import shutil
 import signal
 import subprocess
@@ -21,7 +20,7 @@ import sys
 import tempfile
 import time
 
-from clitest import Checks, Saulctl, finish
+from clitest import Checks, Saulctl, finish, wait_stderr_line
 from ptyfake import Pty
 
 saulctl = Saulctl(sys.argv[1])
@@ -30,22 +29,6 @@ checks = Checks()
 check = checks.check
 OPEN = b"C\rS6\rO\r"
 tmp = tempfile.mkdtemp(prefix="saul_rec_")
-
-
-def wait_stderr_line(proc, needle, timeout=5.0):
-    """Reads saulctl's stderr line by line until one contains needle; returns what was read."""
-    seen = b""
-    end = time.monotonic() + timeout
-    fd = proc.stderr.fileno()
-    while needle.encode() not in seen and time.monotonic() < end:
-        r, _, _ = select.select([fd], [], [], max(0.0, end - time.monotonic()))
-        if not r:
-            break
-        chunk = os.read(fd, 4096)
-        if not chunk:
-            break
-        seen += chunk
-    return seen.decode()
 
 
 def decode(path):

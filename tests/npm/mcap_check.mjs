@@ -17,6 +17,10 @@
 //       A loop trace's MCAP (indexed reader): "/saul/loop_trace" holds one message per line of `saulctl decode
 //       --json` of the trace (DECODE.jsonl), each valid against the channel's schema; the first and last equal
 //       decode's, log time = time_s in ns; a Metadata record "saulctl" names the source. Prints the count.
+//   node mcap_check.mjs serial_stream FILE.mcap
+//       A serial recording streamed as far as it goes (a recorder killed): prints {"log":[...],"topics":{...},
+//       "error":...}: its /serial/bytes messages as serial-log lines ("(s.us) LINK PROTOCOL HEX", docs/captures.md),
+//       the messages per topic, and what the reader stopped at (null: nothing but a file that ends).
 //   node mcap_check.mjs serial FILE.mcap DECODE.jsonl [TOLERANCE_NS]
 //       A serial capture's MCAP: both readers, every message valid against its schema (as verify); the messages
 //       off /serial/bytes, in file order, equal the lines of `saulctl decode --json` of the capture (DECODE.jsonl)
@@ -293,7 +297,24 @@ async function serial() {
   console.log(JSON.stringify(canon(counts)));
 }
 
+async function serialStream() {
+  const s = await streamAll(readFileSync(file), await loadDecompressHandlers());
+  const topics = {};
+  const log = [];
+  for (const m of s.messages) {
+    const topic = s.channels.get(m.channelId)?.topic;
+    topics[topic] = (topics[topic] ?? 0) + 1;
+    if (topic !== "/serial/bytes") continue;
+    const v = JSON.parse(text.decode(m.data));
+    const sec = String(m.logTime / 1000000000n).padStart(10, "0");
+    const us = String((m.logTime % 1000000000n) / 1000n).padStart(6, "0");
+    log.push(`(${sec}.${us}) ${v.link} ${v.protocol} ${v.data || "-"}${v.uart_errors.map((e) => ` !${e}`).join("")}`);
+  }
+  console.log(JSON.stringify({ log, topics: canon(topics), error: s.error ?? null }));
+}
+
 if (mode === "verify") await verify();
+else if (mode === "serial_stream") await serialStream();
 else if (mode === "trace") await trace();
 else if (mode === "serial") await serial();
 else if (mode === "stream") await stream();

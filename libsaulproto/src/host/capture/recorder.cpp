@@ -215,11 +215,14 @@ void RotatingCaptureWriter::close() {
 // ---- serial -------------------------------------------------------------------------------------------------------
 
 RotatingSerialWriter::RotatingSerialWriter(const std::string& path, RotationOptions rotation,
-                                           std::function<void(const std::string&)> on_new_file)
-    : plan_(path, rotation), compressor_(compressor_for(rotation)), on_new_file_(std::move(on_new_file)) {
+                                           std::function<void(const std::string&)> on_new_file, MakeWriter make)
+    : plan_(path, rotation),
+      compressor_(compressor_for(rotation)),
+      on_new_file_(std::move(on_new_file)),
+      make_(make ? std::move(make) : MakeWriter(make_serial_capture_writer)) {
   current_path_ = plan_.path_for(0);
   file_ = create(current_path_);
-  inner_ = make_serial_capture_writer(*file_);
+  inner_ = make_(*file_);
   if (on_new_file_) on_new_file_(current_path_);
 }
 
@@ -241,7 +244,7 @@ void RotatingSerialWriter::open_next() {
   ++index_;
   current_path_ = plan_.path_for(index_);
   file_ = create(current_path_);
-  inner_ = make_serial_capture_writer(*file_);
+  inner_ = make_(*file_);
   chunks_in_file_ = 0;
   file_start_ns_.reset();
   if (on_new_file_) on_new_file_(current_path_);

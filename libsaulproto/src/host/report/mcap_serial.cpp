@@ -6,6 +6,7 @@
 
 #include <charconv>
 #include <limits>
+#include <stdexcept>
 #include <type_traits>
 #include <variant>
 
@@ -190,6 +191,31 @@ void McapSerialChannels::finish() {
       if (value.is_number()) entries.emplace_back(key, value.dump());
     out_.add_metadata("serial_link", entries);
   }
+}
+
+namespace {
+/// `mcap` after its Metadata record "saulctl" (when `metadata` holds anything): first in the file, before the
+/// channels McapSerialChannels adds.
+McapWriter& with_metadata(McapWriter& mcap, const McapMap& metadata) {
+  if (!metadata.empty()) mcap.add_metadata("saulctl", metadata);
+  return mcap;
+}
+}  // namespace
+
+McapSerialWriter::McapSerialWriter(std::ostream& out, McapWriterOptions options, const McapMap& metadata,
+                                   std::optional<SerialProtocol> fallback)
+    : mcap_(out, std::move(options)), channels_(with_metadata(mcap_, metadata), fallback) {}
+
+void McapSerialWriter::write(const SerialChunk& chunk) {
+  if (closed_) throw std::runtime_error("mcap: the writer is closed");
+  channels_.add(chunk);
+}
+
+void McapSerialWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  channels_.finish();
+  mcap_.close();
 }
 
 }  // namespace saul::host

@@ -114,13 +114,16 @@ class RotatingCaptureWriter final : public CaptureWriter {
 /// Serial chunks into one serial log or a rotating series.
 class RotatingSerialWriter final : public SerialCaptureWriter {
  public:
+  /// `make`, when given, builds each file's writer on its stream (an MCAP writer of the decoded messages,
+  /// report/mcap_serial.hpp); otherwise make_serial_capture_writer(stream), a serial log.
+  using MakeWriter = std::function<std::unique_ptr<SerialCaptureWriter>(std::ostream&)>;
   RotatingSerialWriter(const std::string& path, RotationOptions rotation = {},
-                       std::function<void(const std::string&)> on_new_file = {});
+                       std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
   ~RotatingSerialWriter() override;
   void write(const SerialChunk& chunk) override;
   void flush() override;
   void close() override;
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
   [[nodiscard]] const std::string& current_path() const { return current_path_; }
   [[nodiscard]] unsigned files() const { return index_ + 1; }
   [[nodiscard]] std::uint64_t bytes_in_file();
@@ -131,6 +134,7 @@ class RotatingSerialWriter final : public SerialCaptureWriter {
   RotationPlan plan_;
   std::unique_ptr<FileCompressor> compressor_;
   std::function<void(const std::string&)> on_new_file_;
+  MakeWriter make_;
   std::unique_ptr<std::ofstream> file_;
   std::unique_ptr<SerialCaptureWriter> inner_;
   std::string current_path_;

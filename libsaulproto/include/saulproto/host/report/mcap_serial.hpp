@@ -69,4 +69,25 @@ class McapSerialChannels {
   std::uint64_t messages_ = 0;
 };
 
+/// A serial capture as an MCAP file (SerialCaptureWriter): what `saulctl record -o run.mcap` writes for a serial
+/// link and `saulctl convert run.serial run.mcap` for a serial capture. A Metadata record "saulctl" holds `metadata`
+/// (when any); each chunk goes to McapSerialChannels; flush() closes the MCAP chunk and puts it in the file (a
+/// recorder's crash loses at most what came after the last flush); close() writes the messages still held back,
+/// the "serial_link" records and the summary.
+class McapSerialWriter final : public SerialCaptureWriter {
+ public:
+  McapSerialWriter(std::ostream& out, McapWriterOptions options, const McapMap& metadata,
+                   std::optional<SerialProtocol> fallback = std::nullopt);
+  void write(const SerialChunk& chunk) override;
+  void flush() override { mcap_.flush(); }
+  void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::mcap; }
+  [[nodiscard]] const McapSerialChannels& channels() const noexcept { return channels_; }
+
+ private:
+  McapWriter mcap_;
+  McapSerialChannels channels_;
+  bool closed_ = false;
+};
+
 }  // namespace saul::host
