@@ -154,7 +154,7 @@ TEST_CASE("open_capture_reader: the bundled sample, and files that do not open")
 TEST_CASE("copy_frames counts what it copies and conversion_losses says what a format drops") {
   std::istringstream in(
       "(1.000000) vcan0 123#11\n(2.000000) can1 20000080#0000000000000000\nbroken\n(x) can0 1#\n");
-  CandumpReader reader(in);
+  std::unique_ptr<CaptureReader> reader = std::make_unique<CandumpReader>(in);
   std::ostringstream out;
   AscWriter writer(out);
   std::vector<std::uint64_t> bad_lines;
