@@ -76,6 +76,10 @@ class Progress {
     records_ += records;
     if (enabled_ && (before >> 12) != (records_ >> 12)) draw(bytes_read, bytes_total);
   }
+  /// `records` read so far in all (the read path's progress sink).
+  void read_so_far(std::uint64_t records, std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
+    update_many(records - records_, bytes_read, bytes_total);
+  }
   /// Clears the line (also done by the destructor).
   void finish();
 

@@ -38,30 +38,6 @@ struct ConvertOptions {
   int zstd_level = 1;                 // MCAP chunks in zstd
 };
 
-/// Reads through another reader and draws the progress line (copy_frames() does the reading, in batches).
-class ProgressReader final : public saul::host::CaptureReader {
- public:
-  ProgressReader(saul::host::CaptureReader& inner, Progress& progress) : inner_(inner), progress_(progress) {}
-  Status next() override {
-    const Status st = inner_.next();
-    if (st != Status::end) progress_.update(inner_.bytes_read(), inner_.bytes_total());
-    return st;
-  }
-  bool next_batch(saul::host::FrameBatch& batch) override {
-    if (!inner_.next_batch(batch)) return false;
-    progress_.update_many(batch.frames.size() + batch.corrupt.size(), inner_.bytes_read(), inner_.bytes_total());
-    return true;
-  }
-  [[nodiscard]] const saul::CanFrame& frame() const override { return inner_.frame(); }
-  [[nodiscard]] std::string_view interface() const override { return inner_.interface(); }
-  [[nodiscard]] const saul::host::CaptureError& error() const override { return inner_.error(); }
-  [[nodiscard]] saul::host::CaptureFormat format() const override { return inner_.format(); }
-
- private:
-  saul::host::CaptureReader& inner_;
-  Progress& progress_;
-};
-
 /// The MCAP writer's options from the command line.
 saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   saul::host::McapWriterOptions mcap;
@@ -168,13 +144,16 @@ int run_convert(const ConvertOptions& opt) {
     return kFailure;
   }
   Progress progress("convert", false);
-  ProgressReader shown(*reader, progress);
+  const auto total = reader->bytes_total();
   CopyStats stats;
   try {
-    stats = copy_frames(shown, *writer, [&opt, &progress](const CaptureError& error) {
-      progress.finish();  // the message gets its own line
-      say("{}", format_capture_error(opt.in, error));
-    });
+    stats = copy_frames(
+        reader, *writer,
+        [&opt, &progress](const CaptureError& error) {
+          progress.finish();  // the message gets its own line
+          say("{}", format_capture_error(opt.in, error));
+        },
+        [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); });
     writer->close();
   } catch (const std::invalid_argument& e) {  // a frame the output format cannot hold (more interfaces than it numbers)
     progress.finish();

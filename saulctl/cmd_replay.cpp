@@ -265,7 +265,7 @@ int run_replay(const ReplayCliOptions& opt) {
                                                     "(select CAN ids with --id)");
 
   auto open_pass = [&opt]() { return open_capture_reader(opt.file, input_format(opt.serial.input_format)); };
-  ReplayPreview preview = preview_replay(*opened.frames, options);
+  ReplayPreview preview = preview_replay(opened.frames, options);
   opened.frames.reset();
   // The rule, the same as for serial captures: motion frames are left out unless --allow-motion, and the
   // user is told how many before anything is sent (no question: a replay in a script behaves as on a terminal).

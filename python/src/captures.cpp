@@ -201,23 +201,26 @@ class CaptureBatches {
   // sink(message, table key, timestamp, source) for each message.
   template <class Sink>
   void read(Sink&& sink, Counts& counts) {
-    if (frames_) {
+    if (frames_) {  // the reader's batches (next_batch), each taken up to where the Python batch is full
       while (counts.messages < batch_size_ && counts.records + counts.corrupt < 4 * batch_size_) {
-        const auto status = frames_->next();
-        if (status == CaptureReader::Status::end) break;
-        if (status == CaptureReader::Status::corrupt) {
-          corrupt(counts, frames_->error());
+        if (frame_ == batch_.frames.size() && corrupt_ == batch_.corrupt.size()) {
+          frame_ = corrupt_ = 0;
+          if (!frames_->next_batch(batch_)) break;
+        }
+        if (corrupt_ < batch_.corrupt.size() && batch_.corrupt[corrupt_].before == frame_) {
+          corrupt(counts, batch_.corrupt[corrupt_++].error);
           continue;
         }
         ++counts.records;
-        const saul::CanFrame& f = frames_->frame();
+        const saul::CanFrame& f = batch_.frames[frame_];
         const auto r = saul::decode_bus_frame(f);
         if (!r) {
           ++counts.rejected[saul::to_string(r.reason())];
-          continue;
+        } else {
+          ++counts.messages;
+          sink(saul::BusMessage(r.value()), r.value().index(), f.timestamp_ns, source_index(batch_.interfaces[frame_]));
         }
-        ++counts.messages;
-        sink(saul::BusMessage(r.value()), r.value().index(), f.timestamp_ns, source_index(frames_->interface()));
+        ++frame_;
       }
       return;
     }
@@ -251,6 +254,8 @@ class CaptureBatches {
   std::size_t batch_size_;
   saul::host::CaptureFormat format_ = saul::host::CaptureFormat::candump;
   std::unique_ptr<CaptureReader> frames_;
+  saul::host::FrameBatch batch_;
+  std::size_t frame_ = 0, corrupt_ = 0;  // what read() took of batch_
   std::unique_ptr<SerialCaptureReader> chunks_;
   std::optional<saul::host::SerialCaptureDecoder> serial_;
   bool finished_ = false;

@@ -272,7 +272,7 @@ TEST_CASE("a candump log through a pipe path is read once: take_capture_text giv
   {
     auto w = open_capture_writer(gz, CaptureFormat::candump);  // the same lines, gzipped
     auto r = open_capture_reader(log);
-    copy_frames(*r, *w, {});
+    copy_frames(r, *w, {});
     w->close();
   }
   for (const auto& path : {log, gz}) {
@@ -302,7 +302,7 @@ TEST_CASE("a candump log through a pipe path is read once: take_capture_text giv
     {
       auto w = open_capture_writer(pcap);
       auto r = open_capture_reader(log);
-      copy_frames(*r, *w, {});
+      copy_frames(r, *w, {});
       w->close();
     }
     OpenedCapture opened = open_capture(pcap);
@@ -336,19 +336,19 @@ TEST_CASE("a log of more interfaces than a format numbers is refused by its writ
   std::string text;
   for (int i = 0; i < 1100; ++i) text += fmt::format("(1700000000.{:06}) if{} 300#00\n", i, i);
   std::istringstream in(text);
-  CandumpReader reader(in);
+  std::unique_ptr<CaptureReader> reader = std::make_unique<CandumpReader>(in);
   std::ostringstream out;
   AscWriter asc(out);
   CHECK_THROWS_WITH(copy_frames(reader, asc, {}), "ASC: more than 255 interfaces, the channels the format numbers");
 
   std::istringstream again(text);
-  CandumpReader reader2(again);
+  std::unique_ptr<CaptureReader> reader2 = std::make_unique<CandumpReader>(again);
   std::ostringstream csv;
   auto writer = make_capture_writer(csv, CaptureFormat::trc);  // TRC numbers buses too: 255
   CHECK_THROWS_AS(copy_frames(reader2, *writer, {}), std::invalid_argument);
 
   std::istringstream third(text);
-  CandumpReader reader3(third);
+  std::unique_ptr<CaptureReader> reader3 = std::make_unique<CandumpReader>(third);
   std::ostringstream log;
   CandumpWriter candump(log);
   const CopyStats stats = copy_frames(reader3, candump, {});

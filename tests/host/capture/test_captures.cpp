@@ -3,10 +3,12 @@
 // and lines written out by hand or by the reference tools is in test_captures_pcap.cpp (pcap, pcapng) and
 // test_captures_text.cpp (Vector ASC, candump), corrupt input included.
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -15,6 +17,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "test_captures.hpp"
+#include "../temp_file.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
@@ -151,10 +154,50 @@ TEST_CASE("open_capture_reader: the bundled sample, and files that do not open")
   std::filesystem::remove(dir, ignored);  // only once empty
 }
 
+TEST_CASE("read_in_order gives next()'s records in file order, read ahead or not, and stops when told") {
+  std::string text;  // 20 000 frames over a few batches, a corrupt line every 997
+  for (int i = 0; i < 20000; ++i) {
+    text += fmt::format("(1700000000.{:06}) can{} {:03X}#{:02X}\n", i, i % 3, i % 0x7FF, i % 256);
+    if (i % 997 == 5) text += "(1700000000.000000) can0 3G0#00\n";
+  }
+  const TempFile file(text);
+  std::vector<std::string> want;  // "can1 123" per frame, "!LINE" per corrupt record, from next()
+  auto one = open_capture_reader(file.path);
+  for (CaptureReader::Status st; (st = one->next()) != CaptureReader::Status::end;)
+    want.push_back(st == CaptureReader::Status::corrupt ? fmt::format("!{}", one->error().position)
+                                                        : fmt::format("{} {:X}", one->interface(), one->frame().id));
+  REQUIRE(want.size() == 20000 + 21);
+  for (const std::uint64_t from : {std::uint64_t{0}, std::uint64_t{1} << 40}) {  // read ahead on a thread, or not
+    INFO(from);
+    ReadOptions o;
+    o.parallel_from = from;
+    auto reader = open_capture_reader(file.path);
+    std::vector<std::string> got;
+    std::uint64_t progress = 0;
+    const ReadCounts counts = read_in_order(
+        reader, o,
+        [&](const FrameBatch& b) {
+          b.walk([&](std::size_t i) { got.push_back(fmt::format("{} {:X}", b.interfaces[i], b.frames[i].id)); },
+                 [&](const CaptureError& e) { got.push_back(fmt::format("!{}", e.position)); });
+          return true;
+        },
+        [&](std::uint64_t records, std::uint64_t) { progress = records; });
+    CHECK(got == want);
+    CHECK(counts.frames == 20000);
+    CHECK(counts.corrupt == 21);
+    CHECK(progress == 20021);
+    auto again = open_capture_reader(file.path);
+    int calls = 0;
+    const ReadCounts stopped = read_in_order(again, o, [&](const FrameBatch&) { return ++calls < 2; });
+    CHECK(calls == 2);  // the batch that said stop was the last one handed on
+    CHECK(stopped.frames < 20000);
+  }
+}
+
 TEST_CASE("copy_frames counts what it copies and conversion_losses says what a format drops") {
   std::istringstream in(
       "(1.000000) vcan0 123#11\n(2.000000) can1 20000080#0000000000000000\nbroken\n(x) can0 1#\n");
-  CandumpReader reader(in);
+  std::unique_ptr<CaptureReader> reader = std::make_unique<CandumpReader>(in);
   std::ostringstream out;
   AscWriter writer(out);
   std::vector<std::uint64_t> bad_lines;

@@ -193,7 +193,7 @@ TEST_CASE("copy_frames leaves out what the output format cannot hold and says so
   auto reader = make_capture_reader(in, CaptureFormat::candump);
   std::ostringstream csv;
   auto writer = make_capture_writer(csv, CaptureFormat::gvret_csv);
-  const CopyStats stats = copy_frames(*reader, *writer, {});
+  const CopyStats stats = copy_frames(reader, *writer, {});
   writer->close();
   CHECK(stats.frames == 7);
   CHECK(stats.left_out == 2);

@@ -221,7 +221,7 @@ TEST_CASE("a replay counts what it did not send, and the preview counts motion f
   ReplayOptions o;
   o.exclude.push_back(parse_id_filter("401"));
   auto reader = log.opener()();
-  const auto p = preview_replay(*reader, o);
+  const auto p = preview_replay(reader, o);
   CHECK(p.frames == 5);
   CHECK(p.to_send == 3);
   CHECK(p.motion == 2);

@@ -27,6 +27,7 @@
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/capture/trc.hpp"
 #include "../util.hpp"
+#include "read_path.hpp"
 
 namespace saul::host {
 namespace {
@@ -824,38 +825,72 @@ std::unique_ptr<CaptureWriter> open_capture_writer_made(
   return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression, make);
 }
 
-CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
-                      const std::function<void(const CaptureError&)>& on_corrupt) {
+namespace {
+
+/// read_in_order's work on the read path: every batch handed on at once, never in blocks.
+struct InOrderWork {
+  struct Worker {};
+  struct Piece {};
+  struct Stop {};  // thrown when `each` says stop: out of read_capture's loops and its reading thread, joined
+  const std::function<bool(const FrameBatch&)>& each;
+  ReadCounts counts;
+
+  Worker worker() { return {}; }
+  bool in_blocks(const CaptureBlocks*) { return false; }
+  void start(Worker&, Piece&, bool) {}
+  CandumpLineTaker* taker(Worker&) { return nullptr; }
+  void add(Worker&, Piece&, const FrameBatch& batch) {
+    counts.frames += batch.frames.size();
+    counts.corrupt += batch.corrupt.size();
+    if (!each(batch)) throw Stop{};
+  }
+  std::uint64_t finish(Worker&, Piece&) { return 0; }
+  void take(Piece&) {}
+};
+
+}  // namespace
+
+ReadCounts read_in_order(std::unique_ptr<CaptureReader>& reader, const ReadOptions& options,
+                         const std::function<bool(const FrameBatch&)>& each,
+                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress) {
+  InOrderWork work{each, {}};
+  try {
+    // no path: work in order is never cut into blocks
+    detail::read_capture({}, reader, false, options, work, {{}, progress});
+  } catch (const InOrderWork::Stop&) {
+  }
+  return work.counts;
+}
+
+CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
+                      const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress) {
   CopyStats stats;
   InterfaceIndex seen;
   const CaptureTraits traits = capture_traits(out.format());
-  // In batches: the candump, pcap and pcapng readers hand out thousands of frames a call, where next() cost three
-  // virtual calls a frame (convert to MCAP spent 4 % of its time there).
-  FrameBatch batch;
-  while (in.next_batch(batch)) {
-    std::size_t corrupt = 0;
-    auto corrupt_before = [&](std::size_t frame) {
-      for (; corrupt < batch.corrupt.size() && batch.corrupt[corrupt].before <= frame; ++corrupt) {
-        ++stats.corrupt;
-        if (on_corrupt) on_corrupt(batch.corrupt[corrupt].error);
-      }
-    };
-    for (std::size_t i = 0; i < batch.frames.size(); ++i) {
-      corrupt_before(i);
-      const std::string_view name = batch.interfaces[i];
-      const CanFrame& frame = batch.frames[i];
-      ++stats.frames;
-      if (frame.error) ++stats.error_frames;
-      if (frame.remote) ++stats.remote_frames;
-      if ((frame.error && !traits.error_frames) || (frame.remote && !traits.remote_frames)) {
-        ++stats.left_out;
-        continue;
-      }
-      if (!seen.find_or_add(name, CopyStats::kListed)) stats.more_interfaces = true;
-      out.write(frame, name);
-    }
-    corrupt_before(batch.frames.size());
-  }
+  const ReadCounts read = read_in_order(
+      in, {},
+      [&](const FrameBatch& batch) {
+        batch.walk(
+            [&](std::size_t i) {
+              const CanFrame& frame = batch.frames[i];
+              if (frame.error) ++stats.error_frames;
+              if (frame.remote) ++stats.remote_frames;
+              if ((frame.error && !traits.error_frames) || (frame.remote && !traits.remote_frames)) {
+                ++stats.left_out;
+                return;
+              }
+              if (!seen.find_or_add(batch.interfaces[i], CopyStats::kListed)) stats.more_interfaces = true;
+              out.write(frame, batch.interfaces[i]);
+            },
+            [&](const CaptureError& e) {
+              if (on_corrupt) on_corrupt(e);
+            });
+        return true;
+      },
+      progress);
+  stats.frames = read.frames;
+  stats.corrupt = read.corrupt;
   stats.interfaces = seen.names();
   return stats;
 }

@@ -1,6 +1,7 @@
-// The one read path of a capture file's frames (private to the host library): decode (report/fast_decode.cpp) and
-// stats (report/bus_stats.cpp) hand it what they do with a batch of frames, and it reads the file the fastest way
-// the file and the work allow, with the same results whichever way:
+// The one read path of a capture file's frames (private to the host library): decode (report/fast_decode.cpp),
+// stats (report/bus_stats.cpp) and the work that takes frames in order (read_in_order: convert, plot, replay) hand
+// it what they do with a batch of frames, and it reads the file the fastest way the file and the work allow, with
+// the same results whichever way:
 //  - in blocks on ReadOptions::threads threads: an uncompressed candump, pcap or pcapng regular file of at least
 //    parallel_from bytes (CaptureBlocks), or a candump log that cannot be cut up front, compressed or from a pipe,
 //    cut as it is read (CaptureTextBlocks). Each block is worked into a piece of its own; the pieces are taken in
@@ -29,10 +30,6 @@ namespace saul::host::detail {
 struct ReadSinks {
   std::function<void(const CaptureError&)> corrupt;  ///< each corrupt record, in file order
   std::function<void(std::uint64_t records, std::uint64_t bytes)> progress;  ///< so far (frames + corrupt); may be empty
-};
-struct ReadCounts {
-  std::uint64_t frames = 0;  ///< frames read (those a line taker took included)
-  std::uint64_t corrupt = 0;
 };
 
 /// Reads `reader` (opened from `path`; `compressed`: gzip or zstd) through `work`, which has

@@ -186,68 +186,63 @@ ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_
     auto reader = open_pass();
     ++report.passes;
     if (pass > 0) pacer.next_pass();
-    for (;;) {
-      const auto status = reader->next();
-      if (status == CaptureReader::Status::end) break;
-      if (status == CaptureReader::Status::corrupt) {
-        ++report.corrupt;
-        if (hooks.on_corrupt) hooks.on_corrupt(reader->error());
-        continue;
-      }
-      ++report.frames;
-      CanFrame out;
-      switch (plan_frame(reader->frame(), options, out)) {
-        case ReplayVerdict::filtered: ++report.filtered; continue;
-        case ReplayVerdict::motion_dropped: ++report.motion_dropped; continue;
-        case ReplayVerdict::error_frame: ++report.error_frames; continue;
-        case ReplayVerdict::send: break;
-      }
-      if (hooks.stop && hooks.stop()) {
-        report.stopped = true;
-        break;
-      }
-      if ((hooks.step && !hooks.step(out)) || !pacer.wait(reader->frame().timestamp_ns)) {
-        report.stopped = true;
-        break;
-      }
-      hooks.send(out);
-      ++report.sent;
-      pacer.sent();
-    }
+    read_in_order(reader, {}, [&](const FrameBatch& batch) {
+      batch.walk(
+          [&](std::size_t i) {
+            if (report.stopped) return;
+            ++report.frames;
+            CanFrame out;
+            switch (plan_frame(batch.frames[i], options, out)) {
+              case ReplayVerdict::filtered: ++report.filtered; return;
+              case ReplayVerdict::motion_dropped: ++report.motion_dropped; return;
+              case ReplayVerdict::error_frame: ++report.error_frames; return;
+              case ReplayVerdict::send: break;
+            }
+            report.stopped = (hooks.stop && hooks.stop()) || (hooks.step && !hooks.step(out)) ||
+                             !pacer.wait(batch.frames[i].timestamp_ns);
+            if (report.stopped) return;
+            hooks.send(out);
+            ++report.sent;
+            pacer.sent();
+          },
+          [&](const CaptureError& e) {
+            if (report.stopped) return;
+            ++report.corrupt;
+            if (hooks.on_corrupt) hooks.on_corrupt(e);
+          });
+      return !report.stopped;
+    });
   }
   report.elapsed_ns = pacer.elapsed_ns();
   report.lateness = pacer.lateness();
   return report;
 }
 
-ReplayPreview preview_replay(CaptureReader& reader, const ReplayOptions& options) {
+ReplayPreview preview_replay(std::unique_ptr<CaptureReader>& reader, const ReplayOptions& options) {
   ReplayOptions all = options;
   all.allow_motion = true;
   ReplayPreview p;
-  for (;;) {
-    const auto status = reader.next();
-    if (status == CaptureReader::Status::end) break;
-    if (status == CaptureReader::Status::corrupt) {
-      ++p.corrupt;
-      continue;
+  const ReadCounts read = read_in_order(reader, {}, [&](const FrameBatch& batch) {
+    for (const CanFrame& f : batch.frames) {
+      if (f.timestamp_ns) {
+        if (!p.first_ns) p.first_ns = f.timestamp_ns;
+        p.last_ns = f.timestamp_ns;
+      }
+      CanFrame out;
+      switch (plan_frame(f, all, out)) {
+        case ReplayVerdict::filtered: ++p.filtered; break;
+        case ReplayVerdict::error_frame: ++p.error_frames; break;
+        case ReplayVerdict::motion_dropped: break;  // cannot happen with motion allowed
+        case ReplayVerdict::send:
+          ++p.to_send;
+          if (can_move_motors(out)) ++p.motion;
+          break;
+      }
     }
-    ++p.frames;
-    const CanFrame& f = reader.frame();
-    if (f.timestamp_ns) {
-      if (!p.first_ns) p.first_ns = f.timestamp_ns;
-      p.last_ns = f.timestamp_ns;
-    }
-    CanFrame out;
-    switch (plan_frame(f, all, out)) {
-      case ReplayVerdict::filtered: ++p.filtered; break;
-      case ReplayVerdict::error_frame: ++p.error_frames; break;
-      case ReplayVerdict::motion_dropped: break;  // cannot happen with motion allowed
-      case ReplayVerdict::send:
-        ++p.to_send;
-        if (can_move_motors(out)) ++p.motion;
-        break;
-    }
-  }
+    return true;
+  });
+  p.frames = read.frames;
+  p.corrupt = read.corrupt;
   return p;
 }
 

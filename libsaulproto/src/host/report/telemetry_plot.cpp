@@ -49,12 +49,10 @@ PlotSource capture_plot_source(std::string path, SerialReadOptions options, std:
   return [path = std::move(path), options, fallback](const PlotSink& sink) {
     auto opened = open_capture(path, options);
     if (opened.frames) {
-      for (;;) {
-        const auto st = opened.frames->next();
-        if (st == CaptureReader::Status::end) break;
-        if (st == CaptureReader::Status::corrupt) continue;
-        emit_frame(opened.frames->frame(), sink);
-      }
+      read_in_order(opened.frames, {}, [&](const FrameBatch& batch) {
+        for (const CanFrame& f : batch.frames) emit_frame(f, sink);
+        return true;
+      });
       return;
     }
     SerialCaptureDecoder decoder(fallback);

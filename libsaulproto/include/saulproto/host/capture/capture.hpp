@@ -151,6 +151,15 @@ struct FrameBatch {
     corrupt.clear();
   }
   [[nodiscard]] bool empty() const noexcept { return frames.empty() && corrupt.empty(); }
+  /// Calls on_frame(i) for frames[i] and on_corrupt(error) for each corrupt record, in file order.
+  template <class OnFrame, class OnCorrupt>
+  void walk(OnFrame&& on_frame, OnCorrupt&& on_corrupt) const {
+    std::size_t c = 0;
+    for (std::size_t i = 0; i <= frames.size(); ++i) {
+      for (; c < corrupt.size() && corrupt[c].before <= i; ++c) on_corrupt(corrupt[c].error);
+      if (i < frames.size()) on_frame(i);
+    }
+  }
   /// Copies the interface names into `names` and points the views there: the batch then outlives its reader's
   /// next call (a batch read ahead on another thread).
   void own();
@@ -195,6 +204,21 @@ struct ReadOptions {
   std::uint64_t block = std::uint64_t{256} << 10;  ///< bytes per block
   bool live = false;  ///< one thread, each batch handed on as soon as it is read (a pipe from candump -L)
 };
+
+/// What the read path read: frames, and corrupt records skipped.
+struct ReadCounts {
+  std::uint64_t frames = 0;
+  std::uint64_t corrupt = 0;
+};
+
+/// The one read path (read_capture, as decode and stats read) for work that takes every frame in file order:
+/// convert, plot, replay. `each` gets the batches as next_batch() gives them (corrupt records in
+/// FrameBatch::corrupt; FrameBatch::walk) and returns false to stop reading. From options.parallel_from bytes on
+/// a second thread reads a few batches ahead. `progress` (may be empty) follows each batch with the records and
+/// file bytes read so far. Throws what reading or `each` throws.
+ReadCounts read_in_order(std::unique_ptr<CaptureReader>& reader, const ReadOptions& options,
+                         const std::function<bool(const FrameBatch&)>& each,
+                         const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {});
 
 /// A reader whose format reads in batches (candump, pcap): next() hands out the batches' records one at a time.
 class BatchCaptureReader : public CaptureReader {
@@ -350,11 +374,12 @@ struct CopyStats {
   static constexpr std::size_t kListed = 1024;
 };
 
-/// Copies every frame of `in` to `out` (out is not closed). Corrupt records are passed to on_corrupt (may be
-/// empty) and skipped; remote and error frames that out's format cannot hold are left out and counted. Cost
-/// O(frames); memory O(CopyStats::kListed) of its own.
-CopyStats copy_frames(CaptureReader& in, CaptureWriter& out,
-                      const std::function<void(const CaptureError&)>& on_corrupt);
+/// Copies every frame of `in` to `out` (out is not closed) through read_in_order. Corrupt records are passed to
+/// on_corrupt (may be empty) and skipped; remote and error frames that out's format cannot hold are left out and
+/// counted. `progress` as read_in_order's. Cost O(frames); memory O(CopyStats::kListed) of its own.
+CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
+                      const std::function<void(const CaptureError&)>& on_corrupt,
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {});
 
 /// Sentences saying what a copy into `format` lost (interface names, error-frame details, frames it cannot hold);
 /// empty when nothing.

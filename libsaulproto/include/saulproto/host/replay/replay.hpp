@@ -195,6 +195,6 @@ struct ReplayPreview {
   std::optional<std::uint64_t> first_ns;
   std::optional<std::uint64_t> last_ns;
 };
-ReplayPreview preview_replay(CaptureReader& reader, const ReplayOptions& options);
+ReplayPreview preview_replay(std::unique_ptr<CaptureReader>& reader, const ReplayOptions& options);
 
 }  // namespace saul::host
