@@ -122,6 +122,7 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (*format == CaptureFormat::mcap) {  // with the decoded signals' channels and what is known of the link
     McapWriterOptions mcap;
     mcap.library = "saulctl " SAULCTL_VERSION;
+    mcap.chunk_thread = false;  // the recorder reads the file's position between writes (mcap.hpp)
     McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()}};
     if (spec.kind == LinkSpec::Kind::slcan) metadata.emplace_back("bitrate", std::to_string(spec.bitrate));
     make = [mcap, metadata](std::ostream& out) {
@@ -199,6 +200,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (mcap) {  // the decoded messages on channels of their own, as convert writes a serial capture
     McapWriterOptions options;  // chunks closed at every flush below and every second: crash-safe
     options.library = "saulctl " SAULCTL_VERSION;
+    options.chunk_thread = false;  // the recorder reads the file's position between writes (mcap.hpp)
     const McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()},
                               {"protocol", std::string(to_string(chunk.protocol))}};
     make = [options, metadata](std::ostream& out) { return std::make_unique<McapSerialWriter>(out, options, metadata); };

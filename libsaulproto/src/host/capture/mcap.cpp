@@ -311,6 +311,11 @@ void McapWriter::close_chunk() {
   if (open_.records.empty()) return;
   // The CRC here, not on the chunk thread: compression keeps that one busier than this one (perf: ~54 / 46 %).
   open_.crc = crc_of(0, open_.records.data(), open_.records.size());
+  if (!options_.chunk_thread) {
+    write_chunk(open_);  // leaves open_ emptied, its memory kept
+    open_.index.resize(channel_counts_.size());
+    return;
+  }
   wait_for_chunk();
   if (!thread_.joinable()) thread_ = std::thread([this] { chunk_thread(); });
   {

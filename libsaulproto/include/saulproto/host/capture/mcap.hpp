@@ -78,6 +78,10 @@ struct McapWriterOptions {
   std::uint64_t chunk_bytes = std::uint64_t{1} << 20;  ///< a chunk is closed when its records reach this
   std::uint64_t chunk_ns = 1'000'000'000;              ///< ... or its messages span this much log time
   std::string library = "saulctl";                     ///< the Header's library field
+  /// Compress and write closed chunks on a thread of the writer's own (convert: a file read at disk speed). A live
+  /// recording sets it false: a 1 Mbit/s bus leaves the caller time to compress, and its recorder reads the file's
+  /// position (rotation, progress) between writes, which must not race a thread writing to the same stream.
+  bool chunk_thread = true;
 };
 
 /// Writes MCAP records to a stream (which need not seek: offsets are counted).
