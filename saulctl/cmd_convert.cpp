@@ -36,6 +36,9 @@ struct ConvertOptions {
   SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks
   int zstd_level = 1;                 // MCAP chunks in zstd
+  // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end; at 1 MiB that was ~25 MiB of a
+  // 10 GB log's memory (bench/README.md).
+  std::uint64_t chunk_bytes = std::uint64_t{4} << 20;
 };
 
 /// The MCAP writer's options from the command line.
@@ -46,9 +49,7 @@ saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   // Chunks by size only: a file is no live recording, and chunks closed every second of log time (a slow bus:
   // ~770 frames, 220 KB) made 4.5x as many chunk indexes for the summary to keep (~0.4 KB each): 130 MB on 10 GB.
   mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
-  // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end; at 1 MiB that was ~25 MiB of a
-  // 10 GB log's memory (bench/README.md).
-  mcap.chunk_bytes = std::uint64_t{4} << 20;
+  mcap.chunk_bytes = opt.chunk_bytes;
   mcap.library = "saulctl " SAULCTL_VERSION;
   return mcap;
 }
@@ -218,6 +219,15 @@ void add_convert_command(CLI::App& app, Runner& run) {
   cmd->add_option("--zstd-level", opt->zstd_level,
                   "MCAP: zstd's level, -7 (fastest, largest) to 19 (smallest, slowest); default 1")
       ->check(CLI::Range(-7, 19));
+  cmd->add_option_function<std::string>(
+      "--chunk-size",
+      [opt](const std::string& text) {
+        opt->chunk_bytes = parse_size_option("--chunk-size", text);
+        if (opt->chunk_bytes < 4096 || opt->chunk_bytes > (std::uint64_t{256} << 20))
+          throw CLI::ValidationError("--chunk-size", "a chunk holds 4K to 256M of records, not " + text);
+      },
+      "MCAP: close a chunk when its records reach this size (4K-256M, default 4M: smaller seeks finer, larger "
+      "keeps a smaller summary)");
   add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }

@@ -170,15 +170,18 @@ done
 check "the recording cut at every 4 KiB of $size bytes: saulctl and the streaming reader read the complete chunks" \
   test "$cut_fails" = 0
 
-# 5. Damaged files: reported with the byte offset, the rest read. convert closes chunks at 4 MiB of records: the
-# log 50 times over (5.4 MB of records) makes two.
-for _ in {1..50}; do cat "$root/captures/robot_bus.log"; done >"$out/15.log"
-"$saulctl" convert "$out/15.log" "$out/cut.mcap" --compression none 2>/dev/null
+# 5. Damaged files: reported with the byte offset, the rest read. With chunks closed at 1 MiB of records, the log
+# 15 times over (1.6 MB of records) makes two.
+for _ in {1..15}; do cat "$root/captures/robot_bus.log"; done >"$out/15.log"
+"$saulctl" convert "$out/15.log" "$out/cut.mcap" --compression none --chunk-size 1M 2>/dev/null
 node_check chunks "$out/cut.mcap" >"$out/chunks"
 first_chunk_end=$(head -1 "$out/chunks" | cut -d' ' -f1)
 first_chunk_frames=$(head -1 "$out/chunks" | cut -d' ' -f2)
 total=$(awk '{ n += $2 } END { print n }' "$out/chunks")
-check "convert of 5.4 MB of records: two chunks" test "$(wc -l <"$out/chunks")" = 2
+check "convert of 1.6 MB of records in 1 MiB chunks: two chunks" test "$(wc -l <"$out/chunks")" = 2
+"$saulctl" convert "$out/15.log" "$out/small.mcap" --chunk-size 1K 2>"$out/small.err"
+check "--chunk-size under 4K: a usage error (exit 2) naming the option" \
+  bash -c 'test "$0" = 2 && grep -q -- "--chunk-size" "$1"' "$?" "$out/small.err"
 head -c "$((first_chunk_end - 1000))" "$out/cut.mcap" >"$out/part.mcap"  # inside the first chunk
 check "a cut file: decode says where it ends" \
   bash -c '"$0" decode "$1" 2>&1 >/dev/null | grep -Eq "byte [0-9]+: a record \(opcode 0x06\) of [0-9]+ bytes is longer than the rest of the file \([0-9]+ bytes\): the file is cut short"' "$saulctl" "$out/part.mcap"
