@@ -11,6 +11,7 @@ direct step").
 Run: /usr/bin/python3 tests/tune/check_sim_agreement.py SAULCTL [--table]"""
 import atexit
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -27,6 +28,7 @@ OVERSHOOT_POINTS = 5.0
 SETTLING_SHARE = 0.15  # in at least SETTLING_AGREE of the 15 cases ...
 SETTLING_AGREE = 12
 SETTLING_WORST = 0.30  # ... and within this in all
+FINAL_SHARE = 0.02  # the direct step's final value against the held lean's closed form (measured: within 1.2 %)
 KIND, AMPLITUDE = os.environ.get("AGREE_KIND", "chirp"), os.environ.get("AGREE_AMPLITUDE", "1")
 
 
@@ -56,6 +58,14 @@ for label, gains in GAINS.items():
             print(f"FAIL {what}: estimate {chirp.get('step_reason')}, direct {step.get('step_direct_reason')}")
             hard_fails += 1
             continue
+        # The direct step against the closed form of the held lean (docs/tuning.md, "The steady error"): pitch /
+        # setpoint settles at Ki / (Ki - c), c = 1000 g (pi / 180) / 2.0 m/s permille/s per degree.
+        ki = float((gains or ["100", "500", "3"])[1])
+        closed = ki / (ki - 1000 * 9.80665 * math.pi / 180 / 2.0)
+        if abs(direct["final_value"] / closed - 1) > FINAL_SHARE:
+            print(f"FAIL {what}: direct final value {direct['final_value']} not within {100 * FINAL_SHARE:g} % of "
+                  f"Ki / (Ki - c) = {closed:.4f}")
+            hard_fails += 1
         d_os = est["overshoot_pct"] - direct["overshoot_pct"]
         es, ds = est["settling_time_s"], direct["settling_time_s"]
         d_set = None if es is None or ds is None else (es - ds) / ds
@@ -66,7 +76,8 @@ for label, gains in GAINS.items():
         rows.append((what, est, direct, d_os, d_set, ok))
         print(f"{'ok  ' if ok else 'FAIL'} {what}: overshoot {est['overshoot_pct']:.1f} % estimated "
               f"({est['windows_used']} windows) vs {direct['overshoot_pct']:.1f} % direct ({direct['steps']} steps), "
-              f"{d_os:+.1f} points; settling {es} s vs {ds} s"
+              f"{d_os:+.1f} points; settling {es} s vs {ds} s; final value {est['final_value']} vs {direct['final_value']} "
+              f"(closed form {closed:.3f})"
               + ("" if d_set is None else f", {100 * d_set:+.0f} %"))
 
 if "--table" in sys.argv:  # the table of docs/tuning.md

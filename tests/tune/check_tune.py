@@ -73,6 +73,10 @@ for zeta, fn in [(0.4, 4.0), (0.5, 3.0), (0.6, 2.5)]:
             d = j["step_direct"]
             check(f"{name}: measured at the setpoint's steps: 19 steps, overshoot {d and d['overshoot_pct']} within 3 "
                   f"points", d is not None and d["steps"] == 19 and abs(d["overshoot_pct"] - expected) <= 3.0, d)
+            exact_curve = traces.exact_step(zeta, fn)
+            diff = float(np.max(np.abs(np.array(d["response"]) - exact_curve))) if d and len(d.get("response", [])) == len(exact_curve) else math.inf
+            check(f"{name}: the measured response (JSON step_direct.response) within 0.03 of scipy's exact step (max diff "
+                  f"{diff:.3f})", d is not None and d["dt_s"] == s["dt_s"] and diff <= 0.03)
         # (c) the same method written again with numpy: the C++ step response and its figures agree.
         if kind != "steps":
             resp, used = traces.oracle_step(cols["setpoint_deg"], cols["pitch_deg"], 1000.0)

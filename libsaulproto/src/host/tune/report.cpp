@@ -141,6 +141,8 @@ json to_json(const Report& r) {
   if (r.direct_step) {
     json step = figures_json(r.direct_step->figures);
     step["steps"] = r.direct_step->steps;
+    step["dt_s"] = r.direct_step->dt_s;
+    step["response"] = r.direct_step->response;
     j["step_direct"] = step;
   } else {
     j["step_direct"] = nullptr;
