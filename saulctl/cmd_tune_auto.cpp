@@ -366,7 +366,7 @@ int run_tune_auto(const TuneAutoOptions& o) {
 
 void add_tune_auto_command(CLI::App& tune, Runner& run) {
   auto o = std::make_shared<TuneAutoOptions>();
-  auto* cmd = tune.add_subcommand("auto", "Propose balance gains from experiments on the simulated robot (never applied)");
+  auto* cmd = tune.add_subcommand("auto", "Propose balance gains from experiments on the simulated or the armed live robot (never applied)");
   cmd->add_flag("--sim", o->sim, "run the experiment on the simulated robot, in this process, on simulated time");
   cmd->add_option("--seed", o->seed, "noise seed of the experiment")->capture_default_str();
   cmd->add_option("--verify-seeds", o->verify_seeds, "verify on seeds 1..N, 60 s each")
