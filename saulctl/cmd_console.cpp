@@ -14,6 +14,7 @@
 #include "saulproto/core/console.hpp"
 #include "saulproto/host/link/serial_port.hpp"
 #include "saulproto/host/link/shared_link.hpp"
+#include "saulproto/host/robot/console_client.hpp"
 
 namespace saulctl {
 namespace {
@@ -28,43 +29,10 @@ struct ConsoleOptions {
   bool json = false;
 };
 
-struct Reply {
-  enum class End { ok, error, none } end = End::none;
-  std::vector<std::string> lines;  ///< everything before the final line
-  std::string final_line;
-};
+using Reply = saul::host::ConsoleReply;
 
-/// Reads reply lines until "ok" / "error: ..." or the deadline. Lines equal to the command (a board or terminal
-/// echoing what was typed) are left out.
 Reply read_reply(saul::host::SerialPort& port, const std::string& command, milliseconds timeout, std::string& pending) {
-  Reply r;
-  const auto deadline = steady_clock::now() + timeout;
-  std::array<std::uint8_t, 512> buf{};
-  while (!g_interrupted) {
-    std::size_t nl;
-    while ((nl = pending.find('\n')) != std::string::npos) {
-      std::string line = pending.substr(0, nl);
-      pending.erase(0, nl + 1);
-      while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-      if (line == command) continue;
-      if (line == "ok") {
-        r.end = Reply::End::ok;
-        r.final_line = line;
-        return r;
-      }
-      if (line.rfind("error:", 0) == 0) {
-        r.end = Reply::End::error;
-        r.final_line = line;
-        return r;
-      }
-      r.lines.push_back(line);
-    }
-    const auto now = steady_clock::now();
-    if (now >= deadline) break;
-    const std::size_t n = port.read(buf, ceil<milliseconds>(deadline - now));
-    pending.append(reinterpret_cast<const char*>(buf.data()), n);
-  }
-  return r;
+  return saul::host::read_console_reply(port, command, timeout, pending, [] { return g_interrupted.load(); });
 }
 
 template <class Report>

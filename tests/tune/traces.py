@@ -17,22 +17,23 @@ def setpoint(kind, n, fs, rng, amp=1.0):
     raise ValueError(kind)
 
 
-def closed_loop(zeta, fn):
+def closed_loop(zeta, fn, dc_gain=1.0):
+    """dc_gain: where pitch settles for a unit step (1: it follows; 0.8: a type-0 loop, 20 % short)."""
     wn = 2 * np.pi * fn
-    # x = [pitch, pitch rate]; pitch'' = wn^2 (sp - pitch) - 2 zeta wn pitch'
+    # x = [pitch, pitch rate]; pitch'' = wn^2 (dc_gain sp - pitch) - 2 zeta wn pitch'
     a = np.array([[0.0, 1.0], [-wn * wn, -2 * zeta * wn]])
-    b = np.array([[0.0], [wn * wn]])
+    b = np.array([[0.0], [dc_gain * wn * wn]])
     return sg.StateSpace(a, b, np.eye(2), np.zeros((2, 1)))
 
 
-def trace(zeta, fn, kind, seconds=60.0, fs=1000.0, noise_deg=0.02, seed=1, sine_hz=None, sine_dps=0.0):
+def trace(zeta, fn, kind, seconds=60.0, fs=1000.0, noise_deg=0.02, seed=1, sine_hz=None, sine_dps=0.0, dc_gain=1.0):
     """A dict of columns. sine_hz adds a sinusoid of sine_dps to the rate (an oscillation the loop does not
     explain: a gyro resonance, a limit cycle)."""
     rng = np.random.default_rng(seed)
     n = int(seconds * fs)
     t = np.arange(n) / fs
     sp = setpoint(kind, n, fs, rng)
-    _, y, _ = sg.lsim(closed_loop(zeta, fn), sp, t)
+    _, y, _ = sg.lsim(closed_loop(zeta, fn, dc_gain), sp, t)
     pitch = y[:, 0] + rng.normal(0, noise_deg, n)
     rate = y[:, 1] + rng.normal(0, 20 * noise_deg, n)
     if sine_hz:

@@ -16,6 +16,9 @@ struct Health {
   double overshoot_pct = 25;      ///< more: the loop rings
   double settling_s = 0.8;        ///< more: slow to recover from a push
   double steady_error_pct = 10;   ///< more: pitch does not reach the setpoint (I term too weak)
+  /// Pitch past the setpoint: the most pitch / setpoint at the end of the response. Past it, the I term needs more
+  /// than a third of the lean as error to follow the ramp a held lean asks of the output (1 - 1/1.5 = 1/3).
+  double lean_gain = 1.5;
   double saturation_pct = 5;      ///< more: the motors are often at their limit
   double period_p99_us = 1500;    ///< more: the loop runs late (at 1 kHz)
 };
