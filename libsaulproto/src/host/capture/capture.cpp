@@ -469,54 +469,64 @@ CaptureReader::Status BatchCaptureReader::next() {
   }
 }
 
-std::string_view to_string(CaptureFormat format) noexcept {
-  switch (format) {
-    case CaptureFormat::candump:
-      return "candump";
-    case CaptureFormat::pcap:
-      return "pcap";
-    case CaptureFormat::pcapng:
-      return "pcapng";
-    case CaptureFormat::asc:
-      return "asc";
-    case CaptureFormat::blf:
-      return "blf";
-    case CaptureFormat::trc:
-      return "trc";
-    case CaptureFormat::csv:
-      return "csv";
-    case CaptureFormat::gvret_csv:
-      return "gvret-csv";
-    case CaptureFormat::mcap:
-      return "mcap";
-    case CaptureFormat::serial:
-      return "serial";
-    case CaptureFormat::sigrok:
-      return "sigrok";
-    case CaptureFormat::sigrok_json:
-      return "sigrok-json";
-    case CaptureFormat::pulseview_csv:
-      return "pulseview-csv";
+namespace {
+
+/// What saulctl knows of each format: its names (the first is to_string()'s, the others --format takes too), the
+/// file extensions that name it, and what it keeps of a frame.
+struct FormatInfo {
+  CaptureFormat format;
+  std::string_view names;
+  std::string_view extensions;
+  CaptureTraits traits;  // resolution, interface names, channel order, error details, remote frames, error frames
+};
+constexpr FormatInfo kFormats[] = {
+    {CaptureFormat::candump, "candump log", "log candump", {1000, true, false, true, true, true}},
+    {CaptureFormat::pcap, "pcap", "pcap cap", {1000, false, false, true, true, true}},
+    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", {1, true, false, true, true, true}},
+    {CaptureFormat::asc, "asc", "asc", {1000, false, true, false, true, true}},
+    {CaptureFormat::blf, "blf", "blf", {1, false, true, false, true, true}},
+    {CaptureFormat::trc, "trc", "trc", {1000, false, true, false, true, true}},
+    {CaptureFormat::csv, "csv", "csv", {1000, false, false, true, true, true}},
+    {CaptureFormat::gvret_csv, "gvret-csv", "", {1000, false, true, false, false, false}},
+    {CaptureFormat::mcap, "mcap", "mcap", {1, true, false, true, true, true}},
+    {CaptureFormat::serial, "serial", "serial", {1000, true, false, false, false, false}},
+    {CaptureFormat::sigrok, "sigrok", "", {1, true, false, false, false, false}},
+    {CaptureFormat::sigrok_json, "sigrok-json", "", {1, true, false, false, false, false}},
+    {CaptureFormat::pulseview_csv, "pulseview-csv", "", {1, true, false, false, false, false}},
+};
+
+static_assert([] {
+  for (std::size_t i = 0; i < std::size(kFormats); ++i)
+    if (kFormats[i].format != static_cast<CaptureFormat>(i)) return false;  // info() indexes by the enum
+  return true;
+}());
+
+const FormatInfo& info(CaptureFormat format) noexcept { return kFormats[static_cast<std::size_t>(format)]; }
+
+/// Whether `word` is one of the space-separated words of `list`.
+bool listed(std::string_view list, std::string_view word) noexcept {
+  while (!list.empty()) {
+    const std::size_t space = std::min(list.find(' '), list.size());
+    if (list.substr(0, space) == word) return true;
+    list.remove_prefix(std::min(space + 1, list.size()));
   }
-  return "?";
+  return false;
+}
+
+}  // namespace
+
+std::string_view to_string(CaptureFormat format) noexcept {
+  const std::string_view names = info(format).names;
+  return names.substr(0, names.find(' '));
 }
 
 std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept {
-  if (name == "candump" || name == "log") return CaptureFormat::candump;
-  if (name == "pcap") return CaptureFormat::pcap;
-  if (name == "pcapng") return CaptureFormat::pcapng;
-  if (name == "asc") return CaptureFormat::asc;
-  if (name == "blf") return CaptureFormat::blf;
-  if (name == "trc") return CaptureFormat::trc;
-  if (name == "csv") return CaptureFormat::csv;
-  if (name == "gvret-csv") return CaptureFormat::gvret_csv;
-  if (name == "mcap") return CaptureFormat::mcap;
-  if (name == "serial") return CaptureFormat::serial;
-  if (name == "sigrok") return CaptureFormat::sigrok;
-  if (name == "sigrok-json") return CaptureFormat::sigrok_json;
-  if (name == "pulseview-csv") return CaptureFormat::pulseview_csv;
+  for (const FormatInfo& f : kFormats)
+    if (listed(f.names, name)) return f.format;
   return std::nullopt;
 }
+
+CaptureTraits capture_traits(CaptureFormat format) noexcept { return info(format).traits; }
 
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept {
   const std::size_t slash = path.find_last_of('/');
@@ -528,15 +538,8 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   if (e.size() > ext.size()) return std::nullopt;
   for (std::size_t i = 0; i < e.size(); ++i) ext[i] = detail::ascii_lower(e[i]);
   const std::string_view x(ext.data(), e.size());
-  if (x == "log" || x == "candump") return CaptureFormat::candump;
-  if (x == "pcap" || x == "cap") return CaptureFormat::pcap;
-  if (x == "pcapng" || x == "ntar") return CaptureFormat::pcapng;
-  if (x == "asc") return CaptureFormat::asc;
-  if (x == "blf") return CaptureFormat::blf;
-  if (x == "trc") return CaptureFormat::trc;
-  if (x == "csv") return CaptureFormat::csv;
-  if (x == "serial") return CaptureFormat::serial;
-  if (x == "mcap") return CaptureFormat::mcap;
+  for (const FormatInfo& f : kFormats)
+    if (listed(f.extensions, x)) return f.format;
   return std::nullopt;
 }
 
@@ -577,36 +580,6 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     if (starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
   }
   return std::nullopt;
-}
-
-CaptureTraits capture_traits(CaptureFormat format) noexcept {
-  switch (format) {
-    case CaptureFormat::candump:
-      return {1000, true, false, true, true, true};
-    case CaptureFormat::pcap:
-      return {1000, false, false, true, true, true};
-    case CaptureFormat::pcapng:
-      return {1, true, false, true, true, true};
-    case CaptureFormat::asc:
-      return {1000, false, true, false, true, true};
-    case CaptureFormat::blf:
-      return {1, false, true, false, true, true};
-    case CaptureFormat::trc:
-      return {1000, false, true, false, true, true};
-    case CaptureFormat::csv:
-      return {1000, false, false, true, true, true};
-    case CaptureFormat::gvret_csv:
-      return {1000, false, true, false, false, false};
-    case CaptureFormat::mcap:
-      return {1, true, false, true, true, true};
-    case CaptureFormat::serial:
-      return {1000, true, false, false, false, false};
-    case CaptureFormat::sigrok:
-    case CaptureFormat::sigrok_json:
-    case CaptureFormat::pulseview_csv:
-      return {1, true, false, false, false, false};
-  }
-  return {1000, false, false, false, false, false};
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
