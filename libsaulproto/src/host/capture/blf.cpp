@@ -258,7 +258,6 @@ BlfReader::Load BlfReader::load_container() {
   std::optional<Container> next = read_top_level();
   if (!next) return Load::none;
   Container& c = *next;
-  ++containers_;
   if (!c.error.empty()) {
     // The objects of this container are lost; one that began before it cannot be finished.
     buf_.clear();

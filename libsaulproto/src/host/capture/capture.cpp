@@ -710,11 +710,6 @@ class FileText final : public CaptureText {
 
 }  // namespace
 
-std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format) {
-  auto source = open_source(path, format);
-  return std::make_unique<FileText>(std::move(source), *format);
-}
-
 std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& reader) {
   auto* const file = dynamic_cast<FileReader*>(reader.get());  // only a reader these functions made owns its file
   if (file == nullptr || file->format() != CaptureFormat::candump) return nullptr;

@@ -54,12 +54,8 @@ class BlfReader final : public CaptureReader {
   [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
-  /// The measurement start of the file header as ns since 1970 (UTC); 0 when it has none.
-  [[nodiscard]] std::uint64_t start_ns() const { return start_ns_; }
   /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
   [[nodiscard]] std::uint64_t skipped_objects() const { return skipped_objects_; }
-  /// Log containers read so far.
-  [[nodiscard]] std::uint64_t containers() const { return containers_; }
 
   /// One inflated container: its bytes, or what is wrong with it; `offset` is where it starts in the file.
   struct Container {
@@ -93,7 +89,6 @@ class BlfReader final : public CaptureReader {
   std::string name_;
   CaptureError error_;
   std::uint64_t skipped_objects_ = 0;
-  std::uint64_t containers_ = 0;
 };
 
 class BlfWriter final : public StreamCaptureWriter {
