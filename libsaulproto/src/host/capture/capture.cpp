@@ -34,12 +34,6 @@ namespace {
 constexpr std::size_t kHeadBytes = 4096;
 
 
-bool starts_with_nocase(std::string_view s, std::string_view prefix) {
-  if (s.size() < prefix.size()) return false;
-  for (std::size_t i = 0; i < prefix.size(); ++i)
-    if (detail::ascii_lower(s[i]) != prefix[i]) return false;
-  return true;
-}
 
 /// Serves the bytes already read for format detection, then the rest of the file: detection never seeks, so
 /// pipes and process substitutions work.
@@ -79,7 +73,6 @@ struct FileSource {
   bool reported = false;              ///< the decompression error went out as a corrupt record
 
   /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with its size).
-  /// (The inflater's count: it reads `raw` on a thread of its own.)
   [[nodiscard]] std::uint64_t bytes_read() const { return inflater ? inflater->compressed_bytes() : replay->delivered(); }
   /// After the reader's end: a decompression error, once, as a corrupt record that stops the reading.
   bool take_error(CaptureError& error) {
@@ -314,7 +307,7 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   std::streambuf* content = &source->file;
   if (compression != Compression::none) {
     source->raw = std::make_unique<ReplayBuf>(source->file, std::move(head));
-    source->inflater = make_decompressing_buf(*source->raw, compression, /*read_ahead=*/true);
+    source->inflater = make_decompressing_buf(*source->raw, compression);
     content = source->inflater.get();
     head = read_head(*content);
     if (head.empty() && !source->inflater->error().empty())
@@ -567,8 +560,8 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return candump_or_serial(line);
-    if (starts_with_nocase(line, "date ") || starts_with_nocase(line, "base ") ||
-        starts_with_nocase(line, "begin triggerblock"))
+    if (detail::starts_with_nocase(line, "date ") || detail::starts_with_nocase(line, "base ") ||
+        detail::starts_with_nocase(line, "begin triggerblock"))
       return CaptureFormat::asc;
     if (line.starts_with("{\"traceEvents\"")) return CaptureFormat::sigrok_json;
     if (line.starts_with("Sample,Time,Decoder,") || line.starts_with("\"Sample\",\"Time\",\"Decoder\","))
@@ -577,7 +570,7 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     if (line.starts_with(";$FILEVERSION") || line.starts_with(";$STARTTIME") || looks_like_trc_message(line))
       return CaptureFormat::trc;
     if (line.starts_with("timestamp,arbitration_id,")) return CaptureFormat::csv;
-    if (starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
+    if (detail::starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
   }
   return std::nullopt;
 }
