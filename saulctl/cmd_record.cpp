@@ -98,6 +98,45 @@ void drain(ReadOne&& read_one) {
   }
 }
 
+/// Flushes the writer when the link is idle, and at least every 100 ms while data arrive.
+class FlushPace {
+ public:
+  template <class Writer>
+  void idle(Writer& writer) {
+    writer.flush();
+    last_ = steady_clock::now();
+  }
+  template <class Writer>
+  void wrote(Writer& writer) {
+    if (steady_clock::now() - last_ > milliseconds(100)) idle(writer);
+  }
+
+ private:
+  steady_clock::time_point last_ = steady_clock::now();
+};
+
+/// The receive loop of both kinds of link: take(wait) reads and writes what came within `wait` (false when nothing
+/// did) until Ctrl-C, --duration from `start` or --count (of what `taken` counts); after Ctrl-C what is on its way
+/// is drained. show() after each take.
+template <class Take, class Show>
+void receive_loop(const RecordOptions& opt, steady_clock::time_point start, Take&& take, const std::uint64_t& taken,
+                  Show&& show) {
+  const bool limited = !opt.duration.empty();
+  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
+  auto more = [&] { return opt.count == 0 || taken < opt.count; };
+  while (!g_interrupted && more()) {
+    auto wait = milliseconds(200);
+    if (limited) {
+      const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
+      if (left.count() <= 0) break;
+      wait = std::min(wait, left);
+    }
+    take(wait);
+    show();
+  }
+  if (g_interrupted) drain([&](milliseconds wait) { return more() && take(wait); });
+}
+
 int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   using namespace saul::host;
   std::optional<CaptureFormat> format;
@@ -109,8 +148,6 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (holds_serial_bytes(*format))
     throw CLI::ValidationError("--format", std::string(to_string(*format)) + " holds serial bytes; " + spec.text() +
                                                " is a CAN link: use candump, pcap, pcapng, asc, blf, trc or csv");
-  const bool limited = !opt.duration.empty();
-  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   const std::string iface =
       !opt.interface.empty() ? opt.interface : spec.kind == LinkSpec::Kind::socketcan ? spec.device : "can0";
 
@@ -140,36 +177,23 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
                to_string(link->timestamp_source()));
   Progress progress(!opt.quiet);
   std::uint64_t frames = 0;
-  auto last_flush = steady_clock::now();
+  FlushPace flushes;
   const auto start = steady_clock::now();
   auto take = [&](milliseconds wait) {
     const auto f = link->receive(wait);
     if (!f) {
-      writer.flush();  // the bus is idle: put everything on disk
-      last_flush = steady_clock::now();
+      flushes.idle(writer);  // the bus is idle: put everything on disk
       return false;
     }
     writer.write(*f, iface);
     ++frames;
-    if (steady_clock::now() - last_flush > milliseconds(100)) {
-      writer.flush();
-      last_flush = steady_clock::now();
-    }
+    flushes.wrote(writer);
     return true;
   };
   int status = kOk;
   try {
-    while (!g_interrupted && (opt.count == 0 || frames < opt.count)) {
-      auto wait = milliseconds(200);
-      if (limited) {
-        const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
-        if (left.count() <= 0) break;
-        wait = std::min(wait, left);
-      }
-      take(wait);
-      progress.update(frames, "frames", writer.current_path(), writer.bytes_in_file());
-    }
-    if (g_interrupted) drain([&](milliseconds wait) { return (opt.count == 0 || frames < opt.count) && take(wait); });
+    receive_loop(opt, start, take, frames,
+                 [&] { progress.update(frames, "frames", writer.current_path(), writer.bytes_in_file()); });
   } catch (const LinkError& e) {
     status = report_link_error(e);
   }
@@ -189,8 +213,6 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
                                                          "(--format serial) or as MCAP (--format mcap, or -o x.mcap)");
   const bool mcap = opt.format == "mcap" ||
                     (opt.format.empty() && capture_format_from_extension(opt.output) == CaptureFormat::mcap);
-  const bool limited = !opt.duration.empty();
-  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   SerialChunk chunk;
   chunk.link = spec.text();
   chunk.protocol = opt.protocol.empty() ? protocol_for_baud(spec.serial.baud) : *serial_protocol_from_name(opt.protocol);
@@ -217,14 +239,13 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   Progress progress(!opt.quiet);
   std::uint64_t bytes = 0;
   std::uint64_t chunks = 0;
-  auto last_flush = steady_clock::now();
+  FlushPace flushes;
   const auto start = steady_clock::now();
   std::array<std::uint8_t, 4096> buf{};
   auto take = [&](milliseconds wait) {
     const std::size_t n = port->read(buf, wait);
     if (n == 0) {
-      writer.flush();
-      last_flush = steady_clock::now();
+      flushes.idle(writer);
       return false;
     }
     chunk.timestamp_ns = realtime_ns();
@@ -232,25 +253,13 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     writer.write(chunk);
     bytes += n;
     ++chunks;
-    if (steady_clock::now() - last_flush > milliseconds(100)) {
-      writer.flush();
-      last_flush = steady_clock::now();
-    }
+    flushes.wrote(writer);
     return true;
   };
   int status = kOk;
   try {
-    while (!g_interrupted && (opt.count == 0 || bytes < opt.count)) {
-      auto wait = milliseconds(200);
-      if (limited) {
-        const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
-        if (left.count() <= 0) break;
-        wait = std::min(wait, left);
-      }
-      take(wait);
-      progress.update(bytes, "bytes", writer.current_path(), writer.bytes_in_file());
-    }
-    if (g_interrupted) drain(take);
+    receive_loop(opt, start, take, bytes,
+                 [&] { progress.update(bytes, "bytes", writer.current_path(), writer.bytes_in_file()); });
   } catch (const std::exception& e) {
     status = report_link_error(e);
   }

@@ -63,7 +63,6 @@ class ViewCommands {
   [[nodiscard]] std::string status() const;
   [[nodiscard]] tui::Style status_style() const;
   [[nodiscard]] static const char* help() { return " e/space ESTOP   o mode off   q quit "; }
-  [[nodiscard]] int estops_sent() const { return estops_; }
   /// The summary's line about them ("ESTOP sent 1 time, acknowledged"), "" when nothing was sent.
   [[nodiscard]] std::string summary() const;
 

@@ -1,6 +1,6 @@
 // CAN capture readers (make_capture_reader over a std::istringstream), one binary per format: built with
 // -DSAUL_FUZZ_FORMAT=candump|pcap|pcapng|asc|blf|trc|csv|gvret_csv|mcap. Only CaptureOpenError (bad header) may be
-// thrown; next() never throws. BLF inflates its log containers (on a second thread), so a few input bytes may
+// thrown; next() never throws. BLF inflates its log containers, so a few input bytes may
 // stand for many records: its bound is per container, not per input byte.
 #include <sstream>
 #include <string>

@@ -1,10 +1,24 @@
 // Private helpers shared by several host sources (not installed, not part of the API).
 #pragma once
 
+#include <string_view>
+
 namespace saul::host::detail {
 
 /// ASCII lower case, whatever the C locale says (capture formats are ASCII).
 constexpr char ascii_lower(char c) noexcept { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; }
+
+/// Whether `s` starts with `prefix` (written in lower case) in any ASCII case.
+constexpr bool starts_with_nocase(std::string_view s, std::string_view prefix) noexcept {
+  if (s.size() < prefix.size()) return false;
+  for (std::size_t i = 0; i < prefix.size(); ++i)
+    if (ascii_lower(s[i]) != prefix[i]) return false;
+  return true;
+}
+/// Whether `s` ends with `suffix` (written in lower case) in any ASCII case.
+constexpr bool ends_with_nocase(std::string_view s, std::string_view suffix) noexcept {
+  return s.size() >= suffix.size() && starts_with_nocase(s.substr(s.size() - suffix.size()), suffix);
+}
 
 /// One visitor out of several lambdas, for std::visit over message variants.
 template <class... F>

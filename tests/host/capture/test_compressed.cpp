@@ -1,8 +1,7 @@
 // gzip and zstd under the capture readers: bytes written by the gzip and zstd command-line tools (below as hex)
 // decompress to their text; several gzip members read as one stream; truncation, corruption and trailing bytes
 // end the stream with an error; a zstd frame asking for a huge window is refused; what we compress, the tools'
-// formats say (magic numbers) and we read back. Every reading case runs twice: inflating on the reader's thread and
-// on a thread of its own ahead of the reader (read_ahead, what the capture readers use).
+// formats say (magic numbers) and we read back.
 #include <catch2/catch.hpp>
 
 #include <random>
@@ -27,11 +26,9 @@ struct Inflated {
   std::uint64_t compressed = 0;
 };
 
-bool g_read_ahead = false;  // set per test by GENERATE below
-
 Inflated inflate(const std::string& bytes, Compression c) {
   std::istringstream in(bytes);
-  auto buf = make_decompressing_buf(*in.rdbuf(), c, g_read_ahead);
+  auto buf = make_decompressing_buf(*in.rdbuf(), c);
   Inflated out;
   out.text.assign(std::istreambuf_iterator<char>(buf.get()), std::istreambuf_iterator<char>());
   out.error = buf->error();
@@ -64,7 +61,6 @@ TEST_CASE("compression told by magic numbers and by name") {
 }
 
 TEST_CASE("the tools' files decompress; gzip members follow each other") {
-  g_read_ahead = GENERATE(false, true);
   const Inflated z = inflate(kZstd, Compression::zstd);
   CHECK(z.text == kLine);
   CHECK(z.error.empty());
@@ -77,7 +73,6 @@ TEST_CASE("the tools' files decompress; gzip members follow each other") {
 }
 
 TEST_CASE("truncated, corrupt and trailing data end the stream with an error") {
-  g_read_ahead = GENERATE(false, true);
   CHECK(inflate(kGzipA.substr(0, kGzipA.size() - 3), Compression::gzip).error ==
         "the gzip file ends before its end marker (truncated?)");
   CHECK(inflate(kZstd.substr(0, kZstd.size() - 2), Compression::zstd).error ==
@@ -94,7 +89,6 @@ TEST_CASE("truncated, corrupt and trailing data end the stream with an error") {
 }
 
 TEST_CASE("what we compress is gzip and zstd, flushable, and reads back") {
-  g_read_ahead = GENERATE(false, true);
   for (Compression c : {Compression::gzip, Compression::zstd}) {
     std::ostringstream out;
     auto z = make_compressing_buf(*out.rdbuf(), c);
@@ -118,8 +112,8 @@ TEST_CASE("what we compress is gzip and zstd, flushable, and reads back") {
   }
 }
 
-TEST_CASE("reading ahead: many chunks, odd reads, progress, and a reader that stops early") {
-  // 3 MB of varied text (12 chunks of the read-ahead ring), compressed both ways
+TEST_CASE("many buffers, odd reads, progress, and a reader that stops early") {
+  // 3 MB of varied text, compressed both ways
   std::mt19937 rng(7);
   std::string big;
   while (big.size() < 3'000'000) big += "(" + std::to_string(rng()) + ") can0 " + std::to_string(rng() % 4096) + "#\n";
@@ -132,7 +126,7 @@ TEST_CASE("reading ahead: many chunks, odd reads, progress, and a reader that st
     z->finish();
     const std::string packed = out.str();
     std::istringstream in(packed);
-    auto buf = make_decompressing_buf(*in.rdbuf(), c, true);
+    auto buf = make_decompressing_buf(*in.rdbuf(), c);
     std::string got;
     std::uint64_t last_progress = 0;
     bool monotonic = true;
@@ -148,9 +142,9 @@ TEST_CASE("reading ahead: many chunks, odd reads, progress, and a reader that st
     CHECK(buf->error().empty());
     CHECK(monotonic);
     CHECK(buf->compressed_bytes() == packed.size());
-    // a reader that stops after a few bytes: destroying the buffer ends its thread (no hang, no leak under ASan)
+    // a reader that stops after a few bytes (no leak under ASan)
     std::istringstream again(packed);
-    auto early = make_decompressing_buf(*again.rdbuf(), c, true);
+    auto early = make_decompressing_buf(*again.rdbuf(), c);
     char first[16];
     CHECK(early->sgetn(first, 16) == 16);
     CHECK(std::string(first, 16) == big.substr(0, 16));

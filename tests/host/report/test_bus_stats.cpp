@@ -812,9 +812,9 @@ TEST_CASE("stats' line tables on random lines near their edges equal one thread'
   }
 }
 
-// stats counts a line that repeats its id's last data by its time alone (BusStats::add_known_again) and adds its count
-// and bits later: times that go back, below the first of the block and of the file, and repeats across every block
-// edge must give what one pass over the parsed frames gives, and the first and last times written out by hand.
+// stats counts a line that repeats its id's last data from its head's last content (no table lookup): times that go
+// back, below the first of the block and of the file, and repeats across every block edge must give what one pass
+// over the parsed frames gives, and the first and last times written out by hand.
 TEST_CASE("stats of repeated lines whose times go back equal one pass over the parsed frames") {
   std::mt19937_64 rng(4242);
   std::string log;

@@ -7,7 +7,6 @@
 #include <array>
 #include <cstring>
 #include <stdexcept>
-#include <system_error>
 
 #include "capture_io.hpp"
 #include "civil_time.hpp"
@@ -115,17 +114,11 @@ BlfReader::Container inflate_container(std::uint64_t offset, std::vector<std::ui
   return c;
 }
 
-std::future<BlfReader::Container> ready(BlfReader::Container c) {
-  std::promise<BlfReader::Container> p;
-  p.set_value(std::move(c));
-  return p.get_future();
-}
-
 }  // namespace
 
 // ---- reader ----
 
-BlfReader::BlfReader(std::istream& in, BlfReadOptions options) : in_(in), options_(options) {
+BlfReader::BlfReader(std::istream& in) : in_(in) {
   std::array<std::uint8_t, kFileHeaderFields> h{};
   const std::size_t got = detail::read_counted(in_, h.data(), h.size(), offset_);
   if (got < 8 || !signature_at(h.data(), kFileSignature))
@@ -183,9 +176,9 @@ std::uint64_t BlfReader::resync_top() {
   }
 }
 
-/// The next top-level object: a log container being inflated, another object's bytes, or a problem (a Container
-/// with an error, in file order). nullopt at the end of the file.
-std::optional<std::future<BlfReader::Container>> BlfReader::read_top_level() {
+/// The next top-level object: a log container inflated, another object's bytes, or a problem (a Container with an
+/// error, in file order). nullopt at the end of the file.
+std::optional<BlfReader::Container> BlfReader::read_top_level() {
   if (top_ended_) return std::nullopt;
   const std::uint64_t start = offset_ - look_.size();
   std::array<std::uint8_t, kBaseHeader> h{};
@@ -200,7 +193,7 @@ std::optional<std::future<BlfReader::Container>> BlfReader::read_top_level() {
   if (got < h.size()) {
     top_ended_ = true;
     bad.error = fmt::format("file ends inside an object header ({} of 16 bytes)", got);
-    return ready(std::move(bad));
+    return bad;
   }
   const std::uint32_t header_size = load_u16(h.data() + 4, false);
   const std::uint32_t size = load_u32(h.data() + 8, false);
@@ -219,14 +212,14 @@ std::optional<std::future<BlfReader::Container>> BlfReader::read_top_level() {
     look_.insert(look_.begin(), h.begin() + 1, h.end());
     const std::uint64_t skipped = 1 + resync_top();
     bad.error = fmt::format("{}: {} bytes skipped to the next object", problem, skipped);
-    return ready(std::move(bad));
+    return bad;
   }
   std::vector<std::uint8_t> body(size - kBaseHeader);
   const std::size_t have = read_top(body.data(), body.size());
   if (have < body.size()) {
     top_ended_ = true;
     bad.error = fmt::format("file ends inside an object ({} of {} bytes)", have + kBaseHeader, size);
-    return ready(std::move(bad));
+    return bad;
   }
   std::array<std::uint8_t, 3> padding{};
   read_top(padding.data(), size % 4);  // the end of the file may come instead
@@ -236,7 +229,7 @@ std::optional<std::future<BlfReader::Container>> BlfReader::read_top_level() {
     c.bytes.assign(h.begin(), h.end());
     c.bytes.insert(c.bytes.end(), body.begin(), body.end());
     c.bytes.insert(c.bytes.end(), padding.begin(), padding.begin() + size % 4);
-    return ready(std::move(c));
+    return c;
   }
   const std::uint8_t* ch = body.data() + (header_size - kBaseHeader);
   const std::uint16_t method = load_u16(ch, false);
@@ -246,42 +239,25 @@ std::optional<std::future<BlfReader::Container>> BlfReader::read_top_level() {
     Container c;
     c.offset = start;
     c.bytes.assign(body.begin() + static_cast<std::ptrdiff_t>(data_at), body.end());
-    return ready(std::move(c));
+    return c;
   }
   if (method != kZlibDeflate) {
     bad.starts_fresh = false;
     bad.error = fmt::format("log container compressed with method {}, which is not zlib (2)", method);
-    return ready(std::move(bad));
+    return bad;
   }
   if (declared > kMaxContainerBytes) {
     bad.error = fmt::format("log container declares {} uncompressed bytes, more than this reader accepts", declared);
-    return ready(std::move(bad));
+    return bad;
   }
   body.erase(body.begin(), body.begin() + static_cast<std::ptrdiff_t>(data_at));
-  if (options_.parallel) {
-    try {
-      return std::async(std::launch::async, inflate_container, start, std::move(body), declared);
-    } catch (const std::system_error&) {  // no thread to be had: inflate when it is needed
-    }
-  }
-  return std::async(std::launch::deferred, inflate_container, start, std::move(body), declared);
-}
-
-void BlfReader::schedule() {
-  while (pending_.size() < (options_.parallel ? kPrefetch : 1)) {
-    auto next = read_top_level();
-    if (!next) return;
-    pending_.push_back(std::move(*next));
-  }
+  return inflate_container(start, std::move(body), declared);
 }
 
 BlfReader::Load BlfReader::load_container() {
-  schedule();
-  if (pending_.empty()) return Load::none;
-  Container c = pending_.front().get();
-  pending_.pop_front();
-  schedule();  // the next containers inflate while this one is parsed
-  ++containers_;
+  std::optional<Container> next = read_top_level();
+  if (!next) return Load::none;
+  Container& c = *next;
   if (!c.error.empty()) {
     // The objects of this container are lost; one that began before it cannot be finished.
     buf_.clear();

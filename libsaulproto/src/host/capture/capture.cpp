@@ -35,12 +35,6 @@ namespace {
 constexpr std::size_t kHeadBytes = 4096;
 
 
-bool starts_with_nocase(std::string_view s, std::string_view prefix) {
-  if (s.size() < prefix.size()) return false;
-  for (std::size_t i = 0; i < prefix.size(); ++i)
-    if (detail::ascii_lower(s[i]) != prefix[i]) return false;
-  return true;
-}
 
 /// Serves the bytes already read for format detection, then the rest of the file: detection never seeks, so
 /// pipes and process substitutions work.
@@ -80,7 +74,6 @@ struct FileSource {
   bool reported = false;              ///< the decompression error went out as a corrupt record
 
   /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with its size).
-  /// (The inflater's count: it reads `raw` on a thread of its own.)
   [[nodiscard]] std::uint64_t bytes_read() const { return inflater ? inflater->compressed_bytes() : replay->delivered(); }
   /// After the reader's end: a decompression error, once, as a corrupt record that stops the reading.
   bool take_error(CaptureError& error) {
@@ -315,7 +308,7 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   std::streambuf* content = &source->file;
   if (compression != Compression::none) {
     source->raw = std::make_unique<ReplayBuf>(source->file, std::move(head));
-    source->inflater = make_decompressing_buf(*source->raw, compression, /*read_ahead=*/true);
+    source->inflater = make_decompressing_buf(*source->raw, compression);
     content = source->inflater.get();
     head = read_head(*content);
     if (head.empty() && !source->inflater->error().empty())
@@ -470,54 +463,64 @@ CaptureReader::Status BatchCaptureReader::next() {
   }
 }
 
-std::string_view to_string(CaptureFormat format) noexcept {
-  switch (format) {
-    case CaptureFormat::candump:
-      return "candump";
-    case CaptureFormat::pcap:
-      return "pcap";
-    case CaptureFormat::pcapng:
-      return "pcapng";
-    case CaptureFormat::asc:
-      return "asc";
-    case CaptureFormat::blf:
-      return "blf";
-    case CaptureFormat::trc:
-      return "trc";
-    case CaptureFormat::csv:
-      return "csv";
-    case CaptureFormat::gvret_csv:
-      return "gvret-csv";
-    case CaptureFormat::mcap:
-      return "mcap";
-    case CaptureFormat::serial:
-      return "serial";
-    case CaptureFormat::sigrok:
-      return "sigrok";
-    case CaptureFormat::sigrok_json:
-      return "sigrok-json";
-    case CaptureFormat::pulseview_csv:
-      return "pulseview-csv";
+namespace {
+
+/// What saulctl knows of each format: its names (the first is to_string()'s, the others --format takes too), the
+/// file extensions that name it, and what it keeps of a frame.
+struct FormatInfo {
+  CaptureFormat format;
+  std::string_view names;
+  std::string_view extensions;
+  CaptureTraits traits;  // resolution, interface names, channel order, error details, remote frames, error frames
+};
+constexpr FormatInfo kFormats[] = {
+    {CaptureFormat::candump, "candump log", "log candump", {1000, true, false, true, true, true}},
+    {CaptureFormat::pcap, "pcap", "pcap cap", {1000, false, false, true, true, true}},
+    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", {1, true, false, true, true, true}},
+    {CaptureFormat::asc, "asc", "asc", {1000, false, true, false, true, true}},
+    {CaptureFormat::blf, "blf", "blf", {1, false, true, false, true, true}},
+    {CaptureFormat::trc, "trc", "trc", {1000, false, true, false, true, true}},
+    {CaptureFormat::csv, "csv", "csv", {1000, false, false, true, true, true}},
+    {CaptureFormat::gvret_csv, "gvret-csv", "", {1000, false, true, false, false, false}},
+    {CaptureFormat::mcap, "mcap", "mcap", {1, true, false, true, true, true}},
+    {CaptureFormat::serial, "serial", "serial", {1000, true, false, false, false, false}},
+    {CaptureFormat::sigrok, "sigrok", "", {1, true, false, false, false, false}},
+    {CaptureFormat::sigrok_json, "sigrok-json", "", {1, true, false, false, false, false}},
+    {CaptureFormat::pulseview_csv, "pulseview-csv", "", {1, true, false, false, false, false}},
+};
+
+static_assert([] {
+  for (std::size_t i = 0; i < std::size(kFormats); ++i)
+    if (kFormats[i].format != static_cast<CaptureFormat>(i)) return false;  // info() indexes by the enum
+  return true;
+}());
+
+const FormatInfo& info(CaptureFormat format) noexcept { return kFormats[static_cast<std::size_t>(format)]; }
+
+/// Whether `word` is one of the space-separated words of `list`.
+bool listed(std::string_view list, std::string_view word) noexcept {
+  while (!list.empty()) {
+    const std::size_t space = std::min(list.find(' '), list.size());
+    if (list.substr(0, space) == word) return true;
+    list.remove_prefix(std::min(space + 1, list.size()));
   }
-  return "?";
+  return false;
+}
+
+}  // namespace
+
+std::string_view to_string(CaptureFormat format) noexcept {
+  const std::string_view names = info(format).names;
+  return names.substr(0, names.find(' '));
 }
 
 std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept {
-  if (name == "candump" || name == "log") return CaptureFormat::candump;
-  if (name == "pcap") return CaptureFormat::pcap;
-  if (name == "pcapng") return CaptureFormat::pcapng;
-  if (name == "asc") return CaptureFormat::asc;
-  if (name == "blf") return CaptureFormat::blf;
-  if (name == "trc") return CaptureFormat::trc;
-  if (name == "csv") return CaptureFormat::csv;
-  if (name == "gvret-csv") return CaptureFormat::gvret_csv;
-  if (name == "mcap") return CaptureFormat::mcap;
-  if (name == "serial") return CaptureFormat::serial;
-  if (name == "sigrok") return CaptureFormat::sigrok;
-  if (name == "sigrok-json") return CaptureFormat::sigrok_json;
-  if (name == "pulseview-csv") return CaptureFormat::pulseview_csv;
+  for (const FormatInfo& f : kFormats)
+    if (listed(f.names, name)) return f.format;
   return std::nullopt;
 }
+
+CaptureTraits capture_traits(CaptureFormat format) noexcept { return info(format).traits; }
 
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept {
   const std::size_t slash = path.find_last_of('/');
@@ -529,15 +532,8 @@ std::optional<CaptureFormat> capture_format_from_extension(std::string_view path
   if (e.size() > ext.size()) return std::nullopt;
   for (std::size_t i = 0; i < e.size(); ++i) ext[i] = detail::ascii_lower(e[i]);
   const std::string_view x(ext.data(), e.size());
-  if (x == "log" || x == "candump") return CaptureFormat::candump;
-  if (x == "pcap" || x == "cap") return CaptureFormat::pcap;
-  if (x == "pcapng" || x == "ntar") return CaptureFormat::pcapng;
-  if (x == "asc") return CaptureFormat::asc;
-  if (x == "blf") return CaptureFormat::blf;
-  if (x == "trc") return CaptureFormat::trc;
-  if (x == "csv") return CaptureFormat::csv;
-  if (x == "serial") return CaptureFormat::serial;
-  if (x == "mcap") return CaptureFormat::mcap;
+  for (const FormatInfo& f : kFormats)
+    if (listed(f.extensions, x)) return f.format;
   return std::nullopt;
 }
 
@@ -565,8 +561,8 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return candump_or_serial(line);
-    if (starts_with_nocase(line, "date ") || starts_with_nocase(line, "base ") ||
-        starts_with_nocase(line, "begin triggerblock"))
+    if (detail::starts_with_nocase(line, "date ") || detail::starts_with_nocase(line, "base ") ||
+        detail::starts_with_nocase(line, "begin triggerblock"))
       return CaptureFormat::asc;
     if (line.starts_with("{\"traceEvents\"")) return CaptureFormat::sigrok_json;
     if (line.starts_with("Sample,Time,Decoder,") || line.starts_with("\"Sample\",\"Time\",\"Decoder\","))
@@ -575,39 +571,9 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     if (line.starts_with(";$FILEVERSION") || line.starts_with(";$STARTTIME") || looks_like_trc_message(line))
       return CaptureFormat::trc;
     if (line.starts_with("timestamp,arbitration_id,")) return CaptureFormat::csv;
-    if (starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
+    if (detail::starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
   }
   return std::nullopt;
-}
-
-CaptureTraits capture_traits(CaptureFormat format) noexcept {
-  switch (format) {
-    case CaptureFormat::candump:
-      return {1000, true, false, true, true, true};
-    case CaptureFormat::pcap:
-      return {1000, false, false, true, true, true};
-    case CaptureFormat::pcapng:
-      return {1, true, false, true, true, true};
-    case CaptureFormat::asc:
-      return {1000, false, true, false, true, true};
-    case CaptureFormat::blf:
-      return {1, false, true, false, true, true};
-    case CaptureFormat::trc:
-      return {1000, false, true, false, true, true};
-    case CaptureFormat::csv:
-      return {1000, false, false, true, true, true};
-    case CaptureFormat::gvret_csv:
-      return {1000, false, true, false, false, false};
-    case CaptureFormat::mcap:
-      return {1, true, false, true, true, true};
-    case CaptureFormat::serial:
-      return {1000, true, false, false, false, false};
-    case CaptureFormat::sigrok:
-    case CaptureFormat::sigrok_json:
-    case CaptureFormat::pulseview_csv:
-      return {1, true, false, false, false, false};
-  }
-  return {1000, false, false, false, false, false};
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
@@ -737,11 +703,6 @@ class FileText final : public CaptureText {
 };
 
 }  // namespace
-
-std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format) {
-  auto source = open_source(path, format);
-  return std::make_unique<FileText>(std::move(source), *format);
-}
 
 std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& reader) {
   auto* const file = dynamic_cast<FileReader*>(reader.get());  // only a reader these functions made owns its file

@@ -5,12 +5,7 @@
 #include <zstd.h>
 
 #include <array>
-#include <atomic>
 #include <cerrno>
-#include <condition_variable>
-#include <mutex>
-#include <system_error>
-#include <thread>
 #include <vector>
 #include <cstdio>
 #include <cstring>
@@ -24,13 +19,6 @@ namespace {
 
 constexpr std::size_t kBufferBytes = 64 * 1024;
 constexpr int kZstdWindowLogMax = 27;  // 128 MiB: zstd's own default limit for streaming decoders
-
-bool ends_with_nocase(std::string_view s, std::string_view suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (std::size_t i = 0; i < suffix.size(); ++i)
-    if (detail::ascii_lower(s[s.size() - suffix.size() + i]) != suffix[i]) return false;
-  return true;
-}
 
 /// Reads up to n bytes of a stream buffer; 0 at its end.
 std::size_t read_some(std::streambuf& source, char* dst, std::size_t n) {
@@ -177,106 +165,6 @@ class ZstdInflater final : public InflaterBase {
   bool output_pending_ = false;
 };
 
-// ---- reading ahead on a second core ----
-
-/// Runs another decompressing buffer on a thread of its own, up to kChunks chunks ahead of the reader, so that
-/// inflating and parsing a compressed capture use both cores. The reader sees the same bytes, the same
-/// compressed_bytes() (as of the chunks handed over so far) and, at the end, the same error().
-class ReadAheadBuf final : public DecompressingBuf {
- public:
-  explicit ReadAheadBuf(std::unique_ptr<DecompressingBuf> inner) : inner_(std::move(inner)) {
-    for (auto& c : chunks_) c.bytes.resize(kChunkBytes);
-    worker_ = std::thread([this] { fill(); });  // std::system_error when no thread is to be had: the caller's
-  }
-  ~ReadAheadBuf() override {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    changed_.notify_all();
-    worker_.join();
-  }
-  ReadAheadBuf(const ReadAheadBuf&) = delete;
-  ReadAheadBuf& operator=(const ReadAheadBuf&) = delete;
-
-  [[nodiscard]] std::uint64_t compressed_bytes() const override { return compressed_.load(std::memory_order_relaxed); }
-  [[nodiscard]] const std::string& error() const override {
-    std::lock_guard lock(mutex_);
-    return finished_ ? error_ : kNoError;  // error_ is written once, before finished_, and never again
-  }
-
- protected:
-  int_type underflow() override {
-    if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
-    std::unique_lock lock(mutex_);
-    if (holding_) {  // the chunk the get area showed is read: its slot is free again
-      holding_ = false;
-      chunks_[next_].size = 0;
-      next_ = (next_ + 1) % kChunks;
-      changed_.notify_all();
-    }
-    changed_.wait(lock, [&] { return chunks_[next_].size > 0 || finished_; });
-    Chunk& c = chunks_[next_];
-    if (c.size == 0) {
-      compressed_.store(final_compressed_, std::memory_order_relaxed);
-      return traits_type::eof();
-    }
-    holding_ = true;
-    compressed_.store(c.compressed_after, std::memory_order_relaxed);
-    setg(c.bytes.data(), c.bytes.data(), c.bytes.data() + c.size);
-    return traits_type::to_int_type(*gptr());
-  }
-
- private:
-  static constexpr std::size_t kChunks = 4;
-  static constexpr std::size_t kChunkBytes = 256 * 1024;
-  struct Chunk {
-    std::vector<char> bytes;
-    std::size_t size = 0;  ///< 0: free for the worker
-    std::uint64_t compressed_after = 0;
-  };
-  inline static const std::string kNoError;
-
-  void fill() {
-    std::size_t slot = 0;
-    for (;;) {
-      {
-        std::unique_lock lock(mutex_);
-        changed_.wait(lock, [&] { return stop_ || chunks_[slot].size == 0; });
-        if (stop_) return;
-      }
-      // The slot is the worker's alone until its size says otherwise.
-      Chunk& c = chunks_[slot];
-      const std::streamsize got = inner_->sgetn(c.bytes.data(), static_cast<std::streamsize>(kChunkBytes));
-      std::lock_guard lock(mutex_);
-      if (got <= 0) {
-        error_ = inner_->error();
-        final_compressed_ = inner_->compressed_bytes();  // the reader's once it reaches the end
-        finished_ = true;
-        changed_.notify_all();
-        return;
-      }
-      c.size = static_cast<std::size_t>(got);
-      c.compressed_after = inner_->compressed_bytes();
-      slot = (slot + 1) % kChunks;
-      changed_.notify_all();
-    }
-  }
-
-  std::unique_ptr<DecompressingBuf> inner_;
-  std::array<Chunk, kChunks> chunks_;
-  std::size_t next_ = 0;  ///< the reader's slot
-  bool holding_ = false;  ///< the get area shows chunks_[next_]
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  bool stop_ = false;
-  bool finished_ = false;
-  std::string error_;
-  std::uint64_t final_compressed_ = 0;
-  std::atomic<std::uint64_t> compressed_{0};  ///< as of the chunks handed to the reader
-  std::thread worker_;  // last: started once everything it uses exists
-};
-
 // ---- writing ----
 
 /// The put area collects what is written; a full area, a sync and finish() hand it to the compressor.
@@ -414,8 +302,8 @@ Compression detect_compression(std::span<const std::uint8_t> head) noexcept {
 }
 
 Compression compression_from_extension(std::string_view path) noexcept {
-  if (ends_with_nocase(path, ".gz")) return Compression::gzip;
-  if (ends_with_nocase(path, ".zst")) return Compression::zstd;
+  if (detail::ends_with_nocase(path, ".gz")) return Compression::gzip;
+  if (detail::ends_with_nocase(path, ".zst")) return Compression::zstd;
   return Compression::none;
 }
 
@@ -424,21 +312,13 @@ std::string_view strip_compression_extension(std::string_view path) noexcept {
   return path.substr(0, path.size() - file_suffix(c).size());
 }
 
-std::unique_ptr<DecompressingBuf> make_decompressing_buf(std::streambuf& source, Compression compression,
-                                                        bool read_ahead) {
-  std::unique_ptr<DecompressingBuf> inflater;
+std::unique_ptr<DecompressingBuf> make_decompressing_buf(std::streambuf& source, Compression compression) {
   switch (compression) {
-    case Compression::gzip: inflater = std::make_unique<GzipInflater>(source); break;
-    case Compression::zstd: inflater = std::make_unique<ZstdInflater>(source); break;
-    case Compression::none: throw std::invalid_argument("make_decompressing_buf: no compression");
+    case Compression::gzip: return std::make_unique<GzipInflater>(source);
+    case Compression::zstd: return std::make_unique<ZstdInflater>(source);
+    case Compression::none: break;
   }
-  if (!read_ahead) return inflater;
-  try {
-    return std::make_unique<ReadAheadBuf>(std::move(inflater));
-  } catch (const std::system_error&) {
-    // No thread to be had: the inflater is gone with the failed construction, so start again on this thread.
-    return make_decompressing_buf(source, compression, false);
-  }
+  throw std::invalid_argument("make_decompressing_buf: no compression");
 }
 
 std::unique_ptr<CompressingBuf> make_compressing_buf(std::streambuf& sink, Compression compression) {

@@ -165,20 +165,6 @@ class PcapCutter final : public detail::BlockCutter {
     while (const std::uint8_t* h = window_.at(pos_, 16)) {
       const std::uint32_t incl = detail::load_u32(h + 8, big_);
       if (incl > kMaxRecord) break;
-      // Eight records of this one's length in a row (a SocketCAN capture is all 16-byte packets) are stepped over
-      // at once, their lengths loaded side by side: one record at a time, each length waits for the one before.
-      // Only where no record among them would end the walk or start a block.
-      const std::uint64_t stride = 16 + std::uint64_t{incl};
-      if (incl <= kRunRecord && pos_ + 8 * stride < size_ && pos_ + 8 * stride - last_ < block_) {
-        if (const std::uint8_t* run = window_.at(pos_, 7 * stride + 16)) {
-          bool same = true;
-          for (std::uint64_t k = 1; k < 8; ++k) same &= detail::load_u32(run + k * stride + 8, big_) == incl;
-          if (same) {
-            pos_ += 8 * stride;
-            continue;
-          }
-        }
-      }
       const std::uint64_t next = pos_ + 16 + incl;
       if (next >= size_) break;
       pos_ = next;
@@ -190,7 +176,6 @@ class PcapCutter final : public detail::BlockCutter {
     return false;  // from the first implausible or cut record on, the rest is one block
   }
 
-  static constexpr std::uint32_t kRunRecord = 4096;  // longer records are stepped one at a time
   detail::HeaderWindow window_;
   std::uint64_t size_;
   std::uint64_t block_;

@@ -6,6 +6,8 @@
 #include <charconv>
 #include <cmath>
 
+#include "../util.hpp"
+
 namespace saul::host {
 namespace {
 
@@ -26,21 +28,11 @@ bool parse_u64(std::string_view s, std::uint64_t& v) {
   return !s.empty() && std::from_chars(s.data(), s.data() + s.size(), v).ptr == s.data() + s.size();
 }
 
-bool starts_with_nocase(std::string_view s, std::string_view prefix) {
-  if (s.size() < prefix.size()) return false;
-  for (std::size_t i = 0; i < prefix.size(); ++i) {
-    char c = s[i];
-    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
-    if (c != prefix[i]) return false;
-  }
-  return true;
-}
-
 /// "RX" or "TX" when the row or class says so, else "".
 std::string_view direction(const UartAnnotation& a) {
   for (std::string_view s : {std::string_view(a.row), std::string_view(a.ann_class)}) {
-    if (starts_with_nocase(s, "TX")) return "TX";
-    if (starts_with_nocase(s, "RX")) return "RX";
+    if (detail::starts_with_nocase(s, "tx")) return "TX";
+    if (detail::starts_with_nocase(s, "rx")) return "RX";
   }
   return "";
 }

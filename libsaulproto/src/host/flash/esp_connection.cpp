@@ -147,7 +147,6 @@ std::optional<esp::Response> EspConnection::await(esp::Op op, milliseconds timeo
     const std::size_t n = port_.read(rx_, left);
     rx_.resize(n);
     rx_pos_ = 0;
-    bytes_received_ += n;
   }
 }
 
@@ -157,7 +156,6 @@ void EspConnection::drain(milliseconds quiet) {
     while (rx_pos_ < rx_.size()) (void)take(rx_[rx_pos_++]);
     const std::size_t n = port_.read(buf, quiet);
     if (n == 0) break;
-    bytes_received_ += n;
     for (std::size_t i = 0; i < n; ++i) (void)take(buf[i]);
   }
   decoder_.reset();

@@ -220,21 +220,6 @@ BusStats::Content BusStats::content_of(const CanFrame& f, const FrameFacts& fact
   return c;
 }
 
-// What a timed frame of `worst` bits adds to its load's span and busiest window and to its id's cadence. Inline: every
-// timed frame stats counts goes through it (count(), add_known_again()).
-inline void BusStats::count_time(Load& load, IdStats& s, std::uint64_t ns, std::uint64_t worst,
-                                 std::uint64_t timeout_ns, bool again) {
-  if (!block_) {
-    add_timed(load, ns, worst);
-  } else if (load.by_runs) {
-    if (again && ns > *load.last_ns) *load.last_ns = ns;  // add_run() was there before: its last time is
-    add_run(load, ns, worst, !again);
-  } else {
-    load.timed.push_back({ns, worst});  // the windows are worked out by append(), in file order
-  }
-  s.cadence.add_at(ns, timeout_ns);
-}
-
 // Inline: the per-frame path of add() and add_known() (stats counts every line through one of them).
 inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, const Known& where) {
   Load& load = *where.load;
@@ -244,7 +229,14 @@ inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, cons
   load.bits_exact += c.bits_exact;
   IdStats& s = *where.id;
   if (timed) {
-    count_time(load, s, ns, c.bits_worst, c.timeout_ns, false);
+    if (!block_) {
+      add_timed(load, ns, c.bits_worst);
+    } else if (load.by_runs) {
+      add_run(load, ns, c.bits_worst);
+    } else {
+      load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
+    }
+    s.cadence.add_at(ns, c.timeout_ns);
   } else {
     ++s.cadence.count;
   }
@@ -288,30 +280,6 @@ void BusStats::add_known(const Content& c, std::string_view interface, std::uint
   ++frames_;
   note_time(ns);
   count(c, true, ns, known);
-}
-
-bool BusStats::add_known_again(std::uint64_t ns, std::uint16_t bits_worst, std::uint8_t dlc,
-                               std::uint64_t timeout_ns, const Known& known) {
-  if (known.owner != serial_) return false;
-  // add_known() counted a frame through `known` before, in this object: the first and last times are there
-  assert(first_ns_ && last_ns_);
-  if (ns < *first_ns_) *first_ns_ = ns;
-  if (ns > *last_ns_) *last_ns_ = ns;
-  IdStats& s = *known.id;
-  count_time(*known.load, s, ns, bits_worst, timeout_ns, true);
-  s.bits_worst = bits_worst;
-  s.dlc = dlc;
-  return true;
-}
-
-void BusStats::add_repeats(const Content& c, std::uint64_t n, const Known& known) {
-  assert(known.owner == serial_);
-  frames_ += n;
-  Load& load = *known.load;
-  load.frames += n;
-  load.bits_none += n * c.bits_none;
-  load.bits_worst += n * c.bits_worst;
-  load.bits_exact += n * c.bits_exact;
 }
 
 BusStats::Load& BusStats::load_of(std::string_view interface) {
@@ -392,13 +360,13 @@ void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) cons
   }
 }
 
-void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst, bool span) const {
+void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const {
   // add_timed()'s rule with the windows counted from FirstTimed::ns: which window the blocks before ended in is not
   // known here, so a run's window is the largest of its frames' so far in this block; append() takes the larger
   // of that and its own.
   // A frame before FirstTimed::ns counts in window 0 here: append() puts window 0 in the window the blocks before
   // ended in, as add_timed() does with a frame whose window is before the current one.
-  if (span && (!load.last_ns || ns > *load.last_ns)) load.last_ns = ns;
+  if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
   if (ns >= load.window_end_ns || load.runs.empty()) {
     const std::uint64_t index = ns >= first_->ns ? (ns - first_->ns) / options_.window_ns : 0;
     if (load.runs.empty() || index > load.runs.back().window) {
@@ -675,10 +643,8 @@ namespace {
 // with the head, looked up in a table of the contents seen, which keeps the frame's exact stuff bits and decode.
 // The data is first compared with the head's last data (most lines repeat it), and a head whose data seldom repeat
 // skips the contents' table for a while. So a line costs its time, a lookup or two and a few additions; a content
-// not seen before (a changed telemetry value) also costs its stuff bits and decode. A line that repeats its head's
-// last data (70 % of a robot bus) adds only what its time changes (BusStats::add_known_again); its count and bits
-// wait in the head until the data change, the slot goes to another head or the block ends (flush, finish). A line of
-// any other shape is refused and read the usual way.
+// not seen before (a changed telemetry value) also costs its stuff bits and decode. A line of any other shape is
+// refused and read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}
@@ -686,10 +652,6 @@ class LineMemo final : public CandumpLineTaker {
   void start(BusStats& stats) {
     stats_ = &stats;
     taken_ = 0;
-  }
-  /// The block's lines are all taken: what is still held for them goes to its stats.
-  void finish() {
-    for (Head& head : heads_) flush(head);
   }
   [[nodiscard]] std::uint64_t taken() const { return taken_; }
 
@@ -753,7 +715,6 @@ class LineMemo final : public CandumpLineTaker {
     std::uint16_t table_probes = 0;  // lookups in the contents' table since it was last judged
     std::uint16_t table_hits = 0;    // ... that found the content there
     std::uint16_t skip_table = 0;    // lines with new data still to be worked out without the table
-    std::uint64_t repeats = 0;  // lines of `last` taken by add_known_again() whose count and bits are still to add
   };
   static constexpr std::uint16_t kProbesJudged = 256, kSkipped = 4096;
 
@@ -785,16 +746,7 @@ class LineMemo final : public CandumpLineTaker {
     // the DLC with the text: "AA" and "AA" and two NULs (a corrupt line, to be refused) are the same text here
     const std::uint32_t tag = tag_of(head, dlc);
     auto same = [&](const Content& c) { return c.tag == tag && ((c.text[0] ^ text[0]) | (c.text[1] ^ text[1])) == 0; };
-    if (same(head.last)) {
-      // the id's last data again (most lines): its time is counted now, its count and bits when the data change or
-      // the block ends (flush); a content that did not decode is counted in full, its failure with it
-      if (head.last.reason == Reason::ok &&
-          stats_->add_known_again(ns, head.bits_worst[dlc], dlc, head.timeout_ns, head.known)) {
-        ++head.repeats;
-        return true;
-      }
-    } else {
-      flush(head);
+    if (!same(head.last)) {  // most lines repeat their id's last data: no table lookup then
       if (head.skip_table > 0) {
         // this id's data rarely repeat (a counter, a timestamp): the table would only be probed in vain and
         // filled with contents that push out those that do repeat
@@ -837,14 +789,6 @@ class LineMemo final : public CandumpLineTaker {
     c.timeout_ns = head.timeout_ns;
     return c;
   }
-  /// The count and bits of the head's repeated lines (add_known_again()) to its stats.
-  void flush(Head& head) {
-    if (head.repeats == 0) return;
-    const auto dlc = static_cast<std::uint8_t>(head.last.tag & 0xFF);  // tag_of()
-    stats_->add_repeats(content_of(head, head.last, dlc), head.repeats, head.known);
-    head.repeats = 0;
-  }
-
   /// A head not in the table, "IFACE ID" (`length` bytes, in `key`), from the whole line, which must be of the
   /// usual shape: every line with this head and hex data then reads as this id on this interface. (An interface
   /// with '#' in it gives a shorter head, but no line with it is taken: a space follows that '#', and the data
@@ -853,9 +797,7 @@ class LineMemo final : public CandumpLineTaker {
     CanFrame f;
     std::string_view interface;
     if (!parse_candump_usual(line, f, interface)) return false;
-    flush(head);  // the head that had the slot
     if (serial_ + 1 == kSerials) {  // so many heads learnt: both tables forget them all, so no serial has two heads
-      finish();
       std::fill(heads_.begin(), heads_.end(), Head{});  // `head` among them
       std::fill(contents_.begin(), contents_.end(), Content{});
       serial_ = 0;
@@ -967,11 +909,7 @@ struct StatsWork {
       if (also) also(f);
     }
   }
-  std::uint64_t finish(Worker& w, Piece& p) {
-    if (!p.block) return 0;
-    w.lines.finish();
-    return w.lines.taken();
-  }
+  std::uint64_t finish(Worker& w, Piece& p) { return p.block ? w.lines.taken() : 0; }
   void take(Piece& p) {
     if (p.block) stats.append(p.stats);
   }

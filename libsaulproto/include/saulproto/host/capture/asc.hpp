@@ -63,8 +63,6 @@ class AscReader final : public CaptureReader {
 
   /// True once a date or Begin Triggerblock line gave the wall clock of the measurement start.
   [[nodiscard]] bool wall_clock() const noexcept { return start_ns_.has_value(); }
-  /// 1-based number of the line last read.
-  [[nodiscard]] std::uint64_t line_number() const noexcept { return line_number_; }
 
  private:
   enum class Step { frame, corrupt, skipped };

@@ -18,8 +18,6 @@
 // corrupt, never a loop); a container may declare at most kMaxContainerBytes uncompressed and must inflate to
 // exactly that; an object longer than kMaxObjectBytes is corrupt. After a corrupt object or container the reader
 // looks for the next "LOBJ" and carries on. Memory stays below a few containers whatever the file.
-// Both cores: while next() parses one container, the next ones are inflated on another thread
-// (BlfReadOptions::parallel), at most kPrefetch containers ahead.
 //
 // Writing: a 144-byte header, then CAN_MESSAGE objects (header version 1, 1 ns timestamps relative to the first
 // frame's millisecond) and CAN_ERROR_EXT for error frames, in zlib containers of 128 KiB. Channels are numbered
@@ -28,8 +26,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
-#include <future>
 #include <istream>
 #include <optional>
 #include <ostream>
@@ -43,18 +39,13 @@
 
 namespace saul::host {
 
-struct BlfReadOptions {
-  bool parallel = true;  ///< inflate the next containers on another thread
-};
-
 class BlfReader final : public CaptureReader {
  public:
   static constexpr std::uint32_t kMaxContainerBytes = 16U << 20;  ///< uncompressed or compressed
   static constexpr std::uint32_t kMaxObjectBytes = 1U << 20;
-  static constexpr std::size_t kPrefetch = 2;
 
   /// Reads the file header; throws CaptureOpenError when the stream does not start with one.
-  explicit BlfReader(std::istream& in, BlfReadOptions options = {});
+  explicit BlfReader(std::istream& in);
   ~BlfReader() override;
 
   Status next() override;
@@ -63,12 +54,8 @@ class BlfReader final : public CaptureReader {
   [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
-  /// The measurement start of the file header as ns since 1970 (UTC); 0 when it has none.
-  [[nodiscard]] std::uint64_t start_ns() const { return start_ns_; }
   /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
   [[nodiscard]] std::uint64_t skipped_objects() const { return skipped_objects_; }
-  /// Log containers read so far.
-  [[nodiscard]] std::uint64_t containers() const { return containers_; }
 
   /// One inflated container: its bytes, or what is wrong with it; `offset` is where it starts in the file.
   struct Container {
@@ -85,18 +72,15 @@ class BlfReader final : public CaptureReader {
   Step object();
   Step can_object(std::uint32_t type, const std::uint8_t* body, std::uint32_t length, std::uint64_t time_ns);
   Load load_container();
-  void schedule();
-  std::optional<std::future<Container>> read_top_level();
+  std::optional<Container> read_top_level();
   std::size_t read_top(std::uint8_t* dst, std::size_t n);
   std::uint64_t resync_top();
 
   std::istream& in_;
-  BlfReadOptions options_;
   std::uint64_t offset_ = 0;           // bytes taken from the stream
   std::vector<std::uint8_t> look_;     // bytes taken but to be read again (a resync found "LOBJ")
   std::uint64_t start_ns_ = 0;
   bool top_ended_ = false;
-  std::deque<std::future<Container>> pending_;
   std::vector<std::uint8_t> buf_;  // the object stream: a tail of the previous container + the current one
   std::size_t pos_ = 0;
   std::uint64_t container_offset_ = 0;  // file offset of the container the bytes at pos_ came from
@@ -105,7 +89,6 @@ class BlfReader final : public CaptureReader {
   std::string name_;
   CaptureError error_;
   std::uint64_t skipped_objects_ = 0;
-  std::uint64_t containers_ = 0;
 };
 
 class BlfWriter final : public StreamCaptureWriter {

@@ -332,9 +332,6 @@ class CaptureText {
   /// Whether the file is gzip or zstd.
   [[nodiscard]] virtual bool compressed() const = 0;
 };
-/// Opens a file as open_capture_reader does (the same checks and errors, `format` forced when given), for its bytes.
-/// It opens the path again: for a file already opened (open_capture) that may be a pipe, take_capture_text().
-std::unique_ptr<CaptureText> open_capture_text(const std::string& path, std::optional<CaptureFormat> format = std::nullopt);
 /// The content of a candump capture that open_capture() or open_capture_reader() opened, as text from that same
 /// open file, for the read path, which cuts it into blocks (CaptureTextBlocks). A pipe or a process
 /// substitution can be read only once: opening its path again would find the bytes the first look took gone (and a

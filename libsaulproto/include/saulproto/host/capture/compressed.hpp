@@ -45,12 +45,9 @@ class DecompressingBuf : public std::streambuf {
   /// before its end marker (truncated?)".
   [[nodiscard]] virtual const std::string& error() const = 0;
 };
-/// Throws std::invalid_argument for Compression::none. With read_ahead, the decompressor runs on a thread of its own
-/// up to 1 MiB ahead of the reader (a compressed capture then uses both cores: one inflates, one parses); `source`
-/// must then outlive the buffer and be read by nobody else meanwhile. Without a thread to be had it falls back to
-/// decompressing on the reader's thread.
-std::unique_ptr<DecompressingBuf> make_decompressing_buf(std::streambuf& source, Compression compression,
-                                                        bool read_ahead = false);
+/// Throws std::invalid_argument for Compression::none. (A compressed candump log still uses both cores: the read
+/// path cuts the text into blocks as it inflates and parses them on a second thread, read_path.hpp.)
+std::unique_ptr<DecompressingBuf> make_decompressing_buf(std::streambuf& source, Compression compression);
 
 /// A stream buffer that compresses what is written to it onto `sink`. pubsync() pushes out everything written so
 /// far (a sync flush: the compressed file is readable up to there); finish() ends the stream, and must be called

@@ -131,7 +131,6 @@ class EspConnection {
 
   [[nodiscard]] const ChipInfo& chip() const { return chip_; }
   [[nodiscard]] std::uint64_t bytes_sent() const { return bytes_sent_; }
-  [[nodiscard]] std::uint64_t bytes_received() const { return bytes_received_; }
 
   /// How long a command that needs no more than a message's round trip may take.
   static constexpr std::chrono::milliseconds kCommandTimeout{3000};
@@ -168,7 +167,6 @@ class EspConnection {
   std::vector<std::uint8_t> frame_;  ///< the request's SLIP frame
   std::string noise_;                ///< last bytes seen outside frames (boot messages), for diagnosis
   std::uint32_t echoes_ = 0;         ///< our own requests read back (a loopback, not a chip)
-  std::uint64_t bytes_received_ = 0;
 };
 
 // ---------------------------------------------------------------------------------------------------------------

@@ -269,15 +269,6 @@ class BusStats {
   /// add(frame, interface, facts) of a data or remote frame at time `ns` whose content_of() is `content`, through
   /// `known`. Cost: a few additions, the lookups only when `known` is stale.
   void add_known(const Content& content, std::string_view interface, std::uint64_t ns, Known& known);
-  /// add_known() of a frame whose content (with `bits_worst` and `dlc`; `timeout_ns` its content_of()'s) is that of
-  /// the last frame counted through `known`, when `known` is good for this object: only what the frame's time
-  /// changes (first and last times, busiest window, its id's cadence) and its id's last bits and DLC. Its count and
-  /// bits follow, with those of the other frames like it, in add_repeats(). False, with nothing done, when `known` is
-  /// stale. Why: most lines of a bus repeat their id's last data, and these sums are the same for each of them.
-  bool add_known_again(std::uint64_t ns, std::uint16_t bits_worst, std::uint8_t dlc, std::uint64_t timeout_ns,
-                       const Known& known);
-  /// The count and bits of `n` frames of `content` that add_known_again() took through `known` (not yet stale).
-  void add_repeats(const Content& content, std::uint64_t n, const Known& known);
 
   /// A capture's report lists at most this many ids and interfaces, the first in file order (and 0x300 always):
   /// a bus has a few dozen ids on one or two interfaces, and a log whose id or interface column is noise (a wrong
@@ -318,12 +309,7 @@ class BusStats {
   /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   /// The same in a block, for the FirstTimed interface (Load::runs).
-  /// (`span`: also the load's last time; add_known_again() keeps it itself.)
-  void add_run(Load& load, std::uint64_t ns, std::uint64_t worst, bool span = true) const;
-  /// A timed frame's share of count(): the load's span and busiest window, the id's cadence; `again`: a frame counted
-  /// through the same lookups came before in this object, so the load's last time is there (add_known_again()).
-  void count_time(Load& load, IdStats& id, std::uint64_t ns, std::uint64_t worst, std::uint64_t timeout_ns,
-                  bool again);
+  void add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   /// Adds the runs of a later block's FirstTimed interface (windows from `first_ns`) to the load's busiest window.
   void append_runs(Load& load, const Load& later, std::uint64_t first_ns) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
