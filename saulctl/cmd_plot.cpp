@@ -145,7 +145,8 @@ void add_plot_command(CLI::App& app, Runner& run) {
   cmd->add_option("--id", opt->id,
                   "plot one message instead of the dashboard: a CAN id in hex (400 = 0x400) or a message name (telemetry_a, state)");
   cmd->add_option("--field", opt->fields,
-                  "with --id: numeric field(s), one panel each (pitch_x100,pid_out); default every field")
+                  "with --id: signal name(s) as decode --json keys them, one panel each (pitch,pid_out; pitch_raw for the "
+                  "wire integer; docs/cli.md); default every signal in its unit")
       ->delimiter(',');
   cmd->add_option("--max-markers", opt->max_markers,
                   "state/fault changes drawn and listed at most; the rest are counted (0: none)")
@@ -170,7 +171,7 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "         a table of the state and fault changes with their times\n"
       "  .svg .png .pdf   a static report drawn by gnuplot (gnuplot-nox)\n"
       "  .csv   the numbers: time_s and one column per series drawn (plus state, faults), empty cells where a\n"
-      "         message does not carry a column; with --id, time_s and the fields\n"
+      "         message does not carry a column; with --id, time_s and the signals\n"
       "\n"
       "Examples:\n"
       "  saulctl plot run.log                             # run.html: the dashboard after a tuning run\n"
@@ -178,10 +179,10 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "  saulctl plot captures/robot_bus.log --format html -o - > bus.html\n"
       "  saulctl plot run.pcapng -o run.csv               # the dashboard's numbers for a spreadsheet\n"
       "  saulctl plot run.log --max-markers 200 -o run.png   # a run with many state/fault changes\n"
-      "  saulctl plot captures/robot_bus.log --id 400 --field pitch_x100 -o pitch.svg\n"
-      "  saulctl plot run.log --id telemetry_a --field pitch_x100,pid_out,speed_mmps -o tuning.svg\n"
-      "  saulctl plot run.log --id 944 -o status.svg     # every field of VESC STATUS from controller 68\n"
-      "  saulctl plot captures/interboard_uart.serial --id state --field pitch_x100 -o state.csv\n"
+      "  saulctl plot captures/robot_bus.log --id 400 --field pitch -o pitch.svg   # in deg\n"
+      "  saulctl plot run.log --id telemetry_a --field pitch,pid_out,speed_mmps -o tuning.svg\n"
+      "  saulctl plot run.log --id 944 -o status.svg     # every signal of VESC STATUS from controller 68\n"
+      "  saulctl plot captures/interboard_uart.serial --id state --field pitch,pitch_raw -o state.csv\n"
       "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
   attach_runner(cmd, opt, run, [](const PlotOptions& o) {
     try {

@@ -222,8 +222,8 @@ for bad in ("xyz", "400:zz", "123456789"):
             code == 2 and bad.split(":")[-1] in err and "--help" in err, err)
 code, out, err = saulctl.run(["sniff", "--id", "zz", "--link", "slcan:/dev/saul-given"])
 c.check("sniff --id zz: usage error before any link is opened", code == 2 and "saul-given" not in err, err)
-code, out, err = saulctl.run(["plot", log, "--id", "400", "--field", "pitch_x100", "-o", "-", "--format", "csv"])
-c.check("plot --id 400 is 0x400 (its pitch field)", code == 0 and "pitch" in out.splitlines()[0], err)
+code, out, err = saulctl.run(["plot", log, "--id", "400", "--field", "pitch", "-o", "-", "--format", "csv"])
+c.check("plot --id 400 is 0x400 (its pitch signal)", code == 0 and out.splitlines()[0] == "time_s,pitch", err)
 
 # Durations: units everywhere, --for the same as --duration, a bad one a usage error before anything opens.
 for verb in (["sniff"], ["record", "--format", "candump", "-o", "/dev/null"], ["monitor"], ["drive", "--speed", "0", "--yes"]):

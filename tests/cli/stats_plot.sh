@@ -72,18 +72,18 @@ xml_ok() { python3 -c "import xml.etree.ElementTree as E, sys; E.parse(sys.argv[
 # texts FILE STRING: how many SVG text elements say exactly STRING
 texts() { grep -o ">[^<>]*</text>" "$1" | grep -cxF ">$2</text>"; }
 export -f xml_ok texts
-"$saulctl" plot "$log" --id 0x400 --field pitch_x100,pid_out -o "$out/p.svg" 2>"$out/plot.err"
+"$saulctl" plot "$log" --id 0x400 --field pitch,pid_out -o "$out/p.svg" 2>"$out/plot.err"
 check "plot -o .svg: an SVG drawn by gnuplot, one panel per field (30 points each)" \
   bash -c "test $? -eq 0 && xml_ok '$out/p.svg' && grep -q 'Produced by GNUPLOT' '$out/p.svg' && test \$(grep -c '(30 points)</text>' '$out/p.svg') -eq 2"
-check "plot says what it drew: 30 telemetry frames over 2.9 s" grep -q '30 points of 0x400 (pitch_x100, pid_out) over 2.900 s' "$out/plot.err"
-"$saulctl" plot "$log" --id telemetry_a --field pitch_x100 -o "$out/p.csv" 2>/dev/null
-# pitch = round(150 sin(3t)) once armed (t >= 0.5 s): at t = 1.0 s (telemetry at +0.9991 s) round(150 sin 3) = 21
-check "plot -o .csv: a header and the 30 points; pitch 21 at 1.0 s" \
-  bash -c "test \$(wc -l <'$out/p.csv') -eq 31 && head -n 1 '$out/p.csv' | grep -qx 'time_s,pitch_x100' && grep -qx '1.000000,21' '$out/p.csv'"
-"$saulctl" plot "$log" --id 0x400 --field pitch -o "$out/x.svg" 2>"$out/field.err"
-check "an unknown field exits 2 and lists the message's fields" \
-  bash -c "test $? -eq 2 && grep -q 'it has pitch_x100, pid_out, speed_mmps, state' '$out/field.err'"
-"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/x.png" 2>/dev/null
+check "plot says what it drew: 30 telemetry frames over 2.9 s" grep -q '30 points of 0x400 (pitch, pid_out) over 2.900 s' "$out/plot.err"
+"$saulctl" plot "$log" --id telemetry_a --field pitch,pitch_raw -o "$out/p.csv" 2>/dev/null
+# pitch_raw = round(150 sin(3t)) once armed (t >= 0.5 s): at t = 1.0 s (telemetry at +0.9991 s) round(150 sin 3) = 21
+check "plot -o .csv: a header and the 30 points; pitch 0.21 deg (pitch_raw 21) at 1.0 s" \
+  bash -c "test \$(wc -l <'$out/p.csv') -eq 31 && head -n 1 '$out/p.csv' | grep -qx 'time_s,pitch,pitch_raw' && grep -qx '1.000000,0.21,21' '$out/p.csv'"
+"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/x.svg" 2>"$out/field.err"
+check "a struct's field name (pitch_x100) is no signal name: exit 2, a line listing the message's signals" \
+  bash -c "test $? -eq 2 && grep -q \"has no signal 'pitch_x100'; its signals: pitch, pitch_raw, pid_out, speed_mmps, state\" '$out/field.err'"
+"$saulctl" plot "$log" --id 0x400 --field pitch -o "$out/x.png" 2>/dev/null
 # PNG: 8-byte signature, then IHDR with width and height (big-endian): 1600 x (110 + 300 per panel) = 1600 x 410.
 check "plot -o .png: a PNG of 1600 x 410 px for one panel" \
   bash -c "test $? -eq 0 && python3 -c \"import struct,sys; d=open('$out/x.png','rb').read(24); sys.exit(0 if d[:8]==b'\x89PNG\r\n\x1a\n' and struct.unpack('>II', d[16:24])==(1600,410) else 1)\""
@@ -92,8 +92,8 @@ check "plot -o .pdf: a PDF" bash -c "test $? -eq 0 && head -c 5 '$out/run.pdf' |
 PATH=/nonexistent "$saulctl" plot "$log" -o "$out/nognuplot.svg" 2>"$out/nognuplot.err"
 check "without gnuplot: exit 1 saying which package draws SVG, PNG and PDF" \
   bash -c "test $? -eq 1 && grep -q 'apt install gnuplot-nox' '$out/nognuplot.err'"
-"$saulctl" plot "$root/captures/interboard_uart.serial" --id state --field pitch_x100 -o "$out/s.csv" 2>/dev/null
-check "plot reads serial captures by message name" grep -qx '0.000000,-1234' "$out/s.csv"
+"$saulctl" plot "$root/captures/interboard_uart.serial" --id state --field pitch -o "$out/s.csv" 2>/dev/null
+check "plot reads serial captures by message name (pitch in deg)" grep -qx '0.000000,-12.34' "$out/s.csv"
 
 # --- plot: the dashboard, state/fault markers, HTML ---------------------------------------------------------
 # robot_bus.log (make_robot_bus.py) has every message the dashboard draws: 30 0x400 + 30 0x401 + 44 0x300 + 2 x 30
@@ -145,7 +145,7 @@ awk 'BEGIN { for (i = 0; i < 12; i++) printf "(%d.%06d) can0 400#0000000000000%d
 check "--max-markers 5: 5 of 12 changes drawn on each panel, the other 7 counted in the picture and on stderr" \
   bash -c "test $? -eq 0 && test \$(texts '$out/t.svg' OFF) -eq 9 && test \$(texts '$out/t.svg' BALANCE) -eq 6 && grep -q '12 state/fault changes: the first 5 are marked, 7 more are not' '$out/t.svg' && grep -q '12 state/fault changes, the first 5 marked' '$out/t.err'"
 
-"$saulctl" plot "$log" --id 0x400 --field pitch_x100 -o "$out/id.svg" 2>/dev/null
+"$saulctl" plot "$log" --id 0x400 --field pitch -o "$out/id.svg" 2>/dev/null
 check "--id plots keep the markers: OFF and BALANCE on the one panel" \
   bash -c "test \$(texts '$out/id.svg' OFF) -eq 1 && test \$(texts '$out/id.svg' BALANCE) -eq 1"
 "$saulctl" plot "$log" --format csv -o "$out/p.dat" 2>/dev/null
@@ -153,7 +153,7 @@ check "--format csv whatever the extension" bash -c "test $? -eq 0 && head -n 1 
 "$saulctl" plot "$log" -o "$out/p.txt" 2>"$out/ext.err"
 check "an unknown extension without --format is a usage error (exit 2)" \
   bash -c "test $? -eq 2 && grep -q 'html|svg|png|pdf|csv' '$out/ext.err'"
-"$saulctl" plot "$log" --field pitch_x100 -o "$out/x.svg" 2>"$out/f.err"
+"$saulctl" plot "$log" --field pitch -o "$out/x.svg" 2>"$out/f.err"
 check "--field without --id is a usage error (exit 2)" bash -c "test $? -eq 2 && grep -q 'needs --id' '$out/f.err'"
 "$saulctl" plot "$root/captures/pride_uart.serial" -o "$out/pride.svg" 2>"$out/pride.err"
 check "nothing the dashboard draws (a Pride capture): exit 1 and a hint to use --id" \

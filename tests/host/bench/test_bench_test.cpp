@@ -108,7 +108,7 @@ TEST_CASE("bench suites parse every step kind") {
       "stream velocity_cmd speed_mmps=200 every 50ms\n"
       "stop\n"
       "expect command_ack command=2 result=applied within 300ms\n"
-      "expect telemetry_a state=BALANCE |pitch_x100|<300 within 2s\n"
+      "expect telemetry_a state=BALANCE |pitch|<3 within 2s\n"
       "expect no velocity_cmd for 1s\n"
       "hold telemetry_a state=BALANCE for 3s\n"
       "console balance arm expect ok within 500ms\n"
@@ -141,7 +141,12 @@ TEST_CASE("bench suites parse every step kind") {
 TEST_CASE("bench suite parse errors name the file and line") {
   fails("\n\nfly away\n", "t.saul:3: unknown step 'fly'");
   fails("expect telemetry_a state=BALANCE\n", "within");
-  fails("expect telemetry_a pitch_x100<abc within 1s\n", "not a number");
+  fails("expect telemetry_a pitch<abc within 1s\n", "not a number");
+  // one name per signal: the struct's field name is refused, with the names the message has
+  fails("\nexpect telemetry_a pitch_x100<3 within 1s\n",
+        "t.saul:2: telemetry_a has no signal 'pitch_x100'; its signals: pitch, pitch_raw, pid_out, speed_mmps, state");
+  fails("stable telemetry_a state=BALANCE and telemetry_b faults=0 for 5m within 20m\n",
+        "telemetry_b has no signal 'faults'; its signals: vesc_l_rpm, vesc_r_rpm, battery, battery_raw, fault");
   fails("send mode_cmd mode=fast\n", "mode=off|balance|manual|estop");
   fails("send velocity_cmd speed_mmps=40000\n", "does not fit");
   fails("send velocity_cmd speedy=1\n", "unknown field 'speedy'");
@@ -158,7 +163,7 @@ TEST_CASE("the engine: arm on the console, ack, telemetry, hold — in simulated
       "send mode_cmd mode=balance\n"
       "expect command_ack result=applied within 100ms\n"
       "expect telemetry_a state=BALANCE within 300ms\n"
-      "hold telemetry_a state=BALANCE |pitch_x100|<=120 for 1s\n"
+      "hold telemetry_a state=BALANCE |pitch_raw|<=120 |pitch|<=1.2 for 1s\n"
       "sim push 5\n");
   const auto r = run_suite(s, robot);
   for (const auto& st : r.steps) INFO(st.line << " " << st.message);
@@ -185,7 +190,7 @@ TEST_CASE("the engine: a failing expect stops the suite and reports why; later s
 
 TEST_CASE("the engine: hold fails on the first frame that breaks the condition") {
   FakeRobot robot;
-  const auto r = run_suite(parse("hold telemetry_a pitch_x100<100 for 1s\n"), robot);
+  const auto r = run_suite(parse("hold telemetry_a pitch<1 for 1s\n"), robot);
   CHECK_FALSE(r.passed());
   CHECK(r.steps[0].message.find("condition broken after 0.000 s by 400#78000000000000") != std::string::npos);
 }
@@ -240,7 +245,7 @@ TEST_CASE("JUnit XML lists every step with failures escaped") {
 
 TEST_CASE("bench suites parse stable (clauses joined by 'and') and mean") {
   const auto s = parse(
-      "stable telemetry_a state=BALANCE |pitch_x100|<500 and telemetry_b faults=0 for 5m within 20m\n"
+      "stable telemetry_a state=BALANCE |pitch|<5 and telemetry_b fault=0 for 5m within 20m\n"
       "mean telemetry_a speed_mmps>=240 speed_mmps<=360 for 2s\n");
   REQUIRE(s.steps.size() == 2);
   CHECK(s.steps[0].kind == Step::Kind::stable);
@@ -248,7 +253,7 @@ TEST_CASE("bench suites parse stable (clauses joined by 'and') and mean") {
   CHECK(s.steps[0].conditions.size() == 2);
   REQUIRE(s.steps[0].more.size() == 1);
   CHECK(s.steps[0].more[0].message == "telemetry_b");
-  CHECK(s.steps[0].more[0].conditions[0].field == "faults");
+  CHECK(s.steps[0].more[0].conditions[0].field == "fault");
   CHECK(s.steps[0].duration_us == 300'000'000);
   CHECK(s.steps[0].limit_us == 1'200'000'000);
   CHECK(s.steps[1].kind == Step::Kind::mean);
@@ -270,7 +275,7 @@ TEST_CASE("the engine: stable restarts its clock on every excursion and passes o
     const bool out = t >= 2'000'000 && t <= 2'200'000;
     return std::optional<sc::TelemetryA>(sc::TelemetryA{static_cast<std::int16_t>(out ? 900 : 120), 0, 0, sc::RobotState::balance});
   };
-  const auto r = run_suite(parse("stable telemetry_a state=BALANCE |pitch_x100|<500 for 5s within 20s\n"), robot);
+  const auto r = run_suite(parse("stable telemetry_a state=BALANCE |pitch|<5 for 5s within 20s\n"), robot);
   INFO(r.steps[0].message);
   CHECK(r.passed());
   CHECK(r.steps[0].message ==
@@ -287,7 +292,7 @@ TEST_CASE("the engine: stable fails at its limit and reports the longest stretch
     const bool out = t % 3'000'000 == 0 && t > 0;
     return std::optional<sc::TelemetryA>(sc::TelemetryA{static_cast<std::int16_t>(out ? -900 : 120), 0, 0, sc::RobotState::balance});
   };
-  const auto r = run_suite(parse("stable telemetry_a |pitch_x100|<500 for 5s within 10s\n"), robot);
+  const auto r = run_suite(parse("stable telemetry_a |pitch|<5 for 5s within 10s\n"), robot);
   CHECK_FALSE(r.passed());
   CHECK(r.steps[0].message ==
         "never stable for 5.000 s within 10.000 s: longest stable stretch 3.000 s (needed 5.000 s), 3 restart(s), the "
@@ -318,7 +323,7 @@ TEST_CASE("the engine: stable counts silence as an excursion, and checks every c
       const std::uint8_t faults = t >= 1'000'000 && t < 1'500'000 ? 0x80 : 0;
       return std::optional<sc::TelemetryB>(sc::TelemetryB{0, 0, 39000, faults});
     };
-    const auto r = run_suite(parse("stable telemetry_a state=BALANCE and telemetry_b faults=0 for 3s within 10s\n"), robot);
+    const auto r = run_suite(parse("stable telemetry_a state=BALANCE and telemetry_b fault=0 for 3s within 10s\n"), robot);
     CHECK(r.passed());
     CHECK(r.steps[0].message.find("from 1.400 s on") != std::string::npos);
     const auto never = run_suite(parse("stable telemetry_a state=BALANCE and vesc_status_1 erpm=0 for 3s within 5s\n"), robot);
@@ -332,11 +337,11 @@ TEST_CASE("the engine: mean checks the fields' means over the window") {
     const auto speed = static_cast<std::int16_t>((t / 100'000) % 2 == 0 ? 100 : 300);
     return std::optional<sc::TelemetryA>(sc::TelemetryA{120, 0, speed, sc::RobotState::balance});
   };
-  const auto ok = run_suite(parse("mean telemetry_a speed_mmps>=190 speed_mmps<=210 |pitch_x100|<200 for 2s\n"), robot);
+  const auto ok = run_suite(parse("mean telemetry_a speed_mmps>=190 speed_mmps<=210 |pitch|<2 for 2s\n"), robot);
   INFO(ok.steps[0].message);
   CHECK(ok.passed());
   // 0.0 to 2.0 s, both ends: 11 frames at 100 mm/s and 10 at 300
-  CHECK(ok.steps[0].message == "means over 21 frames: speed_mmps 195.24, |pitch_x100| 120.00");
+  CHECK(ok.steps[0].message == "means over 21 frames: speed_mmps 195.24, |pitch| 1.20");
   const auto low = run_suite(parse("mean telemetry_a speed_mmps>=250 for 2s\n"), robot);
   CHECK_FALSE(low.passed());
   // the same robot, 2.1 to 4.0 s: 10 frames of each

@@ -12,6 +12,7 @@
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/vesc.hpp"
 #include "saulproto/host/report/plot.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/report/telemetry_plot.hpp"
 
 using saul::CanFrame;
@@ -316,22 +317,31 @@ TEST_CASE("plot: --id selections, by id or name, and their errors") {
   SECTION("by CAN id, two fields: time 0 is the first message giving a point or a state") {
     PlotRequest r;
     r.id = "0x400";
-    r.fields = {"pitch_x100", "state"};
+    r.fields = {"pitch_raw", "state"};
     const TelemetryPlotter plotter(r, frames_plot_source(frames));
     CHECK_FALSE(plotter.dashboard());
-    CHECK(titles(plotter) == std::vector<std::string>{"0x400: pitch_x100", "0x400: state"});
+    CHECK(titles(plotter) == std::vector<std::string>{"0x400: pitch_raw", "0x400: state"});
     CHECK(plotter.messages() == 2);
     CHECK(plotter.points_span_s() == Approx(0.1));
     std::ostringstream out;
     plotter.write_csv(out);
-    CHECK(out.str() == "time_s,pitch_x100,state\n0.000000,21,1\n0.100000,-5,1\n");
+    CHECK(out.str() == "time_s,pitch_raw,state\n0.000000,21,1\n0.100000,-5,1\n");
     CHECK(plotter.document().markers.size() == 1);  // BALANCE, first seen
   }
-  SECTION("by name, no fields: every numeric field of the message") {
+  SECTION("by name, in the unit: pitch in degrees") {
+    PlotRequest r;
+    r.id = "telemetry_a";
+    r.fields = {"pitch"};
+    const TelemetryPlotter plotter(r, frames_plot_source(frames));
+    std::ostringstream out;
+    plotter.write_csv(out);
+    CHECK(out.str() == "time_s,pitch\n0.000000,0.21\n0.100000,-0.05\n");
+  }
+  SECTION("by name, no fields: every number signal of the message in its unit") {
     PlotRequest r;
     r.id = "telemetry_a";
     const TelemetryPlotter plotter(r, frames_plot_source(frames));
-    CHECK(titles(plotter) == std::vector<std::string>{"telemetry_a: pitch_x100", "telemetry_a: pid_out",
+    CHECK(titles(plotter) == std::vector<std::string>{"telemetry_a: pitch", "telemetry_a: pid_out",
                                                       "telemetry_a: speed_mmps", "telemetry_a: state"});
   }
   SECTION("by id, only the first match's message: a 29-bit VESC SET_RPM to controller 0 has the id 0x300 too") {
@@ -351,13 +361,14 @@ TEST_CASE("plot: --id selections, by id or name, and their errors") {
   SECTION("errors") {
     PlotRequest r;
     r.id = "0x400";
-    r.fields = {"pitch"};
+    r.fields = {"pitch_x100"};
     try {
       TelemetryPlotter plotter(r, frames_plot_source(frames));
       FAIL("no error");
     } catch (const PlotUsageError& e) {
       CHECK(std::string(e.what()) ==
-            "'0x400' has no numeric field 'pitch': it has pitch_x100, pid_out, speed_mmps, state");
+            "'0x400' (telemetry_a) has no signal 'pitch_x100'; its signals: pitch, pitch_raw, pid_out, speed_mmps, "
+            "state");
     }
     r.fields = {};
     r.id = "0x40z";
@@ -366,7 +377,7 @@ TEST_CASE("plot: --id selections, by id or name, and their errors") {
     r.source_name = "x.log";
     CHECK_THROWS_WITH(TelemetryPlotter(r, frames_plot_source(frames)), "no '0x401' in x.log");
     PlotRequest fields_only;
-    fields_only.fields = {"pitch_x100"};
+    fields_only.fields = {"pitch"};
     CHECK_THROWS_AS(TelemetryPlotter(fields_only, frames_plot_source(frames)), PlotUsageError);
   }
 }
@@ -429,7 +440,7 @@ TEST_CASE("plot: the sample UART capture through the file source") {
   CHECK(doc.t1 == Approx(0.003));
 }
 
-TEST_CASE("plot: every dashboard series names a real field of its message") {
+TEST_CASE("plot: every dashboard series names a real signal of its message") {
   const std::vector<saul::BusMessage> bus{saulcan::TelemetryA{}, saulcan::TelemetryB{}, saulcan::VelocityCmd{},
                                           vesc::Status1{}, vesc::Status5{}};
   const SerialMessage state = interboard::Message{interboard::State{}};
@@ -438,8 +449,8 @@ TEST_CASE("plot: every dashboard series names a real field of its message") {
       INFO(panel.title << ": " << s.message << "." << s.field);
       bool found = false;
       for (const auto& m : bus)
-        if (s.message == saul::name_of(m)) found = numeric_field(m, s.field).has_value();
-      if (s.message == name_of(state)) found = numeric_field(state, s.field).has_value();
+        if (s.message == saul::name_of(m)) found = signal_value(signal_values(m), s.field).has_value();
+      if (s.message == name_of(state)) found = signal_value(signal_values(state), s.field).has_value();
       CHECK(found);
     }
 }

@@ -10,6 +10,7 @@
 #include "saulproto/host/bench/bench_test.hpp"
 #include "saulproto/host/bench/bench_tune.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 
 namespace saul::host::benchtest {
 namespace {
@@ -180,9 +181,9 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             for (const auto& c : step.conditions) {  // once per field (and per |field|)
               const std::string key = c.absolute ? "|" + c.field + "|" : c.field;
               if (sums.count(key) != 0 && sums_frames[key] == count) continue;
-              const auto v = field_of(m.value(), c.field);
-              if (!v || !v->number) throw std::runtime_error(step.message + " has no number field '" + c.field + "'");
-              sums[key] += c.absolute ? std::fabs(*v->number) : *v->number;
+              const auto v = signal_value(signal_values(m.value()), c.field);
+              if (!v) throw std::runtime_error(step.message + " has no signal '" + c.field + "'");
+              sums[key] += c.absolute ? std::fabs(v->number) : v->number;
               sums_frames[key] = count;
             }
             return true;

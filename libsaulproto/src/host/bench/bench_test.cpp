@@ -9,13 +9,13 @@
 #include <initializer_list>
 #include <map>
 #include <sstream>
-#include <type_traits>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/bench/bench_tune.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 
 namespace saul::host::benchtest {
 namespace {
@@ -153,6 +153,12 @@ Step::Clause parse_clause(const std::vector<std::string>& w, std::size_t& i, std
   Step::Clause c;
   c.message = w[i] == "any" ? "" : w[i];
   for (++i; i < w.size() && !stop(w[i]); ++i) c.conditions.push_back(parse_condition(w[i], path, line));
+  // A condition names a signal as decode --json does (docs/cli.md); a name the message lacks would never match.
+  const signals::MessageDesc* d = signals::find_named(signals::Protocol::saul_can, c.message);
+  if (d == nullptr) d = signals::find_named(signals::Protocol::vesc_can, c.message);
+  for (const auto& cond : c.conditions)
+    if (d != nullptr && !has_signal(*d, cond.field))
+      throw ParseError(path, line, unknown_signal_error(c.message, d, cond.field));
   return c;
 }
 
@@ -163,29 +169,6 @@ std::uint64_t need_duration(const std::string& w, const std::string& path, int l
 }
 
 }  // namespace
-
-std::optional<FieldValue> field_of(const BusMessage& m, const std::string& field) {
-  std::optional<FieldValue> out;
-  std::visit(
-      [&](const auto& msg) {
-        msg.fields([&](const char* name, const auto& value) {
-          if (out || field != name) return;
-          using T = std::decay_t<decltype(value)>;
-          FieldValue v;
-          if constexpr (std::is_enum_v<T>) {
-            using saul::to_string;
-            v.text = to_string(value);
-            v.number = static_cast<double>(static_cast<std::underlying_type_t<T>>(value));
-          } else {
-            v.number = static_cast<double>(value);
-            v.text = fmt::format("{}", +value);
-          }
-          out = v;
-        });
-      },
-      m);
-  return out;
-}
 
 Condition parse_condition(const std::string& w, const std::string& path, int line) {
   static const std::pair<const char*, Condition::Op> kOps[] = {{"!=", Condition::Op::ne}, {"<=", Condition::Op::le},
@@ -268,9 +251,10 @@ bool matches(const CanFrame& frame, const std::string& message, const std::vecto
   const auto r = decode_bus_frame(frame);
   if (!r) return false;
   if (!message.empty() && message != name_of(r.value())) return false;
+  const SignalValues values = signal_values(r.value());
   for (const auto& c : conditions) {
-    const auto v = field_of(r.value(), c.field);
-    if (!v || !holds(c, *v)) return false;
+    const auto v = signal_value(values, c.field);
+    if (!v || !holds(c, FieldValue{v->number, v->text})) return false;
   }
   return true;
 }

@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <type_traits>
 
 #include "saulproto/host/report/format.hpp"
 #include "../util.hpp"
@@ -27,43 +26,6 @@ std::string hex(std::span<const std::uint8_t> bytes) {
   std::string s;
   for (std::uint8_t b : bytes) s += fmt::format("{:02X}", b);
   return s;
-}
-
-template <class T>
-std::optional<double> number_of(const T& v) {
-  if constexpr (std::is_enum_v<T>) {
-    return static_cast<double>(static_cast<std::underlying_type_t<T>>(v));
-  } else if constexpr (std::is_arithmetic_v<T>) {
-    return static_cast<double>(v);
-  } else {
-    return std::nullopt;
-  }
-}
-
-template <class Variant>
-std::optional<double> field_of(const Variant& message, std::string_view field) {
-  std::optional<double> found;
-  std::visit(
-      [&](const auto& m) {
-        m.fields([&](const char* name, const auto& value) {
-          if (!found && field == name) found = number_of(value);
-        });
-      },
-      message);
-  return found;
-}
-
-template <class Variant>
-std::vector<std::string> names_of(const Variant& message) {
-  std::vector<std::string> names;
-  std::visit(
-      [&](const auto& m) {
-        m.fields([&](const char* name, const auto& value) {
-          if (number_of(value)) names.emplace_back(name);
-        });
-      },
-      message);
-  return names;
 }
 
 }  // namespace
@@ -435,28 +397,6 @@ std::vector<SerialCaptureDecoder::Link> SerialCaptureDecoder::links() const {
     out.push_back(std::move(l));
   }
   return out;
-}
-
-std::optional<double> numeric_field(const BusMessage& message, std::string_view field) {
-  return field_of(message, field);
-}
-
-std::optional<double> numeric_field(const SerialMessage& message, std::string_view field) {
-  return std::visit(detail::Overload{[&](const interboard::Message& m) { return field_of(m, field); },
-                             [&](const CrsfMessage& m) { return field_of(m.message, field); },
-                             [&](const pride::Message& m) { return field_of(m, field); },
-                             [](const CrsfUndecoded&) -> std::optional<double> { return std::nullopt; }},
-                    message);
-}
-
-std::vector<std::string> numeric_field_names(const BusMessage& message) { return names_of(message); }
-
-std::vector<std::string> numeric_field_names(const SerialMessage& message) {
-  return std::visit(detail::Overload{[](const interboard::Message& m) { return names_of(m); },
-                             [](const CrsfMessage& m) { return names_of(m.message); },
-                             [](const pride::Message& m) { return names_of(m); },
-                             [](const CrsfUndecoded&) { return std::vector<std::string>{}; }},
-                    message);
 }
 
 }  // namespace saul::host

@@ -12,21 +12,22 @@
 #include "saulproto/core/vesc.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
+#include "saulproto/host/report/signal_rows.hpp"
 
 namespace saul::host {
 
 // ---- messages -------------------------------------------------------------------------------------------------
 
-std::optional<double> PlotMessage::field(std::string_view field_name) const {
-  if (bus != nullptr) return numeric_field(*bus, field_name);
-  if (serial != nullptr) return numeric_field(*serial, field_name);
-  return std::nullopt;
+SignalValues PlotMessage::values() const {
+  if (bus != nullptr) return signal_values(*bus);
+  if (serial != nullptr) return signal_values(*serial);
+  return {};
 }
 
-std::vector<std::string> PlotMessage::field_names() const {
-  if (bus != nullptr) return numeric_field_names(*bus);
-  if (serial != nullptr) return numeric_field_names(*serial);
-  return {};
+std::optional<double> PlotMessage::field(std::string_view signal_name) const {
+  const auto v = signal_value(values(), signal_name);
+  if (!v) return std::nullopt;
+  return v->number;
 }
 
 namespace {
@@ -89,9 +90,7 @@ std::optional<double> PlotSeriesSpec::value(const PlotMessage& m) const {
     const auto c = m.field("controller_id");
     if (!c || *c != *controller) return std::nullopt;
   }
-  const auto v = m.field(field);
-  if (!v) return std::nullopt;
-  return divisor == 1 ? *v : *v / divisor;
+  return m.field(field);
 }
 
 namespace {
@@ -100,16 +99,14 @@ const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t i
   return *signals::find_signal(*signals::find(protocol, id), name);
 }
 
-// A series of one described signal: the message's field is the signal's struct field, scaled into physical units when
-// saulctl shows it as the wire integer (pitch_x100 / 100); its unit is the signal's.
+// A series of one described signal, by its name: its physical value (pitch in deg), in the signal's unit.
 PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
                          std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
   PlotSeriesSpec s;
   s.label = std::move(label);
   s.column = std::move(column);
   s.message = std::move(message);
-  s.field = signal.field;
-  s.divisor = signal.text == signals::Text::raw ? static_cast<double>(signal.scale_den) / signal.scale_num : 1.0;
+  s.field = signal.name;
   s.controller = controller;
   return s;
 }
@@ -296,15 +293,14 @@ double TelemetryPlotter::points_span_s() const {
 
 void TelemetryPlotter::select(const PlotMessage& m) {
   if (!panels_.empty()) return;
+  const signals::MessageDesc* described_as = m.values().message;
   auto fields = request_.fields;
-  if (fields.empty()) fields = m.field_names();
-  for (const auto& f : fields) {
-    if (!m.field(f)) {
-      std::string names;
-      for (const auto& n : m.field_names()) names += (names.empty() ? "" : ", ") + n;
-      throw PlotUsageError(fmt::format("'{}' has no numeric field '{}': it has {}", request_.id, f, names));
-    }
-  }
+  if (fields.empty() && described_as != nullptr)  // every number signal in its unit (their _raw twins left out)
+    for (const auto& s : described_as->signals)
+      if (s.kind != signals::Kind::string) fields.emplace_back(s.name);
+  for (const auto& f : fields)
+    if (described_as == nullptr || !has_signal(*described_as, f))
+      throw PlotUsageError(unknown_signal_error(fmt::format("'{}' ({})", request_.id, m.name), described_as, f));
   if (fields.empty()) throw PlotUsageError(fmt::format("'{}' has no numeric fields to plot", request_.id));
   for (const auto& f : fields) {
     PlotSeriesSpec s;

@@ -10,11 +10,11 @@
 //   stream velocity_cmd speed_mmps=200 every 50ms   keep sending in the background (until 'stop' or the end)
 //   stop                                            end the background stream
 //   expect command_ack command=2 result=applied within 300ms
-//   expect telemetry_a state=BALANCE |pitch_x100|<300 within 2s
+//   expect telemetry_a state=BALANCE |pitch|<3 within 2s
 //   expect no velocity_cmd for 1s                   nothing matching may arrive (conditions optional)
 //   hold telemetry_a state=BALANCE for 3s           every matching frame in the window satisfies it; >= 1 seen
 //   mean telemetry_a speed_mmps>=240 speed_mmps<=360 for 2s   the fields' means over the window satisfy it
-//   stable telemetry_a state=BALANCE |pitch_x100|<500 and telemetry_b faults=0 for 5m within 20m
+//   stable telemetry_a state=BALANCE |pitch|<5 and telemetry_b fault=0 for 5m within 20m
 //                                                   every frame of each message holds its conditions for 5 minutes
 //                                                   on end; a frame that breaks them, or a message silent for more
 //                                                   than 1 s, restarts the clock; fails at 'within' (the report
@@ -26,8 +26,9 @@
 //                                                   chirp or prbs, amplitude in degrees; none: plain `trace for 4s`)
 //   expect tune overshoot<25% settling<0.6s oscillation=none   tuning figures of the last trace (bench_tune.hpp)
 //
-// Conditions: FIELD OP VALUE with OP one of = != < <= > >=, and |FIELD| for the absolute value. Fields are the
-// decoded message's fields as `saulctl decode` prints them (enum fields compare by name: state=BALANCE).
+// Conditions: SIGNAL OP VALUE with OP one of = != < <= > >=, and |SIGNAL| for the absolute value. Signals are named
+// as `saulctl decode --json` keys them (docs/cli.md "Signal names and units"): pitch in degrees, pitch_raw the wire
+// integer, named values by name (state=BALANCE) or number; a name the message lacks is an error listing its names.
 //
 // Time comes from the Target, so a simulator target can run the same suite faster than real time.
 #pragma once
@@ -156,13 +157,12 @@ std::string junit_xml(const std::vector<SuiteResult>& results);
 /// Parses one condition word (FIELD OP VALUE, |FIELD| OP VALUE); throws ParseError naming the file and line.
 Condition parse_condition(const std::string& word, const std::string& path, int line);
 
-/// A value a condition is checked against: a number, or a text (enum names, "none").
+/// A value a condition is checked against (a signal's, report/signal_rows.hpp signal_value): a number, or a text
+/// (value names, "none").
 struct FieldValue {
   std::optional<double> number;
   std::string text;
 };
-/// A field of a decoded message as a number and a text (enum fields: their name); nullopt when it has no such field.
-std::optional<FieldValue> field_of(const BusMessage& message, const std::string& field);
 /// True when the value satisfies the condition (numbers compare as numbers, texts by name without case).
 bool holds(const Condition& condition, const FieldValue& value);
 

@@ -182,14 +182,4 @@ class SerialCaptureDecoder {
   Unlisted unlisted_;
 };
 
-// ---- fields of any message, as numbers (saulctl plot) ---------------------------------------------------------
-
-/// The value of a numeric field (integers, floats, enums as their number, bools as 0/1); nullopt when the message
-/// has no such field or it is text.
-std::optional<double> numeric_field(const BusMessage& message, std::string_view field);
-std::optional<double> numeric_field(const SerialMessage& message, std::string_view field);
-/// The names of a message's numeric fields, for "no such field" messages.
-std::vector<std::string> numeric_field_names(const BusMessage& message);
-std::vector<std::string> numeric_field_names(const SerialMessage& message);
-
 }  // namespace saul::host

@@ -3,6 +3,7 @@
 // by signal without parsing strings (docs/captures.md).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,6 +20,25 @@ struct SignalRow {
 
 /// The number signals of a described message, in order (strings left out). Empty for no description.
 std::vector<SignalRow> signal_rows(const SignalValues& values);
+
+// ---- a signal by its name: plot --field and the bench suites' conditions --------------------------------------
+
+/// A signal's value looked up by its one name (docs/cli.md "Signal names and units"), the names decode --json keys
+/// it by: "pitch" is the physical value (12.34, as in signal_rows), "pitch_raw" the wire integer (1234) of a scaled
+/// one (signals::text_in_unit), "state" a named value's number (1) with its name as text ("BALANCE").
+struct NamedValue {
+  double number = 0;
+  std::string text;  ///< the value's name, or the number as fmt writes it
+};
+/// nullopt when the message has no such signal or this frame does not carry it (a multiplexed one).
+std::optional<NamedValue> signal_value(const SignalValues& values, std::string_view name);
+/// Whether signal_value() knows `name` for message m.
+bool has_signal(const signals::MessageDesc& m, std::string_view name);
+/// The names signal_value() takes for m, in order: every number signal, and name_raw after a scaled one.
+std::vector<std::string> signal_names(const signals::MessageDesc& m);
+/// The one-line error for a name m has not: "telemetry_a has no signal 'pitch_x100'; its signals: pitch,
+/// pitch_raw, pid_out, speed_mmps, state". m nullptr: a message without a description (Pride), with none.
+std::string unknown_signal_error(std::string_view message_name, const signals::MessageDesc* m, std::string_view name);
 
 /// The header and the rows of a message in the long CSV form: "time,interface,id,message,signal,value,unit".
 inline constexpr const char* kLongCsvHeader = "time,interface,id,message,signal,value,unit";

@@ -31,9 +31,11 @@ struct PlotMessage {
   std::string_view name;                ///< "telemetry_a", "vesc_status_1", "state", ...
   const BusMessage* bus = nullptr;
   const SerialMessage* serial = nullptr;
-  /// A numeric field (enums as their number); nullopt when the message has no such field.
-  [[nodiscard]] std::optional<double> field(std::string_view field_name) const;
-  [[nodiscard]] std::vector<std::string> field_names() const;
+  /// The message's signals as its description reads them (none for a message without one: Pride).
+  [[nodiscard]] SignalValues values() const;
+  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number); nullopt when the
+  /// message has no such signal.
+  [[nodiscard]] std::optional<double> field(std::string_view signal_name) const;
 };
 
 using PlotSink = std::function<void(const PlotMessage&)>;
@@ -50,14 +52,13 @@ PlotSource frames_plot_source(std::vector<CanFrame> frames);
 
 // ---- what to draw -------------------------------------------------------------------------------------------
 
-/// One line of a panel: a numeric field of a message, divided by `divisor` (pitch_x100 / 100 = degrees).
+/// One line of a panel: a signal of a message by its name (PlotMessage::field: "pitch" in degrees).
 struct PlotSeriesSpec {
   std::string label;   ///< legend; empty for a panel of one series that needs none
   std::string column;  ///< CSV column name
   std::string message;                  ///< the message's name, e.g. "telemetry_a"
   std::optional<std::uint32_t> can_id;  ///< and/or a CAN id: frames with this id (of that message, when named)
-  std::string field;
-  double divisor = 1;
+  std::string field;  ///< the signal's name ("pitch", "pitch_raw")
   std::optional<std::uint8_t> controller;  ///< VESC status frames: only from this controller_id
   /// The value this series takes from `m`, or nullopt when `m` is not its message (or controller).
   [[nodiscard]] std::optional<double> value(const PlotMessage& m) const;
@@ -128,13 +129,14 @@ struct PlotRequest {
   /// The message: a CAN id ("0x400", "1024") or a message name ("telemetry_a", "state", "vcu_command"). Empty:
   /// the default dashboard.
   std::string id;
-  /// With an id: the fields, one panel each; empty: every numeric field of the message. Without one: must be empty.
+  /// With an id: signal names (docs/cli.md: "pitch", "pitch_raw", "state"), one panel each; empty: every number
+  /// signal of the message in its unit. Without an id: must be empty.
   std::vector<std::string> fields;
   std::size_t max_markers = 40;  ///< changes drawn and listed at most (0: none); the rest are counted
   std::string source_name;       ///< the capture's name, for the title
 };
 
-/// A request that cannot be met as asked: a bad id, a field the message lacks, fields without an id.
+/// A request that cannot be met as asked: a bad id, a signal the message lacks, fields without an id.
 class PlotUsageError : public std::invalid_argument {
  public:
   using std::invalid_argument::invalid_argument;
@@ -168,8 +170,8 @@ class TelemetryPlotter {
 
   /// Second pass: the picture, `columns` bins per series, for render_svg or render_html.
   [[nodiscard]] PlotDocument document(std::size_t columns = kPlotWidth) const;
-  /// Second pass: the numbers. With an id, "time_s,FIELD,..." and one row per message (fields as they are);
-  /// the dashboard: "time_s", one column per series drawn (scaled as drawn), then "state" and "faults" when the
+  /// Second pass: the numbers. With an id, "time_s,SIGNAL,..." and one row per message (signals by name);
+  /// the dashboard: "time_s", one column per series drawn, then "state" and "faults" when the
   /// capture has them, one row per message giving any of them, empty cells for what it does not carry. Without
   /// timestamps the first column is "message" (the message number).
   void write_csv(std::ostream& out) const;
