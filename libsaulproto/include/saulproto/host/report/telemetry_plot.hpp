@@ -33,8 +33,8 @@ struct PlotMessage {
   const SerialMessage* serial = nullptr;
   /// The message's signals as its description reads them (none for a message without one: Pride).
   [[nodiscard]] SignalValues values() const;
-  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number); nullopt when the
-  /// message has no such signal.
+  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number; a Pride message's
+  /// unscaled fields by their names: "forward_back"); nullopt when the message has no such signal.
   [[nodiscard]] std::optional<double> field(std::string_view signal_name) const;
 };
 
