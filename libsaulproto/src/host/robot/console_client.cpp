@@ -8,6 +8,10 @@ namespace saul::host {
 
 using namespace std::chrono;
 
+namespace {
+constexpr std::size_t kMaxConsoleLine = 64 * 1024;
+}  // namespace
+
 ConsoleReply read_console_reply(SerialPort& port, const std::string& command, milliseconds timeout,
                                 std::string& pending, const std::function<bool()>& interrupted) {
   ConsoleReply r;
@@ -30,6 +34,9 @@ ConsoleReply read_console_reply(SerialPort& port, const std::string& command, mi
     const auto now = steady_clock::now();
     if (now >= deadline) break;
     const std::size_t n = port.read(buf, ceil<milliseconds>(deadline - now));
+    // A device that streams without a line end (a wrong port, a baud mismatch) is not let grow this without bound:
+    // no console line is near 64 KiB, so an unended run that long is dropped (the reply then times out).
+    if (pending.size() > kMaxConsoleLine) pending.clear();
     pending.append(reinterpret_cast<const char*>(buf.data()), n);
   }
   return r;
