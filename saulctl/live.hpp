@@ -75,7 +75,6 @@ class ViewCommands {
   std::string last_result_;
   bool last_bad_ = false;
   std::optional<std::chrono::steady_clock::time_point> waiting_since_;
-  std::uint8_t waiting_mode_ = 0;
 };
 
 }  // namespace saulctl
