@@ -129,8 +129,8 @@ int run_console(const ConsoleOptions& opt) {
 }  // namespace
 
 void add_console_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<ConsoleOptions>();
-  auto* cmd = app.add_subcommand("console", "The boards' USB debug console: one command, or a line loop");
+  auto [cmd, o] = add_verb<ConsoleOptions>(
+      app, run, "console", "The boards' USB debug console: one command, or a line loop", run_console);
   cmd->add_option("port", o->port, "the board's USB serial device, e.g. /dev/ttyACM1")->required();
   cmd->add_option("command", o->command, "command line to send (help, status, pid 1.5 0.2 0.05, ...)");
   cmd->add_option("--timeout", o->timeout, "how long to wait for the 'ok' / 'error:' line")->capture_default_str()->check(duration_check());
@@ -142,7 +142,6 @@ void add_console_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl console /dev/ttyACM1 status\n  saulctl console /dev/ttyACM1 status --json | jq .report\n"
       "  saulctl console /dev/ttyACM1 pid 1.5 0.25 0.05\n  saulctl console /dev/ttyACM1\n"
       "\nExit codes: 0 ok, 1 error reply or port error, 2 usage, 3 no answer within --timeout.\n");
-  attach_runner(cmd, o, run, run_console);
 }
 
 }  // namespace saulctl

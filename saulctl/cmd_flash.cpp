@@ -406,8 +406,8 @@ int run_flash(const FlashOptions& opt) {
 }  // namespace
 
 void add_flash_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<FlashOptions>();
-  auto* cmd = app.add_subcommand("flash", "Flash firmware to the BALANCE or IO board's ESP32-S3 (verified by MD5)");
+  auto [cmd, o] = add_verb<FlashOptions>(
+      app, run, "flash", "Flash firmware to the BALANCE or IO board's ESP32-S3 (verified by MD5)", run_flash);
   cmd->add_option("inputs", o->inputs, "FILE (written at --offset), or OFFSET FILE pairs");
   cmd->add_option("--offset", o->offset, "where a single FILE goes")->capture_default_str();
   cmd->add_option("-B,--build-dir", o->build_dir, "an ESP-IDF build folder (its flasher_args.json)");
@@ -447,7 +447,6 @@ void add_flash_command(CLI::App& app, Runner& run) {
       "else the USB-Serial/JTAG reset (restarts a running application). The robot check applies as for a flash.\n"
       "\nExit codes: 0 flashed and verified, 1 failure (wrong chip, file, verify, port gone: regions UNVERIFIED),\n"
       "2 usage, 3 no answer (no bootloader, or no acknowledgement from the robot).\n");
-  attach_runner(cmd, o, run, run_flash);
 }
 
 }  // namespace saulctl
