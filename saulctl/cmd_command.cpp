@@ -175,8 +175,8 @@ void add_command_commands(CLI::App& app, Runner& run) {
       "\nExit codes: 0 applied, 1 rejected or error (or, for mode and estop, acknowledged but the robot's 0x400 shows\n"
       "another state), 2 usage or not confirmed, 3 no acknowledgement.\n";
   {
-    auto o = std::make_shared<CommandOptions>();
-    auto* cmd = app.add_subcommand("mode", "Set the robot's mode (0x302) and wait for its acknowledgement");
+    auto [cmd, o] = add_verb<CommandOptions>(
+        app, run, "mode", "Set the robot's mode (0x302) and wait for its acknowledgement", run_mode);
     cmd->add_option("mode", o->mode, "off | balance | manual | estop")
         ->required()
         ->check(CLI::IsMember({"off", "balance", "manual", "estop"}));
@@ -186,34 +186,30 @@ void add_command_commands(CLI::App& app, Runner& run) {
                             "scripts. They are only accepted when the robot is already armed.\n"
                             "\nExamples:\n  saulctl mode off --link can0\n"
                             "  saulctl mode balance --yes --link slcan:/dev/ttyACM0\n") + exits);
-    attach_runner(cmd, o, run, run_mode);
   }
   {
-    auto o = std::make_shared<CommandOptions>();
-    auto* cmd = app.add_subcommand("estop", "Emergency stop: send mode 3 at once, no questions");
+    auto [cmd, o] = add_verb<CommandOptions>(
+        app, run, "estop", "Emergency stop: send mode 3 at once, no questions", run_estop);
     common(cmd, *o);
     cmd->footer(std::string("\nSent immediately, never asks. Leaving ESTOP needs disarm and a fresh arming.\n") + exits);
-    attach_runner(cmd, o, run, run_estop);
   }
   {
-    auto o = std::make_shared<CommandOptions>();
-    auto* cmd = app.add_subcommand("pid", "Send a PID gain set (three 0x301 frames) and wait for 0x402");
+    auto [cmd, o] = add_verb<CommandOptions>(
+        app, run, "pid", "Send a PID gain set (three 0x301 frames) and wait for 0x402", run_pid);
     cmd->add_option("gains", o->gains, "KP KI KD")->required()->expected(3);
     common(cmd, *o);
     cmd->footer(std::string("\nThe robot applies all three gains together or none (within 100 ms).\n"
                             "\nExample:\n  saulctl pid 1.5 0.25 0.05 --link can0\n") + exits);
-    attach_runner(cmd, o, run, run_pid);
   }
   {
-    auto o = std::make_shared<CommandOptions>();
-    auto* cmd = app.add_subcommand("config", "Send tilt limit and max speed (0x303) and wait for 0x402");
+    auto [cmd, o] = add_verb<CommandOptions>(
+        app, run, "config", "Send tilt limit and max speed (0x303) and wait for 0x402", run_config);
     cmd->add_option("--tilt-limit", o->tilt_limit, "tilt cutoff in degrees, 5..25")->required();
     cmd->add_option("--max-speed", o->max_speed, "speed limit in mm/s (cannot raise the speed cap)")
         ->required()
         ->check(CLI::Range(0, 65535));
     common(cmd, *o);
     cmd->footer(std::string("\nExample:\n  saulctl config --tilt-limit 20 --max-speed 800 --link can0\n") + exits);
-    attach_runner(cmd, o, run, run_config);
   }
 }
 

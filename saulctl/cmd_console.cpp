@@ -31,10 +31,6 @@ struct ConsoleOptions {
 
 using Reply = saul::host::ConsoleReply;
 
-Reply read_reply(saul::host::SerialPort& port, const std::string& command, milliseconds timeout, std::string& pending) {
-  return saul::host::read_console_reply(port, command, timeout, pending, [] { return g_interrupted.load(); });
-}
-
 template <class Report>
 nlohmann::json report_json(const Report& report) {
   nlohmann::json j = nlohmann::json::object();
@@ -47,22 +43,18 @@ nlohmann::json report_json(const Report& report) {
   return j;
 }
 
-/// The report line of a status / can_stats / uart_stats reply as JSON, or a JSON error object.
+/// The report line of a status / can_stats / uart_stats reply as JSON, or a JSON error object; null for other verbs.
 nlohmann::json parse_report(saul::console::Verb verb, const Reply& reply) {
+  using saul::console::Verb;
+  const auto json = [](const auto& r, const std::string& line) -> nlohmann::json {
+    if (r) return report_json(*r);
+    return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
+  };
   for (const auto& line : reply.lines) {
     if (line.rfind("report=", 0) != 0) continue;
-    switch (verb) {
-      case saul::console::Verb::status:
-        if (auto r = saul::console::parse_status(line)) return report_json(*r);
-        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
-      case saul::console::Verb::can_stats:
-        if (auto r = saul::console::parse_can_stats(line)) return report_json(*r);
-        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
-      case saul::console::Verb::uart_stats:
-        if (auto r = saul::console::parse_uart_stats(line)) return report_json(*r);
-        else return {{"parse_error", saul::to_string(r.reason())}, {"line", line}};
-      default: break;
-    }
+    if (verb == Verb::status) return json(saul::console::parse_status(line), line);
+    if (verb == Verb::can_stats) return json(saul::console::parse_can_stats(line), line);
+    if (verb == Verb::uart_stats) return json(saul::console::parse_uart_stats(line), line);
   }
   return nullptr;
 }
@@ -80,21 +72,16 @@ int exit_code(const Reply& r) {
 int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const std::string& line,
                 milliseconds timeout, std::string& pending) {
   port.write(line + "\r\n", milliseconds(1000));
-  const Reply reply = read_reply(port, line, timeout, pending);
+  const Reply reply =
+      saul::host::read_console_reply(port, line, timeout, pending, [] { return g_interrupted.load(); });
   const auto parsed = saul::console::parse(line);
   if (opt.json) {
     nlohmann::json j{{"command", line}, {"port", port.path()}};
     j["status"] = reply.end == Reply::End::ok ? "ok" : reply.end == Reply::End::error ? "error" : "no_answer";
     j["lines"] = reply.lines;
     if (reply.end == Reply::End::error) j["error"] = reply.final_line.substr(6 + (reply.final_line.size() > 6));
-    if (parsed) {
-      const auto verb = saul::console::verb_of(parsed.command);
-      if (verb == saul::console::Verb::status || verb == saul::console::Verb::can_stats ||
-          verb == saul::console::Verb::uart_stats) {
-        auto rep = parse_report(verb, reply);
-        if (!rep.is_null()) j["report"] = rep;
-      }
-    }
+    if (auto rep = parsed ? parse_report(saul::console::verb_of(parsed.command), reply) : nullptr; !rep.is_null())
+      j["report"] = rep;
     fmt::print("{}\n", j.dump());
   } else {
     for (const auto& l : reply.lines) fmt::print("{}\n", l);
@@ -142,8 +129,8 @@ int run_console(const ConsoleOptions& opt) {
 }  // namespace
 
 void add_console_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<ConsoleOptions>();
-  auto* cmd = app.add_subcommand("console", "The boards' USB debug console: one command, or a line loop");
+  auto [cmd, o] = add_verb<ConsoleOptions>(
+      app, run, "console", "The boards' USB debug console: one command, or a line loop", run_console);
   cmd->add_option("port", o->port, "the board's USB serial device, e.g. /dev/ttyACM1")->required();
   cmd->add_option("command", o->command, "command line to send (help, status, pid 1.5 0.2 0.05, ...)");
   cmd->add_option("--timeout", o->timeout, "how long to wait for the 'ok' / 'error:' line")->capture_default_str()->check(duration_check());
@@ -155,7 +142,6 @@ void add_console_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl console /dev/ttyACM1 status\n  saulctl console /dev/ttyACM1 status --json | jq .report\n"
       "  saulctl console /dev/ttyACM1 pid 1.5 0.25 0.05\n  saulctl console /dev/ttyACM1\n"
       "\nExit codes: 0 ok, 1 error reply or port error, 2 usage, 3 no answer within --timeout.\n");
-  attach_runner(cmd, o, run, run_console);
 }
 
 }  // namespace saulctl

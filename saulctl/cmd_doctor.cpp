@@ -383,8 +383,8 @@ int run_doctor(const DoctorOptions& opt) {
 }  // namespace
 
 void add_doctor_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<DoctorOptions>();
-  auto* cmd = app.add_subcommand("doctor", "Check the bench setup and print the most likely fix for each problem");
+  auto [cmd, o] = add_verb<DoctorOptions>(
+      app, run, "doctor", "Check the bench setup and print the most likely fix for each problem", run_doctor);
   add_link_option(cmd, o->link, true);
   cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str()->check(duration_check());
   add_json_flag(cmd, o->json, "one JSON object: {\"checks\": [{check, result, detail, fix}], \"failed\": N}");
@@ -398,7 +398,6 @@ void add_doctor_command(CLI::App& app, Runner& run) {
       "up, bitrate and controller state (netlink), bus traffic, the robot's telemetry, error state.\n"
       "\nExamples:\n  saulctl doctor --link slcan:/dev/ttyACM0\n  saulctl doctor --link can0\n"
       "\nExit codes: 0 all ok, 1 a check failed, 2 usage.\n");
-  attach_runner(cmd, o, run, run_doctor);
 }
 
 }  // namespace saulctl

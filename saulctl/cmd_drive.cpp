@@ -97,8 +97,8 @@ int run_drive(const DriveOptions& opt) {
 }  // namespace
 
 void add_drive_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<DriveOptions>();
-  auto* cmd = app.add_subcommand("drive", "Stream velocity commands (0x300, 20 Hz); zero speed on exit");
+  auto [cmd, o] = add_verb<DriveOptions>(
+      app, run, "drive", "Stream velocity commands (0x300, 20 Hz); zero speed on exit", run_drive);
   add_link_option(cmd, o->link);
   cmd->add_option("--speed", o->speed, "mm/s, + forward")->required();
   cmd->add_option("--steer", o->steer, "mrad, + left")->capture_default_str();
@@ -111,7 +111,6 @@ void add_drive_command(CLI::App& app, Runner& run) {
       "link error it sends speed 0 before leaving.\n"
       "\nExamples:\n  saulctl drive --link can0 --speed 200 --duration 3s\n"
       "  saulctl drive --link slcan:/dev/ttyACM0 --speed 0 --steer 300 --duration 1s --yes\n");
-  attach_runner(cmd, o, run, run_drive);
 }
 
 }  // namespace saulctl

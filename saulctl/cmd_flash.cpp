@@ -14,6 +14,7 @@
 #include "live.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/flash/esp_flasher.hpp"
+#include "saulproto/host/link/device_holders.hpp"
 #include "saulproto/host/robot/robot_client.hpp"
 
 namespace saulctl {
@@ -47,36 +48,6 @@ std::string mb(std::uint64_t bytes) {
 }
 
 const char* board_name(ResetStyle s) { return s == ResetStyle::usb_serial_jtag ? "IO board" : "BALANCE board"; }
-
-// Processes other than us that have the device open (Linux /proc), as "1234 (idf_monitor)".
-std::vector<std::string> holders_of(const std::string& device) {
-  namespace fs = std::filesystem;
-  std::vector<std::string> out;
-  std::error_code ec;
-  const fs::path target = fs::weakly_canonical(device, ec);
-  if (ec) return out;
-  const std::string self = std::to_string(::getpid());
-  for (const auto& proc : fs::directory_iterator("/proc", ec)) {
-    const std::string pid = proc.path().filename().string();
-    if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos || pid == self) continue;
-    std::error_code e2;
-    for (const auto& fd : fs::directory_iterator(proc.path() / "fd", e2)) {
-      std::error_code e3;
-      if (fs::read_symlink(fd.path(), e3) == target) {
-        std::string comm;
-        if (FILE* f = std::fopen((proc.path() / "comm").c_str(), "r")) {
-          char buf[64] = {};
-          if (std::fgets(buf, sizeof buf, f)) comm = buf;
-          std::fclose(f);
-        }
-        while (!comm.empty() && (comm.back() == '\n' || comm.back() == '\r')) comm.pop_back();
-        out.push_back(fmt::format("{} ({})", pid, comm));
-        break;
-      }
-    }
-  }
-  return out;
-}
 
 saul::host::FlashPlan build_plan(const FlashOptions& opt) {
   saul::host::FlashPlan plan;
@@ -275,32 +246,12 @@ void print_app_versions(const saul::host::FlashPlan& plan) {
   }
 }
 
-// A pseudo-terminal is always held by whoever made it (the simulator, a test): only real devices are checked.
+// Another program with the port open (a serial monitor) would swallow the bootloader's answers. The far end of a
+// pseudo-terminal (the simulator, a test) is the device itself and is not listed (device_holders.hpp).
 void warn_holders(const std::string& path) {
-  std::error_code ec;
-  const bool is_pty = std::filesystem::weakly_canonical(path, ec).string().rfind("/dev/pts/", 0) == 0;
-  if (const auto holders = is_pty ? std::vector<std::string>{} : holders_of(path); !holders.empty())
-    say("warning: {} is also open in {}: a serial monitor there would swallow the "
-        "bootloader's answers; close it",
-        path, fmt::join(holders, ", "));
-}
-
-// Opens the board's port at 115200 8N1; nullptr (after saying who holds it) when another program has it.
-std::unique_ptr<saul::host::SerialPort> open_board_port(const std::string& path) {
-  try {
-    return saul::host::open_serial(path, saul::host::SerialSettings{});
-  } catch (const saul::host::SerialError& e) {
-    if (e.kind() == saul::host::SerialError::Kind::busy) {
-      const auto holders = holders_of(path);
-      if (holders.empty())
-        say("{}", e.what());
-      else
-        say("{}: busy, held by {}: close it (a serial monitor?) and run again", path,
-            fmt::join(holders, ", "));
-      return nullptr;
-    }
-    throw;
-  }
+  if (const auto holders = saul::host::device_holders(path); !holders.empty())
+    say("warning: {} is also open in {}: a serial monitor there would swallow the bootloader's answers; close it",
+        path, saul::host::describe_holders(holders));
 }
 
 std::string line_steps(const std::vector<saul::host::LineStep>& steps) {
@@ -322,8 +273,7 @@ int run_reset(const FlashOptions& opt) {
   const auto [path, style] = pick_port(opt, info);
   if (const int rc = check_robot(opt); rc != kOk) return rc;
   warn_holders(path);
-  auto port = open_board_port(path);
-  if (!port) return kFailure;
+  auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
   using saul::host::run_line_sequence;
   if (opt.reset == "bootloader") {
     const auto seq = saul::host::bootloader_reset_sequence(style, 0);
@@ -378,8 +328,7 @@ int run_flash(const FlashOptions& opt) {
   fmt::print("flashing the {} on {} ({}): {} region(s), flash {} ({})\n", board_name(style), path,
              saul::host::to_string(style), plan.images.size(), mb(plan.flash_size), plan.flash_size_source);
 
-  auto port = open_board_port(path);
-  if (!port) return kFailure;
+  auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
 
   ProgressBar bar(plan.images.size());
   saul::host::FlasherOptions fo;
@@ -457,8 +406,8 @@ int run_flash(const FlashOptions& opt) {
 }  // namespace
 
 void add_flash_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<FlashOptions>();
-  auto* cmd = app.add_subcommand("flash", "Flash firmware to the BALANCE or IO board's ESP32-S3 (verified by MD5)");
+  auto [cmd, o] = add_verb<FlashOptions>(
+      app, run, "flash", "Flash firmware to the BALANCE or IO board's ESP32-S3 (verified by MD5)", run_flash);
   cmd->add_option("inputs", o->inputs, "FILE (written at --offset), or OFFSET FILE pairs");
   cmd->add_option("--offset", o->offset, "where a single FILE goes")->capture_default_str();
   cmd->add_option("-B,--build-dir", o->build_dir, "an ESP-IDF build folder (its flasher_args.json)");
@@ -498,7 +447,6 @@ void add_flash_command(CLI::App& app, Runner& run) {
       "else the USB-Serial/JTAG reset (restarts a running application). The robot check applies as for a flash.\n"
       "\nExit codes: 0 flashed and verified, 1 failure (wrong chip, file, verify, port gone: regions UNVERIFIED),\n"
       "2 usage, 3 no answer (no bootloader, or no acknowledgement from the robot).\n");
-  attach_runner(cmd, o, run, run_flash);
 }
 
 }  // namespace saulctl

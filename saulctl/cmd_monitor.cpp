@@ -375,8 +375,8 @@ int run_monitor(const MonitorOptions& opt) {
 }  // namespace
 
 void add_monitor_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<MonitorOptions>();
-  auto* cmd = app.add_subcommand("monitor", "Live telemetry view: state, pitch, speeds, battery, faults, VESCs, rates");
+  auto [cmd, o] = add_verb<MonitorOptions>(
+      app, run, "monitor", "Live telemetry view: state, pitch, speeds, battery, faults, VESCs, rates", run_monitor);
   add_link_option(cmd, o->link);
   add_duration_option(cmd, o->duration, "stop after this long; default: until Ctrl-C or q");
   cmd->add_flag("--json", o->json, "one JSON line per telemetry update (with a Unix time) instead of the view");
@@ -387,7 +387,6 @@ void add_monitor_command(CLI::App& app, Runner& run) {
       "one plain line a second (and on every state change).\n"
       "\nExamples:\n  saulctl monitor --link can0\n"
       "  saulctl monitor --json --duration 10s --link slcan:/dev/ttyACM0 > run.jsonl\n");
-  attach_runner(cmd, o, run, run_monitor);
 }
 
 }  // namespace saulctl

@@ -134,8 +134,16 @@ int run_plot(const PlotOptions& opt) {
 }  // namespace
 
 void add_plot_command(CLI::App& app, Runner& run) {
-  auto opt = std::make_shared<PlotOptions>();
-  auto* cmd = app.add_subcommand("plot", "Plot a capture's telemetry over time, state and fault changes marked");
+  const auto plot = [](const PlotOptions& o) {
+    try {
+      return run_plot(o);
+    } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: the verb's own usage error
+      say("{}", e.what());
+      return static_cast<int>(kUsage);
+    }
+  };
+  auto [cmd, opt] = add_verb<PlotOptions>(
+      app, run, "plot", "Plot a capture's telemetry over time, state and fault changes marked", plot);
   cmd->add_option("FILE", opt->file, "capture file (any format decode reads; - = standard input)")->required();
   cmd->add_option("-o,--output", opt->output,
                   "run.html, run.svg, run.png, run.pdf or run.csv (by the extension), - for stdout; default: FILE's "
@@ -184,14 +192,6 @@ void add_plot_command(CLI::App& app, Runner& run) {
       "  saulctl plot run.log --id 944 -o status.svg     # every signal of VESC STATUS from controller 68\n"
       "  saulctl plot captures/interboard_uart.serial --id state --field pitch,pitch_raw -o state.csv\n"
       "  saulctl plot captures/interboard_uart.serial -o uart.html   # pitch, pid_out, STATE and FAULT changes\n");
-  attach_runner(cmd, opt, run, [](const PlotOptions& o) {
-    try {
-      return run_plot(o);
-    } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: the verb's own usage error
-      say("{}", e.what());
-      return static_cast<int>(kUsage);
-    }
-  });
 }
 
 }  // namespace saulctl

@@ -112,8 +112,8 @@ int run_pride_vcu(const PrideOptions& opt) {
 void add_pride_command(CLI::App& app, Runner& run) {
   auto* pride = app.add_subcommand("pride", "The Pride ES wheelchair controller link");
   pride->require_subcommand(1);
-  auto o = std::make_shared<PrideOptions>();
-  auto* cmd = pride->add_subcommand("vcu", "Act as the VCU: a frame every 5 ms, the controller's replies decoded");
+  auto [cmd, o] = add_verb<PrideOptions>(
+      *pride, run, "vcu", "Act as the VCU: a frame every 5 ms, the controller's replies decoded", run_pride_vcu);
   cmd->add_option("port", o->port, "serial device on the one-wire link (38400 8E1)")->required();
   cmd->add_option("--fb", o->fb, "forward/back, -100..100 (+ forward)")->capture_default_str();
   cmd->add_option("--lr", o->lr, "left/right, -100..100 (+ right)")->capture_default_str();
@@ -128,7 +128,6 @@ void add_pride_command(CLI::App& app, Runner& run) {
       "\nExamples:\n  saulctl pride vcu /dev/ttyUSB0 --speed-level 2               neutral, watch the controller\n"
       "  saulctl pride vcu /dev/ttyUSB0 --fb 20 --speed-level 2 --duration 2s --yes\n"
       "\nExit codes: 0 ok, 1 port error, 2 usage or not confirmed.\n");
-  attach_runner(cmd, o, run, run_pride_vcu);
 }
 
 }  // namespace saulctl

@@ -283,8 +283,8 @@ int run_record(const RecordOptions& opt) {
 }  // namespace
 
 void add_record_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<RecordOptions>();
-  auto* cmd = app.add_subcommand("record", "Record a CAN bus or a serial link into capture files");
+  auto [cmd, o] = add_verb<RecordOptions>(
+      app, run, "record", "Record a CAN bus or a serial link into capture files", run_record);
   add_link_option_and_positional(cmd, o->link);
   cmd->add_option("-o,--output", o->output, "file to write (replaced); with rotation NAME-000.EXT, NAME-001.EXT, ...")
       ->required();
@@ -321,7 +321,6 @@ void add_record_command(CLI::App& app, Runner& run) {
       "                                                           (/serial/interboard/state, ..., /serial/bytes)\n"
       "\nMCAP (-o x.mcap) is written in chunks closed at every flush above and at least every second: after a\n"
       "crash or kill -9 the file reads up to its last closed chunk; Ctrl-C writes its summary.\n");
-  attach_runner(cmd, o, run, run_record);
 }
 
 }  // namespace saulctl

@@ -339,9 +339,9 @@ int run_replay(const ReplayCliOptions& opt) {
 }  // namespace
 
 void add_replay_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<ReplayCliOptions>();
-  auto* cmd = app.add_subcommand("replay", "Replay a CAN or serial capture onto a bus or serial port with its original "
-                                            "timing");
+  auto [cmd, o] = add_verb<ReplayCliOptions>(
+      app, run, "replay", "Replay a CAN or serial capture onto a bus or serial port with its original timing",
+      run_replay);
   cmd->add_option("FILE", o->file,
                   "capture file, CAN frames or serial bytes: " + saul::host::capture_format_list(true))
       ->required();
@@ -389,7 +389,6 @@ void add_replay_command(CLI::App& app, Runner& run) {
       "  saulctl replay uart.serial --link serial:/dev/ttyUSB0    inter-board bytes at 460800, rc_cmd left out\n"
       "  saulctl replay pride.serial --link serial:/dev/ttyUSB1 --allow-motion --loop 10\n"
       "  saulctl replay --protocol pride --samplerate 1M la.txt --link serial:/dev/ttyUSB1@38400:8E1\n");
-  attach_runner(cmd, o, run, run_replay);
 }
 
 }  // namespace saulctl

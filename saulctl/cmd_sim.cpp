@@ -80,8 +80,8 @@ int run_sim(const SimOptions& opt) {
 }  // namespace
 
 void add_sim_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<SimOptions>();
-  auto* cmd = app.add_subcommand("sim", "Run the simulated robot (both boards' firmware on a physics model)");
+  auto [cmd, o] = add_verb<SimOptions>(
+      app, run, "sim", "Run the simulated robot (both boards' firmware on a physics model)", run_sim);
   cmd->add_option("--speed", o->speed, "multiple of real time; 0 = as fast as possible")->capture_default_str();
   add_duration_option(cmd, o->duration, "stop after this much simulated time; default: until Ctrl-C");
   cmd->add_option("--paths-file", o->paths_file, "where to write the pty paths (can=, balance=, io=, control=)")
@@ -102,7 +102,6 @@ void add_sim_command(CLI::App& app, Runner& run) {
       "disturbances (firmware/sim/README.md): it needs balancing, and different --seed values differ.\n"
       "\nExamples:\n  saulctl sim &\n  CAN=$(sed -n 's/^can=//p' sim.paths); CONTROL=$(sed -n 's/^control=//p' sim.paths)\n"
       "  python3 -c \"import can; b=can.Bus(interface='slcan', channel='$CAN', bitrate=500000); print(b.recv(1))\"\n");
-  attach_runner(cmd, o, run, run_sim);
 }
 
 }  // namespace saulctl

@@ -360,8 +360,7 @@ int run_sniff(const SniffOptions& opt) {
 }  // namespace
 
 void add_sniff_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<SniffOptions>();
-  auto* cmd = app.add_subcommand("sniff", "Live decode of a CAN bus or a serial link");
+  auto [cmd, o] = add_verb<SniffOptions>(app, run, "sniff", "Live decode of a CAN bus or a serial link", run_sniff);
   add_link_option_and_positional(cmd, o->link);
   add_id_option(cmd, o->filters, "only these ids");
   cmd->add_option("-n,--count", o->count, "stop after this many frames");
@@ -384,7 +383,6 @@ void add_sniff_command(CLI::App& app, Runner& run) {
       "  saulctl sniff --link can0 --id 00000900:0000FF00   all VESC STATUS frames\n"
       "  saulctl sniff --link serial:/dev/ttyUSB0@460800 --protocol interboard\n"
       "  saulctl sniff --link can0 --top --duration 10s   per-id table with rates, jitter and bus load\n");
-  attach_runner(cmd, o, run, run_sniff);
 }
 
 }  // namespace saulctl

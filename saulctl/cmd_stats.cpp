@@ -78,16 +78,11 @@ int run_stats(const StatsOptions& opt) {
     read.parallel_from = parallel_from;
     read.block = block;
     const auto total = opened.frames->bytes_total();
-    std::uint64_t shown = 0;
     std::function<void(const saul::CanFrame&)> also;
     if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
     add_capture(
         stats, opt.file, opened.frames, opened.compressed, read, report_corrupt,
-        [&](std::uint64_t records, std::uint64_t bytes) {
-          progress.update_many(records - shown, bytes, total);
-          shown = records;
-        },
-        also);
+        [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); }, also);
     progress.finish();
     print(stats);
     return kOk;
@@ -97,18 +92,12 @@ int run_stats(const StatsOptions& opt) {
   const SerialCaptureDecoder::Callback count_signals = [&](const SerialChunk&, SerialProtocol, const SerialMessage& m) {
     signal_stats.add(signal_values(m));
   };
-  for (;;) {
-    const auto st = opened.chunks->next();
-    if (st == SerialCaptureReader::Status::end) break;
-    progress.update(opened.chunks->bytes_read(), opened.chunks->bytes_total());
-    if (st == SerialCaptureReader::Status::corrupt) {
-      stats.add_corrupt();
-      report_corrupt(opened.chunks->error());
-      continue;
-    }
-    stats.add(opened.chunks->chunk());
-    if (opt.signals) signal_decoder.add(opened.chunks->chunk(), count_signals);
-  }
+  std::uint64_t corrupt = 0;
+  read_serial_chunks(opt.file, *opened.chunks, progress, corrupt, [&](const SerialChunk& chunk) {
+    stats.add(chunk);
+    if (opt.signals) signal_decoder.add(chunk, count_signals);
+  });
+  for (; corrupt > 0; --corrupt) stats.add_corrupt();
   progress.finish();
   stats.finish();
   if (opt.signals) signal_decoder.finish(count_signals);

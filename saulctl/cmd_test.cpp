@@ -104,8 +104,8 @@ int run_tests(const TestOptions& opt) {
 }  // namespace
 
 void add_test_command(CLI::App& app, Runner& run) {
-  auto o = std::make_shared<TestOptions>();
-  auto* cmd = app.add_subcommand("test", "Run scripted bench test suites (*.saul) against the robot or the simulator");
+  auto [cmd, o] = add_verb<TestOptions>(
+      app, run, "test", "Run scripted bench test suites (*.saul) against the robot or the simulator", run_tests);
   cmd->add_option("suites", o->suites, "suite files, e.g. tests/bench/*.saul")->required()->check(CLI::ExistingFile);
   add_link_option(cmd, o->link);
   cmd->add_option("--console-balance", o->console_balance, "BALANCE board USB console port (for 'console balance' steps)");
@@ -122,7 +122,6 @@ void add_test_command(CLI::App& app, Runner& run) {
       "  saulctl sim & saulctl test tests/bench/*.saul --link slcan:CAN --console-balance BAL --sim-control CTL\n"
       "  saulctl test tests/bench/arm_and_balance.saul --link can0 --console-balance /dev/ttyACM1 --junit out.xml\n"
       "\nExit codes: 0 all passed (or skipped), 1 a suite failed, 2 a suite file has an error.\n");
-  attach_runner(cmd, o, run, run_tests);
 }
 
 }  // namespace saulctl

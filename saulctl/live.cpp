@@ -128,7 +128,6 @@ void ViewCommands::send(std::uint8_t mode, const char* what) {
     last_result_ = fmt::format("sent ({:.2f} ms), waiting for the 0x402", ms);
     last_bad_ = false;
     waiting_since_ = t0;
-    waiting_mode_ = mode;
   } catch (const std::exception& e) {
     last_result_ = fmt::format("NOT SENT: {}", e.what());
     last_bad_ = true;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "commands.hpp"
 #include "grammar.hpp"
@@ -41,6 +42,14 @@ int run_guarded(const std::function<int()>& body);
 template <class Options, class Verb>
 void attach_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb) {
   cmd->callback([options, &run, verb] { run = [options, verb] { return run_guarded([&] { return verb(*options); }); }; });
+}
+/// Adds the verb `name` to `parent` with a new Options for its options, run as `verb(options)` (attach_runner).
+template <class Options, class Verb>
+std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::string name, std::string what, Verb verb) {
+  auto options = std::make_shared<Options>();
+  CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(what));
+  attach_runner(cmd, options, run, verb);
+  return {cmd, options.get()};
 }
 
 /// The keys every full-screen view takes, and what became of them: e or space = ESTOP (always, at once: the frame
@@ -75,7 +84,6 @@ class ViewCommands {
   std::string last_result_;
   bool last_bad_ = false;
   std::optional<std::chrono::steady_clock::time_point> waiting_since_;
-  std::uint8_t waiting_mode_ = 0;
 };
 
 }  // namespace saulctl

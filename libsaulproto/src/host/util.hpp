@@ -1,6 +1,8 @@
 // Private helpers shared by several host sources (not installed, not part of the API).
 #pragma once
 
+#include <fstream>
+#include <string>
 #include <string_view>
 
 namespace saul::host::detail {
@@ -18,6 +20,14 @@ constexpr bool starts_with_nocase(std::string_view s, std::string_view prefix) n
 /// Whether `s` ends with `suffix` (written in lower case) in any ASCII case.
 constexpr bool ends_with_nocase(std::string_view s, std::string_view suffix) noexcept {
   return s.size() >= suffix.size() && starts_with_nocase(s.substr(s.size() - suffix.size()), suffix);
+}
+
+/// The first line of a text file (/proc, /sys, a lock file); "" when it cannot be read.
+inline std::string first_line(const std::string& path) {
+  std::ifstream f(path);
+  std::string line;
+  std::getline(f, line);
+  return line;
 }
 
 /// One visitor out of several lambdas, for std::visit over message variants.

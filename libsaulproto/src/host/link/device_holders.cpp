@@ -12,6 +12,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "../util.hpp"
+
 namespace saul::host {
 namespace holders {  // named: the library is compiled in unity batches
 
@@ -27,13 +29,6 @@ std::string read_link(const std::string& path) {
   const ssize_t n = ::readlink(path.c_str(), buf, sizeof buf - 1);
   if (n <= 0) return {};
   return std::string(buf, static_cast<std::size_t>(n));
-}
-
-std::string first_line(const std::string& path) {
-  std::ifstream f(path);
-  std::string line;
-  std::getline(f, line);
-  return line;
 }
 
 // "/dev/pts/7" -> 7; -1 for anything else.
@@ -55,7 +50,7 @@ int ptmx_index(const std::string& pid, const std::string& fd) {
 DeviceHolder holder_of(int pid) {
   DeviceHolder h;
   h.pid = pid;
-  h.name = first_line(fmt::format("/proc/{}/comm", pid));
+  h.name = detail::first_line(fmt::format("/proc/{}/comm", pid));
   if (h.name.empty()) h.name = "?";
   h.command = h.name;
   if (h.is_saulctl()) {
@@ -112,7 +107,7 @@ std::optional<DeviceHolder> uucp_lock_holder(const std::string& device) {
   const std::string target = canonical_device(device);
   const std::string base = target.substr(target.find_last_of('/') + 1);
   for (const char* dir : {"/run/lock/", "/var/lock/"}) {
-    const std::string line = holders::first_line(std::string(dir) + "LCK.." + base);
+    const std::string line = detail::first_line(std::string(dir) + "LCK.." + base);
     const long pid = std::strtol(line.c_str(), nullptr, 10);
     if (pid <= 0 || pid > INT_MAX || pid == ::getpid()) continue;
     if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) continue;  // a stale lock file

@@ -162,12 +162,22 @@ class TermiosPort final : public SerialPort {
       : path_(std::move(path)), settings_(s), claim_(path_) {
     fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd_ < 0) throw open_error(path_, errno);
-    termios t{};
-    if (::tcgetattr(fd_, &t) != 0) {
-      const int e = errno;
+    try {
+      configure(s);
+    } catch (...) {
       ::close(fd_);
-      throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(e)));
+      throw;
     }
+    claim_.make_exclusive();
+  }
+  ~TermiosPort() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+  void configure(const SerialSettings& s) {
+    termios t{};
+    if (::tcgetattr(fd_, &t) != 0)
+      throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(errno)));
     ::cfmakeraw(&t);
     t.c_cflag |= CLOCAL | CREAD;
     t.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
@@ -182,25 +192,13 @@ class TermiosPort final : public SerialPort {
       ::cfsetispeed(&t, sp);
       ::cfsetospeed(&t, sp);
     }
-    if (::tcsetattr(fd_, TCSANOW, &t) != 0) {
-      const int e = errno;
-      ::close(fd_);
+    if (::tcsetattr(fd_, TCSANOW, &t) != 0)
       throw SerialError(SerialError::Kind::config,
-                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(e)));
-    }
-    if (sp == 0 && !set_custom_baud(fd_, s.baud)) {
-      ::close(fd_);
+                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(errno)));
+    if (sp == 0 && !set_custom_baud(fd_, s.baud))
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, s.baud));
-    }
-    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
-      ::close(fd_);
-      throw SerialError(SerialError::Kind::config, why);
-    }
-    claim_.make_exclusive();
-  }
-  ~TermiosPort() override {
-    if (fd_ >= 0) ::close(fd_);
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
   }
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
@@ -322,8 +320,7 @@ class LibSerialPort final : public SerialPort {
     if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
     const int n = sp_nonblocking_read(port_, buf.data(), buf.size());
     if (n > 0) return static_cast<std::size_t>(n);
-    if (n == 0) throw gone_error(path_);  // readable but nothing to read: hang-up
-    throw gone_error(path_);
+    throw gone_error(path_);  // an error, or readable but nothing to read: hang-up
   }
 
   void write(std::span<const std::uint8_t> data, milliseconds timeout) override {

@@ -68,10 +68,7 @@ Out& Out::raw(const void* p, std::size_t n) {
   b_.insert(b_.end(), b, b + n);
   return *this;
 }
-Out& Out::str(const std::string& s) {
-  u32(static_cast<std::uint32_t>(s.size()));
-  return raw(s.data(), s.size());
-}
+Out& Out::str(const std::string& s) { return bytes({reinterpret_cast<const std::uint8_t*>(s.data()), s.size()}); }
 Out& Out::bytes(std::span<const std::uint8_t> d) {
   u32(static_cast<std::uint32_t>(d.size()));
   return raw(d.data(), d.size());
@@ -94,11 +91,8 @@ void In::take(void* p, std::size_t n) {
   pos_ += n;
 }
 std::string In::str() {
-  const std::uint32_t n = u32();
-  if (m_.size() - pos_ < n) throw std::out_of_range("short sharing message");
-  std::string s(reinterpret_cast<const char*>(m_.data() + pos_), n);
-  pos_ += n;
-  return s;
+  const auto b = bytes();
+  return std::string(b.begin(), b.end());
 }
 std::vector<std::uint8_t> In::bytes() {
   const std::uint32_t n = u32();
@@ -146,6 +140,8 @@ std::string self_command() {
   return s.empty() ? "?" : s;
 }
 
+std::string self_text() { return fmt::format("{} (pid {})", self_command(), ::getpid()); }
+
 namespace {
 std::mutex g_notice_mu;
 std::function<void(const std::string&)> g_notice;
@@ -188,9 +184,8 @@ bool wait_fd_event(int fd, short events, milliseconds timeout) {
 }
 
 bool saulctl_holds(const std::string& device) {
-  for (const auto& h : device_holders(device))
-    if (h.is_saulctl()) return true;
-  return false;
+  const auto holders = device_holders(device);
+  return std::any_of(holders.begin(), holders.end(), [](const DeviceHolder& h) { return h.is_saulctl(); });
 }
 
 std::uint64_t steady_ns() {
@@ -221,7 +216,13 @@ OwnerCore::OwnerCore(std::string device, Kind kind, std::string link_text, bool 
 
 OwnerCore::~OwnerCore() {
   stop_serving();
-  release_clients(ByeReason::exit, fmt::format("{} (pid {}) stopped", self_command(), ::getpid()));
+  release_clients(ByeReason::exit, self_text() + " stopped");
+}
+
+std::string OwnerCore::sharing_text() const {
+  if (!serving()) return "";
+  const int clients = client_count();
+  return clients == 0 ? std::string("shared, no other saulctl now") : fmt::format("shared with {} other saulctl", clients);
 }
 
 void OwnerCore::start_serving(int device_fd) {
@@ -257,7 +258,7 @@ void OwnerCore::shutdown() {
   const auto g = gone();
   close_device();
   release_clients(g ? ByeReason::gone : ByeReason::exit,
-                  g ? std::string(g->what()) : fmt::format("{} (pid {}) stopped", self_command(), ::getpid()));
+                  g ? std::string(g->what()) : self_text() + " stopped");
 }
 
 void OwnerCore::set_gone(LinkError::Kind kind, const std::string& text) {
@@ -436,22 +437,15 @@ void OwnerCore::handle(Client& c, const std::vector<std::uint8_t>& m) {
       c.dead = true;
       return;
     }
-    Hello h;
-    h.version = in.u16();
-    h.kind = static_cast<Kind>(in.u8());
-    h.probe = in.u8() != 0;
-    h.pid = in.u32();
-    h.command = in.str();
-    h.link = in.str();
-    h.rate = in.u32();
-    h.format = in.str();
-    h.listen_only = in.u8() != 0;
+    const Hello h{.version = in.u16(), .kind = static_cast<Kind>(in.u8()), .probe = in.u8() != 0, .pid = in.u32(),
+                  .command = in.str(), .link = in.str(), .rate = in.u32(), .format = in.str(),
+                  .listen_only = in.u8() != 0};  // a braced list is evaluated in order: the fields as sent
     c.command = h.command;
     std::string why;
     if (h.version != kVersion)
-      why = fmt::format("{} is held by {} (pid {}), a saulctl of another version (sharing protocol {}, this one {}): "
+      why = fmt::format("{} is held by {}, a saulctl of another version (sharing protocol {}, this one {}): "
                         "use the same saulctl, or stop it",
-                        device_, self_command(), ::getpid(), kVersion, h.version);
+                        device_, self_text(), kVersion, h.version);
     else if (!h.probe)
       why = refuse_reason(h);
     if (!why.empty()) {
@@ -538,15 +532,14 @@ void OwnerCore::run() {
     const auto dead = std::stable_partition(clients_.begin(), clients_.end(), [](const auto& c) { return !c->dead; });
     for (auto it = dead; it != clients_.end(); ++it) discard_and_close((*it)->fd);
     clients_.erase(dead, clients_.end());
-    int greeted = 0;
-    for (auto& c : clients_) greeted += c->greeted ? 1 : 0;
-    clients_count_ = greeted;
+    clients_count_ =
+        static_cast<int>(std::count_if(clients_.begin(), clients_.end(), [](const auto& c) { return c->greeted; }));
   }
 }
 
 // ---- the client ----------------------------------------------------------------------------------------------------
 
-std::unique_ptr<ClientSocket> ClientSocket::connect(const std::string& device, const Hello& hello, ShareInfo& info) {
+std::unique_ptr<ClientSocket> ClientSocket::connect(const std::string& device, const Hello& hello) {
   const std::string path = share_socket_path(device);
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
@@ -588,12 +581,8 @@ std::unique_ptr<ClientSocket> ClientSocket::connect(const std::string& device, c
       }
       if (type != Msg::welcome) continue;
       if (in.u16() != kVersion) return nullptr;
-      info.owner_pid = static_cast<int>(in.u32());
-      info.owner_command = in.str();
-      info.link = in.str();
-      info.listen_only = in.u8() != 0;
-      info.clients = static_cast<int>(in.u32());
-      s->info_ = info;
+      s->info_ = ShareInfo{.owner_pid = static_cast<int>(in.u32()), .owner_command = in.str(), .link = in.str(),
+                           .listen_only = in.u8() != 0, .clients = static_cast<int>(in.u32())};
       return s;
     }
   } catch (const OwnerLeft&) {

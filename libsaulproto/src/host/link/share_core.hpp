@@ -97,6 +97,8 @@ std::uint64_t steady_ns();
 
 /// "saulctl monitor" for this process (from /proc/self/cmdline).
 std::string self_command();
+/// "saulctl monitor (pid 77)" for this process.
+std::string self_text();
 
 /// The notice sink (shared_link.hpp).
 void notice(const std::string& text);
@@ -190,6 +192,8 @@ class OwnerCore {
 
   [[nodiscard]] int client_count() const { return clients_count_.load(); }
   [[nodiscard]] bool serving() const { return serving_.load(); }
+  /// What a shared owner's sharing() says: "shared with 2 other saulctl"; "" when not serving.
+  [[nodiscard]] std::string sharing_text() const;
   [[nodiscard]] const std::string& link_text() const { return link_text_; }
   [[nodiscard]] bool owner_listen_only() const { return listen_only_; }
   void set_owner_listen_only(bool v) { listen_only_ = v; }
@@ -227,7 +231,7 @@ class ClientSocket {
   /// Connects to the owner of `device` and says hello. nullptr when nobody serves it (no socket, or a stale one).
   /// Throws LinkError(permission) when another user serves it or the owner refuses this user, LinkError(busy) when
   /// the owner refuses the hello (another kind or rate, another version).
-  static std::unique_ptr<ClientSocket> connect(const std::string& device, const Hello& hello, ShareInfo& info);
+  static std::unique_ptr<ClientSocket> connect(const std::string& device, const Hello& hello);
   ~ClientSocket();
   ClientSocket(const ClientSocket&) = delete;
   ClientSocket& operator=(const ClientSocket&) = delete;

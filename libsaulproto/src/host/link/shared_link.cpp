@@ -67,12 +67,36 @@ SerialError serial_error_of(const LinkError& e) {
   }
 }
 
-std::string owner_sharing(int clients) {
-  return clients == 0 ? std::string("shared, no other saulctl now")
-                      : fmt::format("shared with {} other saulctl", clients);
+// The queues of what was read for a process; when one is full its oldest goes (frames counted).
+void push_frame(std::deque<CanFrame>& q, const CanFrame& f, std::uint64_t& dropped) {
+  if (q.size() >= kMaxQueuedFrames) {
+    q.pop_front();
+    ++dropped;
+  }
+  q.push_back(f);
+}
+void push_bytes(std::deque<std::uint8_t>& q, std::span<const std::uint8_t> data) {
+  q.insert(q.end(), data.begin(), data.end());
+  if (q.size() > kMaxQueuedBytes)
+    q.erase(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(q.size() - kMaxQueuedBytes));
+}
+std::size_t pop_bytes(std::deque<std::uint8_t>& q, std::span<std::uint8_t> buf) {
+  const std::size_t n = std::min(buf.size(), q.size());
+  std::copy_n(q.begin(), n, buf.begin());
+  q.erase(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(n));
+  return n;
 }
 
-std::string self_text() { return fmt::format("{} (pid {})", self_command(), ::getpid()); }
+// A client told by Msg::bye: the device's error when it went, else OwnerLeft (the handle takes over).
+template <class GoneError>
+[[noreturn]] void throw_bye(In& in) {
+  const auto reason = static_cast<ByeReason>(in.u8());
+  const std::string text = in.str();
+  if (reason == ByeReason::gone) throw GoneError(GoneError::Kind::gone, text);
+  throw OwnerLeft(text);
+}
+
+std::vector<std::uint8_t> frame_message(const CanFrame& f) { return Out(Msg::frame).frame(f).u32(0).u64(0).take(); }
 
 // The answer to a client's send: Msg::sent with its token.
 std::vector<std::uint8_t> sent_message(std::uint32_t token, std::uint64_t client_ns, const std::string& error,
@@ -140,7 +164,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     last_send_ns_ = static_cast<std::uint64_t>(duration_cast<nanoseconds>(steady_clock::now() - t0).count());
     CanFrame looped = frame;
     looped.timestamp_ns = realtime_ns();
-    post_broadcast(Out(Msg::frame).frame(looped).u32(0).u64(0).take());
+    post_broadcast(frame_message(looped));
   }
 
   std::optional<CanFrame> receive(milliseconds timeout) override {
@@ -172,11 +196,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     return real_->recover(hint);
   }
   [[nodiscard]] LinkStats stats() const override {
-    LinkStats s;
-    {
-      std::lock_guard lock(io_);
-      s = real_->stats();
-    }
+    LinkStats s = device_stats();
     std::lock_guard lock(inbox_.mu);
     s.rx_dropped += dropped_;
     s.last_send_ns = last_send_ns_;
@@ -185,7 +205,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   [[nodiscard]] const std::string& name() const override { return real_->name(); }
   [[nodiscard]] TimestampSource timestamp_source() const override { return real_->timestamp_source(); }
   [[nodiscard]] int poll_handle() const override { return inbox_.fd(); }
-  [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
+  [[nodiscard]] std::string sharing() const override { return sharing_text(); }
 
  private:
   void close_device() override { real_.reset(); }  // closes the channel and the device
@@ -197,11 +217,7 @@ class CanOwner final : public CanLink, private OwnerCore {
       std::lock_guard lock(inbox_.mu);
       for (const CanFrame& f : frames) {
         if (!passes(filters_, f)) continue;
-        if (queue_.size() >= kMaxQueuedFrames) {
-          queue_.pop_front();
-          ++dropped_;
-        }
-        queue_.push_back(f);
+        push_frame(queue_, f, dropped_);
         queued = true;
       }
     }
@@ -244,7 +260,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     }
     deliver(got);
     if (has_clients())
-      for (const auto& f : got) broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), nullptr);
+      for (const auto& f : got) broadcast(frame_message(f), nullptr);
     if (error) {
       set_gone(error->kind(), error->what());
       inbox_.signal();
@@ -278,16 +294,16 @@ class CanOwner final : public CanLink, private OwnerCore {
     if (!error.empty()) return;
     f.timestamp_ns = realtime_ns();
     deliver(std::span<const CanFrame>(&f, 1));
-    broadcast(Out(Msg::frame).frame(f).u32(0).u64(0).take(), &from);
+    broadcast(frame_message(f), &from);
   }
 
   std::vector<std::uint8_t> stats_for(const Client& c) override {
-    LinkStats s;
-    {
-      std::lock_guard lock(io_);
-      s = real_->stats();
-    }
-    return Out(Msg::stats).stats(s).u64(c.dropped).take();
+    return Out(Msg::stats).stats(device_stats()).u64(c.dropped).take();
+  }
+
+  [[nodiscard]] LinkStats device_stats() const {
+    std::lock_guard lock(io_);
+    return real_->stats();
   }
 
   std::string refuse_reason(const Hello& h) override {
@@ -368,24 +384,14 @@ class CanClient final : public CanLink {
     switch (type) {
       case Msg::frame: {
         const CanFrame f = in.frame();
-        if (!passes(filters_, f)) return;
-        if (queue_.size() >= kMaxQueuedFrames) {
-          queue_.pop_front();
-          ++dropped_;
-        }
-        queue_.push_back(f);
+        if (passes(filters_, f)) push_frame(queue_, f, dropped_);
         return;
       }
       case Msg::stats:
         stats_ = in.stats();
         owner_dropped_ = in.u64();
         return;
-      case Msg::bye: {
-        const auto reason = static_cast<ByeReason>(in.u8());
-        const std::string text = in.str();
-        if (reason == ByeReason::gone) throw LinkError(LinkError::Kind::gone, text);
-        throw OwnerLeft(text);
-      }
+      case Msg::bye: throw_bye<LinkError>(in);
       default: return;
     }
   }
@@ -453,8 +459,7 @@ class SharedCanLink final : public CanLink {
               h.link = spec.text();
               h.rate = spec.bitrate;
               h.listen_only = listen_only;
-              ShareInfo info;
-              auto sock = ClientSocket::connect(spec.device, h, info);
+              auto sock = ClientSocket::connect(spec.device, h);
               if (!sock) return nullptr;
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
             },
@@ -507,12 +512,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     for (;;) {
       {
         std::lock_guard lock(inbox_.mu);
-        if (!bytes_.empty()) {
-          const std::size_t n = std::min(buf.size(), bytes_.size());
-          std::copy_n(bytes_.begin(), n, buf.begin());
-          bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
-          return n;
-        }
+        if (!bytes_.empty()) return pop_bytes(bytes_, buf);
       }
       if (auto g = gone()) throw SerialError(SerialError::Kind::gone, g->what());
       if (!inbox_.wait(deadline)) return 0;
@@ -534,7 +534,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
   [[nodiscard]] const SerialSettings& settings() const override { return real_->settings(); }
   [[nodiscard]] const char* backend() const override { return real_->backend(); }
   [[nodiscard]] int poll_handle() const override { return inbox_.fd(); }
-  [[nodiscard]] std::string sharing() const override { return serving() ? owner_sharing(client_count()) : ""; }
+  [[nodiscard]] std::string sharing() const override { return sharing_text(); }
 
  private:
   void close_device() override { real_.reset(); }
@@ -554,9 +554,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     if (n > 0) {
       {
         std::lock_guard lock(inbox_.mu);
-        bytes_.insert(bytes_.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
-        if (bytes_.size() > kMaxQueuedBytes)
-          bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(bytes_.size() - kMaxQueuedBytes));
+        push_bytes(bytes_, std::span<const std::uint8_t>(buf.data(), n));
       }
       inbox_.signal();
       broadcast(Out(Msg::bytes).u32(0).bytes(std::span<const std::uint8_t>(buf.data(), n)).take(), nullptr);
@@ -616,12 +614,7 @@ class SerialClient final : public SerialPort {
     const auto deadline = steady_clock::now() + timeout;
     std::vector<std::uint8_t> m;
     for (;;) {
-      if (!bytes_.empty()) {
-        const std::size_t n = std::min(buf.size(), bytes_.size());
-        std::copy_n(bytes_.begin(), n, buf.begin());
-        bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
-        return n;
-      }
+      if (!bytes_.empty()) return pop_bytes(bytes_, buf);
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return 0;
       In in(m);
@@ -658,15 +651,9 @@ class SerialClient final : public SerialPort {
   void take(Msg type, In& in) {
     if (type == Msg::bytes) {
       in.u32();
-      const auto data = in.bytes();
-      bytes_.insert(bytes_.end(), data.begin(), data.end());
-      if (bytes_.size() > kMaxQueuedBytes)
-        bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(bytes_.size() - kMaxQueuedBytes));
+      push_bytes(bytes_, in.bytes());
     } else if (type == Msg::bye) {
-      const auto reason = static_cast<ByeReason>(in.u8());
-      const std::string text = in.str();
-      if (reason == ByeReason::gone) throw SerialError(SerialError::Kind::gone, text);
-      throw OwnerLeft(text);
+      throw_bye<SerialError>(in);
     }
   }
 
@@ -689,10 +676,9 @@ class SharedSerialPort final : public SerialPort {
               h.link = serial_text(path, settings);
               h.rate = settings.baud;
               h.format = to_string(settings);
-              ShareInfo info;
               std::unique_ptr<ClientSocket> sock;
               try {
-                sock = ClientSocket::connect(path, h, info);
+                sock = ClientSocket::connect(path, h);
               } catch (const LinkError& e) {
                 throw serial_error_of(e);
               }
@@ -728,10 +714,9 @@ std::optional<ShareInfo> query_share(const std::string& device) {
   share::Hello h;
   h.probe = true;
   h.command = share::self_command();
-  ShareInfo info;
-  auto sock = share::ClientSocket::connect(device, h, info);
+  const auto sock = share::ClientSocket::connect(device, h);
   if (!sock) return std::nullopt;
-  return info;
+  return sock->owner();
 }
 
 std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,

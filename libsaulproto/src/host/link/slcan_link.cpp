@@ -14,6 +14,16 @@ namespace {
 
 using namespace std::chrono;
 
+// The serial port's errors as the link's (same kind, same message).
+template <class F>
+auto as_link(F&& f) {
+  try {
+    return f();
+  } catch (const SerialError& e) {
+    throw to_link_error(e);
+  }
+}
+
 class SlcanLink final : public CanLink {
  public:
   SlcanLink(std::unique_ptr<SerialPort> port, const SlcanOptions& options)
@@ -22,22 +32,17 @@ class SlcanLink final : public CanLink {
     if (!preset)
       throw LinkError(LinkError::Kind::unsupported,
                       fmt::format("{}: no slcan preset for {} bit/s (use 10k..500k or 1M)", name_, options.bitrate));
-    try {
-      std::string open = "C\r";
-      open += 'S';
-      open += *preset;
-      open += '\r';
-      if (options.listen_only) {
-        port_->write(open + "V\r", milliseconds(200));
-        const bool lawicel = wait_for_version(milliseconds(200));
-        open = lawicel ? "L\r" : "M1\rO\r";
-      } else {
-        open += "O\r";
-      }
-      port_->write(open, milliseconds(200));
-    } catch (const SerialError& e) {
-      throw to_link_error(e);
+    std::string open = "C\r";
+    open += 'S';
+    open += *preset;
+    open += '\r';
+    if (options.listen_only) {
+      as_link([&] { port_->write(open + "V\r", milliseconds(200)); });
+      open = wait_for_version(milliseconds(200)) ? "L\r" : "M1\rO\r";  // Lawicel's listen-only, else the CANable's
+    } else {
+      open += "O\r";
     }
+    as_link([&] { port_->write(open, milliseconds(200)); });
   }
 
   ~SlcanLink() override {
@@ -53,11 +58,7 @@ class SlcanLink final : public CanLink {
     if (!n)
       throw LinkError(LinkError::Kind::unsupported,
                       fmt::format("{}: cannot send this frame: {}", name_, to_string(n.reason())));
-    try {
-      port_->write(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(line.data()), *n), timeout);
-    } catch (const SerialError& e) {
-      throw to_link_error(e);
-    }
+    as_link([&] { port_->write(std::span(reinterpret_cast<const std::uint8_t*>(line.data()), *n), timeout); });
     ++stats_.tx_frames;
   }
 
@@ -78,11 +79,7 @@ class SlcanLink final : public CanLink {
   void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }
 
   bool recover(std::string& hint) override {
-    try {
-      port_->write(std::string("C\rO\r"), milliseconds(200));
-    } catch (const SerialError& e) {
-      throw to_link_error(e);
-    }
+    as_link([&] { port_->write(std::string("C\rO\r"), milliseconds(200)); });
     ++stats_.recoveries;
     stats_.state = ControllerState::unknown;
     hint = "closed and reopened the slcan channel";
@@ -102,12 +99,7 @@ class SlcanLink final : public CanLink {
   // Reads one chunk and parses it; returns false on timeout.
   bool fill(milliseconds timeout) {
     std::array<std::uint8_t, 4096> buf{};
-    std::size_t n = 0;
-    try {
-      n = port_->read(buf, timeout);
-    } catch (const SerialError& e) {
-      throw to_link_error(e);
-    }
+    const std::size_t n = as_link([&] { return port_->read(buf, timeout); });
     if (n == 0) return false;
     const std::uint64_t stamp = realtime_ns();  // one stamp per read: the stock firmwares send none
     decoder_.push(std::span<const std::uint8_t>(buf.data(), n), [&](const slcan::Event& e) { on_event(e, stamp); });
@@ -184,11 +176,7 @@ std::unique_ptr<CanLink> open_slcan(std::unique_ptr<SerialPort> port, const Slca
 std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options) {
   SerialSettings s;
   s.baud = 115200;  // USB CDC ignores it; a real UART adapter would need the right value
-  try {
-    return open_slcan(open_serial(path, s, options.backend), options);
-  } catch (const SerialError& e) {
-    throw to_link_error(e);
-  }
+  return as_link([&] { return open_slcan(open_serial(path, s, options.backend), options); });
 }
 
 }  // namespace saul::host

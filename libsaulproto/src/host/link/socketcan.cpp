@@ -20,8 +20,9 @@
 #include <climits>
 #include <cstring>
 #include <ctime>
-#include <fstream>
 #include <thread>
+
+#include "../util.hpp"
 
 namespace saul::host {
 
@@ -172,9 +173,7 @@ class SocketCanLink final : public CanLink {
       throw LinkError(LinkError::Kind::io, fmt::format("{}: poll failed: {}", name_, std::strerror(errno)));
     }
     if (r == 0) return std::nullopt;
-    if (p.revents & (POLLERR | POLLHUP | POLLNVAL)) {
-      // Reading gives the pending socket error (ENETDOWN when the link went down).
-    }
+    // On POLLERR or POLLHUP, reading gives the pending socket error (ENETDOWN when the link went down).
     can_frame cf{};
     iovec iov{&cf, sizeof cf};
     alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
@@ -266,13 +265,6 @@ std::unique_ptr<CanLink> open_socketcan(const std::string& interface, const Sock
 
 namespace netlink_info {  // named: the library is compiled in unity batches
 
-std::string sysfs_line(const std::string& path) {
-  std::ifstream f(path);
-  std::string line;
-  std::getline(f, line);
-  return line;
-}
-
 // Walks up from the interface's device in sysfs to the USB device that holds idVendor/idProduct.
 void usb_identity(CanInterfaceInfo& info) {
   char resolved[PATH_MAX];
@@ -286,8 +278,8 @@ void usb_identity(CanInterfaceInfo& info) {
   }
   std::string dir = resolved;
   for (int up = 0; up < 4 && dir.size() > 5; ++up) {
-    const std::string vid = sysfs_line(dir + "/idVendor");
-    const std::string pid = sysfs_line(dir + "/idProduct");
+    const std::string vid = detail::first_line(dir + "/idVendor");
+    const std::string pid = detail::first_line(dir + "/idProduct");
     if (!vid.empty() && !pid.empty()) {
       info.usb_vid = static_cast<int>(std::strtol(vid.c_str(), nullptr, 16));
       info.usb_pid = static_cast<int>(std::strtol(pid.c_str(), nullptr, 16));
@@ -372,7 +364,7 @@ std::vector<CanInterfaceInfo> list_can_interfaces() {
   while (const dirent* e = ::readdir(d)) {
     const std::string name = e->d_name;
     if (name == "." || name == "..") continue;
-    if (netlink_info::sysfs_line("/sys/class/net/" + name + "/type") != "280") continue;  // ARPHRD_CAN
+    if (detail::first_line("/sys/class/net/" + name + "/type") != "280") continue;  // ARPHRD_CAN
     if (auto info = can_interface_info(name)) out.push_back(*info);
   }
   ::closedir(d);

@@ -27,35 +27,6 @@ bool crsf_estop(const crsf::RcChannels& rc) {
   return rc::map_channels(channels).estop;
 }
 
-/// Settings a "serial:DEV@BAUD[:FORMAT]" name states: the rate (0 when none) and whether it gave a format.
-struct NamedSettings {
-  SerialSettings settings;
-  bool has_baud = false;
-  bool has_format = false;
-};
-
-NamedSettings settings_in_name(std::string_view name) {
-  NamedSettings n;
-  if (!name.starts_with("serial:")) return n;
-  const auto at = name.find('@');
-  if (at == std::string_view::npos) return n;
-  std::string_view rate = name.substr(at + 1);
-  const auto colon = rate.find(':');
-  if (colon != std::string_view::npos) {
-    n.has_format = parse_frame_format(std::string(rate.substr(colon + 1)), n.settings);
-    rate = rate.substr(0, colon);
-  }
-  std::uint64_t v = 0;
-  for (char c : rate) {
-    if (c < '0' || c > '9' || v > 100'000'000) return NamedSettings{};
-    v = v * 10 + static_cast<std::uint64_t>(c - '0');
-  }
-  if (rate.empty() || v == 0) return NamedSettings{};
-  n.settings.baud = static_cast<std::uint32_t>(v);
-  n.has_baud = true;
-  return n;
-}
-
 /// One link's chunks, held until every byte is decided (in a kept piece or in a motion frame), then handed out in
 /// order with the bytes that remain. Shared by the replay and its preview so that both cut alike.
 class ChunkCutter {
@@ -236,10 +207,18 @@ std::optional<SerialSettings> replay_serial_settings(std::string_view captured_l
     case SerialProtocol::pride: by_protocol = SerialSettings{pride::kBaudRate, 8, Parity::even, 1}; break;
     case SerialProtocol::raw: break;
   }
-  const NamedSettings named = settings_in_name(captured_link);
-  if (!named.has_baud) return by_protocol;
-  SerialSettings s = named.has_format ? named.settings : by_protocol.value_or(SerialSettings{});
-  s.baud = named.settings.baud;
+  // A name "serial:DEV@BAUD[:FORMAT]" (as record writes it) states the rate, and maybe the format.
+  const auto at = captured_link.find('@');
+  if (!captured_link.starts_with("serial:") || at == std::string_view::npos) return by_protocol;
+  LinkSpec named;
+  try {
+    named = parse_link_spec(std::string(captured_link));
+  } catch (const std::invalid_argument&) {
+    return by_protocol;
+  }
+  SerialSettings s = captured_link.find(':', at) != std::string_view::npos ? named.serial
+                                                                            : by_protocol.value_or(SerialSettings{});
+  s.baud = named.serial.baud;
   return s;
 }
 

@@ -70,8 +70,6 @@ class ReplaySchedule {
   std::uint64_t deadline(std::optional<std::uint64_t> timestamp_ns);
   /// Starts the next pass over the file.
   void next_pass();
-  /// Virtual file time of the frame last scheduled.
-  [[nodiscard]] std::uint64_t file_time_ns() const { return t_; }
 
  private:
   double speed_;
