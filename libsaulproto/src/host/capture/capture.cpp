@@ -27,6 +27,7 @@
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/capture/trc.hpp"
 #include "../util.hpp"
+#include "capture_io.hpp"
 #include "read_path.hpp"
 
 namespace saul::host {
@@ -370,16 +371,12 @@ class FileWriter final : public CaptureWriter {
   void close() override {
     if (closed_) return;
     closed_ = true;
-    std::string failure;
-    try {
-      inner_->close();
-      if (packer_) packer_->finish();
-    } catch (const std::runtime_error& e) {
-      failure = e.what();
-    }
-    file_->close();
-    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+    detail::close_with_file(
+        [&] {
+          inner_->close();
+          if (packer_) packer_->finish();
+        },
+        *file_, path_);
   }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
 

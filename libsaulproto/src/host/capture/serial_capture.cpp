@@ -53,15 +53,7 @@ class FileSerialWriter final : public SerialCaptureWriter {
   void close() override {
     if (closed_) return;
     closed_ = true;
-    std::string failure;
-    try {
-      inner_.close();
-    } catch (const std::runtime_error& e) {
-      failure = e.what();
-    }
-    file_->close();
-    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+    detail::close_with_file([&] { inner_.close(); }, *file_, path_);
   }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
 
