@@ -15,7 +15,6 @@
 
 #include "saulproto/host/report/bus_stats.hpp"
 #include "saulproto/host/capture/candump.hpp"
-#include "saulproto/host/capture/capture_blocks.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "host/temp_file.hpp"
 
@@ -293,22 +292,21 @@ void add(BusStats& stats, const Event& e) {
     stats.add(e.frame, e.interface);
 }
 
-/// `events` counted in blocks (`cuts`: block k is events [cuts[k], cuts[k + 1])) told `first`, appended in order as
+/// `events` counted in blocks (`cuts`: block k is events [cuts[k], cuts[k + 1])), appended in order as
 /// stats does, with detours: some blocks appended to another block first, which then may count the next block's
 /// frames itself before it is appended.
 BusStats appended_in_blocks(const std::vector<Event>& events, const std::vector<std::size_t>& cuts,
-                            const BusStatsOptions& options, const std::optional<BusStats::FirstTimed>& first,
-                            std::mt19937_64& rng) {
+                            const BusStatsOptions& options, std::mt19937_64& rng) {
   BusStats total(options);
-  BusStats block(options, BusStats::Block{}, first);
-  BusStats gathered(options, BusStats::Block{}, first);
+  BusStats block(options, BusStats::Block{});
+  BusStats gathered(options, BusStats::Block{});
   bool gathering = false;
   for (std::size_t b = 0; b + 1 < cuts.size(); ++b) {
     if (gathering && rng() % 2 == 0) {  // frames counted straight into a block that was appended to
       for (std::size_t i = cuts[b]; i < cuts[b + 1]; ++i) add(gathered, events[i]);
       continue;
     }
-    block.restart_block(options, first);
+    block.restart_block(options);
     for (std::size_t i = cuts[b]; i < cuts[b + 1]; ++i) add(block, events[i]);
     if (rng() % 3 == 0) {  // into a block first
       gathered.append(block);
@@ -317,7 +315,7 @@ BusStats appended_in_blocks(const std::vector<Event>& events, const std::vector<
     }
     if (gathering) {
       total.append(gathered);
-      gathered.restart_block(options, first);
+      gathered.restart_block(options);
       gathering = false;
     }
     total.append(block);
@@ -351,19 +349,11 @@ TEST_CASE("stats of blocks appended in order equal one pass over every frame") {
     REQUIRE(appended.json("f").dump() == one.json("f").dump());
     REQUIRE(appended.text("f") == one.text("f"));
 
-    // The same with one interface's first timed frame told to every block (stats tells them a candump file's first
-    // line), so that they work its windows out as runs: a block restarted for each block, some appended to another
-    // block before the total, which then may count frames of its own.
-    std::optional<BusStats::FirstTimed> first;
-    const std::string told = std::array{"can0", "can1", "vcan7"}[rng() % 3];
-    for (const Event& e : events)
-      if (!e.corrupt && !e.frame.error && e.frame.timestamp_ns && e.interface == told) {
-        first = BusStats::FirstTimed{told, *e.frame.timestamp_ns};
-        break;
-      }
-    const BusStats by_runs = appended_in_blocks(events, cuts, options, first, rng);
-    REQUIRE(by_runs.json("f").dump() == one.json("f").dump());
-    REQUIRE(by_runs.text("f") == one.text("f"));
+    // The same with blocks restarted for each block, some appended to another block before the total, which then
+    // may count frames of its own.
+    const BusStats gathered = appended_in_blocks(events, cuts, options, rng);
+    REQUIRE(gathered.json("f").dump() == one.json("f").dump());
+    REQUIRE(gathered.text("f") == one.text("f"));
 
     // The busiest window against the rule written out plainly (a division per frame): windows of window_ns from
     // the interface's first timed frame, in file order; a frame that falls in an earlier window counts in the
@@ -469,17 +459,16 @@ TEST_CASE("a capture lists its first ids and interfaces, the rest counted apart,
     std::vector<std::size_t> cuts{0, events.size()};
     for (int c = 1 + static_cast<int>(rng() % 8); c-- > 0;) cuts.push_back(rng() % events.size());
     std::sort(cuts.begin(), cuts.end());
-    const BusStats appended = appended_in_blocks(events, cuts, BusStatsOptions{}, std::nullopt, rng);
+    const BusStats appended = appended_in_blocks(events, cuts, BusStatsOptions{}, rng);
     REQUIRE(appended.json("f").dump() == j.dump());
     REQUIRE(appended.text("f") == one.text("f"));
   }
 }
 
-// Blocks told the first frame of an interface (BusStats::FirstTimed) keep its busiest windows as runs. Times here
-// jump back by several windows, before the first frame too, and forward, at block starts and inside blocks, so that
-// every branch of the runs' merge decides the figures: a window taken back (not the larger of the two), a carry that
-// starts a window, a block appended to a block that then counts frames of its own.
-TEST_CASE("busiest windows worked out in blocks told the first frame equal one pass when times go back") {
+// Blocks keep their timed frames for append(), which works the busiest windows out in file order. Times here jump
+// back by several windows, before the first frame too, and forward, at block starts and inside blocks, and blocks
+// are appended to a block that then counts frames of its own.
+TEST_CASE("busiest windows worked out from blocks equal one pass when times go back") {
   std::mt19937_64 rng(777);
   for (int round = 0; round < 300; ++round) {
     INFO("round " << round);
@@ -509,15 +498,14 @@ TEST_CASE("busiest windows worked out in blocks told the first frame equal one p
     events[0].frame.timestamp_ns = first_ns;
     BusStats one(options);
     for (const Event& e : events) add(one, e);
-    const std::optional<BusStats::FirstTimed> first = BusStats::FirstTimed{"can0", first_ns};
     std::vector<std::size_t> cuts{0};
     while (cuts.back() < events.size()) cuts.push_back(std::min(events.size(), cuts.back() + 1 + rng() % 6));
-    const BusStats by_runs = appended_in_blocks(events, cuts, options, first, rng);
+    const BusStats blocks = appended_in_blocks(events, cuts, options, rng);
     for (const char* name : {"can0", "can1"}) {
       if (!one.interfaces().count(name)) continue;
       INFO(name);
       const BusStats::Load& a = one.interfaces().at(name);
-      const BusStats::Load& b = by_runs.interfaces().at(name);
+      const BusStats::Load& b = blocks.interfaces().at(name);
       REQUIRE(b.peak_bits == a.peak_bits);
       REQUIRE(b.peak_index == a.peak_index);
       REQUIRE(b.window_index == a.window_index);
@@ -525,34 +513,8 @@ TEST_CASE("busiest windows worked out in blocks told the first frame equal one p
       REQUIRE(b.first_ns == a.first_ns);
       REQUIRE(b.last_ns == a.last_ns);
     }
-    REQUIRE(by_runs.json("f").dump() == one.json("f").dump());
+    REQUIRE(blocks.json("f").dump() == one.json("f").dump());
   }
-}
-
-TEST_CASE("a candump file's first record, as stats' blocks are told it: only a first line of the usual shape") {
-  auto first_of = [](const std::string& text) {
-    TempFile file(text);
-    const auto blocks = CaptureBlocks::open(file.path, 4096);
-    REQUIRE(blocks);
-    return blocks->first_record();
-  };
-  const auto usual = first_of("(1763800000.000100) vcan7 300#00006400\n(1763800000.000200) can0 301#00\n");
-  REQUIRE(usual);
-  CHECK(usual->interface == "vcan7");
-  CHECK(usual->frame.id == 0x300);
-  CHECK(usual->frame.dlc == 4);
-  CHECK(usual->frame.timestamp_ns == 1'763'800'000'000'100'000ULL);
-  const auto alone = first_of("(1763800000.5) can0 12345678#");  // one line, no newline, another time shape
-  REQUIRE(alone);
-  CHECK(alone->frame.extended);
-  CHECK(alone->frame.timestamp_ns == 1'763'800'000'500'000'000ULL);
-  // what the scanner reads otherwise, or not as the file's first frame
-  CHECK_FALSE(first_of("(1763800000.000100) can0 300#00006400\r\n(1763800000.000200) can0 301#00\n"));
-  CHECK_FALSE(first_of("# recorded on the bench\n(1763800000.000100) can0 300#00006400\n"));
-  CHECK_FALSE(first_of("(1763800000.000100) can0 300#R\n(1763800000.000200) can0 301#00\n"));
-  CHECK_FALSE(first_of("(1763800000.000100) can0 300#ZZ\n(1763800000.000200) can0 301#00\n"));
-  CHECK_FALSE(
-      first_of("(1763800000.000100) can0 300#" + std::string(5000, '0') + "\n(1763800000.000200) can0 301#00\n"));
 }
 
 TEST_CASE("cadences of consecutive parts appended equal one cadence over the whole") {
@@ -660,23 +622,11 @@ TEST_CASE("stats of a candump file on both cores equal one thread: figures, corr
                            rng() % 2 ? "300" : "00000944", rng() % 3 == 0 ? rng() % 0x10000 : 0, rng() % 4);
     }
   }
-  // Once with a comment first, once with a first line of the usual shape: then the blocks are told its interface's
-  // first frame (CaptureBlocks::first_record) and work that interface's windows out themselves.
+  // Once with a comment first, once with a first line of the usual shape.
   const bool usual_first = GENERATE(false, true);
   INFO("a usual first line: " << usual_first);
   log = (usual_first ? "(1763799999.999999) can0 00000944#0000000000000000\n" : "# from the bench\n") + log;
   TempFile file(log);
-  {
-    const auto blocks = CaptureBlocks::open(file.path, 4096);
-    REQUIRE(blocks);
-    const auto first = blocks->first_record();
-    REQUIRE(first.has_value() == usual_first);
-    if (usual_first) {
-      CHECK(first->interface == "can0");
-      CHECK(first->frame.id == 0x944);
-      CHECK(first->frame.timestamp_ns == 1'763'799'999'999'999'000ULL);
-    }
-  }
   struct Run {
     std::string text;
     std::vector<std::uint64_t> corrupt_lines;

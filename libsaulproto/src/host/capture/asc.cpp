@@ -3,11 +3,11 @@
 #include <fmt/format.h>
 
 #include <array>
-#include <charconv>
 #include <stdexcept>
 #include "../util.hpp"
 #include "capture_io.hpp"
 #include "civil_time.hpp"
+#include "text_fields.hpp"
 
 namespace saul::host {
 namespace {
@@ -49,25 +49,19 @@ bool hex_digits(std::string_view s) {
   return true;
 }
 
-std::optional<std::uint64_t> parse_number(std::string_view s, int base) {
-  if (s.empty()) return std::nullopt;
-  std::uint64_t v = 0;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, base);
-  if (r.ec != std::errc() || r.ptr != s.data() + s.size()) return std::nullopt;
-  return v;
-}
+using detail::parse_unsigned;
 
 /// "12.345678" (1 to 9 fraction digits, or none) to nanoseconds.
 std::optional<std::uint64_t> parse_time(std::string_view s) {
   const std::size_t dot = s.find('.');
   const std::string_view whole = s.substr(0, dot);
-  const auto sec = parse_number(whole, 10);
-  if (!sec || !all_digits(whole) || *sec > 1'000'000'000'000ULL) return std::nullopt;
+  const auto sec = parse_unsigned(whole, 10);
+  if (!sec || *sec > 1'000'000'000'000ULL) return std::nullopt;
   std::uint64_t frac = 0;
   if (dot != std::string_view::npos) {
     const std::string_view f = s.substr(dot + 1);
     if (!all_digits(f) || f.size() > 9) return std::nullopt;
-    frac = *parse_number(f, 10);
+    frac = *parse_unsigned(f, 10);
     for (std::size_t i = f.size(); i < 9; ++i) frac *= 10;
   }
   return *sec * kAscNsPerSec + frac;
@@ -84,35 +78,26 @@ std::optional<unsigned> month_of(std::string_view s) {
   return std::nullopt;
 }
 
-std::vector<std::string_view> split(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
-    const std::size_t start = i;
-    while (i < s.size() && s[i] != ' ' && s[i] != '\t') ++i;
-    if (i > start) out.push_back(s.substr(start, i - start));
-  }
-  return out;
-}
-
 }  // namespace
 
 std::optional<std::uint64_t> parse_asc_date(std::string_view text) {
-  const auto t = split(text);
+  std::vector<std::pair<std::size_t, std::string_view>> tokens;
+  detail::split_tokens(text, tokens);
+  std::vector<std::string_view> t;
+  for (const auto& token : tokens) t.push_back(token.second);
   std::size_t i = 0;
   if (i < t.size() && !month_of(t[i])) ++i;  // weekday
   if (i + 4 > t.size()) return std::nullopt;
   const auto month = month_of(t[i++]);
-  const auto day = parse_number(t[i++], 10);
+  const auto day = parse_unsigned(t[i++], 10);
   const std::string_view clock = t[i++];
   if (!month || !day || *day < 1 || *day > 31) return std::nullopt;
   // HH:MM:SS[.fff]
   const std::size_t c1 = clock.find(':');
   const std::size_t c2 = c1 == std::string_view::npos ? c1 : clock.find(':', c1 + 1);
   if (c2 == std::string_view::npos) return std::nullopt;
-  const auto hour = parse_number(clock.substr(0, c1), 10);
-  const auto minute = parse_number(clock.substr(c1 + 1, c2 - c1 - 1), 10);
+  const auto hour = parse_unsigned(clock.substr(0, c1), 10);
+  const auto minute = parse_unsigned(clock.substr(c1 + 1, c2 - c1 - 1), 10);
   const auto second = parse_time(clock.substr(c2 + 1));
   if (!hour || !minute || !second || *hour > 23 || *minute > 59 || *second >= 61 * kAscNsPerSec) return std::nullopt;
   std::uint64_t h = *hour;
@@ -124,7 +109,7 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text) {
     ++i;
   }
   if (i >= t.size()) return std::nullopt;
-  const auto year = parse_number(t[i], 10);
+  const auto year = parse_unsigned(t[i], 10);
   if (!year || *year < 1970 || *year > 9999) return std::nullopt;
   const std::int64_t days = days_from_civil(static_cast<std::int64_t>(*year), *month, static_cast<unsigned>(*day));
   if (days < 0) return std::nullopt;
@@ -160,11 +145,7 @@ AscReader::Status AscReader::next() {
 }
 
 AscReader::Step AscReader::corrupt(std::size_t column, std::string message) {
-  error_.column = column;
-  error_.message = std::move(message);
-  error_.kind = PositionKind::line;
-  error_.position = line_number_;
-  error_.recovery = Recovery::next_line;
+  detail::line_error(error_, line_number_, column, std::move(message));
   return Step::corrupt;
 }
 
@@ -177,13 +158,7 @@ std::uint64_t AscReader::absolute(std::uint64_t time_ns) {
 }
 
 AscReader::Step AscReader::parse_line(std::string_view line) {
-  tokens_.clear();
-  for (std::size_t i = 0; i < line.size();) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-    const std::size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-    if (i > start) tokens_.emplace_back(start, line.substr(start, i - start));
-  }
+  detail::split_tokens(line, tokens_);
   if (tokens_.empty()) return Step::skipped;
   const auto [col0, first] = tokens_[0];
   if (first[0] >= '0' && first[0] <= '9') return timed_line(line);
@@ -234,7 +209,7 @@ AscReader::Step AscReader::timed_line(std::string_view line) {
   if (iequals(ch, "CANFD")) return canfd_line(line, *time);
   if (!all_digits(ch)) return Step::skipped;  // an event: "Start of measurement", "Trigger", ...
   if (tokens_.size() >= 3 && iequals(tokens_[2].second.substr(0, 10), "errorframe")) {
-    const auto channel = parse_number(ch, 10);
+    const auto channel = parse_unsigned(ch, 10);
     if (!channel || *channel == 0 || *channel > 255)
       return corrupt(ch_col, "channel must be 1..255");
     CanFrame f;
@@ -264,7 +239,7 @@ bool AscReader::parse_id(std::size_t token, CanFrame& f) {
     f.extended = true;
     id_text.remove_suffix(1);
   }
-  const auto id = parse_number(id_text, base_);
+  const auto id = parse_unsigned(id_text, base_);
   if (!id) {
     corrupt(id_col, base_ == 16 ? "id is not hexadecimal" : "id is not a decimal number");
     return false;
@@ -278,7 +253,7 @@ bool AscReader::parse_id(std::size_t token, CanFrame& f) {
 }
 
 AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_ns) {
-  const auto channel = parse_number(tokens_[1].second, 10);
+  const auto channel = parse_unsigned(tokens_[1].second, 10);
   if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[1].first, "channel must be 1..255");
   CanFrame f;
   if (!parse_id(2, f)) return Step::corrupt;
@@ -287,13 +262,13 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
   if (kind == "r" || kind == "R") {
     f.remote = true;
     if (tokens_.size() >= 6 && all_digits(tokens_[5].second)) {
-      const auto dlc = parse_number(tokens_[5].second, base_);
+      const auto dlc = parse_unsigned(tokens_[5].second, base_);
       if (!dlc || *dlc > CanFrame::kMaxDlc) return corrupt(tokens_[5].first, "remote frame length must be 0..8");
       f.dlc = static_cast<std::uint8_t>(*dlc);
     }
   } else if (kind == "d" || kind == "D") {
     if (tokens_.size() < 6) return corrupt(line.size(), "missing DLC after 'd'");
-    const auto dlc = parse_number(tokens_[5].second, base_);
+    const auto dlc = parse_unsigned(tokens_[5].second, base_);
     if (!dlc) return corrupt(tokens_[5].first, "DLC is not a number");
     if (*dlc > 15) return corrupt(tokens_[5].first, "DLC above 15");
     f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);  // 9..15: 8 bytes
@@ -301,7 +276,7 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
       return corrupt(line.size(), fmt::format("{} data bytes announced, {} found", f.dlc, tokens_.size() - 6));
     for (std::size_t i = 0; i < f.dlc; ++i) {
       const auto [col, text] = tokens_[6 + i];
-      const auto b = text.size() <= 3 ? parse_number(text, base_) : std::nullopt;
+      const auto b = text.size() <= 3 ? parse_unsigned(text, base_) : std::nullopt;
       if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
       f.data[i] = static_cast<std::uint8_t>(*b);
     }
@@ -317,7 +292,7 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
 
 AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_ns) {
   if (tokens_.size() < 5) return corrupt(line.size(), "CANFD line ends after the channel");
-  const auto channel = parse_number(tokens_[2].second, 10);
+  const auto channel = parse_unsigned(tokens_[2].second, 10);
   if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[2].first, "channel must be 1..255");
   if (iequals(tokens_[4].second.substr(0, 10), "errorframe") || iequals(tokens_[3].second.substr(0, 10), "errorframe")) {
     CanFrame f;
@@ -334,10 +309,10 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
   std::size_t k = 5;
   if (k < tokens_.size() && !all_digits(tokens_[k].second)) ++k;  // the symbolic name, when the writer gives one
   if (tokens_.size() < k + 4) return corrupt(line.size(), "expected BRS, ESI, DLC and data length after the id");
-  const auto brs = parse_number(tokens_[k].second, 10);
-  const auto esi = parse_number(tokens_[k + 1].second, 10);
-  const auto dlc = parse_number(tokens_[k + 2].second, base_);
-  const auto length = parse_number(tokens_[k + 3].second, 10);
+  const auto brs = parse_unsigned(tokens_[k].second, 10);
+  const auto esi = parse_unsigned(tokens_[k + 1].second, 10);
+  const auto dlc = parse_unsigned(tokens_[k + 2].second, base_);
+  const auto length = parse_unsigned(tokens_[k + 3].second, 10);
   if (!brs || !esi || *brs > 1 || *esi > 1) return corrupt(tokens_[k].first, "BRS and ESI must be 0 or 1");
   if (!dlc || *dlc > 15) return corrupt(tokens_[k + 2].first, "DLC must be 0..F");
   if (!length || *length > 64) return corrupt(tokens_[k + 3].first, "data length must be 0..64");
@@ -347,7 +322,7 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
   // After the data: message duration, bit count, then the flags (hex): EDL 0x1000 marks CAN FD, 0x10 remote.
   const std::size_t flags_at = data + *length + 2;
   std::optional<std::uint64_t> flags;
-  if (flags_at < tokens_.size()) flags = parse_number(tokens_[flags_at].second, 16);
+  if (flags_at < tokens_.size()) flags = parse_unsigned(tokens_[flags_at].second, 16);
   // One rule for every CANFD line: it is CAN FD (reported, skipped) when anything on it says so: the EDL flag, or
   // what only an FD frame has (bit rate switch, error state indicator, DLC above 8, more than 8 bytes), even where
   // the flags column leaves EDL clear (python-can's logfile.asc: a 64-byte line with flags 0). Otherwise it is a
@@ -361,7 +336,7 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
     if (*length != f.dlc) return corrupt(tokens_[k + 3].first, fmt::format("data length {} but DLC {}", *length, *dlc));
     for (std::size_t i = 0; i < f.dlc; ++i) {
       const auto [col, text] = tokens_[data + i];
-      const auto b = text.size() <= 3 ? parse_number(text, base_) : std::nullopt;
+      const auto b = text.size() <= 3 ? parse_unsigned(text, base_) : std::nullopt;
       if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
       f.data[i] = static_cast<std::uint8_t>(*b);
     }

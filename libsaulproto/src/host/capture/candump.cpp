@@ -5,52 +5,29 @@
 
 #include <array>
 #include <cerrno>
-#include <charconv>
 #include <cstring>
 #include <stdexcept>
 #include <system_error>
 
 #include "saulproto/core/hex.hpp"
+#include "text_fields.hpp"
 
 namespace saul::host {
-namespace {
 
-bool fail(CandumpError& error, std::size_t column, std::string message) {
-  error.column = column;
-  error.message = std::move(message);
-  return false;
-}
-
-}  // namespace
+using detail::column_error;
 
 bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& error) {
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-  // "(" seconds "." fraction ")"
-  if (line.empty() || line[0] != '(') return fail(error, 0, "expected '(' starting a timestamp");
-  const std::size_t close = line.find(')');
-  if (close == std::string_view::npos) return fail(error, 0, "timestamp has no closing ')'");
-  const std::string_view stamp = line.substr(1, close - 1);
-  const std::size_t dot = stamp.find('.');
-  if (dot == std::string_view::npos) return fail(error, 1, "timestamp needs a '.' between seconds and fraction");
-  std::uint64_t sec = 0;
-  std::uint64_t frac = 0;
-  const std::string_view sec_text = stamp.substr(0, dot);
-  const std::string_view frac_text = stamp.substr(dot + 1);
-  if (sec_text.empty() || std::from_chars(sec_text.data(), sec_text.data() + sec_text.size(), sec).ptr !=
-                              sec_text.data() + sec_text.size())
-    return fail(error, 1, "timestamp seconds are not a number");
-  if (frac_text.empty() || frac_text.size() > 9 ||
-      std::from_chars(frac_text.data(), frac_text.data() + frac_text.size(), frac).ptr !=
-          frac_text.data() + frac_text.size())
-    return fail(error, 2 + dot, "timestamp fraction must be 1 to 9 digits");
-  for (std::size_t i = frac_text.size(); i < 9; ++i) frac *= 10;  // to nanoseconds
+  std::uint64_t ns = 0;
+  std::size_t close = 0;
+  if (!detail::parse_paren_time(line, UINT64_MAX, ns, close, error)) return false;
 
   // interface
   std::size_t pos = close + 1;
   while (pos < line.size() && line[pos] == ' ') ++pos;
   const std::size_t if_start = pos;
   while (pos < line.size() && line[pos] != ' ') ++pos;
-  if (pos == if_start) return fail(error, if_start, "missing interface name");
+  if (pos == if_start) return column_error(error, if_start, "missing interface name");
   out.interface = line.substr(if_start, pos - if_start);
   while (pos < line.size() && line[pos] == ' ') ++pos;
 
@@ -60,20 +37,20 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   if (end == std::string_view::npos) end = line.size();
   const std::string_view text = line.substr(frame_start, end - frame_start);
   const std::size_t hash = text.find('#');
-  if (hash == std::string_view::npos) return fail(error, frame_start, "frame needs '#' between id and data");
-  if (hash != 3 && hash != 8) return fail(error, frame_start, "id must be 3 hex digits (11-bit) or 8 (29-bit)");
+  if (hash == std::string_view::npos) return column_error(error, frame_start, "frame needs '#' between id and data");
+  if (hash != 3 && hash != 8) return column_error(error, frame_start, "id must be 3 hex digits (11-bit) or 8 (29-bit)");
   std::uint32_t id = 0;
   for (std::size_t i = 0; i < hash; ++i) {
     const int v = hex::value(text[i]);
-    if (v < 0) return fail(error, frame_start + i, "id is not hexadecimal");
+    if (v < 0) return column_error(error, frame_start + i, "id is not hexadecimal");
     id = (id << 4) | static_cast<std::uint32_t>(v);
   }
   CanFrame f;
-  f.timestamp_ns = sec * 1'000'000'000ULL + frac;
+  f.timestamp_ns = ns;
   std::string_view data = text.substr(hash + 1);
   std::size_t data_col = frame_start + hash + 1;
   if (!data.empty() && data[0] == '#')
-    return fail(error, data_col, "CAN FD frame: the robot's bus is classic CAN, FD is not supported");
+    return column_error(error, data_col, "CAN FD frame: the robot's bus is classic CAN, FD is not supported");
   if (hash == 8) {
     constexpr std::uint32_t kErrFlag = 0x2000'0000;
     if (id & kErrFlag) {
@@ -81,10 +58,10 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
       id &= CanFrame::kMaxExtendedId;
     } else {
       f.extended = true;
-      if (id > CanFrame::kMaxExtendedId) return fail(error, frame_start, "29-bit id above 1FFFFFFF");
+      if (id > CanFrame::kMaxExtendedId) return column_error(error, frame_start, "29-bit id above 1FFFFFFF");
     }
   } else if (id > CanFrame::kMaxStandardId) {
-    return fail(error, frame_start, "11-bit id above 7FF");
+    return column_error(error, frame_start, "11-bit id above 7FF");
   }
   f.id = id;
   // A raw DLC of 9..F after 8 data bytes (len8_dlc, can-utils since 2020.12: "3FF#55AA010203040506_D", "123#R8_D"):
@@ -92,17 +69,18 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   bool raw_dlc = false;
   if (data.size() >= 2 && data[data.size() - 2] == '_') {
     const int v = hex::value(data.back());
-    if (v < 9) return fail(error, data_col + data.size() - 1, "raw DLC suffix must be _9 to _F (after 8 data bytes)");
+    if (v < 9)
+      return column_error(error, data_col + data.size() - 1, "raw DLC suffix must be _9 to _F (after 8 data bytes)");
     data.remove_suffix(2);
     raw_dlc = true;
   }
   if (!data.empty() && (data[0] == 'R' || data[0] == 'r')) {
-    if (f.error) return fail(error, data_col, "an error frame cannot be a remote frame");
+    if (f.error) return column_error(error, data_col, "an error frame cannot be a remote frame");
     f.remote = true;
     if (data.size() == 2 && data[1] >= '0' && data[1] <= '8') {
       f.dlc = static_cast<std::uint8_t>(data[1] - '0');
     } else if (data.size() != 1) {
-      return fail(error, data_col + 1, "remote frame length must be one digit 0..8");
+      return column_error(error, data_col + 1, "remote frame length must be one digit 0..8");
     }
   } else {
     std::uint8_t n = 0;
@@ -111,18 +89,18 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
         ++i;
         continue;
       }
-      if (i + 1 >= data.size()) return fail(error, data_col + i, "data has an odd number of hex digits");
+      if (i + 1 >= data.size()) return column_error(error, data_col + i, "data has an odd number of hex digits");
       const int hi = hex::value(data[i]);
       const int lo = hex::value(data[i + 1]);
-      if (hi < 0 || lo < 0) return fail(error, data_col + i, "data is not hexadecimal");
-      if (n == 8) return fail(error, data_col + i, "more than 8 data bytes");
+      if (hi < 0 || lo < 0) return column_error(error, data_col + i, "data is not hexadecimal");
+      if (n == 8) return column_error(error, data_col + i, "more than 8 data bytes");
       f.data[n++] = static_cast<std::uint8_t>(hi << 4 | lo);
       i += 2;
     }
     f.dlc = n;
   }
   if (raw_dlc && f.dlc != 8)
-    return fail(error, data_col + data.size(), "a raw DLC suffix needs 8 data bytes (or R8)");
+    return column_error(error, data_col + data.size(), "a raw DLC suffix needs 8 data bytes (or R8)");
   out.frame = f;
   return true;
 }
@@ -305,7 +283,7 @@ void CandumpScanner::line(std::string_view text, FrameBatch& batch, CandumpLineT
     return;
   }
   if (text.size() > kMaxCandumpLine) {
-    too_long(batch);
+    corrupt(batch, 0, fmt::format("line longer than {} bytes", kMaxCandumpLine));
     return;
   }
   if (taker != nullptr && taker->take(text)) return;
@@ -317,28 +295,19 @@ void CandumpScanner::line(std::string_view text, FrameBatch& batch, CandumpLineT
   }
   batch.frames.pop_back();
   CandumpLine parsed;
-  FrameBatch::Corrupt bad;
-  if (parse_candump_line(text, parsed, bad.error)) {
+  CandumpError error;
+  if (parse_candump_line(text, parsed, error)) {
     batch.frames.push_back(parsed.frame);
     batch.interfaces.push_back(parsed.interface);
     return;
   }
-  bad.before = batch.frames.size();
-  bad.error.kind = PositionKind::line;
-  bad.error.position = line_;
-  bad.error.recovery = Recovery::next_line;
-  batch.corrupt.push_back(std::move(bad));
+  corrupt(batch, error.column, std::move(error.message));
 }
 
-void CandumpScanner::too_long(FrameBatch& batch) {
-  FrameBatch::Corrupt bad;
+void CandumpScanner::corrupt(FrameBatch& batch, std::size_t column, std::string message) {
+  FrameBatch::Corrupt& bad = batch.corrupt.emplace_back();
   bad.before = batch.frames.size();
-  bad.error.column = 0;
-  bad.error.message = fmt::format("line longer than {} bytes", kMaxCandumpLine);
-  bad.error.kind = PositionKind::line;
-  bad.error.position = line_;
-  bad.error.recovery = Recovery::next_line;
-  batch.corrupt.push_back(std::move(bad));
+  detail::line_error(bad.error, line_, column, std::move(message));
 }
 
 bool CandumpScanner::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
@@ -396,7 +365,7 @@ bool CandumpScanner::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
       // A line too long to hold: report it now (a comment is just dropped), count it, skip to its end (the
       // newline that ends it is then consumed without counting the line again).
       ++line_;
-      if (buf[head_] == '(') too_long(batch);
+      if (buf[head_] == '(') corrupt(batch, 0, fmt::format("line longer than {} bytes", kMaxCandumpLine));
       consumed_ += partial;
       head_ = tail_ = 0;
       skipping_ = true;

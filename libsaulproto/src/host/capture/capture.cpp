@@ -27,6 +27,7 @@
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/capture/trc.hpp"
 #include "../util.hpp"
+#include "capture_io.hpp"
 #include "read_path.hpp"
 
 namespace saul::host {
@@ -90,18 +91,36 @@ struct FileSource {
   }
 };
 
-/// A reader that owns its file; the format reader works on the file's stream.
-class FileReader final : public CaptureReader {
+/// A reader that owns its file; the format reader (CAN or serial) works on the file's stream. A decompression error
+/// comes after the reader's end, once, as a corrupt record.
+template <class Reader>
+class FileOwned : public Reader {
  public:
-  FileReader(std::unique_ptr<FileSource> source, std::unique_ptr<CaptureReader> inner)
+  using Status = typename Reader::Status;
+  FileOwned(std::unique_ptr<FileSource> source, std::unique_ptr<Reader> inner)
       : source_(std::move(source)), inner_(std::move(inner)) {}
-
   Status next() override {
     started_ = true;
     const Status st = inner_->next();
     own_error_ = st == Status::end && source_->take_error(error_);
     return own_error_ ? Status::corrupt : st;
   }
+  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
+  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
+  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
+
+ protected:
+  std::unique_ptr<FileSource> source_;  // declared first: destroyed after the reader of its stream
+  std::unique_ptr<Reader> inner_;
+  CaptureError error_;
+  bool own_error_ = false;
+  bool started_ = false;
+};
+
+class FileReader final : public FileOwned<CaptureReader> {
+ public:
+  using FileOwned::FileOwned;
   bool next_batch(FrameBatch& batch) override {
     started_ = true;
     if (inner_->next_batch(batch)) return true;
@@ -119,43 +138,26 @@ class FileReader final : public CaptureReader {
   }
   [[nodiscard]] const CanFrame& frame() const override { return inner_->frame(); }
   [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
-  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
-  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
-  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
-
- private:
-  std::unique_ptr<FileSource> source_;    // declared first: destroyed after the reader of its stream
-  std::unique_ptr<CaptureReader> inner_;
-  CaptureError error_;
-  bool own_error_ = false;
-  bool started_ = false;
 };
 
-/// A serial reader that owns its file.
-class FileSerialReader final : public SerialCaptureReader {
+class FileSerialReader final : public FileOwned<SerialCaptureReader> {
  public:
-  FileSerialReader(std::unique_ptr<FileSource> source, std::unique_ptr<SerialCaptureReader> inner)
-      : source_(std::move(source)), inner_(std::move(inner)) {}
-  Status next() override {
-    const Status st = inner_->next();
-    own_error_ = st == Status::end && source_->take_error(error_);
-    return own_error_ ? Status::corrupt : st;
-  }
+  using FileOwned::FileOwned;
   [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
-  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
-  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-  [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
-  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
-
- private:
-  std::unique_ptr<FileSource> source_;
-  std::unique_ptr<SerialCaptureReader> inner_;
-  CaptureError error_;
-  bool own_error_ = false;
 };
 
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/// f(line) of `text`'s lines (without their '\n') in order up to the first that gives a value, which it returns.
+template <class F>
+auto first_line_where(std::string_view text, const F& f) -> decltype(f(text)) {
+  for (std::size_t pos = 0; pos < text.size();) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    if (auto found = f(text.substr(pos, end - pos))) return found;
+    pos = end + 1;
+  }
+  return {};
+}
 
 /// "uart-1: ..." (a sigrok-cli decoder instance) or "START-END NAME: ..." (sample numbers first).
 bool looks_like_sigrok_annotation(std::string_view line) {
@@ -260,36 +262,25 @@ std::string describe_other_text(std::string_view head) {
     return fmt::format("binary data of no format saulctl knows, starting {}", first);
   }
   if (head.find("***BUSMASTER") != std::string_view::npos) return "a BusMaster log";
-  std::size_t pos = 0;
-  while (pos < head.size()) {
-    std::size_t end = head.find('\n', pos);
-    if (end == std::string_view::npos) end = head.size();
-    std::string_view line = head.substr(pos, end - pos);
-    pos = end + 1;
+  const auto first = first_line_where(head, [](std::string_view line) -> std::optional<std::string> {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
-    if (line.empty()) continue;
+    if (line.empty()) return std::nullopt;
     if (looks_like_candump_default(line))
       return "candump's default output, which has no timestamps and is no log; record with 'candump -L can0 > "
              "run.log' instead";
     std::string shown;
     for (char c : line.substr(0, 60)) shown += (c >= 0x20 && c < 0x7F) ? c : '?';
     return fmt::format("a text file whose first line is '{}{}'", shown, line.size() > 60 ? "..." : "");
-  }
-  return "a text file of blank lines";
+  });
+  return first.value_or("a text file of blank lines");
 }
 
 /// True when some line of `head` starts with '(' and a digit, as candump lines do.
 bool has_candump_line(std::string_view head) {
-  std::size_t pos = 0;
-  while (pos < head.size()) {
-    std::size_t end = head.find('\n', pos);
-    if (end == std::string_view::npos) end = head.size();
-    std::string_view line = head.substr(pos, end - pos);
-    pos = end + 1;
+  return first_line_where(head, [](std::string_view line) {
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
-    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return true;
-  }
-  return false;
+    return line.size() >= 2 && line[0] == '(' && is_digit(line[1]);
+  });
 }
 
 /// Opens a file and works out its format from its first bytes (or `format`, or the extension); a gzip or zstd
@@ -380,16 +371,12 @@ class FileWriter final : public CaptureWriter {
   void close() override {
     if (closed_) return;
     closed_ = true;
-    std::string failure;
-    try {
-      inner_->close();
-      if (packer_) packer_->finish();
-    } catch (const std::runtime_error& e) {
-      failure = e.what();
-    }
-    file_->close();
-    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+    detail::close_with_file(
+        [&] {
+          inner_->close();
+          if (packer_) packer_->finish();
+        },
+        *file_, path_);
   }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
 
@@ -550,17 +537,13 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
     if (m == std::array<std::uint8_t, 4>{'L', 'O', 'G', 'G'}) return CaptureFormat::blf;
     if (m == std::array<std::uint8_t, 4>{0x89, 'M', 'C', 'A'}) return CaptureFormat::mcap;
   }
-  const std::string_view text(reinterpret_cast<const char*>(head.data()), head.size());
+  std::string_view text(reinterpret_cast<const char*>(head.data()), head.size());
   if (text.find('\0') != std::string_view::npos) return std::nullopt;
-  std::size_t pos = text.starts_with("\xEF\xBB\xBF") ? 3 : 0;  // UTF-8 byte-order mark
-  while (pos < text.size()) {
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(pos, end - pos);
-    pos = end + 1;
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);  // UTF-8 byte-order mark
+  return first_line_where(text, [](std::string_view line) -> std::optional<CaptureFormat> {
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    if (line.size() >= 2 && line[0] == '(' && line[1] >= '0' && line[1] <= '9') return candump_or_serial(line);
+    if (line.size() >= 2 && line[0] == '(' && is_digit(line[1])) return candump_or_serial(line);
     if (detail::starts_with_nocase(line, "date ") || detail::starts_with_nocase(line, "base ") ||
         detail::starts_with_nocase(line, "begin triggerblock"))
       return CaptureFormat::asc;
@@ -572,8 +555,8 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
       return CaptureFormat::trc;
     if (line.starts_with("timestamp,arbitration_id,")) return CaptureFormat::csv;
     if (detail::starts_with_nocase(line, "time stamp,id,extended,")) return CaptureFormat::gvret_csv;
-  }
-  return std::nullopt;
+    return std::nullopt;
+  });
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
@@ -656,12 +639,20 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
 }
 
 namespace {
-/// The format's reader of an opened file; MCAP's is told the file's size, so that a record longer than the file
-/// is reported as such at once (not read up to the file's end first).
-std::unique_ptr<CaptureReader> reader_of(FileSource& source, CaptureFormat format) {
-  if (format == CaptureFormat::mcap && !source.inflater)
-    return std::make_unique<McapFrameReader>(source.stream, source.size);
-  return make_capture_reader(source.stream, format);
+/// The format's reader of an opened file of CAN frames; MCAP's is told the file's size, so that a record longer than
+/// the file is reported as such at once (not read up to the file's end first).
+std::unique_ptr<CaptureReader> frame_reader(std::unique_ptr<FileSource> source, const std::string& path,
+                                            CaptureFormat format) {
+  try {
+    std::unique_ptr<CaptureReader> inner;
+    if (format == CaptureFormat::mcap && !source->inflater)
+      inner = std::make_unique<McapFrameReader>(source->stream, source->size);
+    else
+      inner = make_capture_reader(source->stream, format);
+    return std::make_unique<FileReader>(std::move(source), std::move(inner));
+  } catch (const CaptureOpenError& e) {
+    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
+  }
 }
 }  // namespace
 
@@ -669,12 +660,7 @@ std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std:
   auto source = open_source(path, format);
   if (holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("'{}' holds serial bytes ({}), not CAN frames", path, to_string(*format)));
-  try {
-    auto inner = reader_of(*source, *format);
-    return std::make_unique<FileReader>(std::move(source), std::move(inner));
-  } catch (const CaptureOpenError& e) {
-    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
-  }
+  return frame_reader(std::move(source), path, *format);
 }
 
 namespace {
@@ -736,12 +722,7 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
     opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
     return opened;
   }
-  try {
-    auto inner = reader_of(*source, *format);
-    opened.frames = std::make_unique<FileReader>(std::move(source), std::move(inner));
-  } catch (const CaptureOpenError& e) {
-    throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
-  }
+  opened.frames = frame_reader(std::move(source), path, *format);
   return opened;
 }
 

@@ -221,23 +221,6 @@ std::optional<std::uint64_t> CaptureBlocks::first_time(const std::function<bool(
   return first;
 }
 
-std::optional<CaptureBlocks::FirstRecord> CaptureBlocks::first_record() const {
-  if (format_ != CaptureFormat::candump) return std::nullopt;
-  char head[4096];
-  const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(size_, sizeof head));
-  const std::size_t got = detail::pread_full(fd_, head, want, 0);
-  if (got < want) return std::nullopt;  // the blocks' reads report what went wrong
-  const std::string_view text(head, got);
-  const std::size_t nl = text.find('\n');
-  if (nl == std::string_view::npos && got < size_) return std::nullopt;  // a first line longer than this
-  const std::string_view line = text.substr(0, nl);
-  FirstRecord first;
-  std::string_view interface;
-  if (line.empty() || line[0] != '(' || !parse_candump_usual(line, first.frame, interface)) return std::nullopt;
-  first.interface.assign(interface);
-  return first;
-}
-
 // ---- compressed candump text in blocks ----------------------------------------------------------------------------
 
 bool CaptureTextBlocks::take(std::size_t k, std::string& out, std::uint64_t& bytes_read) {

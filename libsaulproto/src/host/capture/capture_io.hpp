@@ -1,5 +1,6 @@
-// Private helpers of the binary capture formats (pcap, pcapng): byte-order loads and stores, and reading that
-// counts the offset and skips without seeking (so pipes work), a window for walking headers. Not installed, not part of the API.
+// Private helpers of the capture formats: byte-order loads and stores, reading that counts the offset and skips
+// without seeking (so pipes work), a window for walking headers, closing a writer with its file. Not installed, not
+// part of the API.
 #pragma once
 
 #include <unistd.h>
@@ -10,6 +11,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <memory>
 #include <istream>
 #include <limits>
@@ -45,6 +47,21 @@ inline std::size_t channel_index(InterfaceIndex& seen, std::string_view interfac
 inline void flush_checked(std::ostream& out, std::string_view format) {
   out.flush();
   if (!out) throw std::runtime_error(std::string(format) + ": write failed");
+}
+
+/// Closes a format writer (close_writer()) and then its file, and reports the first failure of either with the
+/// file's name: std::runtime_error("cannot write 'PATH': ...").
+template <class CloseWriter>
+void close_with_file(const CloseWriter& close_writer, std::ofstream& file, const std::string& path) {
+  std::string failure;
+  try {
+    close_writer();
+  } catch (const std::runtime_error& e) {
+    failure = e.what();
+  }
+  file.close();
+  if (failure.empty() && file.fail()) failure = std::strerror(errno);
+  if (!failure.empty()) throw std::runtime_error("cannot write '" + path + "': " + failure);
 }
 
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "saulproto/core/quantity.hpp"
+#include "capture_io.hpp"
 
 namespace saul::host {
 namespace {
@@ -27,26 +28,12 @@ std::uint64_t position(std::ofstream& file) {
   return p < 0 ? 0 : static_cast<std::uint64_t>(p);
 }
 
-/// Closes a format writer and then its file, and reports the first failure of either with the file's name.
-template <class Writer>
-void close_both(Writer& writer, std::ofstream& file, const std::string& path) {
-  std::string failure;
-  try {
-    writer.close();
-  } catch (const std::runtime_error& e) {
-    failure = e.what();
-  }
-  file.close();
-  if (failure.empty() && file.fail()) failure = std::strerror(errno);
-  if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path, failure));
-}
-
-/// Closes the current file (close_both), hands it to the compressor when there is one, and after the last file
+/// Closes the current file (detail::close_with_file), hands it to the compressor when there is one, and after the last file
 /// waits for the compressor and gives the last file's final name.
 template <class Writer>
 void close_and_compress(Writer& writer, std::ofstream& file, std::string& path, FileCompressor* compressor,
                         bool last) {
-  close_both(writer, file, path);
+  detail::close_with_file([&] { writer.close(); }, file, path);
   if (!compressor) return;
   compressor->add(path);
   if (!last) return;
@@ -142,62 +129,68 @@ bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file
   return false;
 }
 
-// ---- CAN ----------------------------------------------------------------------------------------------------------
+// ---- the files of both writers --------------------------------------------------------------------------------
 
-RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
-                                             std::function<void(const std::string&)> on_new_file, MakeWriter make)
+template <class Writer>
+RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions rotation,
+                                     std::function<void(const std::string&)> on_new_file, MakeWriter make)
     : plan_(path, rotation),
       compressor_(compressor_for(rotation)),
-      format_(format),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
-  if (holds_serial_bytes(format))
-    throw CaptureOpenError(fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
   current_path_ = plan_.path_for(0);
   file_ = create(current_path_);
-  inner_ = make_ ? make_(*file_) : make_capture_writer(*file_, format_);
+  inner_ = make_(*file_);
   if (on_new_file_) on_new_file_(current_path_);
 }
 
-RotatingCaptureWriter::~RotatingCaptureWriter() {
+template <class Writer>
+RotatingFiles<Writer>::~RotatingFiles() {
   try {
     close();
   } catch (...) {  // call close() to see errors
   }
 }
 
-std::uint64_t RotatingCaptureWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
+template <class Writer>
+std::uint64_t RotatingFiles<Writer>::bytes_in_file() {
+  return file_ ? position(*file_) : 0;
+}
 
-void RotatingCaptureWriter::close_current() {
+template <class Writer>
+void RotatingFiles<Writer>::close_current() {
   close_and_compress(*inner_, *file_, current_path_, compressor_.get(), closed_);
 }
 
-void RotatingCaptureWriter::open_next() {
+template <class Writer>
+void RotatingFiles<Writer>::open_next() {
   close_current();
   ++index_;
   current_path_ = plan_.path_for(index_);
   file_ = create(current_path_);
-  inner_ = make_ ? make_(*file_) : make_capture_writer(*file_, format_);
-  frames_in_file_ = 0;
+  inner_ = make_(*file_);
+  items_in_file_ = 0;
   file_start_ns_.reset();
   if (on_new_file_) on_new_file_(current_path_);
 }
 
-void RotatingCaptureWriter::write(const CanFrame& frame, std::string_view interface) {
+template <class Writer>
+void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns,
+                                       const std::function<void(Writer&)>& write) {
   if (closed_) throw std::runtime_error("record: write after close");
-  if (plan_.options().enabled() &&
-      plan_.due(position(*file_), frames_in_file_, file_start_ns_, frame.timestamp_ns))
+  if (plan_.options().enabled() && plan_.due(position(*file_), items_in_file_, file_start_ns_, timestamp_ns))
     open_next();
   try {
-    inner_->write(frame, interface);
+    write(*inner_);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
   }
-  if (!file_start_ns_) file_start_ns_ = frame.timestamp_ns;
-  ++frames_in_file_;
+  if (!file_start_ns_) file_start_ns_ = timestamp_ns;
+  ++items_in_file_;
 }
 
-void RotatingCaptureWriter::flush() {
+template <class Writer>
+void RotatingFiles<Writer>::flush() {
   if (closed_) return;
   try {
     inner_->flush();
@@ -206,72 +199,29 @@ void RotatingCaptureWriter::flush() {
   }
 }
 
-void RotatingCaptureWriter::close() {
+template <class Writer>
+void RotatingFiles<Writer>::close() {
   if (closed_) return;
   closed_ = true;
   close_current();
 }
 
-// ---- serial -------------------------------------------------------------------------------------------------------
+template class RotatingFiles<CaptureWriter>;
+template class RotatingFiles<SerialCaptureWriter>;
 
-RotatingSerialWriter::RotatingSerialWriter(const std::string& path, RotationOptions rotation,
-                                           std::function<void(const std::string&)> on_new_file, MakeWriter make)
-    : plan_(path, rotation),
-      compressor_(compressor_for(rotation)),
-      on_new_file_(std::move(on_new_file)),
-      make_(make ? std::move(make) : MakeWriter(make_serial_capture_writer)) {
-  current_path_ = plan_.path_for(0);
-  file_ = create(current_path_);
-  inner_ = make_(*file_);
-  if (on_new_file_) on_new_file_(current_path_);
+namespace {
+/// `make`, or the format's own writer; throws CaptureOpenError for a format of serial bytes (before any file is made).
+RotatingCaptureWriter::MakeWriter can_writer(CaptureFormat format, RotatingCaptureWriter::MakeWriter make) {
+  if (holds_serial_bytes(format))
+    throw CaptureOpenError(
+        fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
+  if (make) return make;
+  return [format](std::ostream& out) { return make_capture_writer(out, format); };
 }
+}  // namespace
 
-RotatingSerialWriter::~RotatingSerialWriter() {
-  try {
-    close();
-  } catch (...) {
-  }
-}
-
-std::uint64_t RotatingSerialWriter::bytes_in_file() { return file_ ? position(*file_) : 0; }
-
-void RotatingSerialWriter::close_current() {
-  close_and_compress(*inner_, *file_, current_path_, compressor_.get(), closed_);
-}
-
-void RotatingSerialWriter::open_next() {
-  close_current();
-  ++index_;
-  current_path_ = plan_.path_for(index_);
-  file_ = create(current_path_);
-  inner_ = make_(*file_);
-  chunks_in_file_ = 0;
-  file_start_ns_.reset();
-  if (on_new_file_) on_new_file_(current_path_);
-}
-
-void RotatingSerialWriter::write(const SerialChunk& chunk) {
-  if (closed_) throw std::runtime_error("record: write after close");
-  if (plan_.options().enabled() && plan_.due(position(*file_), chunks_in_file_, file_start_ns_, chunk.timestamp_ns))
-    open_next();
-  try {
-    inner_->write(chunk);
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
-  }
-  if (!file_start_ns_) file_start_ns_ = chunk.timestamp_ns;
-  ++chunks_in_file_;
-}
-
-void RotatingSerialWriter::flush() {
-  if (closed_) return;
-  inner_->flush();
-}
-
-void RotatingSerialWriter::close() {
-  if (closed_) return;
-  closed_ = true;
-  close_current();
-}
+RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
+                                             std::function<void(const std::string&)> on_new_file, MakeWriter make)
+    : RotatingFiles(path, rotation, std::move(on_new_file), can_writer(format, std::move(make))), format_(format) {}
 
 }  // namespace saul::host

@@ -4,21 +4,18 @@
 #include <fmt/format.h>
 
 #include <cerrno>
-#include <charconv>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 
 #include "saulproto/host/capture/uart_export.hpp"
+#include "capture_io.hpp"
+#include "text_fields.hpp"
 
 namespace saul::host {
 namespace {
 
-bool fail(CaptureError& error, std::size_t column, std::string message) {
-  error.column = column;
-  error.message = std::move(message);
-  return false;
-}
+using detail::column_error;
 
 /// The next space-separated word from pos (pos moves past it and the spaces after it).
 std::string_view word(std::string_view line, std::size_t& pos, std::size_t& start) {
@@ -56,15 +53,7 @@ class FileSerialWriter final : public SerialCaptureWriter {
   void close() override {
     if (closed_) return;
     closed_ = true;
-    std::string failure;
-    try {
-      inner_.close();
-    } catch (const std::runtime_error& e) {
-      failure = e.what();
-    }
-    file_->close();
-    if (failure.empty() && file_->fail()) failure = std::strerror(errno);
-    if (!failure.empty()) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, failure));
+    detail::close_with_file([&] { inner_.close(); }, *file_, path_);
   }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
 
@@ -105,42 +94,27 @@ SerialProtocol protocol_for_baud(std::uint32_t baud) noexcept {
 
 bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& error) {
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-  if (line.empty() || line[0] != '(') return fail(error, 0, "expected '(' starting a timestamp");
-  const std::size_t close = line.find(')');
-  if (close == std::string_view::npos) return fail(error, 0, "timestamp has no closing ')'");
-  const std::string_view stamp = line.substr(1, close - 1);
-  const std::size_t dot = stamp.find('.');
-  if (dot == std::string_view::npos) return fail(error, 1, "timestamp needs a '.' between seconds and fraction");
-  const std::string_view sec_text = stamp.substr(0, dot);
-  const std::string_view frac_text = stamp.substr(dot + 1);
-  std::uint64_t sec = 0;
-  std::uint64_t frac = 0;
-  if (sec_text.empty() || std::from_chars(sec_text.data(), sec_text.data() + sec_text.size(), sec).ptr !=
-                              sec_text.data() + sec_text.size() || sec > 18'000'000'000ULL)
-    return fail(error, 1, "timestamp seconds are not a number");
-  if (frac_text.empty() || frac_text.size() > 9 ||
-      std::from_chars(frac_text.data(), frac_text.data() + frac_text.size(), frac).ptr !=
-          frac_text.data() + frac_text.size())
-    return fail(error, 2 + dot, "timestamp fraction must be 1 to 9 digits");
-  for (std::size_t i = frac_text.size(); i < 9; ++i) frac *= 10;
+  std::uint64_t ns = 0;
+  std::size_t close = 0;
+  if (!detail::parse_paren_time(line, 18'000'000'000ULL, ns, close, error)) return false;
 
   std::size_t pos = close + 1;
   std::size_t start = 0;
   const std::string_view link = word(line, pos, start);
-  if (link.empty()) return fail(error, start, "missing link name");
+  if (link.empty()) return column_error(error, start, "missing link name");
   const std::string_view protocol_text = word(line, pos, start);
-  if (protocol_text.empty()) return fail(error, start, "missing protocol (interboard, crsf, pride or raw)");
+  if (protocol_text.empty()) return column_error(error, start, "missing protocol (interboard, crsf, pride or raw)");
   const auto protocol = serial_protocol_from_name(protocol_text);
-  if (!protocol) return fail(error, start, "unknown protocol: use interboard, crsf, pride or raw");
+  if (!protocol) return column_error(error, start, "unknown protocol: use interboard, crsf, pride or raw");
   const std::string_view data = word(line, pos, start);
-  if (data.empty()) return fail(error, start, "missing bytes (hex, or '-' for none)");
+  if (data.empty()) return column_error(error, start, "missing bytes (hex, or '-' for none)");
   out.bytes.clear();
   if (data != "-") {
-    if (data.size() % 2 != 0) return fail(error, start, "bytes have an odd number of hex digits");
+    if (data.size() % 2 != 0) return column_error(error, start, "bytes have an odd number of hex digits");
     for (std::size_t i = 0; i < data.size(); i += 2) {
       const int hi = hex::value(data[i]);
       const int lo = hex::value(data[i + 1]);
-      if (hi < 0 || lo < 0) return fail(error, start + i, "bytes are not hexadecimal");
+      if (hi < 0 || lo < 0) return column_error(error, start + i, "bytes are not hexadecimal");
       out.bytes.push_back(static_cast<std::uint8_t>(hi << 4 | lo));
     }
   }
@@ -155,11 +129,12 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
     } else if (mark == "!break") {
       errors |= uart_error::kBreak;
     } else {
-      return fail(error, start, "unexpected text after the bytes (only !parity, !framing, !break)");
+      return column_error(error, start, "unexpected text after the bytes (only !parity, !framing, !break)");
     }
   }
-  if (out.bytes.empty() && errors == 0) return fail(error, start, "a line with no bytes must carry an error mark");
-  out.timestamp_ns = sec * 1'000'000'000ULL + frac;
+  if (out.bytes.empty() && errors == 0)
+    return column_error(error, start, "a line with no bytes must carry an error mark");
+  out.timestamp_ns = ns;
   out.link.assign(link);
   out.protocol = *protocol;
   out.errors = errors;

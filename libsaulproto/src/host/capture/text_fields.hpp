@@ -1,5 +1,6 @@
-// Private helpers of the text capture formats (ASC, TRC, the CSV logs): white-space tokens with their columns and
-// exact number parsing (no floating point, no locale). Not installed, not part of the API.
+// Private helpers of the text capture formats (candump and serial logs, ASC, TRC, the CSV logs): white-space tokens
+// with their columns, "(time)" stamps and exact number parsing (no floating point, no locale). Not installed, not
+// part of the API.
 #pragma once
 
 #include <charconv>
@@ -71,6 +72,40 @@ inline std::optional<std::uint64_t> parse_scaled(std::string_view s, std::uint64
     value += digit;
   }
   return value;
+}
+
+/// Fills the column and message of a line's error; returns false.
+inline bool column_error(CaptureError& error, std::size_t column, std::string message) {
+  error.column = column;
+  error.message = std::move(message);
+  return false;
+}
+
+/// The "(SEC.FRAC)" time that starts a candump or serial log line (FRAC 1 to 9 digits) in ns, and where its ')' is;
+/// false with column_error() when it is none or its seconds are above `max_seconds`.
+inline bool parse_paren_time(std::string_view line, std::uint64_t max_seconds, std::uint64_t& ns, std::size_t& close,
+                             CaptureError& error) {
+  if (line.empty() || line[0] != '(') return column_error(error, 0, "expected '(' starting a timestamp");
+  close = line.find(')');
+  if (close == std::string_view::npos) return column_error(error, 0, "timestamp has no closing ')'");
+  const std::string_view stamp = line.substr(1, close - 1);
+  const std::size_t dot = stamp.find('.');
+  if (dot == std::string_view::npos)
+    return column_error(error, 1, "timestamp needs a '.' between seconds and fraction");
+  // digits only (from_chars leaves a value too large for 64 bits as it was: 0)
+  auto digits = [](std::string_view text, std::uint64_t& value) {
+    const char* const end = text.data() + text.size();
+    return !text.empty() && std::from_chars(text.data(), end, value).ptr == end;
+  };
+  std::uint64_t sec = 0, frac = 0;
+  if (!digits(stamp.substr(0, dot), sec) || sec > max_seconds)
+    return column_error(error, 1, "timestamp seconds are not a number");
+  const std::string_view frac_text = stamp.substr(dot + 1);
+  if (frac_text.size() > 9 || !digits(frac_text, frac))
+    return column_error(error, 2 + dot, "timestamp fraction must be 1 to 9 digits");
+  for (std::size_t i = frac_text.size(); i < 9; ++i) frac *= 10;  // to nanoseconds
+  ns = sec * 1'000'000'000ULL + frac;
+  return true;
 }
 
 /// Fills a text reader's error for a bad line (reading goes on at the next line); returns false.

@@ -229,13 +229,10 @@ inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, cons
   load.bits_exact += c.bits_exact;
   IdStats& s = *where.id;
   if (timed) {
-    if (!block_) {
-      add_timed(load, ns, c.bits_worst);
-    } else if (load.by_runs) {
-      add_run(load, ns, c.bits_worst);
-    } else {
+    if (block_)
       load.timed.push_back({ns, c.bits_worst});  // the windows are worked out by append(), in file order
-    }
+    else
+      add_timed(load, ns, c.bits_worst);
     s.cadence.add_at(ns, c.timeout_ns);
   } else {
     ++s.cadence.count;
@@ -293,10 +290,7 @@ BusStats::Load& BusStats::load_of(std::string_view interface) {
     if (it == interfaces_.end()) {
       it = interfaces_.emplace(std::string(interface), Load{}).first;
       if (block_) interface_order_.emplace_back(interface);
-      if (first_ && interface == first_->interface) {
-        it->second.by_runs = true;
-        it->second.window_end_ns = first_->ns;  // a frame there or later opens a run
-      } else if (!spare_timed_.empty()) {  // restart_block() kept it
+      if (!spare_timed_.empty()) {  // restart_block() kept it
         it->second.timed = std::move(spare_timed_.back());
         spare_timed_.pop_back();
       }
@@ -360,46 +354,6 @@ void BusStats::add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) cons
   }
 }
 
-void BusStats::add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const {
-  // add_timed()'s rule with the windows counted from FirstTimed::ns: which window the blocks before ended in is not
-  // known here, so a run's window is the largest of its frames' so far in this block; append() takes the larger
-  // of that and its own.
-  // A frame before FirstTimed::ns counts in window 0 here: append() puts window 0 in the window the blocks before
-  // ended in, as add_timed() does with a frame whose window is before the current one.
-  if (!load.last_ns || ns > *load.last_ns) load.last_ns = ns;
-  if (ns >= load.window_end_ns || load.runs.empty()) {
-    const std::uint64_t index = ns >= first_->ns ? (ns - first_->ns) / options_.window_ns : 0;
-    if (load.runs.empty() || index > load.runs.back().window) {
-      load.runs.push_back({index, 0});
-      load.window_end_ns = saturating_add(first_->ns, saturating_mul(index + 1, options_.window_ns));
-    }
-  }
-  load.runs.back().bits += worst;
-}
-
-void BusStats::append_runs(Load& load, const Load& later, std::uint64_t first_ns) const {
-  if (later.last_ns && (!load.last_ns || *later.last_ns > *load.last_ns)) load.last_ns = later.last_ns;
-  auto count = [&](std::uint64_t bits) {
-    load.window_bits += bits;
-    if (load.window_bits > load.peak_bits) {
-      load.peak_bits = load.window_bits;
-      load.peak_index = load.window_index;
-    }
-  };
-  for (const Load::Run& run : later.runs) {
-    if (!load.first_ns) {  // the interface's first timed frame, at first_ns: window 0 (add_timed)
-      load.first_ns = first_ns;
-      load.window_end_ns = saturating_add(first_ns, options_.window_ns);
-    }
-    if (run.window > load.window_index) {
-      load.window_index = run.window;
-      load.window_bits = 0;
-      load.window_end_ns = saturating_add(first_ns, saturating_mul(run.window + 1, options_.window_ns));
-    }
-    count(run.bits);
-  }
-}
-
 void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns) {
   to.cadence.append(later.cadence, timeout_ns);
   to.remote += later.remote;
@@ -410,15 +364,14 @@ void BusStats::append_id(IdStats& to, const IdStats& later, std::uint64_t timeou
   if (to.type.empty() || (to.type[0] == '!' && !later.type.empty() && later.type[0] != '!')) to.type = later.type;
 }
 
-void BusStats::restart_block(BusStatsOptions options, const std::optional<FirstTimed>& first) {
+void BusStats::restart_block(BusStatsOptions options) {
   assert(block_);
   std::vector<std::vector<Load::Timed>> spare = std::move(spare_timed_);
   for (auto& [name, load] : interfaces_) {
-    if (load.by_runs) continue;
     load.timed.clear();
     spare.push_back(std::move(load.timed));
   }
-  *this = BusStats(options, Block{}, first);
+  *this = BusStats(options, Block{});
   spare_timed_ = std::move(spare);
 }
 
@@ -447,26 +400,10 @@ void BusStats::append(const BusStats& later) {
     load.bits_none += from.bits_none;
     load.bits_worst += from.bits_worst;
     load.bits_exact += from.bits_exact;
-    if (from.by_runs) {
-      // blocks of one file are told the same FirstTimed; a block appended to a block keeps the runs as they are
-      assert(later.first_ && (!block_ || (first_ && first_->interface == later.first_->interface &&
-                                          first_->ns == later.first_->ns)));
-      if (block_) {
-        load.by_runs = true;
-        if (!load.last_ns || (from.last_ns && *from.last_ns > *load.last_ns)) load.last_ns = from.last_ns;
-        load.runs.insert(load.runs.end(), from.runs.begin(), from.runs.end());
-        // as add_run() leaves it: a frame added here next goes on in the last run unless its window is later
-        load.window_end_ns = load.runs.empty() ? first_->ns
-                                               : saturating_add(first_->ns, saturating_mul(load.runs.back().window + 1,
-                                                                                           options_.window_ns));
-      } else {
-        append_runs(load, from, later.first_->ns);
-      }
-    } else if (block_) {
+    if (block_)
       load.timed.insert(load.timed.end(), from.timed.begin(), from.timed.end());
-    } else {
+    else
       for (const Load::Timed& t : from.timed) add_timed(load, t.ns, t.bits);
-    }
   }
   unlisted_load_->frames += later.unlisted_load_->frames;  // (a block lists all, so these are 0 there)
   append_id(*unlisted_id_, *later.unlisted_id_, 0);
@@ -883,20 +820,13 @@ struct StatsWork {
   };
   BusStats& stats;
   const std::function<void(const CanFrame&)>& also;
-  std::optional<BusStats::FirstTimed> first;
 
   Worker worker() { return Worker{}; }
-  bool in_blocks(const CaptureBlocks* blocks) {
-    if (also) return false;  // it sees the frames in order
-    // the file's first line, read before the blocks: its interface's windows are then worked out in the blocks
-    if (const auto record = blocks ? blocks->first_record() : std::nullopt; record && record->frame.timestamp_ns)
-      first = BusStats::FirstTimed{record->interface, *record->frame.timestamp_ns};
-    return true;
-  }
+  bool in_blocks(const CaptureBlocks*) { return !also; }  // `also` sees the frames in order
   void start(Worker& w, Piece& p, bool block) {
     p.block = block;
     if (!block) return;
-    p.stats.restart_block(stats.options(), first);
+    p.stats.restart_block(stats.options());
     w.lines.start(p.stats);
   }
   CandumpLineTaker* taker(Worker& w) { return &w.lines; }
@@ -921,7 +851,7 @@ void add_capture(BusStats& stats, const std::string& path, std::unique_ptr<Captu
                  const ReadOptions& options, const std::function<void(const CaptureError&)>& on_corrupt,
                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,
                  const std::function<void(const CanFrame&)>& also) {
-  StatsWork work{stats, also, std::nullopt};
+  StatsWork work{stats, also};
   detail::read_capture(path, reader, compressed, options, work,
                        {[&](const CaptureError& e) {
                           stats.add_corrupt();

@@ -254,7 +254,8 @@ class CandumpScanner {
 
  private:
   void line(std::string_view text, FrameBatch& batch, CandumpLineTaker* taker);
-  void too_long(FrameBatch& batch);
+  /// A corrupt record at the current line.
+  void corrupt(FrameBatch& batch, std::size_t column, std::string message);
   std::size_t fill(char* dst, std::size_t n);
   void allocate();
 

@@ -73,14 +73,6 @@ class CaptureBlocks {
   /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt
   /// when none does. Reads the blocks in order up to that frame.
   [[nodiscard]] std::optional<std::uint64_t> first_time(const std::function<bool(const CanFrame&)>& keep) const;
-  /// The file's first record, when it is a candump line of the usual shape ("(SEC.FRAC) IFACE ID#DATA", in its
-  /// first 4 KiB): that frame, its time included, and its interface; nullopt for anything else (pcap and pcapng
-  /// files too). Cheap (one small read), for a caller that wants it before the blocks are read (stats' windows).
-  struct FirstRecord {
-    CanFrame frame;
-    std::string interface;
-  };
-  [[nodiscard]] std::optional<FirstRecord> first_record() const;
 
  private:
   CaptureBlocks(int fd, std::uint64_t size, CaptureFormat format);

@@ -76,72 +76,73 @@ class RotationPlan {
   RotationOptions options_;
 };
 
-/// CAN frames into one file or a rotating series. `on_new_file(path)` is told of every file opened.
-class RotatingCaptureWriter final : public CaptureWriter {
+/// What the rotating writers of CAN frames and of serial chunks share (Writer: CaptureWriter or
+/// SerialCaptureWriter): the files, the format writer of the current one, when the next starts, and compression.
+/// `on_new_file(path)` is told of every file opened; `make` builds each file's format writer on its stream.
+template <class Writer>
+class RotatingFiles : public Writer {
  public:
-  /// `make`, when given, builds each file's format writer on its stream (an MCAP writer with options and decoded
-  /// channels, report/mcap_signals.hpp); otherwise make_capture_writer(stream, format).
-  using MakeWriter = std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>;
-  RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation = {},
-                        std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
-  ~RotatingCaptureWriter() override;
-  void write(const CanFrame& frame, std::string_view interface) override;
+  using MakeWriter = std::function<std::unique_ptr<Writer>(std::ostream&)>;
+  RotatingFiles(const std::string& path, RotationOptions rotation, std::function<void(const std::string&)> on_new_file,
+                MakeWriter make);
+  ~RotatingFiles() override;
   void flush() override;
   void close() override;
-  [[nodiscard]] CaptureFormat format() const override { return format_; }
   /// The file being written; after close() the last file's final name (with .gz/.zst when compressed).
   [[nodiscard]] const std::string& current_path() const { return current_path_; }
   [[nodiscard]] unsigned files() const { return index_ + 1; }
   [[nodiscard]] std::uint64_t bytes_in_file();  ///< of the current file, as written so far
+
+ protected:
+  /// Writes one item at `timestamp_ns` with write(format writer), into a new file first when the plan says so.
+  void write_item(std::optional<std::uint64_t> timestamp_ns, const std::function<void(Writer&)>& write);
+  [[nodiscard]] const Writer& writer() const { return *inner_; }
 
  private:
   void open_next();
   void close_current();
   RotationPlan plan_;
   std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
-  CaptureFormat format_;
   std::function<void(const std::string&)> on_new_file_;
   MakeWriter make_;
   std::unique_ptr<std::ofstream> file_;
-  std::unique_ptr<CaptureWriter> inner_;
+  std::unique_ptr<Writer> inner_;
   std::string current_path_;
   unsigned index_ = 0;
-  std::uint64_t frames_in_file_ = 0;
+  std::uint64_t items_in_file_ = 0;
   std::optional<std::uint64_t> file_start_ns_;
   bool closed_ = false;
 };
 
+/// CAN frames into one file or a rotating series.
+class RotatingCaptureWriter final : public RotatingFiles<CaptureWriter> {
+ public:
+  /// `make`, when given, builds each file's format writer on its stream (an MCAP writer with options and decoded
+  /// channels, report/mcap_signals.hpp); otherwise make_capture_writer(stream, format).
+  RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation = {},
+                        std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
+  void write(const CanFrame& frame, std::string_view interface) override {
+    write_item(frame.timestamp_ns, [&](CaptureWriter& w) { w.write(frame, interface); });
+  }
+  [[nodiscard]] CaptureFormat format() const override { return format_; }
+
+ private:
+  CaptureFormat format_;
+};
+
 /// Serial chunks into one serial log or a rotating series.
-class RotatingSerialWriter final : public SerialCaptureWriter {
+class RotatingSerialWriter final : public RotatingFiles<SerialCaptureWriter> {
  public:
   /// `make`, when given, builds each file's writer on its stream (an MCAP writer of the decoded messages,
   /// report/mcap_serial.hpp); otherwise make_serial_capture_writer(stream), a serial log.
-  using MakeWriter = std::function<std::unique_ptr<SerialCaptureWriter>(std::ostream&)>;
   RotatingSerialWriter(const std::string& path, RotationOptions rotation = {},
-                       std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
-  ~RotatingSerialWriter() override;
-  void write(const SerialChunk& chunk) override;
-  void flush() override;
-  void close() override;
-  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-  [[nodiscard]] const std::string& current_path() const { return current_path_; }
-  [[nodiscard]] unsigned files() const { return index_ + 1; }
-  [[nodiscard]] std::uint64_t bytes_in_file();
-
- private:
-  void open_next();
-  void close_current();
-  RotationPlan plan_;
-  std::unique_ptr<FileCompressor> compressor_;
-  std::function<void(const std::string&)> on_new_file_;
-  MakeWriter make_;
-  std::unique_ptr<std::ofstream> file_;
-  std::unique_ptr<SerialCaptureWriter> inner_;
-  std::string current_path_;
-  unsigned index_ = 0;
-  std::uint64_t chunks_in_file_ = 0;
-  std::optional<std::uint64_t> file_start_ns_;
-  bool closed_ = false;
+                       std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {})
+      : RotatingFiles(path, rotation, std::move(on_new_file),
+                      make ? std::move(make) : MakeWriter(make_serial_capture_writer)) {}
+  void write(const SerialChunk& chunk) override {
+    write_item(chunk.timestamp_ns, [&](SerialCaptureWriter& w) { w.write(chunk); });
+  }
+  [[nodiscard]] CaptureFormat format() const override { return writer().format(); }
 };
 
 }  // namespace saul::host

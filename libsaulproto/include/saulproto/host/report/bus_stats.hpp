@@ -175,16 +175,7 @@ class BusStats {
   /// may know: such a block keeps its timed frames' time and bits (16 bytes a frame, so memory grows with the
   /// block, never with the file) and append() works the windows out from them in file order.
   struct Block {};
-  /// One interface's first frame with a time, known before the blocks are counted (a candump file's first line,
-  /// CaptureBlocks::first_record()): no frame of `interface` with a time comes before it in the file. Its windows
-  /// then start at `ns` in every block, so the blocks work that interface's windows out themselves (Load::runs)
-  /// instead of keeping each timed frame for append().
-  struct FirstTimed {
-    std::string interface;
-    std::uint64_t ns = 0;
-  };
-  BusStats(BusStatsOptions options, Block, std::optional<FirstTimed> first = std::nullopt)
-      : options_(options), block_(true), first_(std::move(first)), serial_(next_serial()) {}
+  BusStats(BusStatsOptions options, Block) : options_(options), block_(true), serial_(next_serial()) {}
   BusStats(const BusStats&) = delete;  // it keeps pointers into its own maps
   BusStats& operator=(const BusStats&) = delete;
   BusStats(BusStats&&) = default;  // map nodes stay put when a map moves
@@ -193,9 +184,9 @@ class BusStats {
   void add(const CanFrame& frame, std::string_view interface) { add(frame, interface, facts_.get(frame)); }
   /// The same with the frame's facts already known (e.g. worked out on another thread).
   void add(const CanFrame& frame, std::string_view interface, const FrameFacts& facts);
-  /// Block statistics only: starts again empty (with `options` and `first`) for the next block, keeping the memory of
-  /// the timed frames.
-  void restart_block(BusStatsOptions options, const std::optional<FirstTimed>& first = std::nullopt);
+  /// Block statistics only: starts again empty (with `options`) for the next block, keeping the memory of the timed
+  /// frames.
+  void restart_block(BusStatsOptions options);
   /// One corrupt record of the file.
   void add_corrupt() { ++corrupt_; }
   /// Adds the statistics of the frames that came right after these ones in the file, counted by a
@@ -222,16 +213,6 @@ class BusStats {
       std::uint64_t bits;
     };
     std::vector<Timed> timed;
-    /// Block statistics of the FirstTimed interface, instead of `timed`: its timed frames in file order as runs that
-    /// fall in one window (counted from FirstTimed::ns; a frame whose window is before the run's stays in it, as
-    /// add() does). append() puts each run in the later of its window and the one the frames before ended in. A
-    /// block has a few runs: one a window.
-    struct Run {
-      std::uint64_t window;
-      std::uint64_t bits;
-    };
-    bool by_runs = false;
-    std::vector<Run> runs;
   };
   struct IdStats {
     std::string type;  ///< message name of the first frame that decoded, else "!" + the first failure reason
@@ -308,10 +289,6 @@ class BusStats {
  private:
   /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
-  /// The same in a block, for the FirstTimed interface (Load::runs).
-  void add_run(Load& load, std::uint64_t ns, std::uint64_t worst) const;
-  /// Adds the runs of a later block's FirstTimed interface (windows from `first_ns`) to the load's busiest window.
-  void append_runs(Load& load, const Load& later, std::uint64_t first_ns) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
   /// The interface's load, made when new (the last one looked up is remembered).
   Load& load_of(std::string_view interface);
@@ -331,7 +308,6 @@ class BusStats {
 
   BusStatsOptions options_;
   bool block_ = false;  // BusStats(options, Block): windows left to append()
-  std::optional<FirstTimed> first_;  // blocks only
   std::uint64_t serial_ = 0;  // Known::owner: different for every BusStats and every restart_block()
   std::vector<std::vector<Load::Timed>> spare_timed_;  // restart_block(): buffers for the next block's interfaces
   std::uint64_t frames_ = 0;
