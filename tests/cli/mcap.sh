@@ -38,6 +38,10 @@ topics=$(node_check verify "$out/run.mcap" <("$saulctl" decode --json "$root/cap
   <("$saulctl" stats --json "$root/captures/robot_bus.log" 2>/dev/null))
 check "robot_bus.log: one channel per message kind (/saul/telemetry_a, /vesc/68/status_1, ...)" \
   bash -c '[[ $0 == *\"/saul/telemetry_a\":30* && $0 == *\"/vesc/68/status_1\":30* && $0 == *\"/can/frames\":452* ]]' "$topics"
+"$saulctl" convert --zstd-level -2 "$root/captures/robot_bus.log" "$out/fast.mcap" 2>/dev/null
+"$saulctl" convert --zstd-level 1 "$root/captures/robot_bus.log" "$out/l1.mcap" 2>/dev/null
+check "convert's chunks are zstd at level -2 by default (the same bytes as --zstd-level -2, not level 1's)" \
+  bash -c 'cmp -s "$0" "$1" && ! cmp -s "$0" "$2"' "$out/run.mcap" "$out/fast.mcap" "$out/l1.mcap"
 "$saulctl" convert "$root/captures/robot_bus.log" "$out/f.x" --format mcap 2>/dev/null
 check "--format mcap whatever the name" cmp -s <(frames_of "$out/f.x") <(frames_of "$root/captures/robot_bus.log")
 check "stats reads MCAP: the same counts as from the log" \

@@ -209,3 +209,37 @@ TEST_CASE("mcap: channels and metadata added while the chunk thread writes come 
     CHECK(stored == crc_of(file, 0, summary_start - 13));
   }
 }
+
+TEST_CASE("mcap: a message written in place (begin_message, end_message) is the record add_message writes") {
+  // In place, with more room asked than written (as the frames' JSON is): the record's length is the bytes written,
+  // and the next message follows them, exactly as through add_message's copy.
+  auto file = [](bool in_place) {
+    std::ostringstream out;
+    McapWriterOptions o;
+    o.compression = McapCompression::none;
+    {
+      McapWriter w(out, o);
+      const auto channel = w.add_channel(w.add_schema("s", "jsonschema", "{}"), "/c", "json");
+      for (int i = 0; i < 50; ++i) {
+        const std::string data = "{\"i\":" + std::to_string(i * 7919) + "}";
+        const auto t = 1'000'000'000ULL + static_cast<std::uint64_t>(i);
+        if (in_place) {
+          char* p = w.begin_message(channel, t, data.size() + 100);
+          std::memcpy(p, data.data(), data.size());
+          w.end_message(data.size());
+        } else {
+          w.add_message(channel, t, data);
+        }
+      }
+      w.close();
+    }
+    return out.str();
+  };
+  const std::string copied = file(false);
+  CHECK(file(true) == copied);
+  // The first Message record, by hand: opcode 05, length 29 (22 + the 7 bytes of data), channel 0, sequence 0, log
+  // and publish time 1e9 ns (0x3B9ACA00), the data.
+  const std::string record = std::string("\x05\x1D\0\0\0\0\0\0\0" "\0\0" "\0\0\0\0", 15) +
+                             std::string("\x00\xCA\x9A\x3B\0\0\0\0" "\x00\xCA\x9A\x3B\0\0\0\0", 16) + "{\"i\":0}";
+  CHECK(copied.find(record) != std::string::npos);
+}

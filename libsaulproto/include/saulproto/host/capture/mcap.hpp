@@ -100,6 +100,10 @@ class McapWriter {
                             const McapMap& metadata = {});
   /// A message; may close the chunk first (its size or time span reached).
   void add_message(std::uint16_t channel_id, std::uint64_t log_time, std::string_view data);
+  /// A message whose data the caller writes in place (no copy): room for up to `max` bytes of it in the chunk,
+  /// valid until end_message(), which must come next with the bytes written. add_message() is these two and a copy.
+  char* begin_message(std::uint16_t channel_id, std::uint64_t log_time, std::size_t max);
+  void end_message(std::size_t size);
   /// A Metadata record (written between chunks: the current one is closed first).
   void add_metadata(std::string_view name, const McapMap& entries);
   /// Closes the current chunk (if it holds anything) and flushes the stream. Throws std::runtime_error when the
@@ -170,6 +174,8 @@ class McapWriter {
   std::vector<std::vector<std::uint8_t>> metadata_index_;
   std::uint64_t message_count_ = 0, first_time_ = 0, last_time_ = 0;
   std::uint32_t metadata_count_ = 0;
+  std::size_t message_at_ = 0;  ///< where the record begin_message() started is, in open_.records
+  std::uint16_t message_channel_ = 0;
   Chunk open_;  ///< the chunk being filled
   // The chunk thread (started by the first chunk closed) and what it is given.
   Chunk given_;
@@ -205,7 +211,6 @@ class McapCaptureWriter final : public CaptureWriter {
   McapWriter writer_;
   std::unique_ptr<McapFrameExtra> extra_;
   std::uint16_t frames_channel_ = 0;
-  std::string json_;
   std::string interface_, interface_json_;  ///< the last interface name and its JSON string
   bool closed_ = false;
 };
