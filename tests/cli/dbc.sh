@@ -16,6 +16,8 @@ check "-o writes what stdout gets" cmp -s "$out/stdout.dbc" "$out/saul.dbc"
 check "the seven SAUL frames and 2 x 7 VESC frames" test "$(grep -c '^BO_ ' "$out/saul.dbc")" -eq 21
 check "0x300 is little-endian and signed" grep -q '^ SG_ speed_mmps : 0|16@1- (1,0) \[-32768|32767\] "mm/s" BALANCE$' "$out/saul.dbc"
 check "pitch_x100 is pitch in 0.01 deg" grep -q '^ SG_ pitch : 0|16@1- (0.01,0) \[-327.68|327.67\] "deg" Orin$' "$out/saul.dbc"
+check "comments name the wire integers as decode --json does (pitch_raw), not the structs' fields (pitch_x100)" \
+  bash -c 'grep -q "^CM_ BO_ 1024 .*pitch_raw" "$0" && ! grep "^CM_" "$0" | grep -q -e _x100 -e battery_mv' "$out/saul.dbc"
 check "0x301 multiplexer is the gain index" grep -q '^ SG_ gain M : 0|8@1+ ' "$out/saul.dbc"
 check "0x301 kd is multiplexed on index 2" grep -q '^ SG_ kd m2 : 32|32@1- ' "$out/saul.dbc"
 check "0x301 gains are IEEE floats" test "$(grep -c '^SIG_VALTYPE_ 769 k[pid] : 1;$' "$out/saul.dbc")" -eq 3

@@ -138,6 +138,20 @@ TEST_CASE("bench suites parse every step kind") {
   CHECK(s.steps[4].line == 8);
 }
 
+TEST_CASE("send config_cmd takes decode --json's names: tilt_limit in degrees or tilt_limit_raw") {
+  // 0x303: tilt limit in 0.01 deg, u16 LE (1200 = B0 04), then the speed cap in mm/s (1500 = DC 05), by hand
+  const auto s = parse(
+      "send config_cmd tilt_limit=12 max_speed_mmps=1500\n"
+      "send config_cmd tilt_limit_raw=1200 max_speed_mmps=1500\n"
+      "send frame 303#B004DC05\n");
+  REQUIRE(s.steps.size() == 3);
+  CHECK(s.steps[0].frames[0] == s.steps[2].frames[0]);
+  CHECK(s.steps[1].frames[0] == s.steps[2].frames[0]);
+  fails("send config_cmd tilt_limit_x100=1200 max_speed_mmps=1500\n",
+        "t.saul:1: config_cmd has no field 'tilt_limit_x100': use tilt_limit=DEG or tilt_limit_raw=N");
+  fails("send config_cmd tilt_limit=12 tilt_limit_raw=1200 max_speed_mmps=1500\n", "unknown field 'tilt_limit'");
+}
+
 TEST_CASE("bench suite parse errors name the file and line") {
   fails("\n\nfly away\n", "t.saul:3: unknown step 'fly'");
   fails("expect telemetry_a state=BALANCE\n", "within");

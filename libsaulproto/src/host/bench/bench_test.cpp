@@ -112,9 +112,15 @@ std::vector<CanFrame> build_frames(const std::vector<std::string>& w, std::size_
     out.push_back(sc::encode(sc::ModeCmd{kModes.at(lower(it->second))}));
     a.erase("mode");
   } else if (name == "config_cmd") {
+    // The signal names decode --json prints (docs/cli.md): tilt_limit in degrees, or tilt_limit_raw, its wire
+    // integer in 0.01 deg; the struct's own name (tilt_limit_x100) is not one of them.
+    if (a.count("tilt_limit_x100"))
+      throw ParseError(path, line, "config_cmd has no field 'tilt_limit_x100': use tilt_limit=DEG or tilt_limit_raw=N");
     sc::ConfigCmd m;
-    m.tilt_limit_x100 = checked<std::uint16_t>(need_number(a, "tilt_limit_x100", std::nullopt, path, line),
-                                               "tilt_limit_x100", path, line);
+    const bool raw = a.count("tilt_limit_raw") != 0;
+    const char* tilt = raw ? "tilt_limit_raw" : "tilt_limit";
+    const double limit = need_number(a, tilt, std::nullopt, path, line);
+    m.tilt_limit_x100 = checked<std::uint16_t>(raw ? limit : limit * 100.0, tilt, path, line);
     m.max_speed_mmps = checked<std::uint16_t>(need_number(a, "max_speed_mmps", std::nullopt, path, line),
                                               "max_speed_mmps", path, line);
     out.push_back(sc::encode(m));

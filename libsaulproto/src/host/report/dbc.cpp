@@ -138,10 +138,11 @@ std::string saul_comment(std::uint32_t id) {
              "2-3 are reserved (0). The three gains of one sequence number are applied together (docs/protocol.md "
              "3).";
     case kModeCmdId: return "Mode request; balance and manual are accepted only when the robot is already armed.";
-    case kConfigCmdId: return "Tilt limit (tilt_limit_x100 on the wire, 5.00 to 25.00 deg) and speed cap.";
-    case kTelemetryAId: return "Telemetry A, 10 Hz. pitch is pitch_x100 on the wire.";
+    case kConfigCmdId: return "Tilt limit (5.00 to 25.00 deg; its wire integer, 0.01 deg, is tilt_limit_raw in decode --json) and speed "
+                              "cap.";
+    case kTelemetryAId: return "Telemetry A, 10 Hz. pitch in 0.01 deg on the wire (pitch_raw in decode --json).";
     case kTelemetryBId:
-      return "Telemetry B, 10 Hz: mechanical rpm of both wheels, battery (battery_mv on the wire), and the fault byte "
+      return "Telemetry B, 10 Hz: mechanical rpm of both wheels, battery (mV on the wire: battery_raw in decode --json), and the fault byte "
              "(byte 6) as one signal per bit.";
     case kCommandAckId:
       return "Acknowledgement of one 0x301 set, 0x302 or 0x303; sequence is the 0x301 set's, 0 otherwise.";
