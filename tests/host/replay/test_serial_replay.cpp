@@ -481,6 +481,14 @@ TEST_CASE("serial replay port: the rate follows the captured link, else its prot
   CHECK_FALSE(replay_serial_settings("uart-1", SerialProtocol::raw));
   s = replay_serial_settings("serial:/dev/ttyUSB2@9600:8N1", SerialProtocol::raw);
   CHECK(s->baud == 9600);
+  // The name is read by the one link parser: a rate with its unit as every link takes it, and a name it refuses
+  // (a frame format that is none) gives the protocol's own settings.
+  s = replay_serial_settings("serial:/dev/ttyUSB1@460k", SerialProtocol::interboard);
+  CHECK(s->baud == 460000);
+  CHECK(to_string(*s) == "8N1");
+  s = replay_serial_settings("serial:/dev/ttyUSB1@9600:9Q7", SerialProtocol::pride);
+  CHECK(s->baud == 38400);
+  CHECK(to_string(*s) == "8E1");
 
   const auto pride_port = replay_serial_settings("uart-1", SerialProtocol::pride);
   CHECK(parse_serial_replay_link("serial:/dev/pts/3", pride_port).text() == "serial:/dev/pts/3@38400:8E1");
