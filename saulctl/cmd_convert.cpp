@@ -41,6 +41,8 @@ struct ConvertOptions {
   // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end; at 1 MiB that was ~25 MiB of a
   // 10 GB log's memory (bench/README.md).
   std::uint64_t chunk_bytes = std::uint64_t{4} << 20;
+  std::string parallel_from;  // --parallel-from
+  std::string block_size = "512K";  // --block-size
 };
 
 /// The MCAP writer's options from the command line.
@@ -124,6 +126,7 @@ int run_convert(const ConvertOptions& opt) {
   }
   std::unique_ptr<CaptureReader> reader;
   std::unique_ptr<CaptureWriter> writer;
+  bool compressed = false;
   try {
     const auto out_format = format ? format : capture_format_from_extension(opt.out);
     OpenedCapture opened = open_capture(opt.in, serial_read_options(opt.serial));
@@ -135,6 +138,7 @@ int run_convert(const ConvertOptions& opt) {
       return kFailure;
     }
     reader = std::move(opened.frames);
+    compressed = opened.compressed;
     if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
       writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
                                        {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
@@ -148,6 +152,10 @@ int run_convert(const ConvertOptions& opt) {
   }
   Progress progress("convert", false);
   const auto total = reader->bytes_total();
+  const CaptureFormat in_format = reader->format();  // the read path may take the reader (a compressed candump log)
+  ReadOptions read;
+  read.parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
+  read.block = parse_size_option("--block-size", opt.block_size);
   CopyStats stats;
   try {
     stats = copy_frames(
@@ -156,7 +164,8 @@ int run_convert(const ConvertOptions& opt) {
           progress.finish();  // the message gets its own line
           say("{}", format_capture_error(opt.in, error));
         },
-        [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); });
+        [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); }, opt.in,
+        compressed, read);
     writer->close();
   } catch (const std::invalid_argument& e) {  // a frame the output format cannot hold (more interfaces than it numbers)
     progress.finish();
@@ -177,7 +186,7 @@ int run_convert(const ConvertOptions& opt) {
   for (const auto& note : conversion_losses(stats, writer->format()))
     say("note: {}", note);
   say("{} frames from {} ({}) to {} ({}); {} corrupt records skipped", stats.frames,
-      opt.in, to_string(reader->format()), opt.out, to_string(writer->format()), stats.corrupt);
+      opt.in, to_string(in_format), opt.out, to_string(writer->format()), stats.corrupt);
   return kOk;
 }
 
@@ -230,6 +239,10 @@ void add_convert_command(CLI::App& app, Runner& run) {
       },
       "MCAP: close a chunk when its records reach this size (4K-256M, default 4M: smaller seeks finer, larger "
       "keeps a smaller summary)");
+  add_parallel_from_option(cmd, opt->parallel_from);
+  cmd->add_option("--block-size", opt->block_size,
+                  "MCAP: size of the blocks of the file converted on both cores (each block's chunks end with it)")
+      ->capture_default_str();
   add_serial_read_options(cmd, opt->serial);
   cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }

@@ -163,7 +163,8 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()}};
     if (spec.kind == LinkSpec::Kind::slcan) metadata.emplace_back("bitrate", std::to_string(spec.bitrate));
     make = [mcap, metadata](std::ostream& out) {
-      return std::make_unique<McapCaptureWriter>(out, mcap, std::make_unique<McapSignalChannels>(), metadata);
+      return std::make_unique<McapCaptureWriter>(
+          out, mcap, [] { return std::make_unique<McapSignalChannels>(); }, metadata);
     };
   }
   RotatingCaptureWriter writer(

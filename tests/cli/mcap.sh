@@ -33,6 +33,25 @@ for src in robot_bus.log robot_bus.blf robot_bus.csv robot_bus.trc.zst robot_bus
   check "decode of $src's MCAP = decode of $src (frames, interfaces)" \
     cmp -s <(frames_of "$root/captures/$src") <(frames_of "$out/r.mcap")
 done
+# 1a. Converted in blocks on both cores (what a file of 4 MiB or more gets; here forced with blocks of 256 bytes): each
+# block's chunks filled and compressed apart, written in file order, the channels the same ids and records. The
+# same messages and corrupt-record reports as frame by frame; several chunks (the block path ran).
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/rb.pcap" 2>/dev/null
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/rb.pcapng" 2>/dev/null
+for path in "$root"/captures/{robot_bus.log,robot_bus.log.gz,glitches.log} "$out"/rb.{pcap,pcapng}; do
+  src=$(basename "$path")
+  "$saulctl" decode --json "$path" >"$out/d.jsonl" 2>/dev/null
+  "$saulctl" stats --json "$path" >"$out/s.json" 2>/dev/null
+  "$saulctl" convert "$path" "$out/one.mcap" 2>"$out/e1"
+  "$saulctl" convert --parallel-from 1 --block-size 256 "$path" "$out/blocks.mcap" 2>"$out/e2"
+  check "convert $src in blocks of 256 bytes: @mcap/core reads it, schemas, counts, values" \
+    verify "$out/blocks.mcap" "$out/d.jsonl" "$out/s.json"
+  check "convert $src in blocks: the same frames and corrupt-record reports as frame by frame, in more chunks" \
+    bash -c 'cmp -s "$0" "$1" && cmp -s <(sed "s/one.mcap/X/" "$2") <(sed "s/blocks.mcap/X/" "$3") &&
+      test "$($4 chunks "$5" | wc -l)" -gt "$($4 chunks "$6" | wc -l)"' \
+    <(frames_of "$out/one.mcap") <(frames_of "$out/blocks.mcap") "$out/e1" "$out/e2" \
+    "timeout 120 node --single-threaded $npm_dir/mcap_check.mjs" "$out/blocks.mcap" "$out/one.mcap"
+done
 "$saulctl" convert "$root/captures/robot_bus.log" "$out/run.mcap" 2>/dev/null
 topics=$(node_check verify "$out/run.mcap" <("$saulctl" decode --json "$root/captures/robot_bus.log" 2>/dev/null) \
   <("$saulctl" stats --json "$root/captures/robot_bus.log" 2>/dev/null))

@@ -188,7 +188,6 @@ TEST_CASE("mcap: channels and metadata added while the chunk thread writes come 
     std::istringstream in(file);
     McapRecordReader r(in, file.size());
     std::size_t n = 0;
-    std::vector<std::uint32_t> sequence(on.size(), 0);
     for (;;) {
       const auto st = r.next();
       if (st == McapRecordReader::Status::end) break;
@@ -197,7 +196,7 @@ TEST_CASE("mcap: channels and metadata added while the chunk thread writes come 
       REQUIRE(n < sent.size());
       REQUIRE(r.channel(m.channel_id) != nullptr);  // declared before its first message
       CHECK(m.channel_id == on[n]);
-      CHECK(m.sequence == sequence[m.channel_id]++);
+      CHECK(m.sequence == 0);  // not assigned (McapChunk)
       CHECK(std::string(m.data.begin(), m.data.end()) == sent[n]);
       ++n;
     }
@@ -242,4 +241,63 @@ TEST_CASE("mcap: a message written in place (begin_message, end_message) is the 
   const std::string record = std::string("\x05\x1D\0\0\0\0\0\0\0" "\0\0" "\0\0\0\0", 15) +
                              std::string("\x00\xCA\x9A\x3B\0\0\0\0" "\x00\xCA\x9A\x3B\0\0\0\0", 16) + "{\"i\":0}";
   CHECK(copied.find(record) != std::string::npos);
+}
+
+TEST_CASE("mcap: chunks filled apart and written in order (convert in blocks) give the bytes of one writer's chunks") {
+  // The same frames cut into chunks by the same rule (McapChunk::full), once by the writer itself and once by the
+  // caller filling chunks of its own, sealing them and handing them to write_chunk() in order: the same file.
+  const auto frames = random_frames(2000, 12);
+  for (const auto c : {McapCompression::none, McapCompression::lz4, McapCompression::zstd}) {
+    const std::string one = write_file(frames, c, 4096);
+    std::ostringstream out;
+    McapWriterOptions o;
+    o.compression = c;
+    o.chunk_bytes = 4096;
+    {
+      McapCaptureWriter w(out, o);
+      McapSealer sealer(o.compression, o.zstd_level);
+      std::vector<McapChunk> chunks(1);
+      for (const auto& f : frames) {
+        const std::uint64_t t = *f.timestamp_ns;
+        if (chunks.back().full(o, t)) chunks.emplace_back();
+        add_frame_message(chunks.back(), kMcapFramesChannel, f, t, "\"can1\"");
+      }
+      REQUIRE(chunks.size() > 10);
+      for (auto& chunk : chunks) chunk.seal(sealer);
+      for (auto& chunk : chunks) w.writer().write_chunk(chunk);
+      w.close();
+    }
+    CHECK(out.str() == one);
+  }
+}
+
+TEST_CASE("mcap: a chunk's channel not added is added by on_undeclared before the chunk, or refused") {
+  auto file = [](bool with_hook) {
+    std::ostringstream out;
+    McapWriterOptions o;
+    o.compression = McapCompression::none;
+    McapWriter w(out, o);
+    const auto schema = w.add_schema("s", "jsonschema", "{}");
+    w.add_channel(schema, "/a", "json");  // id 0
+    if (with_hook)
+      w.on_undeclared([schema](McapWriter& to, std::uint16_t id) {
+        if (id != 700) return false;
+        to.add_channel(id, schema, "/seven_hundred", "json");
+        return true;
+      });
+    w.add_message(0, 1, "{}");
+    w.add_message(700, 2, "{\"x\":1}");
+    w.close();
+    return out.str();
+  };
+  CHECK_THROWS_AS(file(false), std::out_of_range);
+  const std::string f = file(true);
+  std::istringstream in(f);
+  McapRecordReader r(in, f.size());
+  std::vector<std::string> topics;
+  while (r.next() == McapRecordReader::Status::message) {
+    REQUIRE(r.channel(r.message().channel_id) != nullptr);  // declared before the chunk that uses it
+    topics.push_back(r.channel(r.message().channel_id)->topic);
+  }
+  CHECK(topics == std::vector<std::string>{"/a", "/seven_hundred"});
 }

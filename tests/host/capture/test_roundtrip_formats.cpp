@@ -14,6 +14,7 @@
 #include "formats_test.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
+#include "host/test_frame.hpp"
 
 using namespace saul;
 using namespace saul::host;
@@ -25,15 +26,7 @@ struct Sample {
   std::string iface;
 };
 
-CanFrame frame(std::uint32_t id, bool extended, std::vector<std::uint8_t> data, std::uint64_t ns) {
-  CanFrame f;
-  f.id = id;
-  f.extended = extended;
-  f.dlc = static_cast<std::uint8_t>(data.size());
-  for (std::size_t i = 0; i < data.size(); ++i) f.data[i] = data[i];
-  f.timestamp_ns = ns;
-  return f;
-}
+using saul_test::frame;
 
 std::vector<Sample> samples() {
   constexpr std::uint64_t t0 = 1'700'000'000'000'900'123ULL;  // ns below the microsecond on purpose

@@ -361,6 +361,7 @@ class FileWriter final : public CaptureWriter {
       throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
     }
   }
+  McapCaptureWriter* mcap() noexcept override { return inner_->mcap(); }
   void flush() override {
     try {
       inner_->flush();
@@ -806,12 +807,15 @@ ReadCounts read_in_order(std::unique_ptr<CaptureReader>& reader, const ReadOptio
 
 CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress) {
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress,
+                      const std::string& path, bool compressed, const ReadOptions& read) {
+  // MCAP keeps every frame and interface name (its traits): nothing to leave out or rename
+  if (McapCaptureWriter* mcap = out.mcap()) return mcap->copy(path, in, compressed, read, on_corrupt, progress);
   CopyStats stats;
   InterfaceIndex seen;
   const CaptureTraits traits = capture_traits(out.format());
-  const ReadCounts read = read_in_order(
-      in, {},
+  const ReadCounts counts = read_in_order(
+      in, read,
       [&](const FrameBatch& batch) {
         batch.walk(
             [&](std::size_t i) {
@@ -831,8 +835,8 @@ CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
         return true;
       },
       progress);
-  stats.frames = read.frames;
-  stats.corrupt = read.corrupt;
+  stats.frames = counts.frames;
+  stats.corrupt = counts.corrupt;
   stats.interfaces = seen.names();
   return stats;
 }

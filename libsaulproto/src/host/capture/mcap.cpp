@@ -16,6 +16,7 @@
 #include <stdexcept>
 
 #include "capture_io.hpp"
+#include "read_path.hpp"
 
 namespace saul::host {
 namespace {
@@ -217,7 +218,78 @@ std::optional<McapCompression> mcap_compression_from_name(std::string_view name)
 
 // ---- writer -----------------------------------------------------------------------------------------------------
 
-McapWriter::McapWriter(std::ostream& out, McapWriterOptions options) : out_(out), options_(std::move(options)) {
+void McapSealer::ZstdFree::operator()(ZSTD_CCtx* context) const noexcept { ZSTD_freeCCtx(context); }
+
+char* McapChunk::begin_message(std::uint16_t channel_id, std::uint64_t log_time, std::size_t max) {
+  if (!has_messages_) {
+    start_ = end_ = log_time;
+    has_messages_ = true;
+  }
+  start_ = std::min(start_, log_time);
+  end_ = std::max(end_, log_time);
+  if (channel_id >= index_.size()) index_.resize(std::size_t{channel_id} + 1);
+  TimeOffsets& index = index_[channel_id];
+  if (index.empty()) channels_.push_back(channel_id);
+  index.emplace_back(log_time, records_.size());
+  // The record's 31 bytes before its data (its length at end_message()), then the data, written where they go in
+  // the chunk (a head built on the stack and copied in stalled on the copy's wide load of bytes just stored one by
+  // one: half of this function's time).
+  message_at_ = records_.size();
+  records_.resize(message_at_ + kRecordHead + kMessageFields + max);
+  std::uint8_t* p = records_.data() + message_at_;
+  *p = kMessage;
+  p += kRecordHead;
+  p = put_le(p, channel_id, 2);
+  p = put_le(p, 0, 4);  // sequence: 0, not assigned (see the class)
+  p = put_le(p, log_time, 8);
+  p = put_le(p, log_time, 8);  // publish time: not known apart, so the log time (as the spec asks)
+  return reinterpret_cast<char*>(p);
+}
+
+void McapChunk::end_message(std::size_t size) {
+  put_le(records_.data() + message_at_ + 1, kMessageFields + size, 8);
+  records_.resize(message_at_ + kRecordHead + kMessageFields + size);
+}
+
+void McapChunk::add_message(std::uint16_t channel_id, std::uint64_t log_time, std::string_view data) {
+  char* p = begin_message(channel_id, log_time, data.size());
+  std::memcpy(p, data.data(), data.size());
+  end_message(data.size());
+}
+
+bool McapChunk::full(const McapWriterOptions& options, std::uint64_t log_time) const noexcept {
+  return has_messages_ && (records_.size() >= options.chunk_bytes ||
+                           std::max(end_, log_time) - std::min(start_, log_time) >= options.chunk_ns);
+}
+
+void McapChunk::seal(McapSealer& sealer) {
+  crc_ = crc_of(0, records_.data(), records_.size());
+  compression_ = sealer.compression_;
+  packed_size_ = records_.size();
+  if (compression_ == McapCompression::zstd) {
+    if (!sealer.zstd_) {
+      sealer.zstd_.reset(ZSTD_createCCtx());
+      if (!sealer.zstd_) throw std::runtime_error("zstd: no memory for a context");
+    }
+    const auto dst = room(packed_, ZSTD_compressBound(records_.size()));
+    packed_size_ = ZSTD_compressCCtx(sealer.zstd_.get(), dst.data(), dst.size(), records_.data(), records_.size(),
+                                     sealer.zstd_level_);
+    if (ZSTD_isError(packed_size_)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(packed_size_));
+  } else if (compression_ == McapCompression::lz4) {
+    packed_size_ = compress_lz4(records_, packed_).size();
+  }
+  sealed_ = true;
+}
+
+void McapChunk::clear() {
+  records_.clear();
+  for (const std::uint16_t channel : channels_) index_[channel].clear();
+  channels_.clear();
+  has_messages_ = sealed_ = false;
+}
+
+McapWriter::McapWriter(std::ostream& out, McapWriterOptions options)
+    : out_(out), options_(std::move(options)), sealer_(options_.compression, options_.zstd_level) {
   emit(kMcapMagic);
   emit(Body().str("").str(options_.library).record(kHeader));
 }
@@ -232,8 +304,6 @@ McapWriter::~McapWriter() {
   thread_.join();
 }
 
-void McapWriter::ZstdFree::operator()(ZSTD_CCtx* context) const noexcept { ZSTD_freeCCtx(context); }
-
 void McapWriter::emit(std::span<const std::uint8_t> bytes) {
   out_.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   data_crc_ = crc_of(data_crc_, bytes.data(), bytes.size());
@@ -241,79 +311,63 @@ void McapWriter::emit(std::span<const std::uint8_t> bytes) {
 }
 
 std::uint16_t McapWriter::add_schema(std::string_view name, std::string_view encoding, std::string_view data) {
-  if (schemas_.size() >= 0xFFFE) throw std::length_error("mcap: more than 65534 schemas");
-  const auto id = static_cast<std::uint16_t>(schemas_.size() + 1);
+  if (next_schema_ > 0xFFFF) throw std::length_error("mcap: no schema id left");
+  const auto id = static_cast<std::uint16_t>(next_schema_);
+  add_schema(id, name, encoding, data);
+  return id;
+}
+
+void McapWriter::add_schema(std::uint16_t id, std::string_view name, std::string_view encoding, std::string_view data) {
+  if (id == 0 || schema_added_[id]) throw std::invalid_argument(fmt::format("mcap: schema id {} is taken", id));
+  schema_added_[id] = true;
+  next_schema_ = std::max<std::uint32_t>(next_schema_, std::uint32_t{id} + 1);
   Body b;
   b.u16(id).str(name).str(encoding).str(data);
   schemas_.push_back(b.record(kSchema));
   wait_for_chunk();
   emit(schemas_.back());
-  return id;
 }
 
 std::uint16_t McapWriter::add_channel(std::uint16_t schema_id, std::string_view topic,
                                       std::string_view message_encoding, const McapMap& metadata) {
-  if (channels_.size() > 0xFFFF) throw std::length_error("mcap: more than 65536 channels");
-  const auto id = static_cast<std::uint16_t>(channels_.size());
-  Body b;
-  b.u16(id).u16(schema_id).str(topic).str(message_encoding).map(metadata);
-  channels_.push_back(b.record(kChannel));
-  channel_counts_.push_back(0);
-  open_.index.emplace_back();
-  wait_for_chunk();
-  emit(channels_.back());
+  if (next_channel_ > 0xFFFF) throw std::length_error("mcap: more than 65536 channels");
+  const auto id = static_cast<std::uint16_t>(next_channel_);
+  add_channel(id, schema_id, topic, message_encoding, metadata);
   return id;
 }
 
+void McapWriter::add_channel(std::uint16_t id, std::uint16_t schema_id, std::string_view topic,
+                             std::string_view message_encoding, const McapMap& metadata) {
+  if (channel_added_[id]) throw std::invalid_argument(fmt::format("mcap: channel id {} is taken", id));
+  channel_added_[id] = true;
+  next_channel_ = std::max<std::uint32_t>(next_channel_, std::uint32_t{id} + 1);
+  Body b;
+  b.u16(id).u16(schema_id).str(topic).str(message_encoding).map(metadata);
+  channels_.push_back(b.record(kChannel));
+  channel_ids_.push_back(id);
+  wait_for_chunk();
+  if (channel_counts_.size() <= id) channel_counts_.resize(std::size_t{id} + 1);  // after: the chunk thread counts
+  emit(channels_.back());
+}
+
+bool McapWriter::has_schema(std::uint16_t id) const noexcept { return schema_added_[id]; }
+bool McapWriter::has_channel(std::uint16_t id) const noexcept { return channel_added_[id]; }
+
 void McapWriter::add_message(std::uint16_t channel_id, std::uint64_t log_time, std::string_view data) {
-  char* p = begin_message(channel_id, log_time, data.size());
-  std::memcpy(p, data.data(), data.size());
-  end_message(data.size());
+  chunk_for(log_time).add_message(channel_id, log_time, data);
 }
 
 char* McapWriter::begin_message(std::uint16_t channel_id, std::uint64_t log_time, std::size_t max) {
-  if (closed_) throw std::runtime_error("mcap: the writer is closed");
-  if (channel_id >= channel_counts_.size()) throw std::out_of_range("mcap: a message on a channel not added");
-  if (open_.has_messages &&
-      (open_.records.size() >= options_.chunk_bytes ||
-       std::max(open_.end, log_time) - std::min(open_.start, log_time) >= options_.chunk_ns))
-    close_chunk();
-  if (!open_.has_messages) {
-    open_.start = open_.end = log_time;
-    open_.has_messages = true;
-  }
-  open_.start = std::min(open_.start, log_time);
-  open_.end = std::max(open_.end, log_time);
-  TimeOffsets& index = open_.index[channel_id];
-  if (index.empty()) open_.channels.push_back(channel_id);
-  index.emplace_back(log_time, open_.records.size());
-  // The record's 31 bytes before its data (its length at end_message()), then the data, written where they go in
-  // the chunk (a head built on the stack and copied in stalled on the copy's wide load of bytes just stored one by
-  // one: half of this function's time).
-  message_at_ = open_.records.size();
-  message_channel_ = channel_id;
-  // Room for a whole chunk at once: grown by doubling, a 4 MiB chunk's buffer ended at 8 MiB (twice, with the
-  // chunk thread's).
-  if (open_.records.capacity() == 0) open_.records.reserve(options_.chunk_bytes + (std::size_t{64} << 10));
-  open_.records.resize(message_at_ + kRecordHead + kMessageFields + max);
-  std::uint8_t* p = open_.records.data() + message_at_;
-  *p = kMessage;
-  p += kRecordHead;
-  p = put_le(p, channel_id, 2);
-  p = put_le(p, channel_counts_[channel_id] & 0xFFFFFFFF, 4);  // sequence: the message's number on its channel
-  p = put_le(p, log_time, 8);
-  p = put_le(p, log_time, 8);  // publish time: not known apart, so the log time (as the spec asks)
-  if (message_count_ == 0) first_time_ = last_time_ = log_time;
-  first_time_ = std::min(first_time_, log_time);
-  last_time_ = std::max(last_time_, log_time);
-  return reinterpret_cast<char*>(p);
+  return chunk_for(log_time).begin_message(channel_id, log_time, max);
 }
 
-void McapWriter::end_message(std::size_t size) {
-  put_le(open_.records.data() + message_at_ + 1, kMessageFields + size, 8);
-  open_.records.resize(message_at_ + kRecordHead + kMessageFields + size);
-  ++channel_counts_[message_channel_];
-  ++message_count_;
+McapChunk& McapWriter::chunk_for(std::uint64_t log_time) {
+  if (closed_) throw std::runtime_error("mcap: the writer is closed");
+  if (open_.full(options_, log_time)) close_chunk();
+  // Room for a whole chunk at once: grown by doubling, a 4 MiB chunk's buffer ended at 8 MiB (twice, with the
+  // chunk thread's).
+  if (open_.records_.capacity() == 0) open_.records_.reserve(options_.chunk_bytes + (std::size_t{64} << 10));
+  return open_;
 }
 
 void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
@@ -326,13 +380,18 @@ void McapWriter::add_metadata(std::string_view name, const McapMap& entries) {
   ++metadata_count_;
 }
 
+void McapWriter::declare_used(const McapChunk& chunk) {
+  for (const std::uint16_t channel : chunk.channels_)
+    if (!channel_added_[channel] && !(declare_ && declare_(*this, channel) && channel_added_[channel]))
+      throw std::out_of_range(fmt::format("mcap: a message on channel {}, which was not added", channel));
+}
+
 void McapWriter::close_chunk() {
-  if (open_.records.empty()) return;
-  // The CRC here, not on the chunk thread: compression keeps that one busier than this one (perf: ~54 / 46 %).
-  open_.crc = crc_of(0, open_.records.data(), open_.records.size());
+  if (open_.empty()) return;
+  declare_used(open_);
   if (!options_.chunk_thread) {
-    write_chunk(open_);  // leaves open_ emptied, its memory kept
-    open_.index.resize(channel_counts_.size());
+    open_.seal(sealer_);
+    emit_chunk(open_);  // leaves open_ emptied, its memory kept
     return;
   }
   wait_for_chunk();
@@ -340,10 +399,19 @@ void McapWriter::close_chunk() {
   {
     const std::lock_guard lock(mutex_);
     std::swap(open_, given_);  // the chunk thread's last buffers (emptied) are filled next
-    open_.index.resize(channel_counts_.size());
     busy_ = true;
   }
   wake_.notify_one();
+}
+
+void McapWriter::write_chunk(McapChunk& sealed) {
+  if (closed_) throw std::runtime_error("mcap: the writer is closed");
+  if (sealed.empty()) return;
+  if (!sealed.sealed_) throw std::logic_error("mcap: write_chunk() of a chunk not sealed");
+  close_chunk();  // the open chunk's messages came first
+  declare_used(sealed);
+  wait_for_chunk();
+  emit_chunk(sealed);
 }
 
 void McapWriter::wait_for_chunk() {
@@ -359,7 +427,8 @@ void McapWriter::chunk_thread() {
     if (!busy_) return;  // stopped, nothing given
     lock.unlock();
     try {
-      write_chunk(given_);
+      given_.seal(sealer_);
+      emit_chunk(given_);
     } catch (...) {
       lock.lock();
       failure_ = std::current_exception();
@@ -371,40 +440,30 @@ void McapWriter::chunk_thread() {
   }
 }
 
-void McapWriter::write_chunk(Chunk& chunk) {
+void McapWriter::emit_chunk(McapChunk& chunk) {
   ChunkIndex ix;
-  ix.start_time = chunk.has_messages ? chunk.start : 0;
-  ix.end_time = chunk.has_messages ? chunk.end : 0;
+  ix.start_time = chunk.start_;
+  ix.end_time = chunk.end_;
   ix.offset = offset_;
-  ix.uncompressed_size = chunk.records.size();
-  const std::uint32_t crc = chunk.crc;
-  std::span<const std::uint8_t> records(chunk.records);
-  if (options_.compression == McapCompression::zstd) {
-    if (!zstd_) {
-      zstd_.reset(ZSTD_createCCtx());
-      if (!zstd_) throw std::runtime_error("zstd: no memory for a context");
-    }
-    const auto dst = room(packed_, ZSTD_compressBound(records.size()));
-    const std::size_t n = ZSTD_compressCCtx(zstd_.get(), dst.data(), dst.size(), records.data(), records.size(),
-                                            options_.zstd_level);
-    if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(n));
-    records = dst.first(n);
-  } else if (options_.compression == McapCompression::lz4) {
-    records = compress_lz4(records, packed_);
-  }
+  ix.uncompressed_size = chunk.records_.size();
+  const std::span<const std::uint8_t> records =
+      chunk.compression_ == McapCompression::none ? std::span<const std::uint8_t>(chunk.records_)
+                                                  : std::span<const std::uint8_t>(chunk.packed_).first(chunk.packed_size_);
   ix.compressed_size = records.size();
   Body head;
-  head.u64(ix.start_time).u64(ix.end_time).u64(chunk.records.size()).u32(crc).str(compression_name(options_.compression));
-  head.u64(records.size());
+  head.u64(ix.start_time).u64(ix.end_time).u64(chunk.records_.size()).u32(chunk.crc_);
+  head.str(compression_name(chunk.compression_)).u64(records.size());
   const std::uint64_t length = head.data().size() + records.size();
   emit(Body().u8(kChunk).u64(length).bytes(head.data()).data());
   emit(records);
   ix.length = offset_ - ix.offset;
   const std::uint64_t index_start = offset_;
-  std::sort(chunk.channels.begin(), chunk.channels.end());
-  for (const std::uint16_t channel : chunk.channels) {
-    const TimeOffsets& entries = chunk.index[channel];
+  std::sort(chunk.channels_.begin(), chunk.channels_.end());
+  for (const std::uint16_t channel : chunk.channels_) {
+    const McapChunk::TimeOffsets& entries = chunk.index_[channel];
     ix.index_offsets.emplace_back(channel, offset_);
+    channel_counts_[channel] += entries.size();
+    message_count_ += entries.size();
     // Written in place (a chunk of 1 MiB indexes some 3 600 messages: 58 KiB).
     const std::uint64_t record_length = 2 + 4 + entries.size() * 16;
     index_record_.resize(kRecordHead + record_length);
@@ -416,13 +475,12 @@ void McapWriter::write_chunk(Chunk& chunk) {
     emit(index_record_);
   }
   ix.index_length = offset_ - index_start;
+  if (chunk_indexes_.empty()) first_time_ = last_time_ = chunk.start_;
+  first_time_ = std::min(first_time_, chunk.start_);
+  last_time_ = std::max(last_time_, chunk.end_);
   chunk_indexes_.push_back(std::move(ix));
   out_.flush();
-  // Emptied, its memory kept: these buffers are filled next.
-  chunk.records.clear();
-  for (const std::uint16_t channel : chunk.channels) chunk.index[channel].clear();
-  chunk.channels.clear();
-  chunk.has_messages = false;
+  chunk.clear();
 }
 
 void McapWriter::flush() {
@@ -472,7 +530,9 @@ void McapWriter::close() {
   stats.u32(static_cast<std::uint32_t>(channels_.size())).u32(0).u32(metadata_count_);
   stats.u32(static_cast<std::uint32_t>(chunk_indexes_.size())).u64(first_time_).u64(last_time_);
   Body counts;
-  for (std::size_t c = 0; c < channel_counts_.size(); ++c) counts.u16(static_cast<std::uint16_t>(c)).u64(channel_counts_[c]);
+  std::vector<std::uint16_t> ids = channel_ids_;
+  std::sort(ids.begin(), ids.end());
+  for (const std::uint16_t c : ids) counts.u16(c).u64(channel_counts_[c]);
   stats.u32(static_cast<std::uint32_t>(counts.data().size())).bytes(counts.data());
   group(kStatistics, {stats.record(kStatistics)});
   const std::uint64_t summary_offset_start = offset_;
@@ -490,25 +550,10 @@ void McapWriter::close() {
 
 // ---- CAN frames writer ------------------------------------------------------------------------------------------
 
-McapCaptureWriter::McapCaptureWriter(std::ostream& out, McapWriterOptions options,
-                                     std::unique_ptr<McapFrameExtra> extra, const McapMap& metadata)
-    : out_(out), writer_(out, std::move(options)), extra_(std::move(extra)) {
-  if (!metadata.empty()) writer_.add_metadata("saulctl", metadata);
-  const auto schema = writer_.add_schema(kMcapFrameSchemaName, "jsonschema", mcap_frame_json_schema());
-  frames_channel_ = writer_.add_channel(schema, kMcapFramesTopic, "json");
-}
-
-void McapCaptureWriter::write(const CanFrame& frame, std::string_view interface) {
-  if (closed_) throw std::runtime_error("mcap: the writer is closed");
-  check_writable(frame);
-  if (interface.empty()) interface = "can0";
-  if (interface != interface_) {  // its JSON string (escaped, invalid UTF-8 replaced) made once per change
-    interface_.assign(interface);
-    interface_json_ = nlohmann::json(interface_).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  }
+void add_frame_message(McapChunk& chunk, std::uint16_t channel_id, const CanFrame& frame, std::uint64_t log_time,
+                       std::string_view interface_json) {
   // Written straight into the chunk (no string between: its zero fill and the copy were a fifth of this function).
-  const std::uint64_t t = frame.timestamp_ns.value_or(0);
-  char* const start = writer_.begin_message(frames_channel_, t, 112 + 2 * frame.payload().size() + interface_json_.size());
+  char* const start = chunk.begin_message(channel_id, log_time, 112 + 2 * frame.payload().size() + interface_json.size());
   char* w = start;
   auto copy = [&w](std::string_view text) {
     std::memcpy(w, text.data(), text.size());
@@ -527,10 +572,47 @@ void McapCaptureWriter::write(const CanFrame& frame, std::string_view interface)
     *w++ = kHex[b & 15];
   }
   copy(R"(","interface":)");
-  copy(interface_json_);
+  copy(interface_json);
   *w++ = '}';
-  writer_.end_message(static_cast<std::size_t>(w - start));
-  if (extra_) extra_->on_frame(frame, interface, t, writer_);
+  chunk.end_message(static_cast<std::size_t>(w - start));
+}
+
+std::string_view McapInterfaceJson::operator()(std::string_view interface) {
+  if (interface.empty()) interface = "can0";
+  if (!made_ || interface != name_) {  // escaped, invalid UTF-8 replaced
+    name_.assign(interface);
+    json_ = nlohmann::json(name_).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    made_ = true;
+  }
+  return json_;
+}
+
+McapCaptureWriter::McapCaptureWriter(std::ostream& out, McapWriterOptions options, McapExtraMaker make_extra,
+                                     const McapMap& metadata)
+    : writer_(out, std::move(options)), make_extra_(std::move(make_extra)) {
+  if (make_extra_) {
+    extra_ = make_extra_();
+    writer_.on_undeclared([extra = extra_.get()](McapWriter& w, std::uint16_t id) { return extra->declare(w, id); });
+  }
+  if (!metadata.empty()) writer_.add_metadata("saulctl", metadata);
+  writer_.add_schema(kMcapFrameSchema, kMcapFrameSchemaName, "jsonschema", mcap_frame_json_schema());
+  writer_.add_channel(kMcapFramesChannel, kMcapFrameSchema, kMcapFramesTopic, "json");
+}
+
+namespace {
+/// The frame's message and the extras' in `chunk`.
+void add_frame(McapChunk& chunk, McapFrameExtra* extra, McapInterfaceJson& interface, const CanFrame& frame,
+               std::string_view interface_name) {
+  check_writable(frame);
+  const std::uint64_t t = frame.timestamp_ns.value_or(0);
+  add_frame_message(chunk, kMcapFramesChannel, frame, t, interface(interface_name));
+  if (extra != nullptr) extra->on_frame(frame, t, chunk);
+}
+}  // namespace
+
+void McapCaptureWriter::write(const CanFrame& frame, std::string_view interface) {
+  if (closed_) throw std::runtime_error("mcap: the writer is closed");
+  add_frame(writer_.chunk_for(frame.timestamp_ns.value_or(0)), extra_.get(), interface_, frame, interface);
 }
 
 void McapCaptureWriter::flush() { writer_.flush(); }
@@ -541,10 +623,85 @@ void McapCaptureWriter::close() {
   writer_.close();
 }
 
+namespace {
+
+/// McapCaptureWriter::copy's work on the read path (capture/read_path.hpp). A block's frames go into chunks of the
+/// block's own, sealed (compressed) by the thread that read it; take() writes them in file order. A batch (a
+/// file not cut into blocks) goes through write(), the writer's chunk thread compressing.
+struct McapCopyWork {
+  struct Worker {
+    std::unique_ptr<McapFrameExtra> extra;
+    McapInterfaceJson interface;
+    McapSealer sealer;
+  };
+  struct Piece {
+    std::vector<McapChunk> chunks;  ///< slots reused from block to block: [0, used) hold this block's
+    std::size_t used = 0;
+    bool block = false;
+    CopyStats stats;
+  };
+  McapCaptureWriter& out;
+  McapWriter& writer;
+  const McapExtraMaker& make_extra;
+  CopyStats stats;
+
+  Worker worker() {
+    const auto& o = writer.options();
+    return {make_extra ? make_extra() : nullptr, {}, McapSealer(o.compression, o.zstd_level)};
+  }
+  bool in_blocks(const CaptureBlocks*) { return true; }
+  void start(Worker&, Piece& p, bool block) {
+    p.used = 0;
+    p.block = block;
+    p.stats = {};
+  }
+  CandumpLineTaker* taker(Worker&) { return nullptr; }
+  void add(Worker& w, Piece& p, const FrameBatch& batch) {  // its corrupt records are the read path's to report
+    for (std::size_t i = 0; i < batch.frames.size(); ++i) {
+      const CanFrame& frame = batch.frames[i];
+      if (frame.error) ++p.stats.error_frames;
+      if (frame.remote) ++p.stats.remote_frames;
+      if (!p.block) {
+        out.write(frame, batch.interfaces[i]);
+        continue;
+      }
+      const std::uint64_t t = frame.timestamp_ns.value_or(0);
+      if (p.used == 0 || p.chunks[p.used - 1].full(writer.options(), t)) {
+        if (p.used > 0) p.chunks[p.used - 1].seal(w.sealer);
+        if (p.used == p.chunks.size()) p.chunks.emplace_back();
+        ++p.used;
+      }
+      add_frame(p.chunks[p.used - 1], w.extra.get(), w.interface, frame, batch.interfaces[i]);
+    }
+  }
+  std::uint64_t finish(Worker& w, Piece& p) {
+    if (p.used > 0) p.chunks[p.used - 1].seal(w.sealer);
+    return 0;
+  }
+  void take(Piece& p) {
+    for (std::size_t i = 0; i < p.used; ++i) writer.write_chunk(p.chunks[i]);
+    stats.error_frames += p.stats.error_frames;
+    stats.remote_frames += p.stats.remote_frames;
+  }
+};
+
+}  // namespace
+
+CopyStats McapCaptureWriter::copy(const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
+                                  const ReadOptions& read, const std::function<void(const CaptureError&)>& on_corrupt,
+                                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress) {
+  if (closed_) throw std::runtime_error("mcap: the writer is closed");
+  McapCopyWork work{*this, writer_, make_extra_, {}};
+  const ReadCounts counts = detail::read_capture(path, reader, compressed, read, work, {on_corrupt, progress});
+  work.stats.frames = counts.frames;
+  work.stats.corrupt = counts.corrupt;
+  return work.stats;
+}
+
 std::unique_ptr<CaptureWriter> open_mcap_writer(const std::string& path, McapWriterOptions options,
-                                                std::unique_ptr<McapFrameExtra> extra, const McapMap& metadata) {
+                                                McapExtraMaker make_extra, const McapMap& metadata) {
   return open_capture_writer_made(path, CaptureFormat::mcap, [&](std::ostream& out) -> std::unique_ptr<CaptureWriter> {
-    return std::make_unique<McapCaptureWriter>(out, std::move(options), std::move(extra), metadata);
+    return std::make_unique<McapCaptureWriter>(out, std::move(options), std::move(make_extra), metadata);
   });
 }
 

@@ -86,47 +86,65 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
   return schema.dump();
 }
 
-void McapSignalChannels::on_frame(const CanFrame& frame, std::string_view, std::uint64_t log_time, McapWriter& out) {
+std::uint16_t mcap_channel_id(const signals::MessageDesc& message, std::uint32_t controller) {
+  const auto place = static_cast<std::uint16_t>(&message - signals::messages(message.protocol).data());
+  if (message.protocol == signals::Protocol::vesc_can)
+    return static_cast<std::uint16_t>(256 * (1 + place) + (controller & 0xFF));
+  return static_cast<std::uint16_t>(1 + place);
+}
+
+void McapSignalChannels::on_frame(const CanFrame& frame, std::uint64_t log_time, McapChunk& chunk) {
   if (frame.error || frame.remote) return;
   const FrameKey key = frame_key(frame);
   const std::size_t at = key.slot(kCache);
   Rendered& slot = cache_[at];
   if (keys_[at] != key) {
     keys_[at] = key;
-    slot.decoded = render(frame, slot, out);
+    slot.decoded = render(frame, slot);
   }
-  if (slot.decoded) out.add_message(slot.channel, log_time, slot.json);
+  if (slot.decoded) chunk.add_message(slot.channel, log_time, slot.json);
 }
 
-bool McapSignalChannels::render(const CanFrame& frame, Rendered& slot, McapWriter& out) {
+bool McapSignalChannels::render(const CanFrame& frame, Rendered& slot) {
   const signals::MessageDesc* d = signals::find_can(frame.id, frame.extended);
   if (d == nullptr) return false;
   const auto message = decode_bus_frame(frame);
   if (!message) return false;  // rejected: on /can/frames only
-  const std::uint32_t controller = d->protocol == signals::Protocol::vesc_can ? (frame.id & 0xFF) : 0;
-  auto channel = channels_.find({d, controller});
-  if (channel == channels_.end()) {
-    auto schema = schemas_.find(d);
-    if (schema == schemas_.end()) {
-      const std::string name = fmt::format("{}.{}", d->protocol == signals::Protocol::vesc_can ? "vesc" : "saul",
-                                           short_name(*d));
-      schema = schemas_.emplace(d, out.add_schema(name, "jsonschema", mcap_json_schema(*d))).first;
-    }
-    const McapMap metadata = {{"can_id", fmt::format("0x{:X}", frame.id)}, {"sender", d->sender},
-                              {"receiver", d->receiver}};
-    channel = channels_.emplace(std::pair{d, controller},
-                                out.add_channel(schema->second, mcap_topic(*d, controller), "json", metadata))
-                  .first;
-  }
-  slot.channel = channel->second;
+  slot.channel = mcap_channel_id(*d, d->protocol == signals::Protocol::vesc_can ? (frame.id & 0xFF) : 0);
   slot.json.clear();
   append_message(slot.json, MessageFormat::json, *d, signals::Wire{frame.id, frame.payload()});
   return true;
 }
 
+bool McapSignalChannels::declare(McapWriter& out, std::uint16_t channel_id) {
+  const auto saul = signals::messages(signals::Protocol::saul_can);
+  const auto vesc = signals::messages(signals::Protocol::vesc_can);
+  const signals::MessageDesc* d = nullptr;
+  std::uint32_t controller = 0, can_id = 0;
+  std::uint16_t schema = 0;
+  if (channel_id >= 1 && channel_id <= saul.size()) {
+    d = &saul[channel_id - 1u];
+    can_id = d->id;
+    schema = static_cast<std::uint16_t>(1 + channel_id);
+  } else if (const std::size_t place = channel_id / 256u - 1u; channel_id >= 256 && place < vesc.size()) {
+    d = &vesc[place];
+    controller = channel_id & 0xFFu;
+    can_id = d->id << 8 | controller;
+    schema = static_cast<std::uint16_t>(2 + saul.size() + place);
+  }
+  if (d == nullptr) return false;
+  if (!out.has_schema(schema))
+    out.add_schema(schema,
+                   fmt::format("{}.{}", d->protocol == signals::Protocol::vesc_can ? "vesc" : "saul", short_name(*d)),
+                   "jsonschema", mcap_json_schema(*d));
+  out.add_channel(channel_id, schema, mcap_topic(*d, controller), "json",
+                  {{"can_id", fmt::format("0x{:X}", can_id)}, {"sender", d->sender}, {"receiver", d->receiver}});
+  return true;
+}
+
 std::unique_ptr<CaptureWriter> open_mcap_signal_writer(const std::string& path, McapWriterOptions options,
                                                        const McapMap& metadata) {
-  return open_mcap_writer(path, std::move(options), std::make_unique<McapSignalChannels>(), metadata);
+  return open_mcap_writer(path, std::move(options), [] { return std::make_unique<McapSignalChannels>(); }, metadata);
 }
 
 }  // namespace saul::host

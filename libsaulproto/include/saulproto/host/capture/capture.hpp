@@ -27,6 +27,8 @@
 
 namespace saul::host {
 
+class McapCaptureWriter;
+
 enum class CaptureFormat : std::uint8_t {
   candump,  ///< can-utils log lines, "(1700000000.000000) can0 123#1122"
   pcap,     ///< libpcap file, LINKTYPE_CAN_SOCKETCAN (227)
@@ -256,6 +258,8 @@ class CaptureWriter {
   /// Writes what the format needs at its end and flushes: the file is complete and readable. Idempotent.
   virtual void close() = 0;
   [[nodiscard]] virtual CaptureFormat format() const = 0;
+  /// The MCAP writer underneath (copy_frames converts into it in blocks), or nullptr.
+  virtual McapCaptureWriter* mcap() noexcept { return nullptr; }
 };
 
 /// The tail every writer onto a caller's std::ostream shares, so each format says only how it writes a frame and
@@ -371,12 +375,15 @@ struct CopyStats {
   static constexpr std::size_t kListed = 1024;
 };
 
-/// Copies every frame of `in` to `out` (out is not closed) through read_in_order. Corrupt records are passed to
-/// on_corrupt (may be empty) and skipped; remote and error frames that out's format cannot hold are left out and
-/// counted. `progress` as read_in_order's. Cost O(frames); memory O(CopyStats::kListed) of its own.
+/// Copies every frame of `in` (opened from `path`, `compressed` when gzip or zstd; path may be empty) to `out`
+/// (out is not closed) through the read path with `read`: read_in_order, or, into MCAP, McapCaptureWriter::copy (in
+/// blocks on both cores when the file allows). Corrupt records are passed to on_corrupt (may be empty) and skipped; remote and
+/// error frames that out's format cannot hold are left out and counted. `progress` as read_in_order's. Cost
+/// O(frames); memory O(CopyStats::kListed) of its own.
 CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt,
-                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {});
+                      const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {},
+                      const std::string& path = {}, bool compressed = false, const ReadOptions& read = {});
 
 /// Sentences saying what a copy into `format` lost (interface names, error-frame details, frames it cannot hold);
 /// empty when nothing.

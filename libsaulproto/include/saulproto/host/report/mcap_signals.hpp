@@ -9,7 +9,6 @@
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -27,10 +26,18 @@ std::string mcap_topic(const signals::MessageDesc& message, std::uint32_t contro
 /// The JSON Schema of what to_json() gives for this message: "type" and every signal's key, with its unit.
 std::string mcap_json_schema(const signals::MessageDesc& message);
 
-/// Adds the decoded channels to an McapCaptureWriter (McapFrameExtra).
+/// The channel id of a message kind's decoded messages, the same in every file (so that threads converting blocks
+/// of a file apart give the ids the file's one list would): 1 + the message's place in the robot's table, or for a
+/// VESC's 256 x (1 + its place in the VESC table) + the controller. "/can/frames" is 0. Schemas: 2 + the place in
+/// the robot's table, then the VESC's.
+std::uint16_t mcap_channel_id(const signals::MessageDesc& message, std::uint32_t controller);
+
+/// Adds the decoded channels to an McapCaptureWriter (McapFrameExtra); one per thread (its cache).
 class McapSignalChannels final : public McapFrameExtra {
  public:
-  void on_frame(const CanFrame& frame, std::string_view interface, std::uint64_t log_time, McapWriter& out) override;
+  void on_frame(const CanFrame& frame, std::uint64_t log_time, McapChunk& chunk) override;
+  /// The schema (when new) and the channel of an id mcap_channel_id() gives.
+  bool declare(McapWriter& out, std::uint16_t channel_id) override;
 
  private:
   /// Robot buses repeat payloads: what a frame's content gives (its message's channel and JSON, or nothing for a
@@ -42,14 +49,11 @@ class McapSignalChannels final : public McapFrameExtra {
     bool decoded = false;
     std::string json;
   };
-  /// Decodes and renders a frame not in the table into `slot` (adding its schema and channel when new); false when
-  /// it does not decode.
-  bool render(const CanFrame& frame, Rendered& slot, McapWriter& out);
+  /// Decodes and renders a frame not in the table into `slot`; false when it does not decode.
+  static bool render(const CanFrame& frame, Rendered& slot);
   static constexpr std::size_t kCache = 4096;
   std::vector<FrameKey> keys_ = std::vector<FrameKey>(kCache, FrameKey{~std::uint64_t{0}, 0});  ///< ~0: no frame's
   std::vector<Rendered> cache_ = std::vector<Rendered>(kCache);
-  std::map<const signals::MessageDesc*, std::uint16_t> schemas_;
-  std::map<std::pair<const signals::MessageDesc*, std::uint32_t>, std::uint16_t> channels_;
 };
 
 /// An MCAP writer of CAN frames with the decoded channels (open_mcap_writer with McapSignalChannels).
