@@ -580,14 +580,6 @@ void BalanceBoard::control(TimeUs now) noexcept {
   }
   wheel_left_mmps_ = whole_mmps(left, cap);
   wheel_right_mmps_ = whole_mmps(right, cap);
-  if (config_.drive_tau_s > 0.0F && dt > 0.0F) {
-    const float target = static_cast<float>(wheel_left_mmps_ + wheel_right_mmps_) * 0.5e-3F;  // m/s
-    float a = (target - base_speed_model_mps_) / config_.drive_tau_s;
-    const float limit = config_.drive_max_accel_mps2;
-    a = a > limit ? limit : (a < -limit ? -limit : a);
-    base_speed_model_mps_ += a * dt;
-    base_accel_g_ = a / 9.80665F;
-  }
 
   const bool change = drive != wheels_driving_;  // starting or, above all, stopping: at once
   wheels_driving_ = drive;
@@ -595,6 +587,19 @@ void BalanceBoard::control(TimeUs now) noexcept {
     const std::int32_t l = erpm_of(wheel_left_mmps_);
     const std::int32_t r = erpm_of(wheel_right_mmps_);
     send_wheels(config_.invert_left ? -l : l, config_.invert_right ? -r : r);
+    // What the VESCs now hold until the next SET_RPM: their mean ERPM back in m/s (mechanical RPM x circumference).
+    sent_mps_ = config_.pole_pairs == 0 ? 0.0F
+                                        : static_cast<float>(l + r) * 0.5F / static_cast<float>(config_.pole_pairs) *
+                                              static_cast<float>(config_.wheel_circumference_mm) / 60'000.0F;
+  }
+  // The drive model follows the command as the VESCs receive it (every motor_period_us), not the wheel speed
+  // worked out every loop: between two SET_RPMs the wheels still chase the last one.
+  if (config_.drive_tau_s > 0.0F && dt > 0.0F) {
+    float a = (sent_mps_ - base_speed_model_mps_) / config_.drive_tau_s;
+    const float limit = config_.drive_max_accel_mps2;
+    a = a > limit ? limit : (a < -limit ? -limit : a);
+    base_speed_model_mps_ += a * dt;
+    base_accel_g_ = a / 9.80665F;
   }
 }
 

@@ -64,6 +64,22 @@ check "the cut record at the end too" grep -q "(truncated)" "$work/bad.err"
 check "the rest is read: 2 records fewer" grep -q "loop trace, $((records - 2)) records" "$work/bad"
 check "and the lost record shows as a gap" grep -q "^gaps: 1 (1 records missing)" "$work/bad"
 
+# A direct step test (--excite step) meets BALANCE's 10 ms SET_RPM period at every phase: each step starts 1 ms
+# later in it than the one before (steps a whole number of periods apart all met it at one phase, and the averaged
+# response was that phase's: docs/tuning.md, "Estimate and direct step").
+"$saulctl" tune record --sim --seed 3 --duration 56s --excite step --amplitude 1 -o "$work/step.trace" >"$work/steprec" 2>&1
+check "tune record --excite step exits 0" test $? -eq 0
+"$saulctl" convert "$work/step.trace" "$work/step.csv" 2>/dev/null
+check "--excite step: 10 steps whose starts fall on every millisecond of the 10 ms motor-command period" \
+  python3 - "$work/step.csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+starts = [round(float(b["time_s"]) * 1000) for a, b in zip(rows, rows[1:]) if a["excite"] == "0" and b["excite"] != "0"]
+phases = sorted({(t - starts[0]) % 10 for t in starts})
+print("steps start at (ms)", starts, "phases in the 10 ms period", phases)
+sys.exit(not (len(starts) >= 10 and phases == list(range(10))))
+PY
+
 "$saulctl" tune record --sim --seed 3 --duration 2s --dump -o "$work/dump.trace" >"$work/dump" 2>&1
 cat "$work/dump"
 check "--dump: the flight recorder's 5000 records" grep -q "^flight recorder: 5000 records" "$work/dump"

@@ -3,20 +3,24 @@
 on the simulated robot (simulated time, no sleeps), for three gain sets and seeds 1-5, `saulctl tune record --sim`
 records a chirp trace and a step trace with the same gains; `tune report` estimates the step response from the
 chirp by deconvolution (`step`) and measures it at the steps of the other trace (`step_direct`). The overshoot
-must agree within 5 percentage points in all 15 cases; the settling time within 15 % in at least 12 of them and
-within 30 % in all (measured: 13 of 15 within 15 %, the others 16-17 % off; settling is the fragile figure, the
-last crossing of a 5 % band around a response that creeps for seconds: docs/tuning.md). Both see
-the pitch loop alone: while a test signal runs BALANCE holds the speed loop's lean (docs/tuning.md, "Estimate and
-direct step").
+must agree within 5 percentage points in all 15 cases; the settling time within 15 % in at least 14 of them and
+within 20 % in all (measured: overshoot 0.1-3.6 points apart, settling 14 of 15 within 12 %, soft seed 1 +18 %;
+settling is the fragile figure, the last crossing of a 5 % band around a response that creeps for seconds:
+docs/tuning.md). Both see the pitch loop alone: while a test signal runs BALANCE holds the speed loop's lean
+(docs/tuning.md, "Estimate and direct step"). What makes the two comparable (docs/tuning.md, "Where the difference
+was"): the direct steps meet BALANCE's 10 ms motor command at every phase (tune record: 1 ms later each), BALANCE's
+drive model follows the command the VESCs got, and the chirps are 5 s apart (the speed loop's return from half the
+cap settled, not saturated). Without any one of them this check fails (13, 13, 10 of 15 agree, and cases beyond 5
+points or 20 %).
 Run: /usr/bin/python3 tests/tune/check_sim_agreement.py SAULCTL [--table]
 The first seed of each gain set also checks the estimator alone: the chirp trace's setpoint through the direct step's impulse response (a
 linear system whose step response is known: the direct step's, figures worked out here at the sim's 1 ms), noise
 added, estimated by saulctl: overshoot within 2 points, rise 5 %, settling 10 %, final value 3 % (measured: 0.1-0.9
-points low, rise within 1 %, settling 2-6 % short, final within 0.5 %). So a miss above is the simulated robot
-answering a chirp differently from a step, not the estimator (docs/tuning.md, "Where the difference is"); and the
+points low, rise within 1 %, settling 2-6 % short, final within 0.6 %). So a miss above is the simulated robot
+answering a chirp differently from a step, not the estimator (docs/tuning.md, "Where the difference was"); and the
 sample period 10 % off (SAUL_TUNE_MUTANT 1), which scales both sides of the comparison alike, fails every case here.
 For experiments (docs/tuning.md, "The chirp's band"): AGREE_SEEDS="1 2 ... 15" other seeds, AGREE_F0 / AGREE_F1 the
-chirp's band, AGREE_KIND / AGREE_AMPLITUDE the signal; the settling share asserted is then 12/15 of the cases."""
+chirp's band, AGREE_KIND / AGREE_AMPLITUDE the signal; the settling share asserted is then 14/15 of the cases."""
 import atexit
 import json
 import math
@@ -40,13 +44,15 @@ GAINS = {"soft": ["70", "350", "2"], "shipped": [], "stiff": ["140", "700", "4"]
 SEEDS = [int(seed) for seed in os.environ.get("AGREE_SEEDS", "1 2 3 4 5").split()]
 OVERSHOOT_POINTS = 5.0
 SETTLING_SHARE = 0.15  # in at least SETTLING_AGREE of every 15 cases ...
-SETTLING_AGREE = 12
-SETTLING_WORST = 0.30  # ... and within this in all
+SETTLING_AGREE = 14
+SETTLING_WORST = 0.20  # ... and within this in all
 # The estimator alone (below): the chirp trace's own setpoint through the direct step's impulse response, noise
 # added, estimated again. Measured on seeds 1-5: overshoot 0.3-1.0 points low, rise within 3 %, settling 2-7 % short,
 # final value 1-2 % high (the bins above the chirp's 15 Hz are regularised to 0).
 LTI_POINTS, LTI_RISE, LTI_SETTLING, LTI_FINAL, LTI_NOISE_DEG = 2.0, 0.05, 0.10, 0.03, 0.02
-FINAL_SHARE = 0.02  # the direct step's final value against the held lean's closed form (measured: within 1.2 %)
+# The direct step's final value against the held lean's closed form (measured: within 3.1 %; the soft set still
+# creeps at 1.5 s and its mean over 13-19 steps moves by a few % with the steps' phases, seeds 6-15 up to 3.3 %).
+FINAL_SHARE = 0.035
 KIND, AMPLITUDE = os.environ.get("AGREE_KIND", "chirp"), os.environ.get("AGREE_AMPLITUDE", "1")
 BAND = [arg for name in ("f0", "f1") if f"AGREE_{name.upper()}" in os.environ
         for arg in (f"--{name}", os.environ[f"AGREE_{name.upper()}"])]  # the chirp's band; tune record's default

@@ -79,9 +79,13 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
     // A direct step test: after a quiet second, steps of the amplitude held kStepHold (the step response's 1.5 s
     // and a margin), each followed by kStepRest of the speed loop bringing the robot back, the sign alternating
     // so that it drives to and fro. The held lean (BalanceBoard::balance_output) keeps the setpoint flat during
-    // each step, so tune report measures the pitch loop's response at every one of them (step_direct).
+    // each step, so tune report measures the pitch loop's response at every one of them (step_direct). Each step
+    // starts kSpread later in BALANCE's 10 ms SET_RPM period than the one before, so ten steps meet the wheels'
+    // command at every phase, as a chirp does and as steps on the robot do: 5.5 s apart, a whole number of periods,
+    // every step met it at the same phase, and the averaged response was that phase's (docs/tuning.md).
     constexpr fw::TimeUs kStepHold = 2000 * kMs;
     constexpr fw::TimeUs kStepRest = 3500 * kMs;
+    constexpr fw::TimeUs kSpread = World::kStepUs;
     trace::ExciteStart e = *options.excite;
     e.duration_s = static_cast<float>(kStepHold) * 1e-6F;
     const fw::TimeUs quiet = std::min<fw::TimeUs>(1000 * kMs, options.duration_us / 4);
@@ -89,12 +93,12 @@ TraceRunResult run_sim_trace(const TraceRunOptions& options, const std::function
     for (float sign = 1.0F; world.now_us() + kStepHold <= end; sign = -sign) {
       e.amplitude_deg = sign * options.excite->amplitude_deg;
       world.console_input("balance", line_of(e));
-      if (!run_to(std::min(end, world.now_us() + kStepHold + kStepRest))) return finish("interrupted");
+      if (!run_to(std::min(end, world.now_us() + kStepHold + kStepRest + kSpread))) return finish("interrupted");
     }
   } else if (options.excite) {
     // The signal for the trace's duration: at most 20 s at a time (an excitation's limit), and when one ends early
     // (the robot's speed reached half the cap) or the trace is longer, kRest of the speed loop and the next.
-    constexpr fw::TimeUs kRest = 2000 * kMs;
+    constexpr fw::TimeUs kRest = 5000 * kMs;
     while (world.now_us() + kRest < end) {
       trace::ExciteStart e = *options.excite;
       e.duration_s = std::min(trace::kMaxDurationS, static_cast<float>(end - world.now_us()) * 1e-6F);

@@ -70,8 +70,9 @@ struct BalanceConfig {
   float gyro_still_dps = 10.0F;
   float pitch_setpoint_deg = 0.0F;             ///< the balance point
   /// The VESCs' speed loop as a first-order lag (s) and their acceleration limit: the base's acceleration is
-  /// estimated from the commanded wheel speed through them and taken out of the accelerometer before the filter,
-  /// which would otherwise read a steadily accelerating base as tilt (the drift into the speed cap). 0: off.
+  /// estimated from the wheel speed last sent to them (SET_RPM, held until the next) through them and taken out
+  /// of the accelerometer before the filter, which would otherwise read a steadily accelerating base as tilt (the
+  /// drift into the speed cap). 0: off.
   float drive_tau_s = 0.05F;
   float drive_max_accel_mps2 = 6.0F;
   // the speed loop in BALANCE (speed request -> lean; see the file comment)
@@ -154,6 +155,9 @@ class BalanceBoard {
   [[nodiscard]] float lean_deg() const noexcept { return lean_deg_; }
   /// The speed the speed loop aims for now (m/s): the request within its share of the cap, ramped.
   [[nodiscard]] float speed_target_mps() const noexcept { return speed_target_mps_; }
+  /// The wheels' speed (m/s) as the drive model expects it: the last SET_RPM through drive_tau_s and
+  /// drive_max_accel_mps2. Its acceleration is taken out of the accelerometer.
+  [[nodiscard]] float drive_model_mps() const noexcept { return base_speed_model_mps_; }
   /// The gyro offset learnt so far (gy, deg/s).
   [[nodiscard]] float gyro_bias_dps() const noexcept { return gyro_bias_dps_; }
   [[nodiscard]] const interboard::Counters& uart_counters() const noexcept { return link_rx_.counters(); }
@@ -280,6 +284,7 @@ class BalanceBoard {
   TimeUs bias_us_ = 0;          // the last sample it learnt from
   std::int16_t pid_out_ = 0;
   TimeUs control_us_ = 0;
+  float sent_mps_ = 0.0F;              // the wheel speed of the last SET_RPM (mean of both, m/s)
   float base_speed_model_mps_ = 0.0F;  // the wheels' speed as the drive_tau_s model expects it
   float base_accel_g_ = 0.0F;          // and their acceleration, in g, subtracted from the accelerometer's x
   float lean_deg_ = 0.0F;
