@@ -41,7 +41,8 @@ std::string name_of(const SerialMessage& message) {
 SignalValues signal_values(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return signal_values(m); },
                                      [](const CrsfMessage& m) { return signal_values(m.message); },
-                                     [](const auto&) { return SignalValues{}; }},
+                                     [](const pride::Message& m) { return signal_values(m); },
+                                     [](const CrsfUndecoded&) { return SignalValues{}; }},
                     message);
 }
 
