@@ -167,6 +167,13 @@ check "plot --id vcu_command --field forward_back: a Pride capture's fields by t
 "$saulctl" plot "$root/captures/pride_uart.serial" --id vcu_command --field throttle -o "$out/p2.svg" 2>"$out/p2.err"
 check "... a signal Pride's message has not: exit 2, listing its signals" \
   bash -c "test $? -eq 2 && grep -q \"has no signal 'throttle'; its signals: speed_level, forward_back, left_right\" '$out/p2.err'"
+# The same error from a CRSF capture, whose frames come out of the core's noexcept decoder (it ended saulctl with
+# "terminate called"): protocols.md's T1 RC frame, all channels 992 ticks.
+echo "(1763800000.000100) serial:/dev/ttyACM0@420000:8N1 crsf C81816E0031FF8C0073EF0810F7CE0031FF8C0073EF0810F7CAD" \
+  >"$out/crsf.serial"
+"$saulctl" plot "$out/crsf.serial" --id rc_channels --field throttle -o "$out/c.svg" 2>"$out/c.err"
+check "... and a CRSF message's: exit 2, one line listing its signals" \
+  bash -c "test $? -eq 2 && grep -q \"^saulctl plot: 'rc_channels' (rc_channels) has no signal 'throttle'; its signals: ch1, \" '$out/c.err'"
 "$saulctl" plot --help >"$out/help" 2>&1
 check "plot --help explains the dashboard, the markers and the formats with examples" \
   bash -c "grep -q 'Without --id, draws the telemetry dashboard' '$out/help' && grep -q 'saulctl plot run.log -o run.pdf' '$out/help' && grep -q -- '--max-markers' '$out/help' && grep -q 'drag to zoom' '$out/help'"
