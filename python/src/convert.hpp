@@ -3,7 +3,8 @@
 // scale each field from the message's signal description (core/signals*.hpp): a field whose wire integer has a
 // scale becomes its physical value under the signal's name (pitch_x100 -1234 -> pitch -12.34, in deg), every other
 // field keeps saulctl's JSON key and value (speed_mmps, state 'BALANCE', VESC current_a); units() tells each
-// field's unit. Messages without a description (Pride) keep their fields as they are.
+// field's unit. CRSF's 0x17 subset frames, whose fields differ frame to frame, keep their fields' names as they are
+// (the description's names too).
 #pragma once
 
 #include <nlohmann/json.hpp>

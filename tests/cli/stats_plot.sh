@@ -158,15 +158,22 @@ check "--field without --id is a usage error (exit 2)" bash -c "test $? -eq 2 &&
 "$saulctl" plot "$root/captures/pride_uart.serial" -o "$out/pride.svg" 2>"$out/pride.err"
 check "nothing the dashboard draws (a Pride capture): exit 1 and a hint to use --id" \
   bash -c "test $? -eq 1 && grep -q 'name a message with --id and --field' '$out/pride.err' && test ! -e '$out/pride.svg'"
-# Pride has no signal description: its unscaled fields are its signals (docs/cli.md); the values written out by hand
-# from captures/pride_uart.serial's four vcu_command frames.
+# Pride's signals (core/signals_pride.hpp) are its unscaled fields, by the manual's names (docs/cli.md); the values
+# written out by hand from captures/pride_uart.serial's four vcu_command frames.
 "$saulctl" plot "$root/captures/pride_uart.serial" --id vcu_command --field forward_back --field left_right \
   --format csv -o "$out/pride.csv" 2>/dev/null
 check "plot --id vcu_command --field forward_back: a Pride capture's fields by their names" \
   bash -c "test $? -eq 0 && head -n 1 '$out/pride.csv' | grep -q '^time_s,forward_back,left_right' && test \"\$(tail -n +2 '$out/pride.csv' | cut -d, -f2,3 | tr '\n' ' ')\" = '50,0 -100,-50 100,-100 0,0 '"
 "$saulctl" plot "$root/captures/pride_uart.serial" --id vcu_command --field throttle -o "$out/p2.svg" 2>"$out/p2.err"
-check "... a field Pride's message has not: exit 2, listing its fields" \
+check "... a signal Pride's message has not: exit 2, listing its signals" \
   bash -c "test $? -eq 2 && grep -q \"has no signal 'throttle'; its signals: speed_level, forward_back, left_right\" '$out/p2.err'"
+# The same error from a CRSF capture, whose frames come out of the core's noexcept decoder (it ended saulctl with
+# "terminate called"): protocols.md's T1 RC frame, all channels 992 ticks.
+echo "(1763800000.000100) serial:/dev/ttyACM0@420000:8N1 crsf C81816E0031FF8C0073EF0810F7CE0031FF8C0073EF0810F7CAD" \
+  >"$out/crsf.serial"
+"$saulctl" plot "$out/crsf.serial" --id rc_channels --field throttle -o "$out/c.svg" 2>"$out/c.err"
+check "... and a CRSF message's: exit 2, one line listing its signals" \
+  bash -c "test $? -eq 2 && grep -q \"^saulctl plot: 'rc_channels' (rc_channels) has no signal 'throttle'; its signals: ch1, \" '$out/c.err'"
 "$saulctl" plot --help >"$out/help" 2>&1
 check "plot --help explains the dashboard, the markers and the formats with examples" \
   bash -c "grep -q 'Without --id, draws the telemetry dashboard' '$out/help' && grep -q 'saulctl plot run.log -o run.pdf' '$out/help' && grep -q -- '--max-markers' '$out/help' && grep -q 'drag to zoom' '$out/help'"

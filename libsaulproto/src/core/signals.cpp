@@ -2,6 +2,7 @@
 
 #include "saulproto/core/signals_crsf.hpp"
 #include "saulproto/core/signals_interboard.hpp"
+#include "saulproto/core/signals_pride.hpp"
 #include "saulproto/core/signals_saul.hpp"
 #include "saulproto/core/signals_vesc.hpp"
 
@@ -13,6 +14,7 @@ const char* to_string(Protocol protocol) noexcept {
     case Protocol::vesc_can: return "vesc_can";
     case Protocol::crsf: return "crsf";
     case Protocol::interboard: return "interboard";
+    case Protocol::pride: return "pride";
   }
   return "?";
 }
@@ -23,6 +25,7 @@ std::span<const MessageDesc> messages(Protocol protocol) noexcept {
     case Protocol::vesc_can: return of_vesc::kMessages;
     case Protocol::crsf: return of_crsf::kMessages;
     case Protocol::interboard: return of_interboard::kMessages;
+    case Protocol::pride: return of_pride::kMessages;
   }
   return {};
 }

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -49,4 +50,19 @@ TEST_CASE("CRSF: a 0x17 subset RC frame decodes with its channels in microsecond
   const auto j = to_json(got[0]);
   CHECK(j["ch7"] == 2011.5);
   CHECK(j["first_channel"] == 5);
+}
+
+TEST_CASE("CRSF: an exception from the message callback leaves push() and finish() as it is thrown") {
+  // The core's decoder is noexcept: thrown through it, plot's usage error ended saulctl with "terminate called".
+  SerialStreamDecoder d(SerialProtocol::crsf);
+  const SerialStreamDecoder::Callback stop = [](const SerialMessage& m) { throw std::runtime_error(name_of(m)); };
+  const std::vector<std::uint8_t> heartbeat{0xC8, 0x04, 0x0B, 0x00, 0xC8, 0xED};
+  CHECK_THROWS_WITH(d.push(heartbeat, stop), "heartbeat");
+  // C8 3E opens a 62-byte candidate that holds T7 back until finish() gives it up and rescans what followed
+  SerialStreamDecoder e(SerialProtocol::crsf);
+  std::vector<std::string> names;
+  e.push(std::vector<std::uint8_t>{0xC8, 0x3E, 0xC8, 0x04, 0x0B, 0x00, 0xC8, 0xED},
+         [&](const SerialMessage& m) { names.push_back(name_of(m)); });
+  CHECK(names.empty());
+  CHECK_THROWS_WITH(e.finish(stop), "heartbeat");
 }

@@ -72,6 +72,6 @@ TEST_CASE("signal lookup: the names, and the one-line error for a name the messa
   CHECK_FALSE(has_signal(*a, "pitch_x100"));
   CHECK(unknown_signal_error("telemetry_a", a, "pitch_x100") ==
         "telemetry_a has no signal 'pitch_x100'; its signals: pitch, pitch_raw, pid_out, speed_mmps, state");
-  CHECK(unknown_signal_error("vcu_command", nullptr, "x") ==
-        "vcu_command has no signal description, so no signal 'x' (docs/cli.md, \"Signal names and units\")");
+  CHECK(unknown_signal_error("crsf_0x32", nullptr, "x") ==  // an undecoded CRSF frame: the one thing without
+        "crsf_0x32 has no signal description, so no signal 'x' (docs/cli.md, \"Signal names and units\")");
 }

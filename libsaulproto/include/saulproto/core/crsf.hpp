@@ -146,8 +146,8 @@ struct SubsetRcChannels {
   static constexpr Type kType = Type::subset_rc_channels_packed;
   static constexpr const char* kName = "rc_channels_subset";
   static constexpr std::size_t kMaxChannels = 32;
-  /// Its layout depends on byte 0, so core/signals has no fixed description of it: it is the last alternative
-  /// of Message and is formatted through fields().
+  /// Its channels' places depend on byte 0: core/signals describes them as Place::by_header, and fields() gives
+  /// the channels this frame carries, so the fields differ frame to frame.
   static constexpr bool kVariableLayout = true;
   std::uint8_t first_channel = 0;  ///< 0-based: 0 = CH1
   std::uint8_t resolution_bits = 11;  ///< 10..13

@@ -1,13 +1,13 @@
 // One description of every message's signals, as constant data: where each value sits in the bytes, how wide it
 // is, how to turn the wire integer into a physical value, its unit, its valid range and its value names.
 //
-// The typed structs and codecs (saul_can.hpp, vesc.hpp, crsf.hpp, interboard.hpp) stay what firmware uses; this
+// The typed structs and codecs (saul_can.hpp, vesc.hpp, crsf.hpp, interboard.hpp, pride.hpp) stay what firmware uses; this
 // is what everything generic reads: the DBC writer, the plot, saulctl's text and JSON, and whatever is written
 // from it later (physical units in decode, a Wireshark dissector). tests/unit/test_signals.cpp drives every
 // signal through both the typed codec and the generic reader below and requires that they agree.
 //
 // The data is one header per protocol (signals_saul.hpp, signals_vesc.hpp, signals_crsf.hpp,
-// signals_interboard.hpp), each an array of MessageDesc; messages(protocol) and find() walk them. Everything is
+// signals_interboard.hpp, signals_pride.hpp), each an array of MessageDesc; messages(protocol) and find() walk them. Everything is
 // constexpr or O(message size), no heap, no exceptions: firmware may use it.
 //
 // Bit numbering is DBC's, so a DBC line is the description written out:
@@ -16,7 +16,8 @@
 // - big_endian (DBC @0, Motorola): start_bit is the MOST significant bit in the same numbering; the next less
 //   significant bit is one lower in the same byte, or bit 7 of the next byte after bit 0. A big-endian field that
 //   starts at a byte boundary therefore has start_bit 8 * byte + 7.
-// Positions count from the first payload byte (CAN: data[0]; UART and CRSF: the byte after TYPE), from bit 0 of
+// Positions count from the first payload byte (CAN: data[0]; UART and CRSF: the byte after TYPE; Pride: the byte
+// after the two header bytes), from bit 0 of
 // the CAN id (Place::can_id: the VESC controller id), or from the byte after the NUL of the message's string
 // (Place::after_string: the CRSF DEVICE_INFO numbers that follow the device name).
 #pragma once
@@ -30,10 +31,10 @@
 
 namespace saul::signals {
 
-enum class Protocol : std::uint8_t { saul_can, vesc_can, crsf, interboard };
+enum class Protocol : std::uint8_t { saul_can, vesc_can, crsf, interboard, pride };
 inline constexpr Protocol kProtocols[] = {Protocol::saul_can, Protocol::vesc_can, Protocol::crsf,
-                                          Protocol::interboard};
-/// "saul_can", "vesc_can", "crsf", "interboard".
+                                          Protocol::interboard, Protocol::pride};
+/// "saul_can", "vesc_can", "crsf", "interboard", "pride".
 const char* to_string(Protocol protocol) noexcept;
 
 enum class Kind : std::uint8_t {
@@ -43,7 +44,10 @@ enum class Kind : std::uint8_t {
   string,        ///< NUL-terminated ASCII; length is the most characters (NUL not counted)
 };
 enum class ByteOrder : std::uint8_t { little_endian, big_endian };
-enum class Place : std::uint8_t { payload, can_id, after_string };
+/// Where a signal's bits are: see the numbering above. by_header: where the frame's own first byte puts them (the
+/// CRSF 0x17 subset RC channels: its first channel and resolution), so only the typed codec finds them and read()
+/// gives nullopt; the description holds the signal's name, unit and physical value.
+enum class Place : std::uint8_t { payload, can_id, after_string, by_header };
 
 /// How saulctl's text and JSON show the value (under SignalDesc::name), except for the scaled wire integers that
 /// text_in_unit() picks out: those show their physical value, and JSON also the wire integer (docs/cli.md).
@@ -189,12 +193,13 @@ constexpr SignalDesc text_field(const char* name, unsigned byte, unsigned max_ch
 struct MessageDesc {
   Protocol protocol = Protocol::saul_can;
   /// saul_can: the 11-bit id; vesc_can: the command (id bits 15..8, the controller is the signal in bits 7..0);
-  /// crsf and interboard: the TYPE byte.
+  /// crsf and interboard: the TYPE byte; pride: the two header bytes, the first one high (0xFE54).
   std::uint32_t id = 0;
   const char* name = "";      ///< the typed struct's kName ("telemetry_a", "vesc_status_1", "rc_channels")
   std::uint8_t length = 0;    ///< payload bytes: CAN DLC, UART LEN; CRSF: the fewest (longer payloads are read)
   bool exact_length = true;   ///< false: `length` is a minimum (CRSF; strings make DEVICE_INFO longer)
-  const char* sender = "";    ///< node names: "Orin", "BALANCE", "IO", "VESC", "RX" (the RC receiver)
+  /// node names: "Orin", "BALANCE", "IO", "VESC", "RX" (the RC receiver), "VCU" and "PRIDE" (the Pride controller)
+  const char* sender = "";
   const char* receiver = "";
   std::span<const SignalDesc> signals{};
 };
@@ -346,8 +351,9 @@ constexpr std::optional<std::size_t> base_of(const MessageDesc& m, const SignalD
   return std::nullopt;
 }
 
-/// The raw value of a number signal of message m as it arrived. O(length).
+/// The raw value of a number signal of message m as it arrived (nullopt for Place::by_header). O(length).
 constexpr std::optional<std::int64_t> read(const MessageDesc& m, const SignalDesc& s, const Wire& w) noexcept {
+  if (s.place == Place::by_header) return std::nullopt;
   if (s.place == Place::can_id) {
     const std::uint8_t id_bytes[4] = {static_cast<std::uint8_t>(w.id), static_cast<std::uint8_t>(w.id >> 8),
                                       static_cast<std::uint8_t>(w.id >> 16), static_cast<std::uint8_t>(w.id >> 24)};

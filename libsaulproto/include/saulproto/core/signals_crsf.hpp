@@ -95,6 +95,37 @@ inline constexpr SignalDesc kDeviceInfo[] = {
 };
 
 namespace detail {
+/// Subset channel i (CH i+1) where the frame's header puts it, in microseconds: value x 2^(10 - resolution) + 988
+/// (crsf::SubsetRcChannels::us), a multiple of 1/8 us (13 bits), shown as that physical value. Its wire integer's
+/// scale changes with the resolution, so none is kept under a _raw key.
+constexpr SignalDesc subset_channel(unsigned i) noexcept {
+  return number(saul::crsf::kChannelNames32[i], ByteOrder::little_endian, 0, 13, Kind::unsigned_int)
+      .at(Place::by_header)
+      .scaled(1, 8)
+      .offset_by(988)
+      .in("us")
+      .shown(Text::physical);
+}
+}  // namespace detail
+
+/// Byte 0: the first channel (bits 0-4, 0 = CH1, shown 1-based), the resolution (bits 5-6: 10..13 bits), the
+/// digital-switch flag (bit 7); then the channels it carries, from the first one, as many as the payload holds.
+inline constexpr SignalDesc kSubsetRcChannels[] = {
+    number("first_channel", ByteOrder::little_endian, 0, 5, Kind::unsigned_int).offset_by(1).shown(Text::physical_int),
+    number("resolution_bits", ByteOrder::little_endian, 5, 2, Kind::unsigned_int).offset_by(10)
+        .shown(Text::physical_int),
+    number("digital_switch", ByteOrder::little_endian, 7, 1, Kind::unsigned_int),
+    detail::subset_channel(0),  detail::subset_channel(1),  detail::subset_channel(2),  detail::subset_channel(3),
+    detail::subset_channel(4),  detail::subset_channel(5),  detail::subset_channel(6),  detail::subset_channel(7),
+    detail::subset_channel(8),  detail::subset_channel(9),  detail::subset_channel(10), detail::subset_channel(11),
+    detail::subset_channel(12), detail::subset_channel(13), detail::subset_channel(14), detail::subset_channel(15),
+    detail::subset_channel(16), detail::subset_channel(17), detail::subset_channel(18), detail::subset_channel(19),
+    detail::subset_channel(20), detail::subset_channel(21), detail::subset_channel(22), detail::subset_channel(23),
+    detail::subset_channel(24), detail::subset_channel(25), detail::subset_channel(26), detail::subset_channel(27),
+    detail::subset_channel(28), detail::subset_channel(29), detail::subset_channel(30), detail::subset_channel(31),
+};
+
+namespace detail {
 /// The fewest payload bytes: the struct's kPayloadSize, or `least` for the types with a string.
 template <class M>
 constexpr MessageDesc message(const char* from, const char* to, std::span<const SignalDesc> s,
@@ -104,7 +135,7 @@ constexpr MessageDesc message(const char* from, const char* to, std::span<const 
 }
 }  // namespace detail
 
-/// In the order of crsf::Message (SubsetRcChannels, last there, has a variable layout and no description). "RX" is the RC receiver (or TX module), "IO" the IO board.
+/// In the order of crsf::Message. "RX" is the RC receiver (or TX module), "IO" the IO board.
 inline constexpr MessageDesc kMessages[] = {
     detail::message<saul::crsf::RcChannels>("RX", "IO", kRcChannels),
     detail::message<saul::crsf::LinkStatistics>("RX", "IO", kLinkStatistics),
@@ -116,6 +147,7 @@ inline constexpr MessageDesc kMessages[] = {
     detail::message<saul::crsf::DevicePing>("RX", "IO", kDevicePing),
     detail::message<saul::crsf::DeviceInfo>("RX", "IO", kDeviceInfo,
                                             2 + 1 + saul::crsf::DeviceInfo::kFixedSize),  // empty name
+    detail::message<saul::crsf::SubsetRcChannels>("RX", "IO", kSubsetRcChannels, 1),  // the header, no channel
 };
 
 }  // namespace saul::signals::of_crsf

@@ -14,6 +14,8 @@
 #include <type_traits>
 #include <variant>
 
+#include "saulproto/core/signals_pride.hpp"
+
 namespace saul::host {
 namespace {
 
@@ -21,55 +23,7 @@ using signals::Kind;
 using signals::MessageDesc;
 using signals::Text;
 
-// ---- messages without a description (Pride): the struct's own fields() -----------------------------------------
-
-// Enums print by name (found by argument-dependent lookup of to_string in the enum's namespace),
-// floats in shortest form, integers as numbers.
-template <class T>
-std::string text_of(const T& v) {
-  if constexpr (std::is_enum_v<T>) {
-    return to_string(v);
-  } else if constexpr (std::is_floating_point_v<T>) {
-    return fmt::format("{:g}", v);
-  } else if constexpr (std::is_integral_v<T>) {
-    return fmt::format("{}", +v);  // + promotes uint8_t so it prints as a number
-  } else {
-    return fmt::format("{}", v);
-  }
-}
-
-template <class T>
-nlohmann::json json_of(const T& v) {
-  if constexpr (std::is_enum_v<T>) {
-    return to_string(v);
-  } else if constexpr (std::is_integral_v<T>) {
-    return +v;
-  } else {
-    return v;
-  }
-}
-
-template <class M>
-std::string describe_one(const M& m) {
-  std::string s = M::kName;
-  m.fields([&](const char* name, const auto& value) {
-    s += ' ';
-    s += name;
-    s += '=';
-    s += text_of(value);
-  });
-  return s;
-}
-
-template <class M>
-nlohmann::json json_one(const M& m) {
-  nlohmann::json j;
-  j["type"] = M::kName;
-  m.fields([&](const char* name, const auto& value) { j[name] = json_of(value); });
-  return j;
-}
-
-// ---- described messages: key, value and its form from core/signals ---------------------------------------------
+// ---- key, value and its form from core/signals ---------------------------------------------------------------------
 
 // The unit as text shows it: the descriptions' ASCII units as their symbols.
 std::string_view unit_symbol(std::string_view unit) {
@@ -240,13 +194,14 @@ void append_json_value(std::string& out, const signals::SignalDesc& s, std::int6
 
 // ---- a message's values, read once --------------------------------------------------------------------------------
 
-/// The most signals a message has (the CRSF RC channels: 16); layout_of() holds every description to it.
-constexpr std::size_t kMaxSignals = 16;
+/// The most signals a message has (the CRSF subset RC channels: 3 + 32); layout_of() holds every description to it.
+constexpr std::size_t kMaxSignals = 35;
 
-/// The value of each signal of a message (present: the frame carries it; a multiplexed one may be absent).
+/// The value of each signal of a message (present: the frame carries it; a multiplexed one may be absent). Only
+/// the message's own signals are set (read_wire, read_fields): a CAN message's few, not all kMaxSignals.
 struct Reading {
-  bool present = false;
-  std::int64_t raw = 0;
+  bool present;
+  std::int64_t raw;
   std::string_view chars;  ///< a string signal's characters
 };
 using Readings = std::array<Reading, kMaxSignals>;
@@ -273,8 +228,8 @@ Readings read_wire(const MessageDesc& d, const signals::Wire& wire) {
   const auto mux = signals::mux_of(d, wire);
   for (std::size_t i = 0; i < d.signals.size(); ++i) {
     const auto& s = d.signals[i];
-    if (!signals::present(s, mux)) continue;
-    r[i].present = true;
+    r[i] = {signals::present(s, mux), 0, {}};
+    if (!r[i].present) continue;
     if (s.kind == Kind::string) {
       r[i].chars = signals::read_string(s, wire.payload).value_or("");
     } else {
@@ -284,18 +239,23 @@ Readings read_wire(const MessageDesc& d, const signals::Wire& wire) {
   return r;
 }
 
-// A CRSF message reaches the formatter without its bytes (the serial decoders hand on the typed message), so
-// its fields() give the values, in the description's order, turned back into wire integers (exact: CRSF's
-// scales and offsets are integers) and then shown exactly as the bytes would be.
+// A CRSF or Pride message reaches the formatter without its bytes (the serial decoders hand on the typed message),
+// so its fields() give the values, each under the signal whose struct field it is (in the description's order; a
+// CRSF subset frame's channels skip the ones it does not carry), turned back into the description's integers
+// (exactly: the physical values are the integers' own) and then shown exactly as the bytes would be.
 template <class M>
 Readings read_fields(const MessageDesc& d, const M& m) {
   Readings r;
-  std::size_t i = 0;
-  m.fields([&](const char*, const auto& value) {
+  for (std::size_t i = 0; i < d.signals.size(); ++i) r[i] = {false, 0, {}};
+  std::size_t next = 0;
+  m.fields([&](const char* field, const auto& value) {
     using T = std::decay_t<decltype(value)>;
-    if (i >= d.signals.size()) return;
+    std::size_t i = next;
+    while (i < d.signals.size() && std::string_view(d.signals[i].field) != field) ++i;
+    if (i == d.signals.size()) return;  // never: test_signals.cpp pairs every field with its signal
+    next = i + 1;
     const auto& s = d.signals[i];
-    Reading& v = r[i++];
+    Reading& v = r[i];
     v.present = true;
     if constexpr (std::is_same_v<T, const char*>) {
       v.chars = value;
@@ -413,58 +373,50 @@ InterboardWire interboard_wire(const interboard::Message& m) {
   return w;
 }
 
-/// Calls with(description, readings) for a described message and returns its result, or without(m) for the
-/// alternative that has none (Pride, the CRSF subset RC channels: no fixed layout).
-template <class With, class Without>
-auto render(const BusMessage& message, With&& with, Without&&) {
+/// with(description, readings) of a message.
+template <class With>
+auto render(const BusMessage& message, With&& with) {
   const CanFrame f = encode_bus_message(message);
   const MessageDesc& d = *signals::find_can(f.id, f.extended);  // every bus message is described (test_signals)
   return with(d, read_wire(d, signals::Wire{f.id, f.payload()}));
 }
-template <class With, class Without>
-auto render(const interboard::Message& message, With&& with, Without&&) {
+template <class With>
+auto render(const interboard::Message& message, With&& with) {
   const MessageDesc& d =
       *signals::find(signals::Protocol::interboard, static_cast<std::uint8_t>(interboard::type_of(message)));
   const InterboardWire w = interboard_wire(message);
   return with(d, read_wire(d, w.wire));
 }
-template <class With, class Without>
-auto render(const crsf::Message& message, With&& with, Without&& without) {
-  const MessageDesc* d = signals::find(signals::Protocol::crsf, static_cast<std::uint8_t>(crsf::type_of(message)));
-  return std::visit([&](const auto& m) { return d != nullptr ? with(*d, read_fields(*d, m)) : without(m); }, message);
+template <class With>
+auto render(const crsf::Message& message, With&& with) {
+  const MessageDesc& d = *signals::find(signals::Protocol::crsf, static_cast<std::uint8_t>(crsf::type_of(message)));
+  return std::visit([&](const auto& m) { return with(d, read_fields(d, m)); }, message);
 }
-template <class With, class Without>
-auto render(const pride::Message& message, With&&, Without&& without) {
-  return std::visit(without, message);
+template <class With>
+auto render(const pride::Message& message, With&& with) {
+  const MessageDesc& d = *signals::find(signals::Protocol::pride, signals::of_pride::id_of(pride::direction_of(message)));
+  return std::visit([&](const auto& m) { return with(d, read_fields(d, m)); }, message);
 }
 
 template <class Message>
 std::string describe_any(const Message& message) {
-  return render(
-      message,
-      [](const MessageDesc& d, const Readings& r) {
-        std::string s;
-        write_text(s, d, r);
-        return s;
-      },
-      [](const auto& m) { return describe_one(m); });
+  return render(message, [](const MessageDesc& d, const Readings& r) {
+    std::string s;
+    write_text(s, d, r);
+    return s;
+  });
 }
 template <class Message>
 nlohmann::json json_any(const Message& message) {
-  return render(
-      message,
-      [](const MessageDesc& d, const Readings& r) {
-        std::string s;
-        write_json(s, d, r);
-        return nlohmann::json::parse(s);
-      },
-      [](const auto& m) { return json_one(m); });
+  return render(message, [](const MessageDesc& d, const Readings& r) {
+    std::string s;
+    write_json(s, d, r);
+    return nlohmann::json::parse(s);
+  });
 }
 template <class Message>
 SignalValues values_any(const Message& message) {
-  return render(
-      message, [](const MessageDesc& d, const Readings& r) { return values_of(d, r); },
-      [](const auto&) { return SignalValues{}; });
+  return render(message, [](const MessageDesc& d, const Readings& r) { return values_of(d, r); });
 }
 
 }  // namespace
@@ -476,6 +428,7 @@ void append_message(std::string& out, MessageFormat format, const MessageDesc& m
 SignalValues signal_values(const BusMessage& message) { return values_any(message); }
 SignalValues signal_values(const interboard::Message& message) { return values_any(message); }
 SignalValues signal_values(const crsf::Message& message) { return values_any(message); }
+SignalValues signal_values(const pride::Message& message) { return values_any(message); }
 std::string describe(const BusMessage& message) { return describe_any(message); }
 std::string describe(const interboard::Message& message) { return describe_any(message); }
 std::string describe(const crsf::Message& message) { return describe_any(message); }

@@ -5,9 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <charconv>
-#include <limits>
 #include <stdexcept>
-#include <type_traits>
 #include <variant>
 
 #include "saulproto/host/report/format.hpp"
@@ -15,37 +13,6 @@
 
 namespace saul::host {
 namespace {
-
-/// The schema of a Pride message, from its fields (Pride has no signal descriptions): each an integer within its
-/// byte's range. The manual gives no units; the descriptions say what the field is.
-template <class M>
-nlohmann::json pride_schema() {
-  nlohmann::json props = nlohmann::json::object();
-  nlohmann::json required = nlohmann::json::array({"type"});
-  props["type"] = {{"const", M::kName}, {"description", "the message's name"}};
-  M{}.fields([&](const char* name, const auto& value) {
-    using T = std::remove_cvref_t<decltype(value)>;
-    nlohmann::json p;
-    if constexpr (std::is_integral_v<T>) {
-      p = {{"type", "integer"},
-           {"minimum", +std::numeric_limits<T>::min()},
-           {"maximum", +std::numeric_limits<T>::max()}};
-    } else {
-      p = {{"type", "number"}};
-    }
-    p["description"] = fmt::format("{}: the frame's value as the Pride manual defines it (no unit)", name);
-    props[name] = p;
-    required.push_back(name);
-  });
-  return {{"title", M::kName},
-          {"description", fmt::format("Pride {} ({}), as saulctl decode --json shows it", M::kName,
-                                      M::kDirection == pride::Direction::vcu_to_controller ? "VCU -> controller"
-                                                                                           : "controller -> VCU")},
-          {"type", "object"},
-          {"properties", props},
-          {"required", required},
-          {"additionalProperties", false}};
-}
 
 /// A CRSF frame that did not decode, as to_json(CrsfUndecoded) gives it (serial_decode.cpp).
 nlohmann::json undecoded_schema() {
@@ -100,11 +67,7 @@ std::string mcap_serial_topic(SerialProtocol protocol, std::size_t nth_link_of_p
 
 std::string mcap_serial_json_schema(const SerialMessage& message) {
   if (is_decode_error(message)) return undecoded_schema().dump();
-  if (const auto* p = std::get_if<pride::Message>(&message))
-    return std::visit([](const auto& m) { return pride_schema<std::decay_t<decltype(m)>>().dump(); }, *p);
-  const SignalValues values = signal_values(message);
-  if (values.message == nullptr) return R"({"type":"object"})";  // every inter-board and CRSF kind is described
-  std::string schema = mcap_json_schema(*values.message);
+  std::string schema = mcap_json_schema(*signal_values(message).message);  // every other message is described
   if (std::holds_alternative<CrsfMessage>(message)) {  // to_json() adds the frame's address
     auto j = nlohmann::json::parse(schema);
     j["properties"]["address"] = {{"type", "integer"}, {"minimum", 0}, {"maximum", 255},

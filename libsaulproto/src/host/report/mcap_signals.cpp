@@ -64,7 +64,8 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
   nlohmann::json required = nlohmann::json::array({"type"});
   props["type"] = {{"const", message.name}, {"description", "the message's name"}};
   for (const auto& s : message.signals) {
-    const bool always = s.mux != signals::Mux::multiplexed;
+    // a multiplexed signal, or a CRSF subset channel (Place::by_header), is in some messages only
+    const bool always = s.mux != signals::Mux::multiplexed && s.place != signals::Place::by_header;
     if (always) required.push_back(s.name);
     if (signals::text_in_unit(s)) {  // the physical value under the name, the wire integer under raw_key()
       const bool whole = signals::text_decimals(s) < 0;

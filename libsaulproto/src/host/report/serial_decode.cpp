@@ -3,12 +3,30 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <exception>
 
 #include "saulproto/host/report/format.hpp"
 #include "../util.hpp"
 
 namespace saul::host {
 namespace {
+
+/// feed(on_frame) runs the core's CRSF decoder, which is noexcept: an exception thrown through it ends the program
+/// (plot's usage error for a signal the message lacks did). on_frame hands each frame to deliver; an exception from
+/// deliver is held, the frames after it are not delivered, and it is thrown again once the core has returned.
+template <class Feed, class Deliver>
+void crsf_frames(Feed&& feed, Deliver&& deliver) {
+  std::exception_ptr error;
+  feed([&](const crsf::Frame& f) noexcept {
+    if (error) return;
+    try {
+      deliver(f);
+    } catch (...) {
+      error = std::current_exception();
+    }
+  });
+  if (error) std::rethrow_exception(error);
+}
 
 /// Nominal baud rate of a protocol's link, for the time a chunk spends on the wire (10 bits a byte; Pride's 11
 /// are within the margin of the idle gap).
@@ -41,7 +59,8 @@ std::string name_of(const SerialMessage& message) {
 SignalValues signal_values(const SerialMessage& message) {
   return std::visit(detail::Overload{[](const interboard::Message& m) { return signal_values(m); },
                                      [](const CrsfMessage& m) { return signal_values(m.message); },
-                                     [](const auto&) { return SignalValues{}; }},
+                                     [](const pride::Message& m) { return signal_values(m); },
+                                     [](const CrsfUndecoded&) { return SignalValues{}; }},
                     message);
 }
 
@@ -130,7 +149,8 @@ void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callba
                       [&](pride::StreamDecoder& d) { per_byte(d); },
                       [&](crsf::StreamDecoder& d) {
                         extra_.bytes += bytes.size();
-                        d.push(bytes, [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                        crsf_frames([&](const auto& on_frame) { d.push(bytes, on_frame); },
+                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
 }
@@ -164,7 +184,8 @@ void SerialStreamDecoder::abandon(const Callback& on_message) {
                       [&](interboard::StreamDecoder& d) { rescan(d); },
                       [&](pride::StreamDecoder& d) { rescan(d); },
                       [&](crsf::StreamDecoder& d) {
-                        d.flush([&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                        crsf_frames([&](const auto& on_frame) { d.flush(on_frame); },
+                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
 }
@@ -194,7 +215,8 @@ void SerialStreamDecoder::finish(const Callback& on_message) {
                         d.drop_partial();
                       },
                       [&](crsf::StreamDecoder& d) {
-                        d.flush([&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                        crsf_frames([&](const auto& on_frame) { d.flush(on_frame); },
+                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
 }

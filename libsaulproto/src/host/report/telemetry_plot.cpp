@@ -4,13 +4,11 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
-#include <variant>
 #include <vector>
 #include <ostream>
 #include <utility>
 
 #include "saulproto/core/interboard.hpp"
-#include "saulproto/core/pride.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/signals.hpp"
 #include "saulproto/core/vesc.hpp"
@@ -28,26 +26,8 @@ SignalValues PlotMessage::values() const {
   return {};
 }
 
-namespace {
-
-/// The fields of a message without a signal description (Pride: every field an unscaled integer, so its field name
-/// already holds the physical value, as the one scheme names signals), by name. Empty for any other message.
-std::vector<std::pair<const char*, double>> undescribed_fields(const PlotMessage& m) {
-  std::vector<std::pair<const char*, double>> out;
-  const auto* pride = m.serial != nullptr ? std::get_if<pride::Message>(m.serial) : nullptr;
-  if (pride == nullptr) return out;
-  std::visit([&](const auto& message) {
-    message.fields([&](const char* name, const auto& value) { out.emplace_back(name, static_cast<double>(+value)); });
-  }, *pride);
-  return out;
-}
-
-}  // namespace
-
 std::optional<double> PlotMessage::field(std::string_view signal_name) const {
   if (const auto v = signal_value(values(), signal_name)) return v->number;
-  for (const auto& [field_name, value] : undescribed_fields(*this))
-    if (signal_name == field_name) return value;
   return std::nullopt;
 }
 
@@ -316,20 +296,11 @@ void TelemetryPlotter::select(const PlotMessage& m) {
   if (!panels_.empty()) return;
   const signals::MessageDesc* described_as = m.values().message;
   auto fields = request_.fields;
-  if (described_as == nullptr && m.serial != nullptr && std::holds_alternative<pride::Message>(*m.serial)) {
-    std::vector<std::string> names;  // Pride: no description; its fields are its signals (undescribed_fields)
-    for (const auto& field : undescribed_fields(m)) names.emplace_back(field.first);
-    if (fields.empty()) fields = names;
-    for (const auto& f : fields)
-      if (std::find(names.begin(), names.end(), f) == names.end())
-        throw PlotUsageError(fmt::format("'{}' ({}) has no signal '{}'; its signals: {}", request_.id, m.name, f,
-                                         fmt::join(names, ", ")));
-  }
   if (fields.empty() && described_as != nullptr)  // every number signal in its unit (their _raw twins left out)
     for (const auto& s : described_as->signals)
       if (s.kind != signals::Kind::string) fields.emplace_back(s.name);
   for (const auto& f : fields)
-    if (described_as == nullptr ? !m.field(f) : !has_signal(*described_as, f))
+    if (described_as == nullptr || !has_signal(*described_as, f))
       throw PlotUsageError(unknown_signal_error(fmt::format("'{}' ({})", request_.id, m.name), described_as, f));
   if (fields.empty()) throw PlotUsageError(fmt::format("'{}' has no numeric fields to plot", request_.id));
   for (const auto& f : fields) {

@@ -1,10 +1,9 @@
 // Text and JSON renderings of decoded messages, for saulctl and for logs: one renderer, append_message().
 //
-// SAUL, VESC, CRSF and inter-board messages print from their description (core/signals.hpp), each signal under
-// its one name (docs/cli.md's table): its value as the wire integer, its value name or its physical value, as the
-// description says; a scaled wire integer (signals::text_in_unit) in its unit ("pitch=12.34°"; JSON "pitch":12.34
-// and the integer as "pitch_raw":1234). Pride's messages and CRSF's subset RC channels have no fixed layout to
-// describe and print their structs' fields().
+// Every message (SAUL, VESC, CRSF, inter-board, Pride) prints from its description (core/signals.hpp), each signal
+// under its one name (docs/cli.md's table): its value as the wire integer, its value name or its physical value,
+// as the description says; a scaled wire integer (signals::text_in_unit) in its unit ("pitch=12.34°"; JSON
+// "pitch":12.34 and the integer as "pitch_raw":1234).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -31,7 +30,7 @@ struct SignalValue {
   std::string text;
 };
 /// The signals a message carries, in order (multiplexed signals this frame does not carry left out), as the
-/// description reads them. message is nullptr for a message type without a description.
+/// description reads them. message is nullptr only for what is no message (a CRSF frame that did not decode).
 struct SignalValues {
   const signals::MessageDesc* message = nullptr;
   std::vector<SignalValue> values;
@@ -39,6 +38,7 @@ struct SignalValues {
 SignalValues signal_values(const BusMessage& message);
 SignalValues signal_values(const interboard::Message& message);
 SignalValues signal_values(const crsf::Message& message);
+SignalValues signal_values(const pride::Message& message);
 
 /// A signal's value as text shows it, appended to `out`: the wire integer, its value name, its physical value
 /// (fmt's "{:g}", written directly when it is an exact short decimal) or, for a scaled wire integer
@@ -50,11 +50,11 @@ void append_value_text(std::string& out, const signals::SignalDesc& s, std::int6
 /// signal's name: "pitch_raw" (1234) beside "pitch" (12.34).
 std::string raw_key(const signals::SignalDesc& s);
 
-/// THE renderer of a described message (every CAN message, every inter-board and CRSF message with a fixed
-/// layout), appended to `out`: text "velocity_cmd speed_mmps=1000 steer_mrad=-500", or its JSON object
-/// {"speed_mmps":1000,"steer_mrad":-500,"type":"velocity_cmd"} (keys sorted, as nlohmann writes objects).
-/// describe() and to_json() below, decode's and sniff's lines (fast_emit.hpp) and MCAP's messages all come from
-/// here. O(message size), no allocation beyond out's growth.
+/// THE renderer, for a message's bytes, appended to `out`: text "velocity_cmd speed_mmps=1000 steer_mrad=-500", or
+/// its JSON object {"speed_mmps":1000,"steer_mrad":-500,"type":"velocity_cmd"} (keys sorted, as nlohmann writes
+/// objects). describe() and to_json() below (CRSF and Pride messages: their structs' values read into the same
+/// signals), decode's and sniff's lines (fast_emit.hpp) and MCAP's messages all come from here. O(message size),
+/// no allocation beyond out's growth.
 enum class MessageFormat : std::uint8_t { text, json };
 void append_message(std::string& out, MessageFormat format, const signals::MessageDesc& message,
                     const signals::Wire& wire);

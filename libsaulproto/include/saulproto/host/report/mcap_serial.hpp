@@ -32,8 +32,8 @@ inline constexpr std::string_view kMcapSerialBytesTopic = "/serial/bytes";
 
 /// "/serial/interboard/state"; nth_link_of_protocol (from 1) > 1 adds "_N" to the protocol.
 std::string mcap_serial_topic(SerialProtocol protocol, std::size_t nth_link_of_protocol, std::string_view kind);
-/// The JSON Schema of to_json(message): from the signal descriptions for inter-board and CRSF messages (CRSF adds
-/// its address), from the fields for Pride, and the undecoded CRSF frame's four members for a decode error.
+/// The JSON Schema of to_json(message): from the message's signal description (CRSF adds its address), or the
+/// undecoded CRSF frame's four members for a decode error.
 std::string mcap_serial_json_schema(const SerialMessage& message);
 /// The baud rate and the frame format a link's name says: "serial:/dev/ttyUSB0@460800:8N1" -> 460800, "8N1";
 /// nothing for names that do not ("uart-1").

@@ -44,7 +44,7 @@ using SerialMessage = std::variant<interboard::Message, CrsfMessage, pride::Mess
 
 /// "state", "rc_channels", "vcu_command", "crsf_0x3A".
 std::string name_of(const SerialMessage& message);
-/// Its signals from its description (inter-board and CRSF messages); message nullptr for Pride and undecoded CRSF.
+/// Its signals from its description; message nullptr for an undecoded CRSF frame.
 SignalValues signal_values(const SerialMessage& message);
 /// "state pitch_x100=-1234 pid_out=300 error_state=1"; a CRSF message with its address first
 /// ("rc_channels address=0xC8 ch1=…"); an undecoded CRSF frame as "!unknown_type crsf address=0xC8 type=0x3A

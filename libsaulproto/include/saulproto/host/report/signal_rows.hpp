@@ -37,7 +37,7 @@ bool has_signal(const signals::MessageDesc& m, std::string_view name);
 /// The names signal_value() takes for m, in order: every number signal, and name_raw after a scaled one.
 std::vector<std::string> signal_names(const signals::MessageDesc& m);
 /// The one-line error for a name m has not: "telemetry_a has no signal 'pitch_x100'; its signals: pitch,
-/// pitch_raw, pid_out, speed_mmps, state". m nullptr: a message without a description (Pride), with none.
+/// pitch_raw, pid_out, speed_mmps, state". m nullptr: what has no description (an undecoded CRSF frame), with none.
 std::string unknown_signal_error(std::string_view message_name, const signals::MessageDesc* m, std::string_view name);
 
 /// The header and the rows of a message in the long CSV form: "time,interface,id,message,signal,value,unit".

@@ -31,10 +31,10 @@ struct PlotMessage {
   std::string_view name;                ///< "telemetry_a", "vesc_status_1", "state", ...
   const BusMessage* bus = nullptr;
   const SerialMessage* serial = nullptr;
-  /// The message's signals as its description reads them (none for a message without one: Pride).
+  /// The message's signals as its description reads them (none for an undecoded CRSF frame).
   [[nodiscard]] SignalValues values() const;
-  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number; a Pride message's
-  /// unscaled fields by their names: "forward_back"); nullopt when the message has no such signal.
+  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number, "forward_back");
+  /// nullopt when the message does not carry it.
   [[nodiscard]] std::optional<double> field(std::string_view signal_name) const;
 };
 
