@@ -20,7 +20,8 @@ inline std::uint64_t bytes_read_so_far() {
   return 0;
 }
 
-/// What one bytes_read_so_far() adds to the count.
+/// What one bytes_read_so_far() adds to the count: ask it after the reads measured (the file's numbers only grow, and
+/// a digit more makes the next call read a byte more).
 inline std::uint64_t read_count_cost() {
   const std::uint64_t a = bytes_read_so_far();
   const std::uint64_t b = bytes_read_so_far();
