@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <numbers>
 #include <numeric>
 
@@ -173,20 +174,23 @@ void basics(const Series& s, const AnalysisOptions& opt, Report& r) {
                    static_cast<double>(s.size());
   if (!s.i_term.empty() && !s.output.empty()) {
     std::vector<Windup> windups;
-    std::optional<std::size_t> start;
+    // Where the wind-up under way began (none: not winding). Not a std::optional: GCC 12 at -O1 takes its value
+    // for "maybe used uninitialised".
+    constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+    std::size_t start = kNone;
     double peak = 0;
     for (std::size_t i = 0; i <= s.size(); ++i) {
       const bool winding = i < s.size() && std::abs(s.output[i]) >= limit &&
                            std::abs(s.i_term[i]) >= opt.windup_fraction * opt.output_limit &&
                            (s.i_term[i] > 0) == (s.output[i] > 0);
       if (winding) {
-        if (!start) start = i, peak = 0;
+        if (start == kNone) start = i, peak = 0;
         peak = std::max(peak, std::abs(s.i_term[i]));
-      } else if (start) {
-        const double duration = s.time_s[i - 1] - s.time_s[*start] + 1.0 / r.sample_rate_hz;
+      } else if (start != kNone) {
+        const double duration = s.time_s[i - 1] - s.time_s[start] + 1.0 / r.sample_rate_hz;
         if (duration >= opt.windup_min_s && windups.size() < kMaxListed)
-          windups.push_back({s.time_s[*start] - s.time_s[0], duration, peak});
-        start.reset();
+          windups.push_back({s.time_s[start] - s.time_s[0], duration, peak});
+        start = kNone;
       }
     }
     r.windups = std::move(windups);
