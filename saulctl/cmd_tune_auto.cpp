@@ -248,10 +248,11 @@ int run_live(const TuneAutoOptions& o) {
         port->path(), saul::saulcan::to_string(status->state));
     return kFailure;
   }
-  if (status->speed_limit_pct < 50)
-    fmt::print("note: the speed cap is {} %: BALANCE ends a test signal at half of it, so the chirps may end early "
-               "(raise it to 50 % while disarmed: speed_limit 20 ... 50)\n",
-               status->speed_limit_pct);
+  if (status->speed_limit_pct < saul::trace::kExciteMinCapPct) {
+    say("{}: the speed cap is {} %, and BALANCE refuses a test signal below {} %: {}; nothing was sent", port->path(),
+        status->speed_limit_pct, saul::trace::kExciteMinCapPct, raise_cap_hint(port->path()));
+    return kFailure;
+  }
   const saul::saulcan::PidGains own{status->kp, status->ki, status->kd};
   fmt::print("the robot's gains: kp={:g} ki={:g} kd={:g}\n", own.kp, own.ki, own.kd);
   const std::string file = temp_trace();
@@ -381,11 +382,12 @@ void add_tune_auto_command(CLI::App& tune, Runner& run) {
               "  saulctl tune auto --console-balance /dev/ttyACM1         the live robot: prints the plan, sends nothing\n"
               "  saulctl tune auto --console-balance /dev/ttyACM1 --yes   runs it: the robot armed in BALANCE on its tether\n"
               "\nWithout --sim nothing is sent unless --yes is given. With --yes the robot must already be armed in BALANCE\n"
-              "(motion needs your intent: this never arms); its gains are read, each scaled set is sent with 'pid' and\n"
-              "acknowledged (printed as it is sent), a chirp is traced per set, and the robot's own gains are restored and\n"
-              "read back at the end, on Ctrl-C and on any error. The proposal is printed, never applied.\n"
-              "\nExit codes: 0 gains proposed (or the live plan printed), 1 refused (not armed in BALANCE), interrupted or\n"
-              "the gains not restored, 2 usage, 3 no gains passed (or no answer from BALANCE).\n");
+              "with its speed cap at 50 % or more (motion needs your intent: this never arms, and the cap is raised only\n"
+              "while disarmed); its gains are read, each scaled set is sent with 'pid' and acknowledged (printed as it is\n"
+              "sent), a chirp is traced per set, and the robot's own gains are restored and read back at the end, on\n"
+              "Ctrl-C and on any error. The proposal is printed, never applied.\n"
+              "\nExit codes: 0 gains proposed (or the live plan printed), 1 refused (not armed in BALANCE, or the speed cap\n"
+              "below 50 %), interrupted or the gains not restored, 2 usage, 3 no gains passed (or no answer from BALANCE).\n");
   attach_runner(cmd, o, run, run_tune_auto);
 }
 

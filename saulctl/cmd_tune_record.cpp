@@ -92,6 +92,9 @@ int run_tune_record(const TuneRecordOptions& o) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   const auto& s = tap.stats();
   if (!tap.refusal().empty()) stopped = "BALANCE refused: " + tap.refusal();
+  if (!o.sim && tap.refusal().find(saul::trace::kExciteCapRefusal) != std::string::npos)
+    say("{}: BALANCE refused the test signal, its speed cap is below {} %: {}", o.console_balance,
+        saul::trace::kExciteMinCapPct, raise_cap_hint(o.console_balance));
   if (o.json) {
     nlohmann::json j = s.json(o.out);
     j["stopped"] = stopped;
@@ -142,8 +145,9 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
       "BALANCE's status reply comes first, so the file says which gains the loop ran with (tune report shows them).\n"
       "decode, stats, convert (CSV) and plot read it. The test signal needs BALANCE (armed), sticks centred, Orin at 0.\n"
       "While it runs BALANCE holds its speed loop's lean (the signal meets the pitch loop alone) and ends it when the\n"
-      "wheels pass half the speed cap: raise the cap while disarmed first ('speed_limit 20' ... '50' on BALANCE's\n"
-      "console); --sim does. With --sim, --excite step is a series of 2 s steps, 3.5 s apart, the sign alternating.\n"
+      "wheels pass half the speed cap; below a 50 % cap it refuses the signal (the robot could not be brought back):\n"
+      "raise the cap while disarmed first ('saulctl console PORT speed_limit 20', 30, 40, 50); --sim does. With\n"
+      "--sim, --excite step is a series of 2 s steps, 3.5 s apart, the sign alternating.\n"
       "The console port is shared: 'saulctl console' or another saulctl can use it beside the recording.\n"
       "\nExamples:\n"
       "  saulctl tune record --sim --seed 3 --duration 10s --excite chirp --amplitude 1 -o run.trace\n"

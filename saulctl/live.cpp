@@ -11,6 +11,7 @@
 
 #include "commands.hpp"
 #include "saulproto/core/saul_can.hpp"
+#include "saulproto/core/trace.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/flash/esp_connection.hpp"
 #include "saulproto/host/link/can_link.hpp"
@@ -55,6 +56,14 @@ saul::host::LinkSpec resolve_link(const std::string& link) {
   } catch (const std::invalid_argument& e) {
     throw CLI::ValidationError("--link", e.what());
   }
+}
+
+std::string raise_cap_hint(const std::string& port) {
+  std::string steps;
+  for (int pct = 30; pct <= saul::trace::kExciteMinCapPct; pct += 10) steps += fmt::format(", {}", pct);
+  return fmt::format("disarm, then 'saulctl console {} speed_limit 20'{} (one 10 % step per command, only while "
+                     "disarmed), and arm again",
+                     port, steps);
 }
 
 bool confirm_motion(bool yes, const std::string& what) {

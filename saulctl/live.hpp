@@ -30,6 +30,10 @@ saul::host::LinkSpec resolve_link(const std::string& link);
 /// asking (true / false). Prints why it refused.
 bool confirm_motion(bool yes, const std::string& what);
 
+/// How to raise BALANCE's speed cap over its console `port` to what a test signal needs (trace::kExciteMinCapPct),
+/// for a one-line refusal: "disarm, then 'saulctl console PORT speed_limit 20', 30, 40 and 50 (...), and arm again".
+std::string raise_cap_hint(const std::string& port);
+
 /// Maps a LinkError to saulctl's exit code and prints it as one line.
 int report_link_error(const std::exception& e);
 

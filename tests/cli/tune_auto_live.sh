@@ -2,8 +2,9 @@
 # saulctl tune auto on a live robot (no --sim), against `saulctl sim`'s BALANCE console pty. Without --yes it prints
 # the experiment (gains, excitation, amplitude, duration, limits) and sends nothing, exit 0. With --yes on a robot
 # that is not armed in BALANCE it is refused (exit 1) and sends nothing: the sim's status afterwards shows no trace
-# record sent, no excitation and its gains unchanged. Armed (the button on the control pty, the speed cap raised to
-# 50 % first), --yes runs the plan: each set sent with 'pid' and acknowledged, printed as it is sent, a gain set
+# record sent, no excitation and its gains unchanged; so is --yes on a robot armed at the 10 % speed cap (BALANCE
+# refuses a test signal below 50 %), with the way to raise it. Armed (the button on the control pty, the speed cap
+# raised to 50 % first), --yes runs the plan: each set sent with 'pid' and acknowledged, printed as it is sent, a gain set
 # proposed, and the robot's own gains restored and read back (its status shows them again). Ctrl-C (SIGINT) and kill
 # (SIGTERM) in the middle of a set also restore them. Waits are on the simulator's own status or on saulctl's output,
 # never on the wall clock alone (a loaded machine runs the simulator slower than real time).
@@ -47,9 +48,29 @@ timeout 10 "$saulctl" console "$balance" status >trace.txt 2>&1
 check "no trace record was sent and no excitation runs" grep -aq "^report=trace divider=[0-9]* sent=0 .* excite=none" trace.txt
 check "its gains are the shipped ones still" test "$(gains)" = "kp=100 ki=500 kd=3"
 
-# Arm it: the speed cap raised while disarmed (BALANCE ends a test signal at half of it), then the arming button.
-for pct in 20 30 40 50; do timeout 10 "$saulctl" console "$balance" speed_limit $pct >/dev/null 2>&1; done
+# Armed at the power-on 10 % cap (console arm): BALANCE refuses a test signal below 50 %, so --yes is refused
+# before anything is sent, with the way to raise the cap.
+timeout 10 "$saulctl" console "$balance" arm >arm10.txt 2>&1
+check "console arm at the 10 % cap" grep -q "^ok" arm10.txt
+"$saulctl" tune auto --console-balance "$balance" --yes >low.txt 2>low.err
+check "--yes at the 10 % cap: refused, exit 1" test $? -eq 1
+cat low.err
+check "... one line naming the cap, the minimum and the fix, nothing sent" grep -q "^saulctl tune auto: $balance: the speed cap is 10 %, and BALANCE refuses a test signal below 50 %: disarm, then 'saulctl console $balance speed_limit 20', 30, 40, 50 (one 10 % step per command, only while disarmed), and arm again; nothing was sent$" low.err
+check "... and nothing printed as sent" bash -c "! grep -q '^sending' low.txt"
+timeout 10 "$saulctl" console "$balance" status >trace10.txt 2>&1
+check "... no trace record sent, no excitation" grep -aq "^report=trace divider=[0-9]* sent=0 .* excite=none" trace10.txt
+check "... its gains unchanged" test "$(gains)" = "kp=100 ki=500 kd=3"
+timeout 10 "$saulctl" console "$balance" disarm >/dev/null 2>&1
 exec 3<>"$control"
+printf 'upright\n' >&3  # disarmed, the body fell off balance: back on the bench stand, and the pitch followed
+for _ in $(seq 100); do
+  pitch=$(status | sed -n 's/.* pitch_x100=-\{0,1\}\([0-9]*\) .*/\1/p')
+  [[ -n $pitch && $pitch -le 300 ]] && break
+  sleep 0.1
+done
+
+# Arm it: the speed cap raised while disarmed (BALANCE refuses a test signal below 50 %), then the arming button.
+for pct in 20 30 40 50; do timeout 10 "$saulctl" console "$balance" speed_limit $pct >/dev/null 2>&1; done
 printf 'button down\n' >&3
 for _ in $(seq 600); do status | grep -q "state=BALANCE" && break; sleep 0.1; done
 printf 'button up\n' >&3

@@ -3,7 +3,8 @@
 # `expect tune ...` on the simulated robot. A limit the shipped gains cannot meet fails the suite with the figure, its
 # measured value and the limit; the figures are the ones `tune record --sim` + `tune report --json` find in the same
 # run (the suite arms on the same simulated schedule, 20 ms for the status reply included, so the traces are the same); a wrong unit or an unknown figure is
-# a suite error (exit 2) naming it; `expect tune` without a trace fails. The shipped suite also passes over a running
+# a suite error (exit 2) naming it; `expect tune` without a trace fails, and so does a trace whose test signal BALANCE
+# refuses (the 10 % cap). The shipped suite also passes over a running
 # `saulctl sim`'s ptys (the trace read from the BALANCE console port, as from the robot).
 set -uo pipefail
 saulctl=$1
@@ -53,6 +54,13 @@ check "... naming the figure's unit" grep -q "unit.saul:12: 'overshoot<0.6s': ov
 suite name.saul "expect tune wobble<3"
 "$saulctl" test --sim name.saul >name.txt 2>name.err
 check "an unknown figure is a suite error naming the figures" grep -q "no tuning figure 'wobble' (overshoot, rise" name.err
+
+# At the power-on 10 % cap BALANCE refuses the test signal: the trace step fails with its reason and the fix.
+printf 'requires: sim\nwait 1500ms\nsim button down\nwait 3200ms\nsim button up\nwait 2520ms\ntrace step 1 for 2s\n' >low.saul
+"$saulctl" test --sim --seed 2 low.saul >low.txt
+check "a test signal at the 10 % cap fails the trace step (exit 1)" test $? -eq 1
+cat low.txt
+check "... with BALANCE's refusal and how to raise the cap" grep -q "trace step 1 for 2s .*BALANCE refused: error: excite needs the speed cap >= 50 % (speed_limit is 10 %: .*(raise the cap before arming: 'console balance speed_limit 20 expect ok', then 30, 40 ... 50)" low.txt
 
 printf 'requires: sim\nexpect tune overshoot<25%%\n' >none.saul
 "$saulctl" test --sim none.saul >none.txt

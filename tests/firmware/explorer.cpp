@@ -44,6 +44,19 @@ Event can(Kind kind, const CanFrame& f) {
 
 // ---- generation -------------------------------------------------------------------------------------------------
 
+/// The speed cap raised from 10 % to 50 % or more (what a test signal needs, trace::kExciteMinCapPct), one console
+/// step per line from t on as a technician types them; returns the time of the last. Refused while armed.
+TimeUs raise_cap(Rng& rng, TimeUs t, std::vector<Event>& out) {
+  const auto top = 10 * (rng.chance(70) ? rng.range(5, 7) : rng.range(8, 10));
+  for (std::int64_t pct = 20; pct <= top; pct += 10) {
+    t += static_cast<TimeUs>(rng.range(2, 40)) * kMs;
+    Event e = console(0, "speed_limit " + std::to_string(pct));
+    e.at_us = t;
+    out.push_back(std::move(e));
+  }
+  return t;
+}
+
 /// Weighted choice of the next event kind, with the events it implies (a press and its release, a pulse's end).
 void next_events(Rng& rng, TimeUs t, std::vector<Event>& out, TimeUs& calm_until) {
   auto at = [&](TimeUs when, Event e) {
@@ -428,6 +441,10 @@ class Explorer {
         }
         break;
       case Kind::can:
+        if (const auto config = saul::saulcan::decode_config_cmd(e.frame);
+            config && config->tilt_limit_x100 >= saul::saulcan::ConfigCmd::kMinTiltX100 &&
+            config->tilt_limit_x100 <= saul::saulcan::ConfigCmd::kMaxTiltX100)
+          orin_max_mmps_ = config->max_speed_mmps;  // BALANCE takes both fields, or neither (docs/protocol.md)
         if (!e.frame.extended && e.frame.id == 0x302 && e.frame.dlc == 1) {
           if (e.frame.data[0] == 3) add_deadline(t, kMs, "0x302 mode 3", true, nullptr, false, armed_now, false, 2);
           if (e.frame.data[0] == 0) explicit_disarm_ = true;
@@ -583,12 +600,22 @@ class Explorer {
     const auto state_text = [](RobotState s) { return std::string(saul::saulcan::to_string(s)); };
 
     // -- excite: a test signal on the setpoint only while BALANCE (it stops in the iteration that leaves it)
-    if (bal.excitation() != saul::trace::Excite::none) {
+    const bool excited = bal.excitation() != saul::trace::Excite::none;
+    if (excited) {
       ++stats_.excite_ticks;
+      if (!excited_) ++stats_.excite_starts;
       if (st != RobotState::balance)
         fail("excite", std::string("excitation ") + saul::trace::to_string(bal.excitation()) + " still on in " +
                            state_text(st), "");
+      // and only at a speed cap of at least the minimum: the console's speed_limit, lowered by the Orin's 0x303
+      const int hard_max = config_.balance.hard_max_speed_mmps;
+      const int cap_mmps = std::min(hard_max * pct / 100, orin_max_mmps_);
+      if (cap_mmps * 100 < hard_max * saul::trace::kExciteMinCapPct)
+        fail("excite", std::string("excitation ") + saul::trace::to_string(bal.excitation()) + " on with the speed cap at " +
+                           std::to_string(cap_mmps) + " mm/s (speed_limit " + std::to_string(pct) + " %), below " +
+                           std::to_string(saul::trace::kExciteMinCapPct) + " %", "");
     }
+    excited_ = excited;
     if (bal.last_trace().excite != 0 && bal.last_trace().state != static_cast<std::uint8_t>(RobotState::balance))
       fail("excite", "a trace record marks an excitation outside BALANCE", "");
 
@@ -778,6 +805,7 @@ class Explorer {
   bool explicit_disarm_ = false;
   TimeUs last_explicit_disarm_us_ = 0;
   int speed_limit_asked_ = -1;
+  int orin_max_mmps_ = 0xFFFF;  // the last 0x303 max speed BALANCE accepted (kept across a reset)
 
   // observations
   std::int32_t erpm_l_ = 0;
@@ -795,6 +823,7 @@ class Explorer {
   TimeUs bal_left_armed_us_ = 0;
   bool rc_lost_seen_ = false;
   int prev_pct_ = 10;
+  bool excited_ = false;
   int cap_before_ = 10;
   TimeUs cap_lowered_us_ = 0;
   int ch7_prev_ = 10;
@@ -817,8 +846,13 @@ void add_excitations(std::uint64_t seed, TimeUs length_us, std::vector<Event>& o
                                        "trace off",             "trace dump",           "trace arm",
                                        "excite step 3 1",       "excite chirp 1 0 5 5", "excite"};
   Rng rng(seed ^ 0x7ACE'E1C1'7ACE'E1C1ULL);
+  if (rng.chance(50)) (void)raise_cap(rng, 0, out);  // ready for test signals from power-on
   for (TimeUs t = static_cast<TimeUs>(rng.range(500, 3000)) * kMs; t < length_us;
-       t += static_cast<TimeUs>(rng.range(200, 3000)) * kMs) {
+       t += static_cast<TimeUs>(rng.range(200, 1500)) * kMs) {
+    if (rng.chance(25)) {  // the cap raised for them (a step at a time; BALANCE takes it only while disarmed)
+      t = raise_cap(rng, t, out);
+      continue;
+    }
     Event e = console(0, kLines[rng.below(std::size(kLines))]);
     e.at_us = t;
     out.push_back(std::move(e));

@@ -20,7 +20,9 @@
 //   latch       a latched state (ESTOP, TILT_CUTOFF, FAULT) is left only to OFF, and only by an explicit disarm
 //               (BALANCE console disarm, 0x302 mode 0, CH5 moved to disarm) without an estop input;
 //   excite      a test signal on the pitch setpoint (`excite ...` on BALANCE's console) only while BALANCE: it
-//               stops in the iteration that leaves it (latch, disarm, estop), and the trace record says so;
+//               stops in the iteration that leaves it (latch, disarm, estop), and the trace record says so; and
+//               only while the speed cap (speed_limit, lowered by the last 0x303 BALANCE accepted) is at least
+//               trace::kExciteMinCapPct: it stops in the iteration that lowers it;
 //   cap         every motor output within the speed cap (10 % at power-on, one 10 % step per console command and
 //               only while disarmed; CH7 only lowers the IO board's output).
 //
@@ -95,6 +97,7 @@ struct Stats {
   std::uint64_t resets = 0;
   std::uint64_t cap_raises = 0;
   std::uint64_t excite_ticks = 0;  ///< ticks with a test signal on BALANCE's setpoint
+  std::uint64_t excite_starts = 0;  ///< test signals started (none -> on)
 };
 
 struct Result {

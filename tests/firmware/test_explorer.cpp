@@ -63,6 +63,7 @@ std::optional<std::pair<Episode, Violation>> explore(std::uint64_t first, std::u
     t.resets += s.resets;
     t.cap_raises += s.cap_raises;
     t.excite_ticks += s.excite_ticks;
+    t.excite_starts += s.excite_starts;
     if (r.violation) return std::make_pair(std::move(e), *r.violation);
   }
   return std::nullopt;
@@ -80,7 +81,7 @@ TEST_CASE("explorer: both boards keep every safety rule at every tick of 2 000 0
                    << ", by console " << s.armings_console << ", stops while armed " << s.stops_while_armed
                    << ", latches " << s.latches << ", ticks driving: VESCs " << s.bal_driving_ticks << ", BTS7960 "
                    << s.io_driving_ticks << ", watchdog resets " << s.resets << ", cap raises " << s.cap_raises
-                   << ", ticks excited " << s.excite_ticks);
+                   << ", ticks excited " << s.excite_ticks << ", test signals started " << s.excite_starts);
   if (found) FAIL("a safety rule broke: " << report(found->first, found->second));
   CHECK(s.ticks >= ticks);
   // The generator reaches what the rules are about (counts measured: about twice these at the default ticks).
@@ -92,6 +93,7 @@ TEST_CASE("explorer: both boards keep every safety rule at every tick of 2 000 0
     CHECK(s.resets >= 2);
     CHECK(s.cap_raises >= 3);
     CHECK(s.excite_ticks >= 1000);
+    CHECK(s.excite_starts >= 8);  // 21 before BALANCE refused a signal below the 50 % cap, 16 with the raises
   }
 }
 

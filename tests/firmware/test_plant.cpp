@@ -272,23 +272,20 @@ TEST_CASE("speed loop: an out-of-range request (+-30000 mm/s) saturates at its s
 
 TEST_CASE("excite: the speed loop's lean is held while a test signal runs, which ends at half the speed cap") {
   // The held lean makes a step measure the pitch loop alone (docs/tuning.md, "Estimate and direct step"); nothing but
-  // the signal then keeps the robot's speed, so at the power-on 10 % cap (200 mm/s) a 1 deg chirp must end once the
-  // filtered speed passes 100 mm/s, well before its 20 s, and leave the robot balancing. Without the hold the
-  // setpoint minus the signal moves; without the speed guard the robot runs into the cap and falls. Since BALANCE's
-  // drive model follows the SET_RPM the VESCs got, seed 3's chirp drifts too little to reach 100 mm/s in its 20 s:
-  // two of the three seeds must be stopped by the guard. (A 1 deg step, which surely reaches it, is not used: at
-  // this cap the robot then falls on the way back, with the old drive model too; docs/tuning.md.)
-  int guarded = 0;
+  // the signal then keeps the robot's speed, so at the 50 % cap (1000 mm/s; BALANCE refuses a signal below it) a
+  // 1 deg step held 20 s must end once the filtered speed passes 500 mm/s (measured: within 3.5 s on every seed),
+  // and leave the robot balancing while the speed loop brings it back. Without the hold the setpoint minus the
+  // signal moves; without the speed guard the step runs its 20 s into the cap and the robot falls.
   for (int seed = 1; seed <= 3; ++seed) {
     sim::WorldConfig config;
     config.plant.seed = static_cast<std::uint32_t>(seed);
     sim::World w(config);
-    REQUIRE(arm(w) != 0);
+    REQUIRE(arm(w, saul::trace::kExciteMinCapPct) != 0);
     w.run_until(w.now_us() + 2'500'000);
     REQUIRE(w.balance().state() == RobotState::balance);
-    w.console_input("balance", "excite chirp 1 0.5 15 20\n");
+    w.console_input("balance", seed == 2 ? "excite step -1 20\n" : "excite step 1 20\n");
     w.run_until(w.now_us() + 5'000);
-    REQUIRE(w.balance().excitation() == saul::trace::Excite::chirp);
+    REQUIRE(w.balance().excitation() == saul::trace::Excite::step);
     const auto lean = [&] { return w.balance().last_trace().setpoint_x100 - w.balance().last_trace().excite_x100; };
     const int held = lean();
     const TimeUs started = w.now_us();
@@ -297,11 +294,10 @@ TEST_CASE("excite: the speed loop's lean is held while a test signal runs, which
       w.step();
       if (w.balance().excitation() != saul::trace::Excite::none) moved = std::max(moved, std::abs(lean() - held));
     }
-    INFO("seed " << seed << ": the chirp ran " << seconds(w.now_us() - started) << " s; " << w.status_line());
+    INFO("seed " << seed << ": the step ran " << seconds(w.now_us() - started) << " s; " << w.status_line());
     CHECK(moved <= 1);  // 0.01 deg: the setpoint's rounding
-    if (w.now_us() - started < 15'000'000) ++guarded;
-    w.run_until(w.now_us() + 5'000'000);  // the speed loop brings the robot back
+    CHECK(w.now_us() - started < 6'000'000);
+    w.run_until(w.now_us() + 8'000'000);  // the speed loop brings the robot back
     CHECK(w.balance().state() == RobotState::balance);
   }
-  CHECK(guarded >= 2);
 }

@@ -1,7 +1,7 @@
 // BALANCE's loop trace, flight recorder and excitation (docs/protocol.md section 10): records read back by hand
 // from the console bytes (fields at their documented offsets, CRC-8/MAXIM bit by bit, never the codec's decoder),
-// the counters, the ring frozen at a latch, and the test signal's safety: only in BALANCE, gone in the iteration
-// that leaves it, refused or stopped by a speed request.
+// the counters, the ring frozen at a latch, and the test signal's safety: only in BALANCE and at a speed cap of at
+// least trace::kExciteMinCapPct, gone in the iteration that leaves either, refused or stopped by a speed request.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -51,9 +51,11 @@ std::vector<Read> records(const Bytes& tx, std::string* text = nullptr) {
   return out;
 }
 
-/// A rig armed in BALANCE, upright.
-void arm(BalanceRig& rig) {
+/// A rig armed in BALANCE, upright, its speed cap first raised (disarmed, one 10 % step per line) to cap_pct: a test
+/// signal needs trace::kExciteMinCapPct.
+void arm(BalanceRig& rig, int cap_pct = trace::kExciteMinCapPct) {
   rig.run_ms(30);
+  for (int pct = 20; pct <= cap_pct; pct += 10) REQUIRE(rig.reply_to("speed_limit " + std::to_string(pct)) == "ok\n");
   rig.arm_via_io();
   REQUIRE(rig.board->state() == RobotState::balance);
 }
@@ -260,4 +262,45 @@ TEST_CASE("excite chirp: the offset follows the closed form A sin(2 pi (f0 t + (
     const double expected = 2.0 * std::sin(2.0 * M_PI * (1.0 * t + (9.0 - 1.0) * t * t / (2.0 * 4.0)));
     REQUIRE(std::fabs(rig.board->excitation_deg() - expected) < 2e-3);
   }
+}
+
+TEST_CASE("excite: refused below the minimum speed cap with the fix named, and a cap lowered while it runs ends it") {
+  // The cap the simulator showed too low (docs/tuning.md): speed_limit 10 and 40 %, each refused with its fix.
+  for (const int low : {10, 40}) {
+    BalanceRig rig;
+    arm(rig, low);
+    CHECK(rig.reply_to("excite step 1 2") == "error: excite needs the speed cap >= 50 % (speed_limit is " +
+                                                 std::to_string(low) +
+                                                 " %: disarm, raise it to 50 one 10 % step at a time, arm again) "
+                                                 "[not_allowed]\n");
+    CHECK(rig.board->excitation() == trace::Excite::none);
+    CHECK(rig.board->last_trace().excite == 0);
+  }
+  BalanceRig rig;
+  arm(rig);  // 50 %: exactly the minimum runs
+  CHECK(rig.reply_to("excite chirp 1 0.5 5 10") == "ok\n");
+  rig.run_ms(20);
+  REQUIRE(rig.board->excitation() == trace::Excite::chirp);
+  // Lowering the cap is allowed while armed: the iteration that reads it ends the signal.
+  rig.type("speed_limit 40");
+  rig.tick();
+  CHECK(rig.board->speed_limit_pct() == 40);
+  CHECK(rig.board->excitation() == trace::Excite::none);
+  CHECK(rig.board->last_trace().excite == 0);
+  CHECK(rig.board->state() == RobotState::balance);  // the robot keeps balancing; only the signal ends
+
+  // The Orin's 0x303 max speed lowers the cap too: 1000 mm/s (50 % of 2000) runs, 999 ends it and is named.
+  BalanceRig orin;
+  arm(orin);
+  orin.can.rx.push_back(saulcan::encode(saulcan::ConfigCmd{2500, 1000}));
+  orin.run_ms(5);
+  CHECK(orin.reply_to("excite prbs 1 10") == "ok\n");
+  orin.run_ms(20);
+  REQUIRE(orin.board->excitation() == trace::Excite::prbs);
+  orin.can.rx.push_back(saulcan::encode(saulcan::ConfigCmd{2500, 999}));
+  orin.tick();
+  CHECK(orin.board->speed_cap_mmps() == 999);
+  CHECK(orin.board->excitation() == trace::Excite::none);
+  CHECK(orin.reply_to("excite step 1 2") ==
+        "error: excite needs the speed cap >= 50 % (the Orin's 0x303 max speed holds it at 999 mm/s) [not_allowed]\n");
 }

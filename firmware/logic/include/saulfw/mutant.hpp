@@ -26,8 +26,9 @@ enum class Id : std::uint8_t {
   hold_cancel,        ///< rule 1: a stop or disarm that leaves the state as it was does not cancel a button hold
   arm_from_latch,     ///< arming (console arm, a button hold) leaves ESTOP, TILT_CUTOFF or FAULT without a disarm
   excite_latch,       ///< the excitation survives leaving BALANCE (a latch, a disarm)
+  excite_cap,         ///< a test signal starts and runs below trace::kExciteMinCapPct of the speed cap
 };
-inline constexpr int kCount = 15;  ///< none included
+inline constexpr int kCount = 16;  ///< none included
 
 constexpr const char* name(Id id) noexcept {
   switch (id) {
@@ -46,6 +47,7 @@ constexpr const char* name(Id id) noexcept {
     case Id::hold_cancel: return "hold_cancel";
     case Id::arm_from_latch: return "arm_from_latch";
     case Id::excite_latch: return "excite_latch";
+    case Id::excite_cap: return "excite_cap";
   }
   return "?";
 }

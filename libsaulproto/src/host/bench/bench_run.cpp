@@ -11,11 +11,20 @@
 #include "saulproto/host/bench/bench_tune.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
+#include "saulproto/host/report/trace_report.hpp"
 
 namespace saul::host::benchtest {
 namespace {
 
 std::string us_text(std::uint64_t us) { return fmt::format("{:.3f} s", static_cast<double>(us) / 1e6); }
+
+/// BALANCE's first "error: ..." line among a trace's console bytes (its records skipped), or empty.
+std::string refusal_in(const std::string& bytes) {
+  TraceTap tap;
+  tap.push(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+  tap.finish();
+  return tap.refusal();
+}
 
 std::string xml_escape(const std::string& s) {
   std::string o;
@@ -300,6 +309,15 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           collect(left, bytes);
           type(trace::TraceOff{});
           collect(20'000, bytes);  // the records still on their way
+          if (const std::string refused = refusal_in(bytes); !refused.empty()) {
+            r.status = StepResult::Status::failed;
+            r.message = "BALANCE refused: " + refused;
+            if (refused.find(trace::kExciteCapRefusal) != std::string::npos)
+              r.message += fmt::format(" (raise the cap before arming: 'console balance speed_limit 20 expect ok', "
+                                       "then 30, 40 ... {})", trace::kExciteMinCapPct);
+            traced.reset();
+            break;
+          }
           traced = analyse_trace(bytes, fmt::format("{}:{}", suite.path, step.line));
           trace_skipped = false;
           r.output = tune_figures_text(*traced);
