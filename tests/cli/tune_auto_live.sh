@@ -16,7 +16,8 @@ sim=
 trap '[[ -n $sim ]] && kill "$sim" 2>/dev/null; rm -rf "$work"' EXIT
 cd "$work" || exit 1
 
-"$saulctl" sim --quiet --paths-file paths --for 600s >sim.log 2>&1 &
+# The simulator outlives the test (its ctest timeout is 900 s; the EXIT trap ends it): a loaded machine ran past 600 s.
+"$saulctl" sim --quiet --paths-file paths --for 1000s >sim.log 2>&1 &
 sim=$!
 for _ in $(seq 200); do [[ -s paths ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' paths)
