@@ -5,7 +5,9 @@
 //       Reads FILE with the indexed reader (summary, chunk indexes) and with the streaming reader (CRCs checked);
 //       both must give the same messages. Every message must validate against its channel's JSON Schema; per
 //       channel, the counts must equal what `saulctl stats --json` (STATS.json) says; the frames and decoded
-//       messages must equal `saulctl decode --json` (DECODE.jsonl), line by line. Prints the counts per topic.
+//       messages must equal `saulctl decode --json` (DECODE.jsonl), line by line: a decoded message holds decode's
+//       values but for its type and a VESC's controller_id, which its topic must say (/saul/TYPE,
+//       /vesc/CONTROLLER/TYPE without "vesc_"). Prints the counts per topic.
 //   node mcap_check.mjs stream FILE.mcap
 //       Streams FILE as far as it goes (a file cut short): prints {"frames":N,"error":"..."}.
 //   node mcap_check.mjs chunks FILE.mcap
@@ -171,9 +173,14 @@ async function verify() {
     if (!same(JSON.parse(text.decode(m.data)), frame)) fail(`frame ${text.decode(m.data)} != decode's ${JSON.stringify(frame)}`);
     if (BigInt(timestamp_ns) !== m.logTime) fail(`frame log time ${m.logTime} != decode's ${timestamp_ns}`);
     if (line.message) {
+      // decode's message without what the topic says: its type, and a VESC's controller_id
+      const { type, controller_id, ...physical } = line.message;
+      const want = controller_id === undefined ? `/saul/${type}` : `/vesc/${controller_id}/${type.replace(/^vesc_/, "")}`;
       const d = streamed.messages[i++];
       const value = d && JSON.parse(text.decode(d.data));
-      if (!d || !same(value, line.message)) fail(`decoded ${JSON.stringify(value)} != decode's ${JSON.stringify(line.message)}`);
+      if (!d || !same(value, physical)) fail(`decoded ${JSON.stringify(value)} != decode's ${JSON.stringify(line.message)} (type, controller_id left out)`);
+      const topic = indexed.channelsById.get(d.channelId).topic;
+      if (topic !== want) fail(`decoded ${JSON.stringify(line.message)} on ${topic}, not on ${want}`);
       if (d.logTime !== m.logTime) fail(`decoded message at ${d.logTime}, its frame at ${m.logTime}`);
     }
   }

@@ -61,3 +61,55 @@ TEST_CASE("mcap signals: a message kind's channel id is its place in the signal 
     CHECK(seen == (vesc_first ? std::vector<std::string>{s, a} : std::vector<std::string>{a, s}));
   }
 }
+
+TEST_CASE("mcap signals: each frame's message, then its decoded one without what the topic says (type, controller)") {
+  // Values worked out by hand from the frames: telemetry_a pitch 0x04D2 = 1234 x 1/100 deg, pid_out 0x78, speed
+  // 0x190, state 1 = BALANCE; status_1 of VESC 56: erpm 0xFFFFFB50 = -1200, current 0x23 = 35 x 1/10 A, duty
+  // 0xFA = 250 x 1/1000. No "type" (the topic and schema say it) and no "controller_id" (the topic's /vesc/56/).
+  const CanFrame telemetry = frame(0x400, false, {0xD2, 0x04, 0x78, 0x00, 0x90, 0x01, 0x01}, 1'000);
+  const CanFrame status = frame(0x938, true, {0xFF, 0xFF, 0xFB, 0x50, 0x00, 0x23, 0x00, 0xFA}, 2'000);
+  CanFrame remote = frame(0x400, false, {}, 5'000);
+  remote.remote = true;
+  remote.dlc = 7;
+  std::ostringstream out;
+  McapWriterOptions o;
+  o.compression = McapCompression::none;
+  {
+    McapCaptureWriter w(out, o, [] { return std::make_unique<McapSignalChannels>(); });
+    w.write(telemetry, "can0");
+    w.write(status, "can0");
+    // The same contents again (the cache's): their own time and interface.
+    CanFrame again = status;
+    again.timestamp_ns = 3'000;
+    w.write(again, "can1");
+    again = telemetry;
+    again.timestamp_ns = 4'000;
+    w.write(again, "can0");
+    w.write(remote, "can0");  // on /can/frames only
+    w.close();
+  }
+  const std::string file = out.str();
+  std::istringstream in(file);
+  McapRecordReader r(in, file.size());
+  std::vector<std::string> seen;  // "time topic data"
+  while (r.next() == McapRecordReader::Status::message) {
+    const auto& m = r.message();
+    seen.push_back(std::to_string(m.log_time) + " " + r.channel(m.channel_id)->topic + " " +
+                   std::string(m.data.begin(), m.data.end()));
+  }
+  const std::string a = R"({"pid_out":120,"pitch":12.34,"pitch_raw":1234,"speed_mmps":400,"state":"BALANCE"})";
+  const std::string s = R"({"current":3.5,"duty":0.25,"erpm":-1200})";
+  const std::string fa = R"({"id":1024,"extended":false,"remote":false,"error":false,"dlc":7,"data":"D2047800900101","interface":)";
+  const std::string fs = R"({"id":2360,"extended":true,"remote":false,"error":false,"dlc":8,"data":"FFFFFB50002300FA","interface":)";
+  CHECK(seen == std::vector<std::string>{
+                    "1000 /can/frames " + fa + R"("can0"})",
+                    "1000 /saul/telemetry_a " + a,
+                    "2000 /can/frames " + fs + R"("can0"})",
+                    "2000 /vesc/56/status_1 " + s,
+                    "3000 /can/frames " + fs + R"("can1"})",
+                    "3000 /vesc/56/status_1 " + s,
+                    "4000 /can/frames " + fa + R"("can0"})",
+                    "4000 /saul/telemetry_a " + a,
+                    R"(5000 /can/frames {"id":1024,"extended":false,"remote":true,"error":false,"dlc":7,"data":"","interface":"can0"})",
+                });
+}

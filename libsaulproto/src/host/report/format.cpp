@@ -280,6 +280,8 @@ struct Layout {
     bool raw = false;    ///< a scaled wire integer's integer (raw_key()), not its physical value
   };
   std::vector<Member> members;  ///< by key, sorted as nlohmann sorts an object
+  /// The same without what an MCAP topic says, "type" and the signals of the CAN id (MessageFormat::mcap_json).
+  std::vector<Member> mcap_members;
 };
 
 Layout make_layout(const MessageDesc& d) {
@@ -300,6 +302,9 @@ Layout make_layout(const MessageDesc& d) {
     append_json_string(key, m.prefix);
     m.prefix = key + ':';
   }
+  for (const auto& m : l.members)
+    if (m.signal >= 0 && d.signals[static_cast<std::size_t>(m.signal)].place != signals::Place::can_id)
+      l.mcap_members.push_back(m);
   return l;
 }
 
@@ -325,11 +330,12 @@ void write_text(std::string& out, const MessageDesc& d, const Readings& r) {
   }
 }
 
-void write_json(std::string& out, const MessageDesc& d, const Readings& r) {
+/// `mcap`: without what an MCAP topic says (MessageFormat::mcap_json).
+void write_json(std::string& out, const MessageDesc& d, const Readings& r, bool mcap = false) {
   const Layout& l = layout_of(d);
   out += '{';
   bool any = false;
-  for (const auto& m : l.members) {
+  for (const auto& m : mcap ? l.mcap_members : l.members) {
     const auto i = static_cast<std::size_t>(m.signal);
     if (m.signal >= 0 && !r[i].present) continue;  // a multiplexed signal this frame does not carry
     if (any) out += ',';
@@ -349,8 +355,8 @@ void write_json(std::string& out, const MessageDesc& d, const Readings& r) {
 }
 
 void write(std::string& out, MessageFormat format, const MessageDesc& d, const Readings& r) {
-  if (format == MessageFormat::json) return write_json(out, d, r);
-  write_text(out, d, r);
+  if (format == MessageFormat::text) return write_text(out, d, r);
+  write_json(out, d, r, format == MessageFormat::mcap_json);
 }
 
 SignalValues values_of(const MessageDesc& d, const Readings& r) {

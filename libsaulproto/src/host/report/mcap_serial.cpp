@@ -67,7 +67,8 @@ std::string mcap_serial_topic(SerialProtocol protocol, std::size_t nth_link_of_p
 
 std::string mcap_serial_json_schema(const SerialMessage& message) {
   if (is_decode_error(message)) return undecoded_schema().dump();
-  std::string schema = mcap_json_schema(*signal_values(message).message);  // every other message is described
+  // every other message is described; a serial message keeps decode's "type" (a few a second, not one per frame)
+  std::string schema = mcap_json_schema(*signal_values(message).message, true);
   if (std::holds_alternative<CrsfMessage>(message)) {  // to_json() adds the frame's address
     auto j = nlohmann::json::parse(schema);
     j["properties"]["address"] = {{"type", "integer"}, {"minimum", 0}, {"maximum", 255},

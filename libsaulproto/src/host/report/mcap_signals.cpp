@@ -59,11 +59,15 @@ std::string mcap_topic(const signals::MessageDesc& message, std::uint32_t contro
   return fmt::format("/saul/{}", message.name);
 }
 
-std::string mcap_json_schema(const signals::MessageDesc& message) {
+std::string mcap_json_schema(const signals::MessageDesc& message, bool with_type) {
   nlohmann::json props = nlohmann::json::object();
-  nlohmann::json required = nlohmann::json::array({"type"});
-  props["type"] = {{"const", message.name}, {"description", "the message's name"}};
+  nlohmann::json required = nlohmann::json::array();
+  if (with_type) {
+    props["type"] = {{"const", message.name}, {"description", "the message's name"}};
+    required.push_back("type");
+  }
   for (const auto& s : message.signals) {
+    if (s.place == signals::Place::can_id) continue;  // the topic's (MessageFormat::mcap_json)
     // a multiplexed signal, or a CRSF subset channel (Place::by_header), is in some messages only
     const bool always = s.mux != signals::Mux::multiplexed && s.place != signals::Place::by_header;
     if (always) required.push_back(s.name);
@@ -78,8 +82,12 @@ std::string mcap_json_schema(const signals::MessageDesc& message) {
     }
   }
   nlohmann::json schema = {{"title", message.name},
-                           {"description", fmt::format("{} ({} -> {}), as saulctl decode --json shows it",
-                                                       message.name, message.sender, message.receiver)},
+                           {"description", fmt::format("{} ({} -> {}), as saulctl decode --json shows it{}",
+                                                       message.name, message.sender, message.receiver,
+                                                       with_type ? ""
+                                                       : message.protocol == signals::Protocol::vesc_can
+                                                           ? " without what the topic says (type, controller_id)"
+                                                           : " without what the topic says (type)")},
                            {"type", "object"},
                            {"properties", props},
                            {"required", required},
@@ -94,27 +102,31 @@ std::uint16_t mcap_channel_id(const signals::MessageDesc& message, std::uint32_t
   return static_cast<std::uint16_t>(1 + place);
 }
 
-void McapSignalChannels::on_frame(const CanFrame& frame, std::uint64_t log_time, McapChunk& chunk) {
-  if (frame.error || frame.remote) return;
+void McapSignalChannels::on_frame(const CanFrame& frame, std::uint64_t log_time, std::string_view interface_json,
+                                  McapChunk& chunk) {
   const FrameKey key = frame_key(frame);
   const std::size_t at = key.slot(kCache);
   Rendered& slot = cache_[at];
   if (keys_[at] != key) {
     keys_[at] = key;
-    slot.decoded = render(frame, slot);
+    render(frame, slot);
   }
-  if (slot.decoded) chunk.add_message(slot.channel, log_time, slot.json);
+  const std::string_view text = slot.text;
+  add_frame_message(chunk, kMcapFramesChannel, text.substr(0, slot.head), log_time, interface_json);
+  if (slot.decoded) chunk.add_message(slot.channel, log_time, text.substr(slot.head));
 }
 
-bool McapSignalChannels::render(const CanFrame& frame, Rendered& slot) {
+void McapSignalChannels::render(const CanFrame& frame, Rendered& slot) {
+  std::array<char, kMcapFrameHeadMax> head;
+  slot.head = static_cast<std::size_t>(mcap_frame_json_head(frame, head.data()) - head.data());
+  slot.text.assign(head.data(), slot.head);
+  slot.decoded = false;
+  if (frame.error || frame.remote) return;
   const signals::MessageDesc* d = signals::find_can(frame.id, frame.extended);
-  if (d == nullptr) return false;
-  const auto message = decode_bus_frame(frame);
-  if (!message) return false;  // rejected: on /can/frames only
+  if (d == nullptr || !decode_bus_frame(frame)) return;  // rejected: on /can/frames only
   slot.channel = mcap_channel_id(*d, d->protocol == signals::Protocol::vesc_can ? (frame.id & 0xFF) : 0);
-  slot.json.clear();
-  append_message(slot.json, MessageFormat::json, *d, signals::Wire{frame.id, frame.payload()});
-  return true;
+  append_message(slot.text, MessageFormat::mcap_json, *d, signals::Wire{frame.id, frame.payload()});
+  slot.decoded = true;
 }
 
 bool McapSignalChannels::declare(McapWriter& out, std::uint16_t channel_id) {

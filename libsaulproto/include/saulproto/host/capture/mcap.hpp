@@ -120,7 +120,7 @@ class McapChunk {
   /// chunk_bytes, or would span chunk_ns of log time.
   [[nodiscard]] bool full(const McapWriterOptions& options, std::uint64_t log_time) const noexcept;
   [[nodiscard]] bool empty() const noexcept { return !has_messages_; }
-  [[nodiscard]] std::size_t bytes() const noexcept { return records_.size(); }
+  [[nodiscard]] std::size_t bytes() const noexcept { return used_; }
   /// The records' CRC-32 and their compression: the costly part of writing a chunk, done by the thread holding it.
   void seal(McapSealer& sealer);
 
@@ -142,7 +142,11 @@ class McapChunk {
   };
   /// Emptied, its memory kept for the next one.
   void clear();
+  /// The records: records_'s first used_ bytes (records_ grows and never shrinks: a resize() up and down per
+  /// message was a third of begin_message()).
+  [[nodiscard]] std::span<const std::uint8_t> records() const noexcept { return {records_.data(), used_}; }
   std::vector<std::uint8_t, NoInit<std::uint8_t>> records_;
+  std::size_t used_ = 0;
   std::vector<TimeOffsets> index_;       ///< by channel id (grown to the largest used)
   std::vector<std::uint16_t> channels_;  ///< the ids with entries in index_
   std::uint64_t start_ = 0, end_ = 0;
@@ -257,9 +261,16 @@ class McapWriter {
   std::exception_ptr failure_;
 };
 
-/// A frame's message on "/can/frames" (the JSON below) written into a chunk; `interface_json` is the interface's
-/// name as a JSON string (McapInterfaceJson). Cost O(1).
+/// A frame's "/can/frames" JSON (above) up to its interface's value, `{"id":291,...,"interface":`, written at `out`
+/// (room for kMcapFrameHeadMax bytes); returns its end.
+inline constexpr std::size_t kMcapFrameHeadMax = 128;
+char* mcap_frame_json_head(const CanFrame& frame, char* out);
+/// A frame's message on "/can/frames" written into a chunk; `interface_json` is the interface's name as a JSON
+/// string (McapInterfaceJson). Cost O(1).
 void add_frame_message(McapChunk& chunk, std::uint16_t channel_id, const CanFrame& frame, std::uint64_t log_time,
+                       std::string_view interface_json);
+/// The same from the frame's mcap_frame_json_head() made before (a cache of them).
+void add_frame_message(McapChunk& chunk, std::uint16_t channel_id, std::string_view head, std::uint64_t log_time,
                        std::string_view interface_json);
 /// The JSON string of the last interface name asked for, made again only when the name changes.
 class McapInterfaceJson {
@@ -275,8 +286,10 @@ class McapInterfaceJson {
 class McapFrameExtra {
  public:
   virtual ~McapFrameExtra() = default;
-  /// Messages for `frame` in `chunk` (the frame's own is already there).
-  virtual void on_frame(const CanFrame& frame, std::uint64_t log_time, McapChunk& chunk) = 0;
+  /// The frame's messages in `chunk`: its own on kMcapFramesChannel first (add_frame_message(), whose head an
+  /// extra may keep in a cache of its own with what else it renders of the frame), then its channels'.
+  virtual void on_frame(const CanFrame& frame, std::uint64_t log_time, std::string_view interface_json,
+                        McapChunk& chunk) = 0;
   /// Adds a channel its messages use to `out` (McapWriter::on_undeclared); false for an id it does not know.
   virtual bool declare(McapWriter& out, std::uint16_t channel_id) = 0;
 };

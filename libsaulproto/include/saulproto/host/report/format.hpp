@@ -54,8 +54,9 @@ std::string raw_key(const signals::SignalDesc& s);
 /// its JSON object {"speed_mmps":1000,"steer_mrad":-500,"type":"velocity_cmd"} (keys sorted, as nlohmann writes
 /// objects). describe() and to_json() below (CRSF and Pride messages: their structs' values read into the same
 /// signals), decode's and sniff's lines (fast_emit.hpp) and MCAP's messages all come from here. O(message size),
-/// no allocation beyond out's growth.
-enum class MessageFormat : std::uint8_t { text, json };
+/// no allocation beyond out's growth. mcap_json: the JSON object without what an MCAP channel's topic already
+/// says (mcap_signals.hpp): no "type", no signal read from the CAN id (a VESC's "controller_id").
+enum class MessageFormat : std::uint8_t { text, json, mcap_json };
 void append_message(std::string& out, MessageFormat format, const signals::MessageDesc& message,
                     const signals::Wire& wire);
 
