@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job on a machine with no robot: sets up, builds saulctl, starts the simulated SAUL-TEE (both boards'
-# firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), arms it with the virtual button,
+# firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), raises its speed cap to 50 % and arms it with the virtual button,
 # puts it in balance mode and shows it balancing in `saulctl monitor`; then the tuning instrument: 10 s of the
 # balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on BALANCE's console) and what
 # it says about the gains (`saulctl tune report`: step response, oscillation, saturation; build/demo-tune.html).
@@ -29,6 +29,9 @@ balance=$(sed -n 's/^balance=//p' "$paths")
 echo "simulated robot: CAN on slcan:$can, control console $control (see build/sim.log)"
 
 sleep 1                              # BALANCE reports itself upright to IO
+# The speed cap, 10 % at power-on, raised while disarmed (10 % a step) to 50 %: BALANCE runs a test signal (the
+# chirp below) only from there (docs/tuning.md).
+for pct in 20 30 40 50; do "$saulctl" console "$balance" speed_limit "$pct" >/dev/null; done
 echo "button down" >"$control"       # the arming button: held 3 s while upright
 sleep 3.2
 echo "button up" >"$control"
