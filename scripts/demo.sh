@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The main job on a machine with no robot: sets up, builds saulctl, starts the simulated SAUL-TEE (both boards'
-# firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), raises its speed cap to 50 % and arms it with the virtual button,
-# puts it in balance mode and shows it balancing in `saulctl monitor`; then the tuning instrument: 10 s of the
-# balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on BALANCE's console) and what
-# it says about the gains (`saulctl tune report`: step response, oscillation, saturation; build/demo-tune.html).
+# firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), raises its speed cap to 50 % and arms it
+# with the virtual button, puts it in balance mode and shows it balancing in `saulctl monitor`; then the tuning
+# instrument: 10 s of the balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on
+# BALANCE's console) and what it says about the gains (`saulctl tune report`: step response, oscillation,
+# saturation; build/demo-tune.html).
 #   scripts/demo.sh                 20 s of live telemetry (SAUL_DEMO_SECONDS to change)
 #   scripts/demo.sh decode FILE     any other saulctl command instead (e.g. decode captures/robot_bus.log)
 set -euo pipefail
