@@ -1,4 +1,4 @@
-// saulctl test: run scripted bench suites (tests/bench/*.saul) against the simulator or the real robot.
+// saulctl test: run scripted bench suites (tests/suites/*.saul) against the simulator or the real robot.
 #include <fmt/core.h>
 
 #include <fstream>
@@ -6,13 +6,13 @@
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/host/bench/bench_live.hpp"
+#include "saulproto/host/suite/live_target.hpp"
 #include "saulsim/sim_target.hpp"
 
 namespace saulctl {
 namespace {
 
-namespace bt = saul::host::benchtest;
+namespace bt = saul::host::suite;
 
 struct TestOptions {
   std::vector<std::string> suites;
@@ -106,7 +106,7 @@ int run_tests(const TestOptions& opt) {
 void add_test_command(CLI::App& app, Runner& run) {
   auto [cmd, o] = add_verb<TestOptions>(
       app, run, "test", "Run scripted bench test suites (*.saul) against the robot or the simulator", run_tests);
-  cmd->add_option("suites", o->suites, "suite files, e.g. tests/bench/*.saul")->required()->check(CLI::ExistingFile);
+  cmd->add_option("suites", o->suites, "suite files, e.g. tests/suites/*.saul")->required()->check(CLI::ExistingFile);
   add_link_option(cmd, o->link);
   cmd->add_option("--console-balance", o->console_balance, "BALANCE board USB console port (for 'console balance' steps)");
   cmd->add_option("--console-io", o->console_io, "IO board USB console port (for 'console io' steps)");
@@ -118,9 +118,9 @@ void add_test_command(CLI::App& app, Runner& run) {
       "\nA suite is one step per line (send, stream, stop, expect, hold, console, sim, wait, trace + expect tune);\n"
       "see docs/bench-tests.md.\n"
       "Steps that need something this target lacks (a console, the simulator) are skipped, not failed.\n"
-      "\nExamples:\n  saulctl test --sim tests/bench/*.saul --junit results.xml     the simulator, fast and repeatable\n"
-      "  saulctl sim & saulctl test tests/bench/*.saul --link slcan:CAN --console-balance BAL --sim-control CTL\n"
-      "  saulctl test tests/bench/arm_and_balance.saul --link can0 --console-balance /dev/ttyACM1 --junit out.xml\n"
+      "\nExamples:\n  saulctl test --sim tests/suites/*.saul --junit results.xml     the simulator, fast and repeatable\n"
+      "  saulctl sim & saulctl test tests/suites/*.saul --link slcan:CAN --console-balance BAL --sim-control CTL\n"
+      "  saulctl test tests/suites/arm_and_balance.saul --link can0 --console-balance /dev/ttyACM1 --junit out.xml\n"
       "\nExit codes: 0 all passed (or skipped), 1 a suite failed, 2 a suite file has an error.\n");
 }
 

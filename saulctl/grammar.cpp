@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "saulproto/core/quantity.hpp"
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 #include "saulproto/host/replay/replay.hpp"
 
 namespace saulctl {

@@ -77,14 +77,14 @@ for attempt in 1 2 3; do
   sim=$!
   for _ in $(seq 200); do [[ -s paths ]] && break; sleep 0.05; done
   "$saulctl" test --link "slcan:$(sed -n 's/^can=//p' paths)" --console-balance "$(sed -n 's/^balance=//p' paths)" \
-    --sim-control "$(sed -n 's/^control=//p' paths)" "$2/tests/bench/tune_figures.saul" >live.txt 2>&1
+    --sim-control "$(sed -n 's/^control=//p' paths)" "$2/tests/suites/tune_figures.saul" >live.txt 2>&1
   status=$?
   kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
   echo "live attempt $attempt: exit $status"
   [[ $status -eq 0 ]] && break
   cat live.txt
 done
-check "live (saulctl sim's ptys): tests/bench/tune_figures.saul passes" test $status -eq 0
+check "live (saulctl sim's ptys): tests/suites/tune_figures.saul passes" test $status -eq 0
 records=$(sed -n 's/.*trace chirp 1 for 20s  -> \([0-9]*\) records at.*/\1/p' live.txt)
 check "live: the 20 s trace came through the console port (${records:-no} records)" test "${records:-0}" -ge 18000
 

@@ -113,7 +113,7 @@ inline Result run(const Episode& e) { return run(e, e.events); }
 /// max_runs replays.
 std::vector<Event> shrink(const Episode& e, const Violation& v, int max_runs = 400);
 
-/// One event as text, and the whole sequence as a bench suite (tests/bench syntax, requires: sim) whose last steps
+/// One event as text, and the whole sequence as a bench suite (tests/suites syntax, requires: sim) whose last steps
 /// check the violated rule: it fails where the violation happens and passes on a robot that keeps the rule.
 std::string describe(const Event& event);
 std::string to_saul(const Episode& e, const std::vector<Event>& events, const Violation& v);

@@ -141,6 +141,6 @@ if m:
     put("serial_pulseview_csv", "unit", csv.encode().decode("unicode_escape"))
 put("serial_pulseview_csv", "minimal", 'Sample,Time,Decoder,Ann Row,Ann Class,Value\n1,0.0001,UART,RX,RX data,AA\n')
 
-for name in sorted(os.listdir(os.path.join(root, "tests", "bench"))):
+for name in sorted(os.listdir(os.path.join(root, "tests", "suites"))):
     if name.endswith(".saul"):
-        put("bench_suite", name[:-5], read("tests/bench/" + name))
+        put("suite", name[:-5], read("tests/suites/" + name))

@@ -25,7 +25,7 @@ declare -A max_len=(
   [capture_blf]=4096 [capture_trc]=4096 [capture_csv]=4096 [capture_gvret_csv]=4096 [capture_mcap]=4096
   [compressed_gzip]=4096 [compressed_zstd]=4096
   [serial_serial]=4096 [serial_sigrok]=4096 [serial_sigrok_json]=8192 [serial_pulseview_csv]=4096
-  [bench_suite]=4096
+  [suite]=4096
 )
 targets=("$@")
 # Every target the build made (a list kept here let two built targets go unrun in CI for weeks).

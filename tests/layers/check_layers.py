@@ -20,7 +20,7 @@ HOST_ALLOWED = {
     "robot": {"link"},
     "replay": {"link", "capture", "report"},
     "flash": {"link"},
-    "bench": {"link", "capture", "report", "tune"},
+    "suite": {"link", "capture", "report", "tune"},
     "tune": {"capture", "report"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')

@@ -12,12 +12,12 @@
 
 #include <deque>
 
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 #include "saulsim/world.hpp"
 
 namespace saul::sim {
 
-class SimTarget final : public host::benchtest::Target {
+class SimTarget final : public host::suite::Target {
  public:
   explicit SimTarget(World& world) : world_(world) {}
 

@@ -4,10 +4,10 @@
 
 #include "fuzz_util.hpp"
 #include "saulproto/core/quantity.hpp"
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  using namespace saul::host::benchtest;
+  using namespace saul::host::suite;
   std::string text(reinterpret_cast<const char*>(data), size);
   std::istringstream in(text);
   try {

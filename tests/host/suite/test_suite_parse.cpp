@@ -6,10 +6,10 @@
 #include <sstream>
 
 #include "saulproto/core/saul_can.hpp"
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 
 using namespace saul;
-using namespace saul::host::benchtest;
+using namespace saul::host::suite;
 namespace sc = saul::saulcan;
 
 namespace {

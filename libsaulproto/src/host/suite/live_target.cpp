@@ -1,8 +1,8 @@
-#include "saulproto/host/bench/bench_live.hpp"
+#include "saulproto/host/suite/live_target.hpp"
 
 #include <fmt/format.h>
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 
 using namespace std::chrono;
 
@@ -87,4 +87,4 @@ std::string LiveTarget::describe() const {
   return s;
 }
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -1,4 +1,4 @@
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 
 #include <fmt/format.h>
 
@@ -13,11 +13,11 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/core/saul_can.hpp"
-#include "saulproto/host/bench/bench_tune.hpp"
+#include "saulproto/host/suite/tune_expect.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 namespace {
 
 namespace sc = saul::saulcan;
@@ -426,4 +426,4 @@ Suite load_suite(const std::string& path) {
   return parse_suite(f, path);
 }
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -1,4 +1,4 @@
-// Running a parsed suite against a target (bench_test.hpp) and its JUnit report. Apart from the parser so that the
+// Running a parsed suite against a target (suite.hpp) and its JUnit report. Apart from the parser so that the
 // parser stands alone (the fuzz build links it without the tuning analysis the `expect tune` step needs).
 #include <fmt/format.h>
 
@@ -7,13 +7,13 @@
 #include <map>
 
 #include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/bench/bench_test.hpp"
-#include "saulproto/host/bench/bench_tune.hpp"
+#include "saulproto/host/suite/suite.hpp"
+#include "saulproto/host/suite/tune_expect.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/report/trace_report.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 namespace {
 
 std::string us_text(std::uint64_t us) { return fmt::format("{:.3f} s", static_cast<double>(us) / 1e6); }
@@ -396,4 +396,4 @@ std::string junit_xml(const std::vector<SuiteResult>& results) {
   return x;
 }
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -1,4 +1,4 @@
-#include "saulproto/host/bench/bench_tune.hpp"
+#include "saulproto/host/suite/tune_expect.hpp"
 
 #include <fmt/format.h>
 
@@ -8,7 +8,7 @@
 
 #include "saulproto/host/tune/series.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 namespace {
 
 /// A figure's value, or why the trace cannot give it.
@@ -111,4 +111,4 @@ std::string check_tune(const std::vector<Condition>& conditions, const tune::Rep
   return {};
 }
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

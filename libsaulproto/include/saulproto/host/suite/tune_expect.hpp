@@ -22,10 +22,10 @@
 #include <string_view>
 #include <vector>
 
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 #include "saulproto/host/tune/analysis.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 
 struct TuneFigure {
   std::string_view name;
@@ -42,7 +42,7 @@ inline constexpr std::array<TuneFigure, 9> kTuneFigures{{{"overshoot", "%"},
                                                          {"falls", ""}}};
 
 /// One `expect tune` condition, its number converted to the figure's unit (600ms -> 0.6). Throws ParseError naming
-/// the figure or unit that is wrong. (Defined with the parser, bench_test.cpp.)
+/// the figure or unit that is wrong. (Defined with the parser, suite_parse.cpp.)
 Condition parse_tune_condition(const std::string& word, const std::string& path, int line);
 
 /// The analysis of a `trace` step's console bytes (a step's name for messages). Throws tune::SeriesError when they
@@ -56,4 +56,4 @@ std::string tune_figures_text(const tune::Report& report);
 /// its measured value and the limit ("overshoot 12.4 % breaks overshoot<0.1%").
 std::string check_tune(const std::vector<Condition>& conditions, const tune::Report& report);
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -24,7 +24,7 @@
 //   wait 1s
 //   trace step 0.5 for 4s                           BALANCE's 1 kHz loop trace for 4 s, with a test signal (step,
 //                                                   chirp or prbs, amplitude in degrees; none: plain `trace for 4s`)
-//   expect tune overshoot<25% settling<0.6s oscillation=none   tuning figures of the last trace (bench_tune.hpp)
+//   expect tune overshoot<25% settling<0.6s oscillation=none   tuning figures of the last trace (tune_expect.hpp)
 //
 // Conditions: SIGNAL OP VALUE with OP one of = != < <= > >=, and |SIGNAL| for the absolute value. Signals are named
 // as `saulctl decode --json` keys them (docs/cli.md "Signal names and units"): pitch in degrees, pitch_raw the wire
@@ -45,7 +45,7 @@
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/trace.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 
 struct Condition {
   enum class Op { eq, ne, lt, le, gt, ge };
@@ -170,4 +170,4 @@ bool holds(const Condition& condition, const FieldValue& value);
 /// and every condition holds. Exposed for tests.
 bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions);
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -7,11 +7,11 @@
 #include <memory>
 #include <string>
 
-#include "saulproto/host/bench/bench_test.hpp"
+#include "saulproto/host/suite/suite.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/serial_port.hpp"
 
-namespace saul::host::benchtest {
+namespace saul::host::suite {
 
 class LiveTarget final : public Target {
  public:
@@ -39,4 +39,4 @@ class LiveTarget final : public Target {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
-}  // namespace saul::host::benchtest
+}  // namespace saul::host::suite

@@ -1,14 +1,14 @@
 // Bench suites' tuning steps: `trace [step|chirp|prbs A] for D` and `expect tune FIGURE OP VALUE...` parsed (units
 // converted, wrong ones refused), and check_tune judging figures written here by hand (not by the analysis).
-// The steps against the simulated robot, end to end: tests/cli/tune_suite.sh and tests/bench/tune_figures.saul.
+// The steps against the simulated robot, end to end: tests/cli/tune_suite.sh and tests/suites/tune_figures.saul.
 #include <catch2/catch.hpp>
 
 #include <sstream>
 
-#include "saulproto/host/bench/bench_tune.hpp"
+#include "saulproto/host/suite/tune_expect.hpp"
 
 using namespace saul;
-using namespace saul::host::benchtest;
+using namespace saul::host::suite;
 
 namespace {
 
