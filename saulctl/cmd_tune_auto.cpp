@@ -218,7 +218,7 @@ int run_live(const TuneAutoOptions& o) {
              "              restored at the end, on Ctrl-C and on any error, and every change printed as it is sent\n");
   fmt::print("  excitation: chirp of {:g} deg on the pitch setpoint, {:g}-{:g} Hz, {:g} s per set, traced {:g} s more\n"
              "              (6 sets: about {:g} s), the loop traced at 1 kHz on BALANCE's console; the robot armed in\n"
-             "              BALANCE on its tether beforehand (it is never armed by this), the speed cap raised to 50 %\n"
+             "              BALANCE on its tether beforehand (it is never armed by this), the speed cap raised to 50-90 %\n"
              "              first while disarmed\n",
              kChirpDeg, kChirpF0, kChirpF1, per_set_s, static_cast<double>(kTail.count()),
              6 * (per_set_s + static_cast<double>(kTail.count()) + 1));
@@ -251,6 +251,12 @@ int run_live(const TuneAutoOptions& o) {
   if (status->speed_limit_pct < saul::trace::kExciteMinCapPct) {
     say("{}: the speed cap is {} %, and BALANCE refuses a test signal below {} %: {}; nothing was sent", port->path(),
         status->speed_limit_pct, saul::trace::kExciteMinCapPct, raise_cap_hint(port->path()));
+    return kFailure;
+  }
+  if (status->speed_limit_pct > saul::trace::kExciteMaxCapPct) {
+    say("{}: the speed cap is {} %, and BALANCE refuses a test signal above {} %: disarm, then 'saulctl console {} "
+        "speed_limit {}', arm again; nothing was sent",
+        port->path(), status->speed_limit_pct, saul::trace::kExciteMaxCapPct, port->path(), saul::trace::kExciteMaxCapPct);
     return kFailure;
   }
   const saul::saulcan::PidGains own{status->kp, status->ki, status->kd};
@@ -382,7 +388,7 @@ void add_tune_auto_command(CLI::App& tune, Runner& run) {
               "  saulctl tune auto --console-balance /dev/ttyACM1         the live robot: prints the plan, sends nothing\n"
               "  saulctl tune auto --console-balance /dev/ttyACM1 --yes   runs it: the robot armed in BALANCE on its tether\n"
               "\nWithout --sim nothing is sent unless --yes is given. With --yes the robot must already be armed in BALANCE\n"
-              "with its speed cap at 50 % or more (motion needs your intent: this never arms, and the cap is raised only\n"
+              "with its speed cap at 50 % to 90 % (motion needs your intent: this never arms, and the cap moves only\n"
               "while disarmed); its gains are read, each scaled set is sent with 'pid' and acknowledged (printed as it is\n"
               "sent), a chirp is traced per set, and the robot's own gains are restored and read back at the end, on\n"
               "Ctrl-C and on any error. The proposal is printed, never applied.\n"

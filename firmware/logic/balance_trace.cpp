@@ -44,16 +44,18 @@ void BalanceBoard::excite_check() noexcept {
   // other half.
   if (balancing_ && std::fabs(speed_filtered_mps_) * 2000.0F > static_cast<float>(speed_cap_mmps())) stop = true;
   // The cap may be lowered while armed (speed_limit, the Orin's 0x303): below the minimum the signal ends at once.
-  if (excite_cap_low()) stop = true;
+  if (excite_cap_outside()) stop = true;
   if (stop) excite_.stop();
 }
 
-bool BalanceBoard::excite_cap_low() const noexcept {
-  // trace::kExciteMinCapPct says why and what the simulator showed: the other half of a low cap is too little to
-  // bring the robot back from where a test signal takes it.
+bool BalanceBoard::excite_cap_outside() const noexcept {
+  // trace::kExciteMinCapPct and kExciteMaxCapPct say why and what the simulator showed: the other half of a low cap
+  // is too little to bring the robot back from where a test signal takes it, and the whole of the full cap brings it
+  // back so hard that it falls.
   if (SAUL_MUTANT(excite_cap)) return false;
-  return static_cast<std::uint32_t>(speed_cap_mmps()) * 100U <
-         static_cast<std::uint32_t>(config_.hard_max_speed_mmps) * trace::kExciteMinCapPct;
+  const auto cap = static_cast<std::uint32_t>(speed_cap_mmps()) * 100U;
+  const auto hard_max = static_cast<std::uint32_t>(config_.hard_max_speed_mmps);
+  return cap < hard_max * trace::kExciteMinCapPct || cap > hard_max * trace::kExciteMaxCapPct;
 }
 
 void BalanceBoard::trace_loop(TimeUs now) noexcept {
@@ -160,14 +162,22 @@ bool BalanceBoard::on_trace_line(std::string_view line, TimeUs now) noexcept {
       write_refusal(out, "excite runs only in BALANCE (arm first)");
       return true;
     }
-    if (excite_cap_low()) {  // the cap is raised only while disarmed: say how, and which limit holds it down
+    if (excite_cap_outside()) {  // the cap moves only while disarmed: say how, and which limit holds it
       console::TextWriter w(scratch_);
-      w.text(trace::kExciteCapRefusal).unsigned_number(trace::kExciteMinCapPct).text(" % (");
-      if (speed_limit_pct_ < trace::kExciteMinCapPct) {
-        w.text("speed_limit is ").unsigned_number(speed_limit_pct_).text(" %: disarm, raise it to ");
-        w.unsigned_number(trace::kExciteMinCapPct).text(" one 10 % step at a time, arm again)");
+      const bool high = static_cast<std::uint32_t>(speed_cap_mmps()) * 100U >
+                        static_cast<std::uint32_t>(config_.hard_max_speed_mmps) * trace::kExciteMaxCapPct;
+      if (high) {  // only speed_limit raises the cap (the Orin's 0x303 only lowers it)
+        w.text(trace::kExciteCapHighRefusal).unsigned_number(trace::kExciteMaxCapPct).text(" % (speed_limit is ");
+        w.unsigned_number(speed_limit_pct_).text(" %: disarm, lower it to ").unsigned_number(trace::kExciteMaxCapPct);
+        w.text(", arm again)");
       } else {
-        w.text("the Orin's 0x303 max speed holds it at ").unsigned_number(speed_cap_mmps()).text(" mm/s)");
+        w.text(trace::kExciteCapRefusal).unsigned_number(trace::kExciteMinCapPct).text(" % (");
+        if (speed_limit_pct_ < trace::kExciteMinCapPct) {
+          w.text("speed_limit is ").unsigned_number(speed_limit_pct_).text(" %: disarm, raise it to ");
+          w.unsigned_number(trace::kExciteMinCapPct).text(" one 10 % step at a time, arm again)");
+        } else {
+          w.text("the Orin's 0x303 max speed holds it at ").unsigned_number(speed_cap_mmps()).text(" mm/s)");
+        }
       }
       const auto n = w.finish();
       write_refusal(out, std::string_view(scratch_, n.ok() ? *n : 0));

@@ -63,12 +63,27 @@ check "... no trace record sent, no excitation" grep -aq "^report=trace divider=
 check "... its gains unchanged" test "$(gains)" = "kp=100 ki=500 kd=3"
 timeout 10 "$saulctl" console "$balance" disarm >/dev/null 2>&1
 exec 3<>"$control"
-printf 'upright\n' >&3  # disarmed, the body fell off balance: back on the bench stand, and the pitch followed
-for _ in $(seq 100); do
-  pitch=$(status | sed -n 's/.* pitch_x100=-\{0,1\}\([0-9]*\) .*/\1/p')
-  [[ -n $pitch && $pitch -le 300 ]] && break
-  sleep 0.1
-done
+upright() {  # disarmed, the body fell off balance: back on the bench stand, and the pitch followed
+  printf 'upright\n' >&3
+  for _ in $(seq 100); do
+    pitch=$(status | sed -n 's/.* pitch_x100=-\{0,1\}\([0-9]*\) .*/\1/p')
+    [[ -n $pitch && $pitch -le 300 ]] && break
+    sleep 0.1
+  done
+}
+upright
+
+# At the full cap BALANCE refuses a test signal too (above 90 % the robot came back so hard that it fell).
+for pct in 20 30 40 50 60 70 80 90 100; do timeout 10 "$saulctl" console "$balance" speed_limit $pct >/dev/null 2>&1; done
+timeout 10 "$saulctl" console "$balance" arm >arm100.txt 2>&1
+check "console arm at the 100 % cap" grep -q "^ok" arm100.txt
+"$saulctl" tune auto --console-balance "$balance" --yes >high.txt 2>high.err
+check "--yes at the 100 % cap: refused, exit 1" test $? -eq 1
+cat high.err
+check "... one line naming the cap, the maximum and the fix, nothing sent" grep -q "^saulctl tune auto: $balance: the speed cap is 100 %, and BALANCE refuses a test signal above 90 %: disarm, then 'saulctl console $balance speed_limit 90', arm again; nothing was sent$" high.err
+check "... and nothing printed as sent" bash -c "! grep -q '^sending' high.txt"
+timeout 10 "$saulctl" console "$balance" disarm >/dev/null 2>&1
+upright
 
 # Arm it: the speed cap raised while disarmed (BALANCE refuses a test signal below 50 %), then the arming button.
 for pct in 20 30 40 50; do timeout 10 "$saulctl" console "$balance" speed_limit $pct >/dev/null 2>&1; done

@@ -607,13 +607,15 @@ class Explorer {
       if (st != RobotState::balance)
         fail("excite", std::string("excitation ") + saul::trace::to_string(bal.excitation()) + " still on in " +
                            state_text(st), "");
-      // and only at a speed cap of at least the minimum: the console's speed_limit, lowered by the Orin's 0x303
+      // and only at a speed cap from the minimum to the maximum: the console's speed_limit, lowered by the Orin's 0x303
       const int hard_max = config_.balance.hard_max_speed_mmps;
       const int cap_mmps = std::min(hard_max * pct / 100, orin_max_mmps_);
-      if (cap_mmps * 100 < hard_max * saul::trace::kExciteMinCapPct)
+      if (cap_mmps * 100 < hard_max * saul::trace::kExciteMinCapPct ||
+          cap_mmps * 100 > hard_max * saul::trace::kExciteMaxCapPct)
         fail("excite", std::string("excitation ") + saul::trace::to_string(bal.excitation()) + " on with the speed cap at " +
-                           std::to_string(cap_mmps) + " mm/s (speed_limit " + std::to_string(pct) + " %), below " +
-                           std::to_string(saul::trace::kExciteMinCapPct) + " %", "");
+                           std::to_string(cap_mmps) + " mm/s (speed_limit " + std::to_string(pct) + " %), outside " +
+                           std::to_string(saul::trace::kExciteMinCapPct) + "-" +
+                           std::to_string(saul::trace::kExciteMaxCapPct) + " %", "");
     }
     excited_ = excited;
     if (bal.last_trace().excite != 0 && bal.last_trace().state != static_cast<std::uint8_t>(RobotState::balance))

@@ -21,8 +21,8 @@
 //               (BALANCE console disarm, 0x302 mode 0, CH5 moved to disarm) without an estop input;
 //   excite      a test signal on the pitch setpoint (`excite ...` on BALANCE's console) only while BALANCE: it
 //               stops in the iteration that leaves it (latch, disarm, estop), and the trace record says so; and
-//               only while the speed cap (speed_limit, lowered by the last 0x303 BALANCE accepted) is at least
-//               trace::kExciteMinCapPct: it stops in the iteration that lowers it;
+//               only while the speed cap (speed_limit, lowered by the last 0x303 BALANCE accepted) is within
+//               trace::kExciteMinCapPct..kExciteMaxCapPct: it stops in the iteration that lowers it below;
 //   cap         every motor output within the speed cap (10 % at power-on, one 10 % step per console command and
 //               only while disarmed; CH7 only lowers the IO board's output).
 //

@@ -304,3 +304,28 @@ TEST_CASE("excite: refused below the minimum speed cap with the fix named, and a
   CHECK(orin.reply_to("excite step 1 2") ==
         "error: excite needs the speed cap >= 50 % (the Orin's 0x303 max speed holds it at 999 mm/s) [not_allowed]\n");
 }
+
+TEST_CASE("excite: refused above the maximum speed cap with the fix named; 90 % runs, and so does 100 % held to "
+          "1800 mm/s by the Orin") {
+  // The full cap is where the simulated robot fell coming back from a test signal (trace::kExciteMaxCapPct).
+  BalanceRig rig;
+  arm(rig, 100);
+  CHECK(rig.reply_to("excite step 1 2") ==
+        "error: excite needs the speed cap <= 90 % (speed_limit is 100 %: disarm, lower it to 90, arm again) "
+        "[not_allowed]\n");
+  CHECK(rig.board->excitation() == trace::Excite::none);
+  CHECK(rig.board->last_trace().excite == 0);
+  BalanceRig ninety;
+  arm(ninety, 90);  // exactly the maximum runs
+  CHECK(ninety.reply_to("excite step 1 2") == "ok\n");
+  ninety.run_ms(5);
+  CHECK(ninety.board->excitation() == trace::Excite::step);
+  // The rule is on the cap in force: the Orin's 0x303 holding a 100 % speed_limit at 1800 mm/s (90 %) allows it.
+  BalanceRig orin;
+  arm(orin, 100);
+  orin.can.rx.push_back(saulcan::encode(saulcan::ConfigCmd{2500, 1800}));
+  orin.run_ms(5);
+  CHECK(orin.reply_to("excite prbs 1 10") == "ok\n");
+  orin.run_ms(5);
+  CHECK(orin.board->excitation() == trace::Excite::prbs);
+}

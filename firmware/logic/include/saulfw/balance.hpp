@@ -211,10 +211,11 @@ class BalanceBoard {
   // the loop trace, the flight recorder and the excitation (balance_trace.cpp)
   void trace_loop(TimeUs now) noexcept;
   /// Stops the excitation at once unless the state is BALANCE, the speed request is within the dead band and the
-  /// speed cap is at least trace::kExciteMinCapPct.
+  /// speed cap is within trace::kExciteMinCapPct..kExciteMaxCapPct.
   void excite_check() noexcept;
-  /// The speed cap now is below trace::kExciteMinCapPct of hard_max_speed_mmps: no test signal may run.
-  [[nodiscard]] bool excite_cap_low() const noexcept;
+  /// The speed cap now is outside trace::kExciteMinCapPct..kExciteMaxCapPct of hard_max_speed_mmps: no test signal
+  /// may run.
+  [[nodiscard]] bool excite_cap_outside() const noexcept;
   /// A trace or excite console line: handled (true), or another command (false).
   bool on_trace_line(std::string_view line, TimeUs now) noexcept;
   void send_trace(const trace::LoopTrace& record) noexcept;

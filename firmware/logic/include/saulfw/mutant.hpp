@@ -26,7 +26,7 @@ enum class Id : std::uint8_t {
   hold_cancel,        ///< rule 1: a stop or disarm that leaves the state as it was does not cancel a button hold
   arm_from_latch,     ///< arming (console arm, a button hold) leaves ESTOP, TILT_CUTOFF or FAULT without a disarm
   excite_latch,       ///< the excitation survives leaving BALANCE (a latch, a disarm)
-  excite_cap,         ///< a test signal starts and runs below trace::kExciteMinCapPct of the speed cap
+  excite_cap,         ///< a test signal starts and runs outside trace::kExciteMinCapPct..kExciteMaxCapPct of the cap
 };
 inline constexpr int kCount = 16;  ///< none included
 

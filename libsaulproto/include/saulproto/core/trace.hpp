@@ -205,9 +205,16 @@ inline constexpr std::uint16_t kMaxDivider = 1000;
 /// (every step, 8 of 10 chirps) and at 20 % (every 2 deg step); from 30 % on none fell. 50 % keeps two 10 % steps
 /// of margin, and is what `tune record --sim`, the bench suites and docs/tuning.md raise the cap to.
 inline constexpr std::uint8_t kExciteMinCapPct = 50;
+/// ... and above this share (%): at the full cap the speed loop, given the whole of it, brings the robot back so
+/// hard that it falls. On the simulator (seeds 1-20, 2 deg steps held 20 s, both signs: tests/firmware/test_plant.cpp)
+/// 16 of 40 fell at 100 %, none of 40 at each of 50, 60, 70, 80 and 90 %. The cap is raised only while disarmed, so
+/// a running signal never crosses this bound; a start above it is refused.
+inline constexpr std::uint8_t kExciteMaxCapPct = 90;
 /// How BALANCE's refusal of a test signal at a low cap begins (then the minimum, " %" and which limit holds the cap
 /// down): saulctl recognises it to name its own way of raising the cap.
 inline constexpr std::string_view kExciteCapRefusal = "excite needs the speed cap >= ";
+/// ... and of one at a high cap (then the maximum, " %" and how to lower it).
+inline constexpr std::string_view kExciteCapHighRefusal = "excite needs the speed cap <= ";
 
 struct TraceOn {
   std::uint16_t divider = 1;
@@ -237,13 +244,13 @@ CommandParse parse_command(std::string_view line) noexcept;
 Result<std::size_t> format_command(const Command& command, std::span<char> out) noexcept;
 
 /// The help lines of these commands ("usage   summary\n" each), for the console's help.
-static_assert(kExciteMinCapPct == 50, "kHelp names it");
+static_assert(kExciteMinCapPct == 50 && kExciteMaxCapPct == 90, "kHelp names them");
 inline constexpr std::string_view kHelp =
     "trace on [N]        stream the loop trace (every Nth loop, default 1)\n"
     "trace off           stop the loop trace\n"
     "trace dump          send the flight recorder (the last 5 s before a latch)\n"
     "trace arm           re-arm the flight recorder\n"
-    "excite step A D     add a step of A deg (|A| <= 2) to the setpoint for D s (<= 20), BALANCE, cap >= 50 %\n"
+    "excite step A D     add a step of A deg (|A| <= 2) to the setpoint for D s (<= 20), BALANCE, cap 50-90 %\n"
     "excite chirp A F0 F1 D  a chirp from F0 to F1 Hz\n"
     "excite prbs A D     a pseudo-random binary sequence (20 ms bits)\n"
     "excite off          stop the test signal\n";
