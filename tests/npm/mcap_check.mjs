@@ -10,6 +10,9 @@
 //       /vesc/CONTROLLER/TYPE without "vesc_"). Prints the counts per topic.
 //   node mcap_check.mjs stream FILE.mcap
 //       Streams FILE as far as it goes (a file cut short): prints {"frames":N,"error":"..."}.
+//   node mcap_check.mjs stream_cuts FILE.mcap STEP
+//       stream for FILE cut at every STEP bytes (STEP, 2 STEP, ... below its size), one process for all the cuts:
+//       prints "CUT FRAMES" per line.
 //   node mcap_check.mjs chunks FILE.mcap
 //       From the summary: each chunk's end offset and how many /can/frames messages it holds, one per line.
 //   node mcap_check.mjs write OUT.mcap DECODE.jsonl
@@ -188,11 +191,23 @@ async function verify() {
   console.log(JSON.stringify(canon(counts)));
 }
 
+async function framesStreamed(bytes, handlers) {
+  const s = await streamAll(bytes, handlers);
+  return { frames: s.messages.filter((m) => s.channels.get(m.channelId)?.topic === "/can/frames").length, error: s.error };
+}
+
 async function stream() {
+  const { frames, error } = await framesStreamed(readFileSync(file), await loadDecompressHandlers());
+  console.log(JSON.stringify({ frames, error: error ?? null }));
+}
+
+async function streamCuts() {
   const handlers = await loadDecompressHandlers();
-  const s = await streamAll(readFileSync(file), handlers);
-  const frames = s.messages.filter((m) => s.channels.get(m.channelId)?.topic === "/can/frames").length;
-  console.log(JSON.stringify({ frames, error: s.error ?? null }));
+  const bytes = readFileSync(file);
+  const step = Number(arg2);
+  if (!(step > 0)) fail(`stream_cuts needs a step in bytes, not ${arg2}`);
+  for (let at = step; at < bytes.length; at += step)
+    console.log(`${at} ${(await framesStreamed(bytes.subarray(0, at), handlers)).frames}`);
 }
 
 async function chunks() {
@@ -325,6 +340,7 @@ else if (mode === "serial_stream") await serialStream();
 else if (mode === "trace") await trace();
 else if (mode === "serial") await serial();
 else if (mode === "stream") await stream();
+else if (mode === "stream_cuts") await streamCuts();
 else if (mode === "write") await write();
 else if (mode === "chunks") await chunks();
 else fail(`unknown mode ${mode}`);
