@@ -196,7 +196,7 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     receive_loop(opt, start, take, frames,
                  [&] { progress.update(frames, "frames", writer.current_path(), writer.bytes_in_file()); });
   } catch (const LinkError& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   progress.done();
   writer.close();  // complete and readable, whatever happened above
@@ -262,7 +262,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     receive_loop(opt, start, take, bytes,
                  [&] { progress.update(bytes, "bytes", writer.current_path(), writer.bytes_in_file()); });
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   progress.done();
   writer.close();

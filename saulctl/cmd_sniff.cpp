@@ -109,7 +109,7 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
     }
     check_state();  // a change the last frames brought (-n reached) is still shown
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   flush();
   const auto s = link->stats();
@@ -286,7 +286,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (opt.count != 0 && shown >= opt.count) break;
       }
     } catch (const std::exception& e) {
-      status = screen ? kFailure : report_link_error(e);
+      status = screen ? kFailure : report_error(e);
       if (!screen) break;
       lost = e.what();  // the view stays, says so; q leaves
     }
@@ -340,7 +340,7 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       std::fflush(stdout);
     }
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   const auto& c = decoder.counters();
   fmt::print(stderr, "sniff: {} frames; crc errors {}, length errors {}, unknown types {}, bytes skipped {}\n",

@@ -63,14 +63,14 @@ int main(int argc, char** argv) {
   }
   const std::string verb = saulctl::verb_path(app);
   saulctl::set_say_verb(verb);
+  int rc = saulctl::kFailure;
   try {
-    const int rc = run();
-    // A verb's own usage errors (its checks after parsing) point to its help too.
-    if (rc == saulctl::kUsage) saulctl::say("see '{} --help'", verb);
-    return rc;
+    rc = run();
   } catch (const std::exception& e) {
-    saulctl::say("{}", e.what());
-    return saulctl::kFailure;
+    rc = saulctl::report_error(e);
   }
+  // A verb's own usage errors (its checks after parsing) point to its help too.
+  if (rc == saulctl::kUsage) saulctl::say("see '{} --help'", verb);
+  return rc;
 }
 
