@@ -33,6 +33,26 @@ bool confirm_motion(bool yes, const std::string& what);
 /// for a one-line refusal: "disarm, then 'saulctl console PORT speed_limit 20', 30, 40 and 50 (...), and arm again".
 std::string raise_cap_hint(const std::string& port);
 
+/// The receive loop of the verbs that read a link until told to stop (sniff, record): take(wait) reads what comes
+/// within `wait` (200 ms at most), until Ctrl-C, `duration` (--duration, "" for none) from `start`, or `count`
+/// (--count, 0 for none) of what `taken` counts.
+template <class Take>
+void receive_until(const std::string& duration, std::chrono::steady_clock::time_point start, std::uint64_t count,
+                   const std::uint64_t& taken, Take&& take) {
+  using namespace std::chrono;
+  const bool limited = !duration.empty();
+  const milliseconds limit = limited ? parse_duration(duration) : milliseconds(0);
+  while (!g_interrupted && (count == 0 || taken < count)) {
+    auto wait = milliseconds(200);
+    if (limited) {
+      const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
+      if (left.count() <= 0) break;
+      wait = std::min(wait, left);
+    }
+    take(wait);
+  }
+}
+
 /// The keys every full-screen view takes, and what became of them: e or space = ESTOP (always, at once: the frame
 /// is written before the key is even shown), o = mode off, q = quit. The acknowledgements (0x402) come in through
 /// frame(). Notices of the shared link are kept for the status line while it lives.
