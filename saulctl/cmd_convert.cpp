@@ -22,10 +22,6 @@
 #include "saulproto/host/report/mcap_serial.hpp"
 #include "saulproto/host/report/mcap_signals.hpp"
 
-#ifndef SAULCTL_VERSION
-#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
-#endif
-
 namespace saulctl {
 namespace {
 

@@ -12,6 +12,11 @@
 #include <string_view>
 #include <utility>
 
+/// saulctl's version, for --version and the files it writes.
+#ifndef SAULCTL_VERSION
+#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
+#endif
+
 namespace saulctl {
 
 enum ExitCode : int {

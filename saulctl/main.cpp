@@ -6,10 +6,6 @@
 #include "commands.hpp"
 #include "usage.hpp"
 
-#ifndef SAULCTL_VERSION
-#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
-#endif
-
 int main(int argc, char** argv) {
   CLI::App app{
       "saulctl - bench tool for the SAUL-TEE robot: decode, sniff and drive its CAN bus and serial links.\n"
