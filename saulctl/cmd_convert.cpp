@@ -22,10 +22,6 @@
 #include "saulproto/host/report/mcap_serial.hpp"
 #include "saulproto/host/report/mcap_signals.hpp"
 
-#ifndef SAULCTL_VERSION
-#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
-#endif
-
 namespace saulctl {
 namespace {
 
@@ -124,32 +120,24 @@ int run_convert(const ConvertOptions& opt) {
                                 {{"saulctl", SAULCTL_VERSION}, {"source", opt.in}, {"source_format", "loop trace"}});
     return convert_trace(opt.in, opt.out);
   }
-  std::unique_ptr<CaptureReader> reader;
-  std::unique_ptr<CaptureWriter> writer;
-  bool compressed = false;
-  try {
-    const auto out_format = format ? format : capture_format_from_extension(opt.out);
-    OpenedCapture opened = open_capture(opt.in, serial_read_options(opt.serial));
-    if (opened.chunks) {  // serial bytes: their decoded messages, to MCAP only
-      if (out_format == CaptureFormat::mcap) return run_convert_serial(opt, *opened.chunks);
-      say("'{}' holds serial bytes ({}), which convert writes as MCAP only (each link's "
-          "decoded messages): name the output .mcap or give --format mcap; saulctl decode prints them",
-          opt.in, to_string(opened.format));
-      return kFailure;
-    }
-    reader = std::move(opened.frames);
-    compressed = opened.compressed;
-    if (out_format == CaptureFormat::mcap) {  // with the decoded signals' channels (report/mcap_signals.hpp)
-      writer = open_mcap_signal_writer(opt.out, mcap_options(opt),
-                                       {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
-                                        {"source_format", std::string(to_string(reader->format()))}});
-    } else {
-      writer = open_capture_writer(opt.out, format);
-    }
-  } catch (const CaptureOpenError& e) {
-    say("{}", e.what());
+  const auto out_format = format ? format : capture_format_from_extension(opt.out);
+  OpenedCapture opened = open_capture(opt.in, serial_read_options(opt.serial));
+  if (opened.chunks) {  // serial bytes: their decoded messages, to MCAP only
+    if (out_format == CaptureFormat::mcap) return run_convert_serial(opt, *opened.chunks);
+    say("'{}' holds serial bytes ({}), which convert writes as MCAP only (each link's "
+        "decoded messages): name the output .mcap or give --format mcap; saulctl decode prints them",
+        opt.in, to_string(opened.format));
     return kFailure;
   }
+  std::unique_ptr<CaptureReader> reader = std::move(opened.frames);
+  const bool compressed = opened.compressed;
+  // MCAP with the decoded signals' channels (report/mcap_signals.hpp)
+  std::unique_ptr<CaptureWriter> writer =
+      out_format == CaptureFormat::mcap
+          ? open_mcap_signal_writer(opt.out, mcap_options(opt),
+                                    {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
+                                     {"source_format", std::string(to_string(reader->format()))}})
+          : open_capture_writer(opt.out, format);
   Progress progress("convert", false);
   const auto total = reader->bytes_total();
   const CaptureFormat in_format = reader->format();  // the read path may take the reader (a compressed candump log)
@@ -193,9 +181,9 @@ int run_convert(const ConvertOptions& opt) {
 }  // namespace
 
 void add_convert_command(CLI::App& app, Runner& run) {
-  auto opt = std::make_shared<ConvertOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "convert", "Convert a capture file between " + saul::host::capture_format_list(false));
+  auto [cmd, opt] = add_verb<ConvertOptions>(
+      app, run, "convert", "Convert a capture file between " + saul::host::capture_format_list(false), run_convert,
+      false);
   cmd->footer(
       "\nThe input format is told by the file's content (--input-format to force one); gzip and zstd files\n"
       "are decompressed on the fly. The output format comes from OUT's extension (.log .pcap .pcapng .asc\n"
@@ -244,7 +232,6 @@ void add_convert_command(CLI::App& app, Runner& run) {
                   "MCAP: size of the blocks of the file converted on both cores (each block's chunks end with it)")
       ->capture_default_str();
   add_serial_read_options(cmd, opt->serial);
-  cmd->callback([opt, &run] { run = [opt] { return run_convert(*opt); }; });
 }
 
 }  // namespace saulctl

@@ -38,8 +38,8 @@ int run_dbc(const DbcCliOptions& opt) {
 }  // namespace
 
 void add_dbc_command(CLI::App& app, Runner& run) {
-  auto opt = std::make_shared<DbcCliOptions>();
-  CLI::App* cmd = app.add_subcommand("dbc", "Write a DBC of the robot's bus (SAUL frames, VESC SET_RPM and status)");
+  auto [cmd, opt] = add_verb<DbcCliOptions>(
+      app, run, "dbc", "Write a DBC of the robot's bus (SAUL frames, VESC SET_RPM and status)", run_dbc, false);
   cmd->footer(
       "\nThe DBC describes 0x300-0x303 and 0x400-0x402 (little-endian, scaled: pitch in deg, battery in V), with\n"
       "0x301 multiplexed by its gain index (kp/ki/kd as float32 signals), value tables for mode, state and ack\n"
@@ -49,7 +49,6 @@ void add_dbc_command(CLI::App& app, Runner& run) {
       "  python3 -m cantools decode saul.dbc < run.log      cantools reads candump logs\n"
       "  saulctl dbc | grep '^BO_'                          the messages\n");
   cmd->add_option("-o,--output", opt->output, "file to write (default: standard output)");
-  cmd->callback([opt, &run] { run = [opt] { return run_dbc(*opt); }; });
 }
 
 }  // namespace saulctl

@@ -325,7 +325,7 @@ int run_monitor(const MonitorOptions& opt) {
           }
         }
       } catch (const std::exception& e) {
-        if (!screen) return report_link_error(e);
+        if (!screen) return report_error(e);
         lost = e.what();  // keep showing what was known, say so, try again every second
         status = kFailure;
       }

@@ -95,7 +95,7 @@ int run_pride_vcu(const PrideOptions& opt) {
       }
     }
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
     // Neutral before leaving, if the port still takes bytes.
     try {
       vcu.begin_neutral();

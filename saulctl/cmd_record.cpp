@@ -16,9 +16,6 @@
 #include "saulproto/host/report/mcap_serial.hpp"
 #include "saulproto/host/report/mcap_signals.hpp"
 
-#ifndef SAULCTL_VERSION
-#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
-#endif
 #include "saulproto/host/link/serial_port.hpp"
 
 namespace saulctl {
@@ -115,26 +112,27 @@ class FlushPace {
   steady_clock::time_point last_ = steady_clock::now();
 };
 
-/// The receive loop of both kinds of link: take(wait) reads and writes what came within `wait` (false when nothing
-/// did) until Ctrl-C, --duration from `start` or --count (of what `taken` counts); after Ctrl-C what is on its way
-/// is drained. show() after each take.
-template <class Take, class Show>
-void receive_loop(const RecordOptions& opt, steady_clock::time_point start, Take&& take, const std::uint64_t& taken,
-                  Show&& show) {
-  const bool limited = !opt.duration.empty();
-  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
-  auto more = [&] { return opt.count == 0 || taken < opt.count; };
-  while (!g_interrupted && more()) {
-    auto wait = milliseconds(200);
-    if (limited) {
-      const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
-      if (left.count() <= 0) break;
-      wait = std::min(wait, left);
-    }
-    take(wait);
-    show();
+/// The receive loop of both kinds of link, with its progress line: take(wait) reads and writes what came within
+/// `wait` (false when nothing did) until Ctrl-C, --duration from `start` or --count (of what `taken` counts, in
+/// `unit`); after Ctrl-C what is on its way is drained. The writer is closed, complete and readable, whatever
+/// happened (a link's error is said). Returns the exit code.
+template <class Writer, class Take>
+int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Writer& writer, Take&& take,
+                 const std::uint64_t& taken, const char* unit) {
+  Progress progress(!opt.quiet);
+  int status = kOk;
+  try {
+    receive_until(opt.duration, start, opt.count, taken, [&](milliseconds wait) {
+      take(wait);
+      progress.update(taken, unit, writer.current_path(), writer.bytes_in_file());
+    });
+    if (g_interrupted) drain([&](milliseconds wait) { return (opt.count == 0 || taken < opt.count) && take(wait); });
+  } catch (const std::exception& e) {
+    status = report_error(e);
   }
-  if (g_interrupted) drain([&](milliseconds wait) { return more() && take(wait); });
+  progress.done();
+  writer.close();
+  return status;
 }
 
 int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
@@ -176,7 +174,6 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!opt.quiet)
     fmt::print(stderr, "record: {} as {} (timestamps: {}); Ctrl-C to stop\n", link->name(), iface,
                to_string(link->timestamp_source()));
-  Progress progress(!opt.quiet);
   std::uint64_t frames = 0;
   FlushPace flushes;
   const auto start = steady_clock::now();
@@ -191,15 +188,7 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     flushes.wrote(writer);
     return true;
   };
-  int status = kOk;
-  try {
-    receive_loop(opt, start, take, frames,
-                 [&] { progress.update(frames, "frames", writer.current_path(), writer.bytes_in_file()); });
-  } catch (const LinkError& e) {
-    status = report_link_error(e);
-  }
-  progress.done();
-  writer.close();  // complete and readable, whatever happened above
+  const int status = receive_loop(opt, start, writer, take, frames, "frames");
   const auto s = link->stats();
   const double secs = duration<double>(steady_clock::now() - start).count();
   fmt::print(stderr, "record: {} frames in {:.1f} s into {} file(s), last {}; link dropped {}, error frames {}\n",
@@ -237,7 +226,6 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!opt.quiet)
     fmt::print(stderr, "record: {} bytes on {} ({} {}); Ctrl-C to stop\n", to_string(chunk.protocol), port->path(),
                spec.serial.baud, to_string(spec.serial));
-  Progress progress(!opt.quiet);
   std::uint64_t bytes = 0;
   std::uint64_t chunks = 0;
   FlushPace flushes;
@@ -257,15 +245,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     flushes.wrote(writer);
     return true;
   };
-  int status = kOk;
-  try {
-    receive_loop(opt, start, take, bytes,
-                 [&] { progress.update(bytes, "bytes", writer.current_path(), writer.bytes_in_file()); });
-  } catch (const std::exception& e) {
-    status = report_link_error(e);
-  }
-  progress.done();
-  writer.close();
+  const int status = receive_loop(opt, start, writer, take, bytes, "bytes");
   const double secs = duration<double>(steady_clock::now() - start).count();
   fmt::print(stderr, "record: {} bytes in {} chunks in {:.1f} s into {} file(s), last {}\n", bytes, chunks, secs,
              writer.files(), writer.current_path());

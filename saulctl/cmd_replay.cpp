@@ -157,11 +157,8 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   int status = kOk;
   try {
     report = replay_serial(open_pass, options, clock, hooks);
-  } catch (const CaptureOpenError& e) {
-    say("{}", e.what());
-    return kFailure;
   } catch (const SerialError& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   const auto& l = report.lateness;
   if (opt.json) {
@@ -235,13 +232,7 @@ int run_replay(const ReplayCliOptions& opt) {
 
   // Replay reads the capture more than once, so a pipe would replay nothing: refused before it is touched.
   if (refuse_read_once("replay", opt.file, "once to show what it will send and again for each pass")) return kUsage;
-  OpenedCapture opened;
-  try {
-    opened = open_capture(opt.file, serial_read_options(opt.serial));
-  } catch (const CaptureOpenError& e) {
-    say("{}", e.what());
-    return kFailure;
-  }
+  OpenedCapture opened = open_capture(opt.file, serial_read_options(opt.serial));  // CaptureOpenError: main says it
   // The kind of link --link names: a serial link may leave its rate out (it follows the capture), so it is parsed
   // later; anything else is resolved now (--to, $SAUL_LINK, the config file).
   std::optional<LinkSpec> resolved;
@@ -304,11 +295,8 @@ int run_replay(const ReplayCliOptions& opt) {
   int status = kOk;
   try {
     report = replay(open_pass, options, clock, hooks);
-  } catch (const CaptureOpenError& e) {
-    say("{}", e.what());
-    return kFailure;
   } catch (const LinkError& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   const auto& l = report.lateness;
   if (opt.json) {

@@ -49,8 +49,6 @@ std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, cons
 
 int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   auto link = open_filtered(opt, spec);
-  const bool limited = !opt.duration.empty();
-  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
   const auto start = steady_clock::now();
   saul::host::TimeColumn column(time_mode(opt.time));
   std::uint64_t shown = 0;
@@ -86,19 +84,12 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
     state = now_state;
   };
   try {
-    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
-      auto wait = milliseconds(200);
-      if (limited) {
-        const auto left = duration_cast<milliseconds>(duration - (steady_clock::now() - start));
-        if (left.count() <= 0) break;
-        wait = std::min(wait, left);
-      }
-      if (out.size() != 0) wait = milliseconds(0);
-      auto f = link->receive(wait);
+    receive_until(opt.duration, start, opt.count, shown, [&](milliseconds wait) {
+      auto f = link->receive(out.size() != 0 ? milliseconds(0) : wait);
       if (!f) {
         if (out.size() != 0) flush();
         check_state();
-        continue;
+        return;
       }
       if (f->error || shown % 64 == 0) check_state();
       if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
@@ -106,10 +97,10 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       emit.add(*f, link->name(), out, counts);
       ++shown;
       if (out.size() >= (1 << 16)) flush();
-    }
+    });
     check_state();  // a change the last frames brought (-n reached) is still shown
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   flush();
   const auto s = link->stats();
@@ -286,7 +277,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (opt.count != 0 && shown >= opt.count) break;
       }
     } catch (const std::exception& e) {
-      status = screen ? kFailure : report_link_error(e);
+      status = screen ? kFailure : report_error(e);
       if (!screen) break;
       lost = e.what();  // the view stays, says so; q leaves
     }
@@ -304,8 +295,6 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
 
 int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   auto port = saul::host::open_serial_link(spec);
-  const bool limited = !opt.duration.empty();
-  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
   const auto start = steady_clock::now();
   saul::host::TimeColumn column(time_mode(opt.time));
   saul::interboard::StreamDecoder decoder;
@@ -316,13 +305,7 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
                spec.serial.baud, saul::host::to_string(spec.serial));
   try {
     std::array<std::uint8_t, 4096> buf{};
-    while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
-      auto wait = milliseconds(200);
-      if (limited) {
-        const auto left = duration_cast<milliseconds>(duration - (steady_clock::now() - start));
-        if (left.count() <= 0) break;
-        wait = std::min(wait, left);
-      }
+    receive_until(opt.duration, start, opt.count, shown, [&](milliseconds wait) {
       const std::size_t n = port->read(buf, wait);
       const std::string t = column(saul::host::realtime_ns());
       for (std::size_t i = 0; i < n && (opt.count == 0 || shown < opt.count); ++i) {
@@ -338,9 +321,9 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         }
       }
       std::fflush(stdout);
-    }
+    });
   } catch (const std::exception& e) {
-    status = report_link_error(e);
+    status = report_error(e);
   }
   const auto& c = decoder.counters();
   fmt::print(stderr, "sniff: {} frames; crc errors {}, length errors {}, unknown types {}, bytes skipped {}\n",

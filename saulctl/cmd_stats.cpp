@@ -45,13 +45,7 @@ int run_stats(const StatsOptions& opt) {
   const std::uint64_t parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
   const std::uint64_t block = parse_size_option("--block-size", opt.block_size);
 
-  OpenedCapture opened;
-  try {
-    opened = open_capture(opt.file, serial_read_options(opt.serial));
-  } catch (const CaptureOpenError& e) {
-    say("{}", e.what());
-    return kFailure;
-  }
+  OpenedCapture opened = open_capture(opt.file, serial_read_options(opt.serial));  // CaptureOpenError: main says it
 
   Progress progress("stats", false);
   auto report_corrupt = [&](const CaptureError& error) {
@@ -108,8 +102,9 @@ int run_stats(const StatsOptions& opt) {
 }  // namespace
 
 void add_stats_command(CLI::App& app, Runner& run) {
-  auto opt = std::make_shared<StatsOptions>();
-  CLI::App* cmd = app.add_subcommand("stats", "Counts, rates, silences, errors and bus load of a capture file");
+  auto [cmd, opt] = add_verb<StatsOptions>(app, run, "stats",
+                                           "Counts, rates, silences, errors and bus load of a capture file", run_stats,
+                                           false);
   cmd->footer(
       "\nCAN captures: per id the count, rate, mean and longest gap (and when it began), jitter, the frame's bits\n"
       "on the wire and decode failures; error frames by kind; decode errors by reason; bus load at --bitrate\n"
@@ -135,16 +130,6 @@ void add_stats_command(CLI::App& app, Runner& run) {
   add_serial_read_options(cmd, opt->serial);
   add_parallel_from_option(cmd, opt->parallel_from);
   cmd->add_option("--block-size", opt->block_size, "size of the blocks counted on both cores")->capture_default_str();
-  cmd->callback([opt, &run] {
-    run = [opt]() -> int {
-      try {
-        return run_stats(*opt);
-      } catch (const CLI::ValidationError& e) {
-        say("{}", e.what());
-        return kUsage;
-      }
-    };
-  });
 }
 
 }  // namespace saulctl

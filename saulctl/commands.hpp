@@ -5,10 +5,17 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <exception>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <utility>
+
+/// saulctl's version, for --version and the files it writes.
+#ifndef SAULCTL_VERSION
+#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
+#endif
 
 namespace saulctl {
 
@@ -20,6 +27,36 @@ enum ExitCode : int {
 };
 
 using Runner = std::function<int()>;
+
+/// The one error style of every verb: says `e` as one line (say) and gives its exit code. A check failing after
+/// parsing (CLI::ValidationError) is a usage error (2); a link's timeout, or a flash chip that never answered, is 3;
+/// anything else (a capture that cannot be opened, a link or port error, a flash error) is 1. main() calls it for
+/// whatever a verb throws; verbs call it for an error they carry on after.
+int report_error(const std::exception& e);
+
+/// Installs the handlers that set g_interrupted (live.hpp) on SIGINT and SIGTERM, and ignores SIGPIPE.
+void install_signal_handlers();
+
+/// Makes `verb(*options)` what main() runs when `cmd` is chosen (main() says what it throws: report_error). A live
+/// verb (the default) handles Ctrl-C itself (install_signal_handlers); a file verb dies of it, and of SIGPIPE.
+template <class Options, class Verb>
+void attach_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb, bool live = true) {
+  cmd->callback([options, &run, verb, live] {
+    run = [options, verb, live] {
+      if (live) install_signal_handlers();
+      return verb(*options);
+    };
+  });
+}
+/// Adds the verb `name` to `parent` with a new Options for its options, run as `verb(options)` (attach_runner).
+template <class Options, class Verb>
+std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::string name, std::string what, Verb verb,
+                                        bool live = true) {
+  auto options = std::make_shared<Options>();
+  CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(what));
+  attach_runner(cmd, options, run, verb, live);
+  return {cmd, options.get()};
+}
 
 /// The one way every verb tells the user something on stderr (an error, a refusal, a warning, a note): one line
 /// "saulctl VERB: message" (VERB as typed: "saulctl tune report: ..."; "saulctl: ..." before a verb is known).

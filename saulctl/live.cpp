@@ -81,30 +81,15 @@ bool confirm_motion(bool yes, const std::string& what) {
   return false;
 }
 
-int report_link_error(const std::exception& e) {
+int report_error(const std::exception& e) {
   say("{}", e.what());
-  if (const auto* le = dynamic_cast<const saul::host::LinkError*>(&e)) {
-    if (le->kind() == saul::host::LinkError::Kind::timeout) return kTimeout;
-  }
+  if (dynamic_cast<const CLI::ValidationError*>(&e)) return kUsage;
+  const auto* le = dynamic_cast<const saul::host::LinkError*>(&e);
+  const auto* fe = dynamic_cast<const saul::host::FlashError*>(&e);
+  if ((le && le->kind() == saul::host::LinkError::Kind::timeout) ||
+      (fe && fe->kind() == saul::host::FlashError::Kind::no_answer))
+    return kTimeout;
   return kFailure;
-}
-
-int run_guarded(const std::function<int()>& body) {
-  install_signal_handlers();
-  try {
-    return body();
-  } catch (const CLI::ValidationError& e) {
-    say("{}", e.what());
-    return kUsage;
-  } catch (const saul::host::CaptureOpenError& e) {
-    say("{}", e.what());
-    return kFailure;
-  } catch (const saul::host::FlashError& e) {
-    say("{}", e.what());
-    return e.kind() == saul::host::FlashError::Kind::no_answer ? kTimeout : kFailure;
-  } catch (const std::exception& e) {
-    return report_link_error(e);
-  }
 }
 
 namespace {

@@ -21,7 +21,6 @@ namespace saulctl {
 
 /// Set by SIGINT/SIGTERM. Blocking waits return early (the handler does not restart system calls).
 extern std::atomic<bool> g_interrupted;
-void install_signal_handlers();
 
 /// Resolves the link text (option, environment, config file) or throws CLI::ValidationError-like usage errors.
 saul::host::LinkSpec resolve_link(const std::string& link);
@@ -34,26 +33,24 @@ bool confirm_motion(bool yes, const std::string& what);
 /// for a one-line refusal: "disarm, then 'saulctl console PORT speed_limit 20', 30, 40 and 50 (...), and arm again".
 std::string raise_cap_hint(const std::string& port);
 
-/// Maps a LinkError to saulctl's exit code and prints it as one line.
-int report_link_error(const std::exception& e);
-
-/// The one runner of every verb (attach_runner): Ctrl-C handled (install_signal_handlers);
-/// a check failing after parsing (CLI::ValidationError) is a usage error (2); a capture that cannot be opened a
-/// failure (1); a flash error 1, or 3 when the chip never answered; anything else as report_link_error says.
-int run_guarded(const std::function<int()>& body);
-
-/// Makes `verb(*options)` what main() runs when `cmd` is chosen, through run_guarded.
-template <class Options, class Verb>
-void attach_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb) {
-  cmd->callback([options, &run, verb] { run = [options, verb] { return run_guarded([&] { return verb(*options); }); }; });
-}
-/// Adds the verb `name` to `parent` with a new Options for its options, run as `verb(options)` (attach_runner).
-template <class Options, class Verb>
-std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::string name, std::string what, Verb verb) {
-  auto options = std::make_shared<Options>();
-  CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(what));
-  attach_runner(cmd, options, run, verb);
-  return {cmd, options.get()};
+/// The receive loop of the verbs that read a link until told to stop (sniff, record): take(wait) reads what comes
+/// within `wait` (200 ms at most), until Ctrl-C, `duration` (--duration, "" for none) from `start`, or `count`
+/// (--count, 0 for none) of what `taken` counts.
+template <class Take>
+void receive_until(const std::string& duration, std::chrono::steady_clock::time_point start, std::uint64_t count,
+                   const std::uint64_t& taken, Take&& take) {
+  using namespace std::chrono;
+  const bool limited = !duration.empty();
+  const milliseconds limit = limited ? parse_duration(duration) : milliseconds(0);
+  while (!g_interrupted && (count == 0 || taken < count)) {
+    auto wait = milliseconds(200);
+    if (limited) {
+      const auto left = duration_cast<milliseconds>(limit - (steady_clock::now() - start));
+      if (left.count() <= 0) break;
+      wait = std::min(wait, left);
+    }
+    take(wait);
+  }
 }
 
 /// The keys every full-screen view takes, and what became of them: e or space = ESTOP (always, at once: the frame

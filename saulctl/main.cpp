@@ -6,10 +6,6 @@
 #include "commands.hpp"
 #include "usage.hpp"
 
-#ifndef SAULCTL_VERSION
-#define SAULCTL_VERSION "unknown"  // CMake sets it to the project version (packaging/CMakeLists.txt)
-#endif
-
 int main(int argc, char** argv) {
   CLI::App app{
       "saulctl - bench tool for the SAUL-TEE robot: decode, sniff and drive its CAN bus and serial links.\n"
@@ -63,14 +59,14 @@ int main(int argc, char** argv) {
   }
   const std::string verb = saulctl::verb_path(app);
   saulctl::set_say_verb(verb);
+  int rc = saulctl::kFailure;
   try {
-    const int rc = run();
-    // A verb's own usage errors (its checks after parsing) point to its help too.
-    if (rc == saulctl::kUsage) saulctl::say("see '{} --help'", verb);
-    return rc;
+    rc = run();
   } catch (const std::exception& e) {
-    saulctl::say("{}", e.what());
-    return saulctl::kFailure;
+    rc = saulctl::report_error(e);
   }
+  // A verb's own usage errors (its checks after parsing) point to its help too.
+  if (rc == saulctl::kUsage) saulctl::say("see '{} --help'", verb);
+  return rc;
 }
 

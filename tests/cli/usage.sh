@@ -61,6 +61,9 @@ check "a value out of its set points to the verb's help, exit 2" \
 run late flash --board balance --port /dev/null
 check "a usage error found by the verb itself points to its help too, exit 2" \
   bash -c "test $(rc late) -eq 2 && tail -n1 '$out/late.err' | grep -qx \"saulctl flash: see 'saulctl flash --help'\""
+run filecheck convert "$(dirname "$0")/../../captures/robot_bus.log" "$out/x.log" --parallel-from 3q
+check "a file verb's own check after parsing is a usage error too, exit 2" \
+  bash -c "test $(rc filecheck) -eq 2 && tail -n1 '$out/filecheck.err' | grep -qx \"saulctl convert: see 'saulctl convert --help'\""
 
 echo "$fails failed"
 [ "$fails" -eq 0 ]
