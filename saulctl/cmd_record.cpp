@@ -86,12 +86,13 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
   return r;
 }
 
-/// After Ctrl-C: what the adapter already delivered is still read and written, until it is quiet for 50 ms
-/// (at most one second), so frames that were on their way are not lost.
+/// After Ctrl-C: what the adapter already delivered is still read and written, until it is quiet for 200 ms
+/// (at most one second), so frames that were on their way are not lost. (50 ms lost bytes sent just before the
+/// Ctrl-C once, on a loaded machine where the link's reading thread had not run yet.)
 template <class ReadOne>
 void drain(ReadOne&& read_one) {
   const auto until = steady_clock::now() + seconds(1);
-  while (steady_clock::now() < until && read_one(milliseconds(50))) {
+  while (steady_clock::now() < until && read_one(milliseconds(200))) {
   }
 }
 
