@@ -81,16 +81,17 @@ class FrameEmitter {
     bool used = false;
     std::uint8_t outcome = 0;
     std::string text;
-    std::size_t split = 0;  // JSON: where the '\0' in text is (the timestamp and the interface go there)
+    std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
   /// The time column's text written at `w` (room for kTimeColumnMax characters); returns its end.
   char* time_chars(std::uint64_t ns, char* w, bool parens);
   static constexpr std::size_t kTimeColumnMax = 30;  // "(" "-" 20 digits "." 6 digits ")"
   /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
   char* stamp_chars(std::uint64_t ns, char* w);
-  const Entry& rendered(const CanFrame& frame);
-  void render(const CanFrame& frame, Entry& e);
-  void render_message(const CanFrame& decoded, std::string& out);
+  /// The line's text of the frame's content before the split (room for 2 * kTimeColumnMax + 6 * detail + 256).
+  char* head_chars(char* w, const CanFrame& frame, Reason reason, const std::string& detail);
+  /// The message of a frame that decoded, after the split (room for 2 * message_chars_max(message) + 16).
+  char* message_chars(char* w, const signals::MessageDesc& message, const CanFrame& frame);
 
   DecodeFormat format_;
   TimeMode time_;
