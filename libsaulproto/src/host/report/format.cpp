@@ -187,6 +187,8 @@ char* put_json_value(char* w, const signals::SignalDesc& s, std::int64_t raw, st
 
 // ---- a message's values, read once --------------------------------------------------------------------------------
 
+/// The most characters a message's text or JSON may take (Layout::max_chars), for the renderer's stack buffer.
+constexpr std::size_t kMaxChars = 16384;
 /// The most signals a message has (the CRSF subset RC channels: 3 + 32); layout_of() holds every description to it.
 constexpr std::size_t kMaxSignals = 35;
 
@@ -292,6 +294,7 @@ Layout make_layout(const MessageDesc& d) {
   for (const auto& m : l.members)
     if (m.signal >= 0 && d.signals[static_cast<std::size_t>(m.signal)].place != signals::Place::can_id)
       l.mcap_members.push_back(m);
+  if (l.max_chars > kMaxChars) throw std::logic_error(fmt::format("{} may take more than {} characters", d.name, kMaxChars));
   return l;
 }
 
@@ -343,12 +346,11 @@ char* write_json(char* w, const MessageDesc& d, const Readings& r, bool mcap = f
   return w;
 }
 
-/// What write(w) writes for a message of description d, as a string.
+/// What write(w) writes (at most kMaxChars), as a string.
 template <class Write>
-std::string written(const MessageDesc& d, Write&& write) {
-  std::string s(layout_of(d).max_chars, '\0');
-  s.resize(static_cast<std::size_t>(write(s.data()) - s.data()));
-  return s;
+std::string written(Write&& write) {
+  std::array<char, kMaxChars> text;
+  return std::string(text.data(), write(text.data()));
 }
 
 SignalValues values_of(const MessageDesc& d, const Readings& r) {
@@ -399,13 +401,13 @@ auto render(const pride::Message& message, With&& with) {
 template <class Message>
 std::string describe_any(const Message& message) {
   return render(message, [](const MessageDesc& d, const Readings& r) {
-    return written(d, [&](char* w) { return write_text(w, d, r); });
+    return written([&](char* w) { return write_text(w, d, r); });
   });
 }
 template <class Message>
 nlohmann::json json_any(const Message& message) {
   return render(message, [](const MessageDesc& d, const Readings& r) {
-    return nlohmann::json::parse(written(d, [&](char* w) { return write_json(w, d, r); }));
+    return nlohmann::json::parse(written([&](char* w) { return write_json(w, d, r); }));
   });
 }
 template <class Message>
@@ -424,9 +426,8 @@ char* write_message(char* w, MessageFormat format, const MessageDesc& message, c
 }
 
 void append_message(std::string& out, MessageFormat format, const MessageDesc& message, const signals::Wire& wire) {
-  const std::size_t at = out.size();
-  out.resize(at + message_chars_max(message));
-  out.resize(static_cast<std::size_t>(write_message(out.data() + at, format, message, wire) - out.data()));
+  std::array<char, kMaxChars> text;  // (written on the stack: no room in `out` zeroed first)
+  out.append(text.data(), write_message(text.data(), format, message, wire));
 }
 
 SignalValues signal_values(const BusMessage& message) { return values_any(message); }
