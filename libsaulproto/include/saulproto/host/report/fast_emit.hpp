@@ -1,6 +1,7 @@
 // saulctl decode's and sniff's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output
-// buffer: no JSON DOM, no std::string per frame. The message part is format.hpp's append_message() (the one
-// renderer, which describe() and to_json() call too); this file adds the time, interface and frame columns.
+// buffer, each line written once in place: no JSON DOM, no std::string per frame. The message part is format.hpp's
+// write_message() (the one renderer, which append_message(), describe() and to_json() go through too); this file
+// adds the time, interface and frame columns.
 // Robot buses repeat payloads, so the rendered columns of a frame are kept in a small cache keyed by the frame's
 // id, flags and bytes. tests/host/report/test_render.cpp holds the lines to ones written out by hand.
 #pragma once
