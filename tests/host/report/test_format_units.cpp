@@ -148,7 +148,7 @@ TEST_CASE("text: CRSF battery, GPS, attitude and RC channels in V, A, degrees, k
   CHECK(host::to_json(crsf::Message{rc}).dump().find(R"("ch1":2159,)") != std::string::npos);
 }
 
-TEST_CASE("append_value_text writes a physical decimal exactly as fmt's {:g} would (its short cut for x/10^k)") {
+TEST_CASE("write_value_text writes a physical decimal exactly as fmt's {:g} would (its short cut for x/10^k)") {
   // The short cut skips formatting a double; this holds it to fmt's own "{:g}" of the same value, for every scale
   // the descriptions use and some they do not, over signed values near the edges of %g's fixed notation.
   std::mt19937_64 rng(15);
@@ -166,8 +166,8 @@ TEST_CASE("append_value_text writes a physical decimal exactly as fmt's {:g} wou
       raws.push_back(rng() % 2 ? v : -v);
     }
     for (std::int64_t raw : raws) {
-      std::string got;
-      host::append_value_text(got, s, raw, {});
+      char text[64];
+      const std::string got(text, host::write_value_text(text, s, raw, {}));
       const std::string want = fmt::format("{:g}", saul::signals::raw_to_physical(s, raw));
       if (got != want) FAIL_CHECK(fmt::format("1/{} of {}: {} but {{:g}} gives {}", den, raw, got, want));
       ++checked;

@@ -290,6 +290,19 @@ constexpr std::size_t bytes_needed(const SignalDesc& s) noexcept {
   const std::size_t rest = s.length > in_first ? s.length - in_first : 0;
   return s.start_bit / 8 + (rest + 7) / 8 + 1;
 }
+/// The bits of a number signal whose bytes `bytes` holds from its base on (sign-extended for signed_int).
+constexpr std::int64_t bits_of(const SignalDesc& s, const std::uint8_t* bytes) noexcept {
+  std::uint64_t u = 0;
+  const bool le = s.order == ByteOrder::little_endian;
+  if (s.length % 8 == 0 && s.start_bit % 8 == (le ? 0 : 7)) {  // whole bytes (most signals): a byte at a time
+    const std::size_t first = s.start_bit / 8, n = s.length / 8u;
+    for (std::size_t i = 0; i < n; ++i) u |= std::uint64_t{bytes[first + i]} << (8 * (le ? i : n - 1 - i));
+  } else {
+    each_bit(s, [&](std::size_t p, unsigned i) { u |= static_cast<std::uint64_t>((bytes[p / 8] >> (p % 8)) & 1U) << i; });
+  }
+  if (s.kind == Kind::signed_int && ((u >> (s.length - 1)) & 1U) != 0) u |= ~std::uint64_t{0} << s.length;
+  return static_cast<std::int64_t>(u);
+}
 }  // namespace detail
 
 /// The raw value of a number signal in `bytes`, its bit numbering starting at byte `base` (sign-extended for
@@ -298,12 +311,7 @@ constexpr std::optional<std::int64_t> read_raw(const SignalDesc& s, std::span<co
                                                std::size_t base = 0) noexcept {
   if (s.kind == Kind::string || s.length == 0 || s.length > 63) return std::nullopt;
   if (base + detail::bytes_needed(s) > bytes.size()) return std::nullopt;
-  std::uint64_t u = 0;
-  detail::each_bit(s, [&](std::size_t p, unsigned i) {
-    u |= static_cast<std::uint64_t>((bytes[base + p / 8] >> (p % 8)) & 1U) << i;
-  });
-  if (s.kind == Kind::signed_int && ((u >> (s.length - 1)) & 1U) != 0) u |= ~std::uint64_t{0} << s.length;
-  return static_cast<std::int64_t>(u);
+  return detail::bits_of(s, bytes.data() + base);
 }
 
 /// Writes the low `length` bits of raw into `bytes` (other bits untouched); false when they do not fit.

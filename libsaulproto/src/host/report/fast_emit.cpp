@@ -1,13 +1,7 @@
 #include "saulproto/host/report/fast_emit.hpp"
 
-#include <fmt/compile.h>
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
-#include <bit>
 #include <charconv>
-#include <cmath>
 #include <cstring>
 
 #include "saulproto/core/dispatch.hpp"
@@ -18,58 +12,38 @@
 namespace saul::host {
 namespace {
 
-using signals::Kind;
-using signals::MessageDesc;
-using signals::SignalDesc;
-using signals::Text;
-
 enum Outcome : std::uint8_t { kDecoded, kUnknown, kRejected, kErrorFrame };
 
 constexpr char kHex[] = "0123456789ABCDEF";
 
-template <class Buffer>
-void put(Buffer& out, std::string_view s) {
-  out.append(s.data(), s.data() + s.size());
-}
-void put(std::string& out, std::string_view s) { out.append(s); }
 
-template <class Buffer, class Int>
-void put_int(Buffer& out, Int v) {
-  char tmp[24];
-  const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
-  put(out, std::string_view(tmp, static_cast<std::size_t>(r.ptr - tmp)));
+/// v's last `digits` hex digits, upper case.
+char* put_hex(char* w, std::uint32_t v, int digits) {
+  for (int i = digits - 1; i >= 0; --i, v >>= 4) w[i] = kHex[v & 0xF];
+  return w + digits;
 }
 
-/// v right-aligned in `width` characters, padded with `fill` (fmt's "{:010}" and "{:4}" for unsigned values).
-void put_padded(fmt::memory_buffer& out, std::uint64_t v, std::size_t width, char fill) {
-  char tmp[24];
-  const auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
-  const auto n = static_cast<std::size_t>(r.ptr - tmp);
-  for (std::size_t i = n; i < width; ++i) out.push_back(fill);
-  out.append(tmp, r.ptr);
-}
-
-/// The candump frame text ("300#E8030CFE"), as format_candump_frame writes it.
-void frame_text(std::string& out, const CanFrame& f) {
-  char t[32];
-  std::size_t n = 0;
-  const bool wide = f.error || f.extended;
-  const std::uint32_t id = f.error ? (f.id | 0x2000'0000U) : f.id;
-  for (int shift = wide ? 28 : 8; shift >= 0; shift -= 4) t[n++] = kHex[(id >> shift) & 0xF];
-  t[n++] = '#';
-  if (f.remote) {
-    t[n++] = 'R';
-    if (f.dlc) t[n++] = static_cast<char>('0' + f.dlc);
-  } else {
-    for (std::uint8_t b : f.payload()) {
-      t[n++] = kHex[b >> 4];
-      t[n++] = kHex[b & 0xF];
-    }
+char* put_bytes(char* w, std::span<const std::uint8_t> bytes) {
+  for (std::uint8_t b : bytes) {
+    *w++ = kHex[b >> 4];
+    *w++ = kHex[b & 0xF];
   }
-  out.append(t, n);
+  return w;
 }
 
-const char* bool_text(bool b) { return b ? "true" : "false"; }
+/// The candump frame text ("300#E8030CFE"), as format_candump_frame writes it; `data_only`: what follows the '#'.
+char* frame_chars(char* w, const CanFrame& f, bool data_only = false) {
+  if (!data_only) {
+    w = put_hex(w, f.error ? (f.id | 0x2000'0000U) : f.id, f.error || f.extended ? 8 : 3);
+    *w++ = '#';
+  }
+  if (!f.remote) return put_bytes(w, f.payload());
+  *w++ = 'R';
+  if (f.dlc) *w++ = static_cast<char>('0' + f.dlc);
+  return w;
+}
+
+std::string_view bool_text(bool b) { return b ? "true" : "false"; }
 
 }  // namespace
 
@@ -103,25 +77,21 @@ char* FrameEmitter::time_chars(std::uint64_t ns, char* w, bool parens) {
   const std::uint64_t sec = shown / 1'000'000'000ULL;
   auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
   if (!seconds_valid_ || sec != seconds_ || negative != seconds_negative_) {  // the same for thousands of frames
-    fmt::memory_buffer s;
-    if (time_ == TimeMode::absolute) {
-      put_padded(s, sec, 10, '0');
-    } else {
-      fmt::memory_buffer digits;
-      if (negative) digits.push_back('-');
-      put_padded(digits, sec, 0, ' ');
-      for (std::size_t i = digits.size(); i < 4; ++i) s.push_back(' ');
-      s.append(digits.data(), digits.data() + digits.size());
-    }
-    s.push_back('.');
-    seconds_text_.assign(s.data(), s.size());
+    char digits[24];
+    char* end = digits;
+    if (negative) *end++ = '-';
+    end = std::to_chars(end, digits + sizeof digits, sec).ptr;
+    const auto n = static_cast<std::size_t>(end - digits);
+    const std::size_t width = time_ == TimeMode::absolute ? 10 : 4;
+    seconds_text_.assign(n < width ? width - n : 0, time_ == TimeMode::absolute ? '0' : ' ');
+    seconds_text_.append(digits, n);
+    seconds_text_ += '.';
     seconds_ = sec;
     seconds_negative_ = negative;
     seconds_valid_ = true;
   }
   if (parens) *w++ = '(';
-  std::memcpy(w, seconds_text_.data(), seconds_text_.size());
-  w += seconds_text_.size();
+  w = put_chars(w, seconds_text_);
   for (int i = 5; i >= 0; --i) {
     w[i] = static_cast<char>('0' + usec % 10);
     usec /= 10;
@@ -136,13 +106,12 @@ char* FrameEmitter::stamp_chars(std::uint64_t ns, char* w) {
   auto rest = static_cast<std::uint32_t>(ns % 1'000'000'000ULL);
   if (sec == 0) return std::to_chars(w, w + kTimeColumnMax, rest).ptr;
   if (!stamp_valid_ || sec != stamp_seconds_) {
-    stamp_text_.clear();
-    put_int(stamp_text_, sec);
+    char digits[24];
+    stamp_text_.assign(digits, std::to_chars(digits, digits + sizeof digits, sec).ptr);
     stamp_seconds_ = sec;
     stamp_valid_ = true;
   }
-  std::memcpy(w, stamp_text_.data(), stamp_text_.size());
-  w += stamp_text_.size();
+  w = put_chars(w, stamp_text_);
   for (int i = 8; i >= 0; --i) {
     w[i] = static_cast<char>('0' + rest % 10);
     rest /= 10;
@@ -150,132 +119,97 @@ char* FrameEmitter::stamp_chars(std::uint64_t ns, char* w) {
   return w + 9;
 }
 
-// The message part of the line: text "name k=v ...", CSV "name,fields", JSON {"k":v,...,"type":"name"}, from the
-// frame's bytes (a frame that decodes carries exactly the values its message holds).
-void FrameEmitter::render_message(const CanFrame& f, std::string& out) {
-  const signals::MessageDesc& d = *signals::find_can(f.id, f.extended);  // it decoded: it is described
-  const std::size_t fields_at = out.size() + std::strlen(d.name);
-  append_message(out, format_ == DecodeFormat::jsonl ? MessageFormat::json : MessageFormat::text, d,
-                 signals::Wire{f.id, f.payload()});
-  if (format_ != DecodeFormat::csv) return;
+// What the line says of the frame's content before the per-frame columns' place (the split of a cached line):
+// text "300#E8030CFE{pad} [!reason [detail]]", CSV "300,0,0,4,E8030CFE,[!reason,]", JSON
+// {["error":"reason",["error_detail":"...",]]"frame":{"data":..,"remote":b
+char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const std::string& detail) {
+  const bool ok = reason == Reason::ok;
+  if (format_ == DecodeFormat::text) {
+    char* const at = w;
+    w = frame_chars(w, f);
+    while (w < at + 24) *w++ = ' ';
+    *w++ = ' ';
+    if (ok) return w;
+    *w++ = '!';
+    w = put_chars(w, to_string(reason));
+    if (!detail.empty()) *w++ = ' ';
+    return put_chars(w, detail);
+  }
+  if (format_ == DecodeFormat::csv) {
+    int digits = 1;
+    while (digits < 8 && (f.id >> (4 * digits)) != 0) ++digits;
+    w = put_hex(w, f.id, digits);
+    w = put_chars(w, f.extended ? ",1," : ",0,");
+    w = put_chars(w, f.remote ? "1," : "0,");
+    w = std::to_chars(w, w + 4, unsigned{f.dlc}).ptr;
+    *w++ = ',';
+    w = frame_chars(w, f, true);
+    *w++ = ',';
+    if (ok) return w;
+    *w++ = '!';
+    w = put_chars(w, to_string(reason));
+    *w++ = ',';
+    return w;
+  }
+  *w++ = '{';
+  if (!ok) {
+    w = put_chars(w, "\"error\":\"");
+    w = put_chars(w, to_string(reason));
+    w = put_chars(w, "\",");
+    if (!detail.empty()) {
+      std::string quoted;
+      append_json_string(quoted, detail);
+      w = put_chars(w, "\"error_detail\":");
+      w = put_chars(w, quoted);
+      *w++ = ',';
+    }
+  }
+  w = put_chars(w, "\"frame\":{\"data\":\"");
+  w = put_bytes(w, f.payload());
+  w = put_chars(w, "\",\"dlc\":");
+  w = std::to_chars(w, w + 4, unsigned{f.dlc}).ptr;
+  w = put_chars(w, ",\"error\":");
+  w = put_chars(w, bool_text(f.error));
+  w = put_chars(w, ",\"extended\":");
+  w = put_chars(w, bool_text(f.extended));
+  w = put_chars(w, ",\"id\":");
+  w = std::to_chars(w, w + 12, f.id).ptr;
+  w = put_chars(w, ",\"remote\":");
+  return put_chars(w, bool_text(f.remote));
+}
+
+// The message part of the line: text "name k=v ...", CSV "name,fields", JSON ,"message":{"k":v,...,"type":"name"},
+// from the frame's bytes (a frame that decodes carries exactly the values its message holds).
+char* FrameEmitter::message_chars(char* w, const signals::MessageDesc& d, const CanFrame& f) {
+  if (format_ == DecodeFormat::jsonl) w = put_chars(w, ",\"message\":");
+  char* const at = w;
+  w = write_message(w, format_ == DecodeFormat::jsonl ? MessageFormat::json : MessageFormat::text, d,
+                    signals::Wire{f.id, f.payload()});
+  if (format_ != DecodeFormat::csv) return w;
   // "name,fields": the space after the name becomes the comma when the fields need no quotes (nearly always)
+  char* const space = std::find(at, w, ' ');
+  if (space == w) {
+    *w++ = ',';
+    return w;
+  }
   bool plain = true;  // (find_first_of would call memchr once per character)
-  for (std::size_t i = fields_at; i < out.size(); ++i) plain = plain && out[i] != ',' && out[i] != '"';
-  if (out.size() == fields_at) {
-    out += ',';
-  } else if (plain) {
-    out[fields_at] = ',';
-  } else {
-    const std::string fields = out.substr(fields_at + 1);
-    out.resize(fields_at);
-    out += ',';
-    out += csv_quote(fields);
-  }
-}
-
-void FrameEmitter::render(const CanFrame& f, Entry& e) {
-  std::string& out = e.text;
-  out.clear();
-  const auto result = decode_bus_frame(f);
-  if (result) {
-    e.outcome = kDecoded;
-  } else if (result.reason() == Reason::unknown_id) {
-    e.outcome = kUnknown;
-  } else if (result.reason() == Reason::error_frame) {
-    e.outcome = kErrorFrame;
-  } else {
-    e.outcome = kRejected;
-  }
-  // What an error frame reports, when asked (sniff): "!error_frame bus-off", or an "error_detail" member.
-  const std::string detail = f.error && error_detail_ ? describe_error_frame(f) : std::string();
-  switch (format_) {
-    case DecodeFormat::text: {
-      // "{:<24} {what}"
-      frame_text(out, f);
-      if (out.size() < 24) out.append(24 - out.size(), ' ');
-      out += ' ';
-      if (result) {
-        render_message(f, out);
-      } else {
-        out += '!';
-        out += to_string(result.reason());
-      }
-      if (!detail.empty()) out += ' ' + detail;
-      break;
-    }
-    case DecodeFormat::csv: {
-      // "{id:X},{ext},{remote},{dlc},{data},{name},{fields}"
-      fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:X},{},{},{},"), f.id, f.extended ? 1 : 0,
-                     f.remote ? 1 : 0, f.dlc);
-      const std::size_t at = out.size();
-      frame_text(out, f);
-      out.erase(at, out.find('#', at) + 1 - at);
-      out += ',';
-      if (result) {
-        render_message(f, out);
-      } else {
-        out += '!';
-        out += to_string(result.reason());
-        out += ',';
-      }
-      break;
-    }
-    case DecodeFormat::jsonl: {
-      // {["error":"reason",["error_detail":"...",]]"frame":{"data":..,"remote":b  SPLIT  [,"message":{...}]
-      out += '{';
-      if (!result) {
-        out += "\"error\":";
-        append_json_string(out, to_string(result.reason()));
-        out += ',';
-        if (!detail.empty()) {
-          out += "\"error_detail\":";
-          append_json_string(out, detail);
-          out += ',';
-        }
-      }
-      out += "\"frame\":{\"data\":\"";
-      char hex[16];
-      std::size_t n = 0;
-      for (std::uint8_t b : f.payload()) {
-        hex[n++] = kHex[b >> 4];
-        hex[n++] = kHex[b & 0xF];
-      }
-      out.append(hex, n);
-      out += "\",\"dlc\":";
-      put_int(out, unsigned{f.dlc});
-      out += ",\"error\":";
-      out += bool_text(f.error);
-      out += ",\"extended\":";
-      out += bool_text(f.extended);
-      out += ",\"id\":";
-      put_int(out, f.id);
-      out += ",\"remote\":";
-      out += bool_text(f.remote);
-      e.text.push_back('\0');  // the split: the timestamp and the interface go here
-      if (result) {
-        out += ",\"message\":";
-        render_message(f, out);
-      }
-      break;
-    }
-  }
-}
-
-const FrameEmitter::Entry& FrameEmitter::rendered(const CanFrame& f) {
-  const FrameKey key = frame_key(f);
-  Entry& e = cache_[key.slot(cache_.size())];
-  if (!e.used || e.k1 != key.k1 || e.k2 != key.k2) {
-    e.used = true;
-    e.k1 = key.k1;
-    e.k2 = key.k2;
-    render(f, e);
-    if (format_ == DecodeFormat::jsonl) e.split = e.text.find('\0');
-  }
-  return e;
+  for (const char* c = space; c < w; ++c) plain = plain && *c != ',' && *c != '"';
+  *space = ',';
+  return plain ? w : put_chars(space + 1, csv_quote(std::string(space + 1, w)));
 }
 
 void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts) {
-  const Entry& e = rendered(f);
+  const FrameKey key = frame_key(f);
+  Entry& e = cache_[key.slot(cache_.size())];  // robot buses repeat payloads: the content's text from before
+  const bool hit = e.used && e.k1 == key.k1 && e.k2 == key.k2;
+  Result<DecodedName> result = Reason::ok;
+  if (!hit) {
+    result = decode_bus_name(f);
+    e.outcome = result ? kDecoded
+                : result.reason() == Reason::unknown_id  ? kUnknown
+                : result.reason() == Reason::error_frame ? kErrorFrame
+                                                         : kRejected;
+  }
   ++counts.frames;
   switch (e.outcome) {
     case kDecoded: ++counts.decoded; break;
@@ -283,13 +217,13 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
     case kErrorFrame: ++counts.errors; break;
     default: ++counts.rejected; break;
   }
-  const std::uint64_t ns = f.timestamp_ns.value_or(0);
   const bool text = format_ == DecodeFormat::text;
+  const bool json = format_ == DecodeFormat::jsonl;
   if (text && interface.empty()) interface = "can0";
   if (interface != interface_) {
     interface_.assign(interface);
     interface_column_.clear();
-    if (format_ == DecodeFormat::jsonl) {
+    if (json) {
       append_json_string(interface_column_, interface_);  // with its quotes
     } else if (format_ == DecodeFormat::csv) {
       interface_column_ = csv_quote(interface_);  // a ',' or '"' in a name
@@ -297,33 +231,49 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
       interface_column_ = candump_interface(interface_);  // spaces and controls as '_', as candump's column
     }
   }
-  // One line in one go: room for all of it, then written in place (no append per column).
+  // What an error frame reports, when asked (sniff): "!error_frame bus-off", or an "error_detail" member.
+  const std::string detail = !hit && f.error && error_detail_ ? describe_error_frame(f) : std::string();
+  const signals::MessageDesc* d = !hit && result ? signals::find_can(f.id, f.extended) : nullptr;
+  // One line in one go: room for all of it, then written in place.
+  const std::size_t room = hit ? e.text.size() : 6 * detail.size() + (d ? 2 * message_chars_max(*d) : 0);
   const std::size_t at = out.size();
-  out.resize(at + 2 * kTimeColumnMax + interface_column_.size() + e.text.size() + 64);
+  out.resize(at + 2 * kTimeColumnMax + interface_column_.size() + room + 320);
   char* w = out.data() + at;
-  auto copy = [&w](std::string_view s) {
-    std::memcpy(w, s.data(), s.size());
-    w += s.size();
-  };
-  if (format_ == DecodeFormat::jsonl) {
-    const std::string_view line = e.text;  // ...,"remote":b  \0  [,"message":{...}]
-    copy(line.substr(0, e.split));
-    if (f.timestamp_ns) {
-      copy(",\"timestamp_ns\":");
-      w = stamp_chars(*f.timestamp_ns, w);
-    }
-    copy("},\"interface\":");
-    copy(interface_column_);
-    copy(line.substr(e.split + 1));
-    copy(",\"time\":\"");
-    w = time_chars(ns, w, false);
-    copy("\"}");
-  } else {
+  const std::uint64_t ns = f.timestamp_ns.value_or(0);
+  if (!json) {
     w = time_chars(ns, w, text);
     *w++ = text ? ' ' : ',';
-    copy(interface_column_);
+    w = put_chars(w, interface_column_);
     *w++ = text ? ' ' : ',';
-    copy(e.text);
+  }
+  const std::string_view cached = e.text;
+  char* const head = w;
+  w = hit ? put_chars(w, cached.substr(0, e.split)) : head_chars(w, f, result.reason(), detail);
+  const auto head_size = static_cast<std::size_t>(w - head);
+  if (json) {
+    if (f.timestamp_ns) {
+      w = put_chars(w, ",\"timestamp_ns\":");
+      w = stamp_chars(*f.timestamp_ns, w);
+    }
+    w = put_chars(w, "},\"interface\":");
+    w = put_chars(w, interface_column_);
+  }
+  char* const tail = w;
+  if (hit) {
+    w = put_chars(w, cached.substr(e.split));
+  } else {
+    if (d) w = message_chars(w, *d, f);
+    e.used = true;
+    e.k1 = key.k1;
+    e.k2 = key.k2;
+    e.split = head_size;
+    e.text.assign(head, head_size);
+    e.text.append(tail, static_cast<std::size_t>(w - tail));
+  }
+  if (json) {
+    w = put_chars(w, ",\"time\":\"");
+    w = time_chars(ns, w, false);
+    w = put_chars(w, "\"}");
   }
   *w++ = '\n';
   out.resize(static_cast<std::size_t>(w - out.data()));

@@ -1,6 +1,7 @@
 // saulctl decode's and sniff's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output
-// buffer: no JSON DOM, no std::string per frame. The message part is format.hpp's append_message() (the one
-// renderer, which describe() and to_json() call too); this file adds the time, interface and frame columns.
+// buffer, each line written once in place: no JSON DOM, no std::string per frame. The message part is format.hpp's
+// write_message() (the one renderer, which append_message(), describe() and to_json() go through too); this file
+// adds the time, interface and frame columns.
 // Robot buses repeat payloads, so the rendered columns of a frame are kept in a small cache keyed by the frame's
 // id, flags and bytes. tests/host/report/test_render.cpp holds the lines to ones written out by hand.
 #pragma once
@@ -81,16 +82,17 @@ class FrameEmitter {
     bool used = false;
     std::uint8_t outcome = 0;
     std::string text;
-    std::size_t split = 0;  // JSON: where the '\0' in text is (the timestamp and the interface go there)
+    std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
   /// The time column's text written at `w` (room for kTimeColumnMax characters); returns its end.
   char* time_chars(std::uint64_t ns, char* w, bool parens);
   static constexpr std::size_t kTimeColumnMax = 30;  // "(" "-" 20 digits "." 6 digits ")"
   /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
   char* stamp_chars(std::uint64_t ns, char* w);
-  const Entry& rendered(const CanFrame& frame);
-  void render(const CanFrame& frame, Entry& e);
-  void render_message(const CanFrame& decoded, std::string& out);
+  /// The line's text of the frame's content before the split (room for 2 * kTimeColumnMax + 6 * detail + 256).
+  char* head_chars(char* w, const CanFrame& frame, Reason reason, const std::string& detail);
+  /// The message of a frame that decoded, after the split (room for 2 * message_chars_max(message) + 16).
+  char* message_chars(char* w, const signals::MessageDesc& message, const CanFrame& frame);
 
   DecodeFormat format_;
   TimeMode time_;

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -40,11 +41,11 @@ SignalValues signal_values(const interboard::Message& message);
 SignalValues signal_values(const crsf::Message& message);
 SignalValues signal_values(const pride::Message& message);
 
-/// A signal's value as text shows it, appended to `out`: the wire integer, its value name, its physical value
-/// (fmt's "{:g}", written directly when it is an exact short decimal) or, for a scaled wire integer
-/// (signals::text_in_unit), its physical value with its unit ("12.34°", "39.876V"). `chars` is a string signal's
-/// text.
-void append_value_text(std::string& out, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars);
+/// A signal's value as text shows it, written at `w` (room for 64 characters, or chars.size()); returns its end:
+/// the wire integer, its value name, its physical value (fmt's "{:g}", written directly when it is an exact short
+/// decimal) or, for a scaled wire integer (signals::text_in_unit), its physical value with its unit ("12.34°",
+/// "39.876V"). `chars` is a string signal's text.
+char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars);
 
 /// The JSON key of a scaled wire integer's integer (signals::text_in_unit), beside its physical value under the
 /// signal's name: "pitch_raw" (1234) beside "pitch" (12.34).
@@ -59,6 +60,15 @@ std::string raw_key(const signals::SignalDesc& s);
 enum class MessageFormat : std::uint8_t { text, json, mcap_json };
 void append_message(std::string& out, MessageFormat format, const signals::MessageDesc& message,
                     const signals::Wire& wire);
+/// The same written at `w`, which has room for message_chars_max(message) characters; returns its end.
+char* write_message(char* w, MessageFormat format, const signals::MessageDesc& message, const signals::Wire& wire);
+std::size_t message_chars_max(const signals::MessageDesc& message);
+
+/// `s` copied to `w`; returns its end (the renderer writes its text at a pointer with room for it).
+inline char* put_chars(char* w, std::string_view s) {
+  std::memcpy(w, s.data(), s.size());
+  return w + s.size();
+}
 
 /// `s` as a JSON string with its quotes, as nlohmann's dump() writes it (bytes that are not UTF-8 as U+FFFD).
 void append_json_string(std::string& out, std::string_view s);
