@@ -22,6 +22,23 @@ constexpr bool ends_with_nocase(std::string_view s, std::string_view suffix) noe
   return s.size() >= suffix.size() && starts_with_nocase(s.substr(s.size() - suffix.size()), suffix);
 }
 
+/// `s` with &, <, > and " written as entities: text and attribute values in HTML (plot, tune reports) and XML
+/// (JUnit).
+inline std::string markup_escape(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (const char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 /// The first line of a text file (/proc, /sys, a lock file); "" when it cannot be read.
 inline std::string first_line(const std::string& path) {
   std::ifstream f(path);

@@ -3,6 +3,7 @@
 #include "saulproto/host/report/plot.hpp"
 
 #include "saulproto/host/report/format.hpp"  // json_line
+#include "../util.hpp"
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -34,20 +35,6 @@ constexpr std::size_t kSparse = 20;  // a series with at most this many points i
 
 const char* colour_of(std::size_t series) { return kSeriesColours[series % std::size(kSeriesColours)]; }
 const char* colour_of(MarkerKind kind) { return kind == MarkerKind::state ? kStateColour : kFaultColour; }
-
-std::string escape_html(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string marker_summary(const PlotDocument& doc) {
   const auto drawn = static_cast<std::uint64_t>(doc.markers.size());
@@ -416,13 +403,13 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
       "td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}\n"
       ".state {{ color: {3}; }} .faults {{ color: {4}; }} .note {{ color: #555; }}\n"
       "</style>\n<script>\n{7}\n</script>\n<script>\n{5}\n</script>\n<script>\n{6}\n</script>\n</head>\n<body>\n<h1>{0}</h1>\n",
-      escape_html(title), "", dygraphs.style, kStateColour, kFaultColour, script_safe(dygraphs.script),
+      detail::markup_escape(title), "", dygraphs.style, kStateColour, kFaultColour, script_safe(dygraphs.script),
       script_safe(dygraphs.synchronizer), kErrorWatch);
   s += "<p class=\"note\">Drag across a chart to zoom in (every panel follows), shift-drag to pan, double-click to "
        "zoom out; the strip under the last panel moves the window. Sample points appear once zoomed in.";
   if (doc.markers_total > 0)
     s += fmt::format(" {}: <span class=\"state\">- - state</span>, <span class=\"faults\">- - faults</span>.",
-                     escape_html(marker_summary(doc)));
+                     detail::markup_escape(marker_summary(doc)));
   s += "</p>\n";
   for (std::size_t i = 0; i < doc.panels.size(); ++i)
     s += fmt::format("<div class=\"legend\" id=\"legend{0}\"></div><div class=\"panel\" id=\"panel{0}\"></div>\n", i);
@@ -430,7 +417,7 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
   if (doc.markers_total == 0) {
     s += "<p class=\"note\">No state or fault changes in the plotted messages.</p>\n";
   } else {
-    s += fmt::format("<p class=\"note\">{}</p>\n", escape_html(marker_summary(doc)));
+    s += fmt::format("<p class=\"note\">{}</p>\n", detail::markup_escape(marker_summary(doc)));
     const bool seconds = seconds_axis(doc);
     s += fmt::format("<table>\n<tr><th>#</th><th>{}</th><th>timestamp</th><th>what</th><th>change</th></tr>\n",
                      seconds ? "time [s]" : "message");
@@ -441,7 +428,7 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
           "<tr class=\"{0}\"><td class=\"num\">{1}</td><td class=\"num\">{2}</td><td class=\"num\">{3}</td>"
           "<td>{0}</td><td>{4}</td></tr>\n",
           to_string(m.kind), i + 1, seconds ? fmt::format("{:.6f}", m.t) : fmt::format("{:.0f}", m.t),
-          escape_html(start ? human_time(*start) : m.when), escape_html(m.detail));
+          detail::markup_escape(start ? human_time(*start) : m.when), detail::markup_escape(m.detail));
     }
     s += "</table>\n";
     if (doc.markers_total > doc.markers.size())
@@ -450,7 +437,7 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
   }
   if (!doc.notes.empty()) {
     s += "<h2>Notes</h2>\n<ul>\n";
-    for (const auto& note : doc.notes) s += fmt::format("<li>{}</li>\n", escape_html(note));
+    for (const auto& note : doc.notes) s += fmt::format("<li>{}</li>\n", detail::markup_escape(note));
     s += "</ul>\n";
   }
   s += "<script type=\"application/json\" id=\"plot-data\">" + script_safe(json_line(page_data(doc)), true) + "</script>\n";

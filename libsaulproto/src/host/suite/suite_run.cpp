@@ -12,6 +12,7 @@
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
 #include "saulproto/host/report/trace_report.hpp"
+#include "../util.hpp"
 
 namespace saul::host::suite {
 namespace {
@@ -24,20 +25,6 @@ std::string refusal_in(const std::string& bytes) {
   tap.push(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
   tap.finish();
   return tap.refusal();
-}
-
-std::string xml_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
-    }
-  }
-  return o;
 }
 
 }  // namespace
@@ -371,23 +358,23 @@ std::string junit_xml(const std::vector<SuiteResult>& results) {
     }
     if (s.skipped) skipped = 1;
     x += fmt::format("  <testsuite name=\"{}\" tests=\"{}\" failures=\"{}\" skipped=\"{}\" time=\"{:.3f}\">\n",
-                     xml_escape(s.name), s.skipped ? 1 : s.steps.size(), failures, skipped,
+                     detail::markup_escape(s.name), s.skipped ? 1 : s.steps.size(), failures, skipped,
                      static_cast<double>(s.elapsed_us) / 1e6);
     if (s.skipped) {
-      x += fmt::format("    <testcase name=\"{}\"><skipped message=\"{}\"/></testcase>\n", xml_escape(s.name),
-                       xml_escape(s.skip_reason));
+      x += fmt::format("    <testcase name=\"{}\"><skipped message=\"{}\"/></testcase>\n", detail::markup_escape(s.name),
+                       detail::markup_escape(s.skip_reason));
     }
     for (const auto& st : s.steps) {
-      x += fmt::format("    <testcase classname=\"{}\" name=\"line {}: {}\" time=\"{:.3f}\"", xml_escape(s.name), st.line,
-                       xml_escape(st.source), static_cast<double>(st.elapsed_us) / 1e6);
+      x += fmt::format("    <testcase classname=\"{}\" name=\"line {}: {}\" time=\"{:.3f}\"", detail::markup_escape(s.name), st.line,
+                       detail::markup_escape(st.source), static_cast<double>(st.elapsed_us) / 1e6);
       const std::string out =
-          st.output.empty() ? "" : fmt::format("<system-out>{}</system-out>", xml_escape(st.output));
+          st.output.empty() ? "" : fmt::format("<system-out>{}</system-out>", detail::markup_escape(st.output));
       if (st.status == StepResult::Status::passed) {
         x += out.empty() ? "/>\n" : ">" + out + "</testcase>\n";
       } else if (st.status == StepResult::Status::failed) {
-        x += fmt::format("><failure message=\"{}\"/>{}</testcase>\n", xml_escape(st.message), out);
+        x += fmt::format("><failure message=\"{}\"/>{}</testcase>\n", detail::markup_escape(st.message), out);
       } else {
-        x += fmt::format("><skipped message=\"{}\"/></testcase>\n", xml_escape(st.message));
+        x += fmt::format("><skipped message=\"{}\"/></testcase>\n", detail::markup_escape(st.message));
       }
     }
     x += "  </testsuite>\n";
