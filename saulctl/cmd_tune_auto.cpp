@@ -196,11 +196,13 @@ std::optional<saul::host::tune::Report> live_run(saul::host::SerialPort& port, s
         writer.write(b);
         tap.push(b);
       },
-      [] { return g_interrupted.load(); }, [&] { return !tap.refusal().empty(); });
+      [] { return g_interrupted.load(); }, [&] { return !tap.refusal().empty(); },
+      [&] { return tap.stats().duration_s(); });
   tap.finish();
   writer.close();
   if (!tap.refusal().empty()) why = "BALANCE refused the test signal: " + tap.refusal();
   else if (end.stopped == "interrupted") why = "interrupted";
+  else if (end.stopped != "duration") why = "BALANCE's trace stopped: " + end.stopped;
   if (!why.empty()) return std::nullopt;
   return saul::host::tune::analyse(saul::host::tune::read_trace_series(file));
 }

@@ -85,7 +85,8 @@ int run_tune_record(const TuneRecordOptions& o) {
     options.excite = excitation(o);
     options.dump = o.dump;
     const auto done = [&] { return !tap.refusal().empty() || tap.dump_ended(); };
-    stopped = saul::host::run_live_trace(*port, options, take, interrupted, done).stopped;
+    const auto traced_s = [&] { return tap.stats().duration_s(); };
+    stopped = saul::host::run_live_trace(*port, options, take, interrupted, done, traced_s).stopped;
   }
   tap.finish();
   file.close();
@@ -120,7 +121,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
   auto o = std::make_shared<TuneRecordOptions>();
   auto* cmd = tune.add_subcommand("record", "Record BALANCE's 1 kHz loop trace into a trace file");
   cmd->add_option("-o,--output", o->out, "the trace file to write")->required();
-  add_duration_option(cmd, o->duration, "how long to trace")->capture_default_str();
+  add_duration_option(cmd, o->duration, "how long to trace, on the robot's clock (its records' time)")->capture_default_str();
   cmd->add_option("--excite", o->excite, "add a test signal to the pitch setpoint while tracing")
       ->check(CLI::IsMember({"step", "chirp", "prbs"}));
   cmd->add_option("--amplitude", o->amplitude, "the test signal's amplitude in degrees (at most 2)")

@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """The simulated robot driven from outside with seeded random inputs from every source; the rules checked on the bus.
 
-  sim_random.py SAULCTL [--seed N] [--duration SECONDS] [--keep DIR]
+  sim_random.py SAULCTL [--seed N[,N...]] [--duration SECONDS] [--keep DIR]
+
+Several seeds run at once, each a simulator, a sniff and a driver of its own (a run takes ~10 % of a core: most of
+it is waiting for real time), and the outputs are printed seed by seed; the exit status is 1 when any failed.
 
 `saulctl sim` runs in real time behind its pseudo-terminals, as a bench engineer's robot would: this script is the
 engineer (and the Orin, and a clumsy colleague). Through the control pty it moves the radio's channels (CH2 throttle,
@@ -383,13 +386,34 @@ def radio_live_at(inputs, t0, text):
     return on
 
 
+def run_at_once(a, seeds):
+    """Each seed in a process of its own, all at once; their outputs printed in seed order."""
+    runs = []
+    for seed in seeds:
+        cmd = [sys.executable, os.path.abspath(__file__), a.saulctl, "--seed", str(seed), "--duration", str(a.duration)]
+        if a.keep:
+            cmd += ["--keep", os.path.join(a.keep, f"seed{seed}")]
+        runs.append((seed, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)))
+    failed = 0
+    for seed, p in runs:
+        out, _ = p.communicate()
+        print(f"---- seed {seed}: exit {p.returncode}\n{out}", end="" if out.endswith("\n") else "\n")
+        failed += p.returncode != 0
+    print(f"seeds {','.join(map(str, seeds))}: {len(seeds) - failed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("saulctl")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", default="1", help="a seed, or several separated by commas (run at once)")
     ap.add_argument("--duration", type=float, default=60, help="seconds of random inputs (real time)")
     ap.add_argument("--keep", help="keep the record and the input log in this directory")
     a = ap.parse_args()
+    seeds = [int(x) for x in a.seed.split(",")]
+    if len(seeds) > 1:
+        return run_at_once(a, seeds)
+    a.seed = seeds[0]
     raise_priority()
     work = tempfile.mkdtemp(prefix="saul-random-")
     d = Driver(a.saulctl, a.seed, a.duration, work)

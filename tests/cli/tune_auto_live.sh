@@ -7,7 +7,8 @@
 # raised to 50 % first), --yes runs the plan: each set sent with 'pid' and acknowledged, printed as it is sent, a gain set
 # proposed, and the robot's own gains restored and read back (its status shows them again). Ctrl-C (SIGINT) and kill
 # (SIGTERM) in the middle of a set also restore them. Waits are on the simulator's own status or on saulctl's output,
-# never on the wall clock alone (a loaded machine runs the simulator slower than real time).
+# never on the wall clock alone (a loaded machine runs the simulator slower than real time). The simulator runs at 3x
+# real time: a live trace's duration is on the robot's clock (its records' time), so each set still traces 10 s.
 set -uo pipefail
 saulctl=$1
 source "$(dirname "$0")/check.bash"
@@ -17,7 +18,7 @@ trap '[[ -n $sim ]] && kill "$sim" 2>/dev/null; rm -rf "$work"' EXIT
 cd "$work" || exit 1
 
 # The simulator outlives the test (its ctest timeout is 900 s; the EXIT trap ends it): a loaded machine ran past 600 s.
-"$saulctl" sim --quiet --paths-file paths --for 1000s >sim.log 2>&1 &
+"$saulctl" sim --quiet --speed 3 --paths-file paths --for 1000s >sim.log 2>&1 &
 sim=$!
 for _ in $(seq 200); do [[ -s paths ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' paths)

@@ -86,20 +86,26 @@ check "--dump: the flight recorder's 5000 records" grep -q "^flight recorder: 50
 "$saulctl" decode "$work/dump.trace" 2>/dev/null | grep -c "TILT_CUTOFF" >"$work/tilt" || true
 check "the dump ends at the tilt cutoff" test "$(cat "$work/tilt")" -ge 1
 
-# Live, at real time: `saulctl sim` streams the trace on its BALANCE console pty (trace on works in any state).
+# Live: `saulctl sim` streams the trace on its BALANCE console pty (trace on works in any state), here at 3x real
+# time: a live trace's duration is on the robot's clock (its records' time), so 2 s is 2 s of records, not 6.
 # The simulator runs until killed below (--for only bounds a test that died): under load the recordings take longer.
-"$saulctl" sim --quiet --paths-file "$work/paths" --for 300s >"$work/sim.log" 2>&1 &
+"$saulctl" sim --quiet --speed 3 --paths-file "$work/paths" --for 900s >"$work/sim.log" 2>&1 &
 sim=$!
 for _ in $(seq 200); do [[ -s $work/paths ]] && break; sleep 0.05; done
 balance=$(sed -n 's/^balance=//p' "$work/paths")
 "$saulctl" tune record --console-balance "$balance" --duration 2s -o "$work/live.trace" >"$work/live" 2>&1
+check "live: the recording ends well" test $? -eq 0
 cat "$work/live"
+"$saulctl" stats "$work/live.trace" >"$work/live.stats" 2>&1
+covered=$(sed -n 's/.* records over \([0-9.]*\) s .*/\1/p' "$work/live.stats")
+check "live: 2 s on the robot's clock from a simulator at 3x real time (covered: $covered s)" \
+  awk -v c="$covered" 'BEGIN { exit !(c >= 1.99 && c <= 2.2) }'
 "$saulctl" tune record --console-balance "$balance" --duration 1s --excite step -o "$work/r.trace" >"$work/ref" 2>&1
 check "live: excite outside BALANCE is refused, exit 1" test $? -eq 1
 cat "$work/ref"
 check "live: the refusal says why" grep -q "^stopped: BALANCE refused: error: excite runs only in BALANCE" "$work/ref"
 # Beside another saulctl on the same port (the shared serial link): console's status gets its reply, the trace no gap.
-"$saulctl" tune record --console-balance "$balance" --duration 3s -o "$work/shared.trace" >"$work/shared" 2>&1 &
+"$saulctl" tune record --console-balance "$balance" --duration 9s -o "$work/shared.trace" >"$work/shared" 2>&1 &
 rec=$!
 sleep 1
 timeout 10 "$saulctl" console "$balance" status >"$work/con" 2>&1

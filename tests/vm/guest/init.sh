@@ -369,17 +369,18 @@ test_filter_before_bind() {
 }
 
 test_sniff_filter_busy_bus() {
-  # The case: sniff --id 400 --count 3 on a busy bus printed frames of other ids in 6 of 20 runs.
+  # The case: sniff --id 400 --count 3 on a busy bus printed frames of other ids in 6 of 20 runs (10 runs miss
+  # that rate with a chance of 0.7^10 = 3 %; the filters-before-bind test above checks the cause at every run).
   start_flood 123#01 400#F4010A00C80001 321#0203 1ABCDEF0#04
   i=0
-  while [ $i -lt 20 ]; do
+  while [ $i -lt 10 ]; do
     i=$((i + 1))
     timeout 20 saulctl sniff vcan0 --id 400 --count 3 >/tmp/out 2>/tmp/err
     expect_rc $? 0 "saulctl sniff --id 400 --count 3 (run $i)"
     expect_frames /tmp/out "400#F4010A00C80001 400#F4010A00C80001 400#F4010A00C80001"
     grep -q "came past the kernel filter" /tmp/err && { show /tmp/err; die "run $i: frames of other ids reached the socket"; }
   done
-  echo "20 runs: only 400 printed, none of the other ids reached the socket"
+  echo "10 runs: only 400 printed, none of the other ids reached the socket"
 }
 
 test_doctor_vcan() {
@@ -662,7 +663,7 @@ t "saulctl: record writes what cansend puts on vcan0" test_record
 t "saulctl: replay puts a capture's frames on vcan0 exactly (candump)" test_replay
 t "saulctl: sniff --id filters in the kernel" test_kernel_filters_sniff
 t "socketcan: filters set before bind: no other id gets in with traffic already flowing" test_filter_before_bind
-t "saulctl: sniff --id 400 --count 3 on a busy bus prints only 0x400 (20 runs)" test_sniff_filter_busy_bus
+t "saulctl: sniff --id 400 --count 3 on a busy bus prints only 0x400 (10 runs)" test_sniff_filter_busy_bus
 t "socketcan: netlink describes vcan0 (kind, up, no bit timing)" check netlink
 t "saulctl: doctor --link vcan0 reads the interface from netlink, fails with no robot" test_doctor_vcan
 t "saulctl: sniff decodes error frames and shows state changes" test_error_frames_sniff

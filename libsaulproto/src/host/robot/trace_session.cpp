@@ -18,7 +18,8 @@ void send(SerialPort& port, const trace::Command& command) {
 
 LiveTraceEnd run_live_trace(SerialPort& console, const LiveTraceOptions& options,
                             const std::function<void(std::span<const std::uint8_t>)>& out,
-                            const std::function<bool()>& interrupted, const std::function<bool()>& done) {
+                            const std::function<bool()>& interrupted, const std::function<bool()>& done,
+                            const std::function<double()>& traced_s) {
   std::uint8_t buffer[4096];
   // Reads until `until` or done(); false when interrupted.
   const auto pump = [&](Clock::time_point until, const std::function<bool()>& stop) {
@@ -43,11 +44,13 @@ LiveTraceEnd run_live_trace(SerialPort& console, const LiveTraceOptions& options
     if (!pump(Clock::now() + kStatusReply, never)) return {"interrupted"};
     send(console, trace::TraceOn{options.divider});
     if (options.excite) send(console, *options.excite);
-    const bool ok = pump(Clock::now() + options.duration, done);
+    const double want_s = std::chrono::duration<double>(options.duration).count();
+    const auto traced = [&] { return traced_s() >= want_s; };
+    const bool ok = pump(Clock::now() + 3 * options.duration + std::chrono::seconds(5), [&] { return done() || traced(); });
     send(console, trace::TraceOff{});
     if (options.excite) send(console, trace::ExciteOff{});
     (void)pump(Clock::now() + std::chrono::milliseconds(100), never);  // the records still on their way
-    end.stopped = !ok ? "interrupted" : done() ? "done" : "duration";
+    end.stopped = !ok ? "interrupted" : done() ? "done" : traced() ? "duration" : "no records for the duration";
   }
   return end;
 }

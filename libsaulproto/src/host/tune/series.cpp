@@ -2,7 +2,7 @@
 // its line and left out; the rest is kept.
 #include "saulproto/host/tune/series.hpp"
 
-#include <fmt/core.h>
+#include <fmt/format.h>  // fmt::join
 
 #include <array>
 #include <charconv>
