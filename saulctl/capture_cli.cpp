@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <vector>
 
 #include "commands.hpp"
 #include "saulproto/core/quantity.hpp"
@@ -13,26 +14,18 @@
 
 namespace saulctl {
 
-std::vector<std::string> input_format_names() {
-  std::vector<std::string> names;
-  for (const auto& f : saul::host::kCaptureFormats) names.emplace_back(saul::host::to_string(f.format));
-  return names;
-}
-
-void add_input_format_option(CLI::App* cmd, std::string& input_format) {
-  cmd->add_option("--input-format", input_format,
-                  "read the file as this format instead of the one its content says (a .gz/.zst file is still "
-                  "decompressed first)")
-      ->check(CLI::IsMember(input_format_names()));
-}
-
 std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format) {
   if (input_format.empty()) return std::nullopt;
   return saul::host::capture_format_from_name(input_format);
 }
 
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
-  add_input_format_option(cmd, options.input_format);
+  std::vector<std::string> formats;  // every capture format, CAN and serial
+  for (const auto& f : saul::host::kCaptureFormats) formats.emplace_back(saul::host::to_string(f.format));
+  cmd->add_option("--input-format", options.input_format,
+                  "read the file as this format instead of the one its content says (a .gz/.zst file is still "
+                  "decompressed first)")
+      ->check(CLI::IsMember(formats));
   cmd->add_option("--protocol", options.protocol,
                   "serial captures: protocol of links the file does not name (sigrok/PulseView exports): "
                   "interboard, crsf, pride or raw (default: guessed from the first 4 KiB)")

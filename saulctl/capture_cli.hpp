@@ -11,7 +11,6 @@
 #include <optional>
 #include <string>
 #include <string_view>
-#include <vector>
 
 #include "saulproto/host/capture/serial_capture.hpp"
 
@@ -23,10 +22,6 @@ struct SerialCliOptions {
   std::string input_format;  ///< "", or a capture format name (--input-format)
 };
 
-/// The names --input-format accepts: every capture format, CAN and serial.
-std::vector<std::string> input_format_names();
-/// Adds --input-format to a verb.
-void add_input_format_option(CLI::App* cmd, std::string& input_format);
 /// The format --input-format names, or nullopt when it was not given.
 std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format);
 

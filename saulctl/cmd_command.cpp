@@ -4,7 +4,6 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <memory>
 
 #include "commands.hpp"
 #include "live.hpp"
@@ -80,12 +79,8 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
         "'saulctl sniff' shows the traffic)",
         what, timeout.count(), link.name());
   }
-  switch (out.status) {
-    case CommandOutcome::Status::applied: return differs ? kFailure : kOk;
-    case CommandOutcome::Status::rejected: return kFailure;
-    case CommandOutcome::Status::no_answer: return kTimeout;
-  }
-  return kFailure;
+  if (out.status == CommandOutcome::Status::applied) return differs ? kFailure : kOk;
+  return out.status == CommandOutcome::Status::rejected ? kFailure : kTimeout;
 }
 
 int run_mode(const CommandOptions& opt) {

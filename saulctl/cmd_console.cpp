@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <iostream>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <type_traits>
 
@@ -59,15 +58,6 @@ nlohmann::json parse_report(saul::console::Verb verb, const Reply& reply) {
   return nullptr;
 }
 
-int exit_code(const Reply& r) {
-  switch (r.end) {
-    case Reply::End::ok: return kOk;
-    case Reply::End::error: return kFailure;
-    case Reply::End::none: return kTimeout;
-  }
-  return kFailure;
-}
-
 /// Sends one line, prints the reply; returns the exit code.
 int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const std::string& line,
                 milliseconds timeout, std::string& pending) {
@@ -93,7 +83,7 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
           port.path(), line, timeout.count());
   }
   std::fflush(stdout);
-  return exit_code(reply);
+  return reply.end == Reply::End::ok ? kOk : reply.end == Reply::End::error ? kFailure : kTimeout;
 }
 
 int run_console(const ConsoleOptions& opt) {

@@ -31,11 +31,8 @@ struct ConvertOptions {
   std::string format;  // output format; empty = from OUT's extension
   SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks
-  // MCAP chunks in zstd: -2 (zstd --fast=2) compresses a bus's records ~30 % faster than level 1 for a file ~10 %
-  // larger (bench/README.md, round 5); `record` keeps level 1 (a live bus leaves it time).
-  int zstd_level = -2;
-  // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end; at 1 MiB that was ~25 MiB of a
-  // 10 GB log's memory (bench/README.md).
+  int zstd_level = -2;  // zstd --fast=2: faster than level 1 for a slightly larger file (bench/README.md)
+  // 4 MiB chunks: the summary keeps a Chunk Index (~0.4 KB) per chunk to the end, so its memory grows as they shrink.
   std::uint64_t chunk_bytes = std::uint64_t{4} << 20;
   std::string parallel_from;  // --parallel-from
   std::string block_size = "512K";  // --block-size
@@ -46,8 +43,8 @@ saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   saul::host::McapWriterOptions mcap;
   mcap.compression = *saul::host::mcap_compression_from_name(opt.compression);
   mcap.zstd_level = opt.zstd_level;
-  // Chunks by size only: a file is no live recording, and chunks closed every second of log time (a slow bus:
-  // ~770 frames, 220 KB) made 4.5x as many chunk indexes for the summary to keep (~0.4 KB each): 130 MB on 10 GB.
+  // Chunks by size only: a file is no live recording, and chunks closed every second of a slow bus's log time would
+  // be many small ones, each with a chunk index for the summary to keep.
   mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
   mcap.chunk_bytes = opt.chunk_bytes;
   mcap.library = "saulctl " SAULCTL_VERSION;

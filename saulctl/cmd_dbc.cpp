@@ -3,7 +3,6 @@
 #include <fmt/core.h>
 
 #include <fstream>
-#include <memory>
 
 #include "commands.hpp"
 #include "saulproto/host/report/dbc.hpp"

@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <optional>
 #include <system_error>
@@ -218,9 +217,9 @@ int run_decode(const DecodeOptions& opt) {
 }  // namespace
 
 void add_decode_command(CLI::App& app, Runner& run) {
-  auto opt = std::make_shared<DecodeOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "decode", "Decode every frame of capture files (" + saul::host::capture_format_list(true) + ")");
+  auto [cmd, opt] = add_verb<DecodeOptions>(
+      app, run, "decode", "Decode every frame of capture files (" + saul::host::capture_format_list(true) + ")",
+      run_decode, false);
   cmd->footer(
       "\nOutput (text): one line per frame, greppable:\n"
       "  (1700000000.050000) can0 300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500\n"
@@ -262,16 +261,6 @@ void add_decode_command(CLI::App& app, Runner& run) {
   add_id_option(cmd, opt->ids, "only these CAN ids");
   add_serial_read_options(cmd, opt->serial);
   add_parallel_from_option(cmd, opt->parallel_from);
-  cmd->callback([opt, &run] {
-    run = [opt] {
-      try {
-        return run_decode(*opt);
-      } catch (const CLI::ValidationError& e) {
-        say("{}", e.what());
-        return static_cast<int>(kUsage);
-      }
-    };
-  });
 }
 
 }  // namespace saulctl

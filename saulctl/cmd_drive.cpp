@@ -3,13 +3,10 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <memory>
-#include <thread>
 
 #include "commands.hpp"
 #include "live.hpp"
-#include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/report/frame_text.hpp"
+#include "saulproto/core/saul_can.hpp"
 
 namespace saulctl {
 namespace {

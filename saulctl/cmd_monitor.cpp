@@ -78,15 +78,9 @@ std::string fault_names(std::uint8_t faults) {
 }
 
 Style state_style(sc::RobotState s) {
-  switch (s) {
-    case sc::RobotState::balance:
-    case sc::RobotState::manual: return Style::good;
-    case sc::RobotState::estop:
-    case sc::RobotState::tilt_cutoff:
-    case sc::RobotState::fault: return Style::bad;
-    case sc::RobotState::off: return Style::normal;
-  }
-  return Style::normal;
+  using S = sc::RobotState;
+  if (s == S::balance || s == S::manual) return Style::good;
+  return s == S::estop || s == S::tilt_cutoff || s == S::fault ? Style::bad : Style::normal;
 }
 
 Style bus_style(saul::host::ControllerState s) {

@@ -13,7 +13,6 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
-#include "live.hpp"
 #include "trace_cli.hpp"
 #include "grammar.hpp"
 #include "saulproto/host/capture/capture.hpp"
@@ -111,22 +110,20 @@ int run_plot(const PlotOptions& opt) {
   for (const auto& panel : plotter.panels()) titles.push_back(panel.title);
   const std::string where = output == "-" ? std::string("stdout") : output;
   if (plotter.dashboard()) {
-    say("{} over {:.3f} s in {} ({}) written to {}",
-        plural(plotter.messages(), "message"), plotter.points_span_s(), plural(titles.size(), "panel"),
-        fmt::join(titles, ", "), where);
+    say("{} over {:.3f} s in {} ({}) written to {}", plural(plotter.messages(), "message"), plotter.points_span_s(),
+        plural(titles.size(), "panel"), fmt::join(titles, ", "), where);
   } else {
     std::vector<std::string> fields;
     for (const auto& panel : plotter.panels()) fields.push_back(panel.series.at(0).field);
-    say("{} points of {} ({}) over {:.3f} s written to {}", plotter.messages(),
-        opt.id, fmt::join(fields, ", "), plotter.points_span_s(), where);
+    say("{} points of {} ({}) over {:.3f} s written to {}", plotter.messages(), opt.id, fmt::join(fields, ", "),
+        plotter.points_span_s(), where);
   }
   const auto& changes = plotter.changes();
   if (format != "csv" && changes.total() > 0) {
     if (changes.kept().size() == changes.total())
       say("{} marked", plural(changes.total(), "state/fault change"));
     else
-      say("{} state/fault changes, the first {} marked (--max-markers)",
-          changes.total(), changes.kept().size());
+      say("{} state/fault changes, the first {} marked (--max-markers)", changes.total(), changes.kept().size());
   }
   return kOk;
 }

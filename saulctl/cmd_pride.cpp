@@ -1,7 +1,6 @@
 // saulctl pride vcu: act as the VCU on the Pride ES link (host/pride_vcu.hpp does the timing, echo and neutral).
 #include <fmt/core.h>
 
-#include <memory>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"

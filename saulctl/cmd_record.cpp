@@ -7,6 +7,7 @@
 #include <chrono>
 #include <optional>
 
+#include "capture_cli.hpp"
 #include "commands.hpp"
 #include "live.hpp"
 #include "saulproto/host/link/can_link.hpp"
@@ -69,11 +70,7 @@ class Progress {
 
 saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
   saul::host::RotationOptions r;
-  try {
-    if (!opt.rotate_size.empty()) r.max_bytes = saul::host::parse_size(opt.rotate_size);
-  } catch (const std::invalid_argument& e) {
-    throw CLI::ValidationError("--rotate-size", e.what());
-  }
+  if (!opt.rotate_size.empty()) r.max_bytes = parse_size_option("--rotate-size", opt.rotate_size);
   if (!opt.rotate_time.empty()) {
     const auto d = parse_duration(opt.rotate_time);
     if (d.count() <= 0) throw CLI::ValidationError("--rotate-time", "must be at least 1 ms");
@@ -87,8 +84,7 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
 }
 
 /// After Ctrl-C: what the adapter already delivered is still read and written, until it is quiet for 200 ms
-/// (at most one second), so frames that were on their way are not lost. (50 ms lost bytes sent just before the
-/// Ctrl-C once, on a loaded machine where the link's reading thread had not run yet.)
+/// (at most one second; less lost bytes on a loaded machine), so frames that were on their way are not lost.
 template <class ReadOne>
 void drain(ReadOne&& read_one) {
   const auto until = steady_clock::now() + seconds(1);

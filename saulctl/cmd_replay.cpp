@@ -2,8 +2,7 @@
 // timing. Scheduling, filters, remapping, the motion rules, the cutting of serial bytes into frames and the lateness
 // statistics are in the host library (saulproto/host/replay/replay.hpp, serial_replay.hpp); this file asks, opens the link
 // and reports.
-#include <fmt/core.h>
-#include <unistd.h>
+#include <fmt/format.h>
 
 #include <iostream>
 #include <optional>
@@ -42,13 +41,6 @@ struct ReplayCliOptions {
 };
 
 std::string micros(std::uint64_t ns) { return fmt::format("{:.0f} us", static_cast<double>(ns) / 1e3); }
-
-std::string hex_bytes(std::span<const std::uint8_t> bytes) {
-  std::string s;
-  s.reserve(bytes.size() * 2);
-  for (auto b : bytes) s += fmt::format("{:02X}", b);
-  return s;
-}
 
 nlohmann::json lateness_json(const saul::host::LatenessStats& l, const char* unit) {
   return {{unit, l.count()},
@@ -134,16 +126,14 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   SerialReplayHooks hooks;
   hooks.write = [&port](std::span<const std::uint8_t> bytes) { port->write(bytes, std::chrono::milliseconds(1000)); };
   hooks.stop = [] { return g_interrupted.load(); };
-  hooks.on_corrupt = [&opt](const CaptureError& e) {
-    say("{}", format_capture_error(opt.file, e));
-  };
+  hooks.on_corrupt = [&opt](const CaptureError& e) { say("{}", format_capture_error(opt.file, e)); };
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const SerialChunk& chunk, std::span<const std::uint8_t> bytes) {
       ++stepped;
       const std::uint64_t t = chunk.timestamp_ns.value_or(0);
-      fmt::print(stderr, "[{}] ({:010}.{:06}) {}{}  (Enter sends, q quits) ", stepped, t / 1'000'000'000ULL,
-                 t % 1'000'000'000ULL / 1'000ULL, hex_bytes(bytes),
+      fmt::print(stderr, "[{}] ({:010}.{:06}) {:02X}{}  (Enter sends, q quits) ", stepped, t / 1'000'000'000ULL,
+                 t % 1'000'000'000ULL / 1'000ULL, fmt::join(bytes, ""),
                  chunk.bytes.size() == bytes.size()
                      ? std::string()
                      : fmt::format(" ({} bytes of motion left out)", chunk.bytes.size() - bytes.size()));
@@ -277,9 +267,7 @@ int run_replay(const ReplayCliOptions& opt) {
   ReplayHooks hooks;
   hooks.send = [&link](const saul::CanFrame& f) { link->send(f, std::chrono::milliseconds(1000)); };
   hooks.stop = [] { return g_interrupted.load(); };
-  hooks.on_corrupt = [&opt](const CaptureError& e) {
-    say("{}", format_capture_error(opt.file, e));
-  };
+  hooks.on_corrupt = [&opt](const CaptureError& e) { say("{}", format_capture_error(opt.file, e)); };
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const saul::CanFrame& f) {

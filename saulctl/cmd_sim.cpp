@@ -1,11 +1,8 @@
 // saulctl sim: the simulated robot, shown to the world as hardware on pseudo-terminals.
 #include <fmt/core.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
-#include <memory>
-#include <thread>
 
 #include "commands.hpp"
 #include "live.hpp"

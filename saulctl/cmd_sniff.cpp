@@ -17,7 +17,6 @@
 #include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
-#include "saulproto/host/link/socketcan.hpp"
 #include "tui.hpp"
 
 namespace saulctl {

@@ -4,8 +4,6 @@
 #include <stdexcept>
 
 #include "saulproto/core/quantity.hpp"
-#include "saulproto/host/suite/suite.hpp"
-#include "saulproto/host/replay/replay.hpp"
 
 namespace saulctl {
 

@@ -12,10 +12,8 @@
 #include "commands.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/trace.hpp"
-#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/flash/esp_connection.hpp"
 #include "saulproto/host/link/can_link.hpp"
-#include "saulproto/host/link/serial_port.hpp"
 #include "saulproto/host/link/shared_link.hpp"
 
 namespace saulctl {
@@ -69,8 +67,7 @@ std::string raise_cap_hint(const std::string& port) {
 bool confirm_motion(bool yes, const std::string& what) {
   if (yes) return true;
   if (!::isatty(STDIN_FILENO)) {
-    say("refusing to {} without confirmation: this can make the motors move; add --yes",
-        what);
+    say("refusing to {} without confirmation: this can make the motors move; add --yes", what);
     return false;
   }
   fmt::print(stderr, "This can make the motors move. Type 'yes' to {}: ", what);
@@ -131,19 +128,13 @@ void ViewCommands::send(std::uint8_t mode, const char* what) {
 }
 
 bool ViewCommands::key(int k) {
-  switch (k) {
-    case 'e':
-    case 'E':
-    case ' ':
-      ++estops_;
-      send(3, "ESTOP");
-      return false;
-    case 'o':
-    case 'O': send(0, "mode off"); return false;
-    case 'q':
-    case 'Q': return true;
-    default: return false;
+  if (k == 'e' || k == 'E' || k == ' ') {
+    ++estops_;
+    send(3, "ESTOP");
+  } else if (k == 'o' || k == 'O') {
+    send(0, "mode off");
   }
+  return k == 'q' || k == 'Q';
 }
 
 void ViewCommands::frame(const saul::CanFrame& f) {
