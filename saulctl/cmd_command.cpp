@@ -109,9 +109,8 @@ int run_estop(const CommandOptions& opt) {
   // BALANCE acknowledged. The frame's way out is timed: command start -> the write to the adapter (measured by the
   // owner when the link is shared).
   const auto started = steady_clock::now();
-  const auto spec = resolve_link(opt.link);
   const auto timeout = parse_duration(opt.timeout);
-  auto link = saul::host::open_can_link(spec);
+  auto link = saul::host::open_can_link(resolve_link(opt.link));
   saul::host::RobotClient client(*link);
   const auto t0 = steady_clock::now();
   client.send_estop();
@@ -133,9 +132,8 @@ int run_estop(const CommandOptions& opt) {
 int run_pid(const CommandOptions& opt) {
   for (double g : opt.gains)
     if (!std::isfinite(g) || g < 0) throw CLI::ValidationError("gains", "gains must be finite and not negative");
-  const auto spec = resolve_link(opt.link);
   const auto timeout = parse_duration(opt.timeout);
-  auto link = saul::host::open_can_link(spec);
+  auto link = saul::host::open_can_link(resolve_link(opt.link));
   saul::host::RobotClient client(*link);
   const auto out = client.set_pid(static_cast<float>(opt.gains[0]), static_cast<float>(opt.gains[1]),
                                   static_cast<float>(opt.gains[2]), timeout);
@@ -147,9 +145,8 @@ int run_pid(const CommandOptions& opt) {
 int run_config(const CommandOptions& opt) {
   if (opt.tilt_limit < 5.0 || opt.tilt_limit > 25.0)
     throw CLI::ValidationError("--tilt-limit", "tilt limit must be 5..25 degrees");
-  const auto spec = resolve_link(opt.link);
   const auto timeout = parse_duration(opt.timeout);
-  auto link = saul::host::open_can_link(spec);
+  auto link = saul::host::open_can_link(resolve_link(opt.link));
   saul::host::RobotClient client(*link);
   const auto tilt = static_cast<std::uint16_t>(std::lround(opt.tilt_limit * 100));
   const auto out = client.set_config(tilt, static_cast<std::uint16_t>(opt.max_speed), timeout);

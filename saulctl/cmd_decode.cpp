@@ -99,8 +99,8 @@ int run_decode(const DecodeOptions& opt) {
   const auto ids = id_filters(opt.ids);
   const saul::host::SerialReadOptions serial_options = serial_read_options(opt.serial);
 
-  std::uint64_t frames = 0, decoded = 0, unknown = 0, rejected = 0, errors = 0, corrupt = 0;
-  std::uint64_t messages = 0;
+  saul::host::DecodeCounts can;  // CAN frames of every file
+  std::uint64_t messages = 0, corrupt = 0;
   std::uint64_t records = 0;  // frames and chunks read, before --id
   bool any_can = false;
   bool any_serial = false;
@@ -173,11 +173,7 @@ int run_decode(const DecodeOptions& opt) {
       }
       any_can = true;
       const auto result = saul::host::decode_capture(path, reader, compressed, options, sinks);
-      frames += result.counts.frames;
-      decoded += result.counts.decoded;
-      unknown += result.counts.unknown;
-      rejected += result.counts.rejected;
-      errors += result.counts.errors;
+      can += result.counts;
       records += result.records;
       corrupt += result.corrupt;
       // Standard input that held lines but not one candump -L line: what it looks like, and exit 1.
@@ -198,7 +194,7 @@ int run_decode(const DecodeOptions& opt) {
   progress.finish();
   if (any_can || !any_serial)
     say("{} frames: {} decoded, {} unknown id, {} rejected, {} error frames; {} corrupt lines",
-        frames, decoded, unknown, rejected, errors, corrupt);
+        can.frames, can.decoded, can.unknown, can.rejected, can.errors, corrupt);
   if (any_serial)
     say("{} serial messages; {} corrupt lines", messages, corrupt);
   // Exit 1 when nothing at all could be read (every file unopenable, or only corrupt records), or with --strict

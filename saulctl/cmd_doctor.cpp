@@ -1,6 +1,6 @@
 // saulctl doctor: checks what usually goes wrong at a bench, one line per check, and the single most likely fix
 // for each failure. Only host-library calls (list_serial_ports, open_serial, open_can_link).
-#include <fmt/core.h>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <array>
@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <map>
 #include <optional>
 
 #include "commands.hpp"
@@ -40,27 +39,27 @@ struct Checks {
   bool json = false;
   int failures = 0;
   nlohmann::json list = nlohmann::json::array();
-  void ok(const std::string& what, const std::string& detail) { add("ok", what, detail, ""); }
+  void ok(const std::string& what, const std::string& detail) { add("ok", "ok  ", what, detail, ""); }
   void fail(const std::string& what, const std::string& detail, const std::string& fix) {
     ++failures;
-    add("fail", what, detail, fix);
+    add("fail", "FAIL", what, detail, fix);
   }
-  void skip(const std::string& what, const std::string& why) { add("skip", what, why, ""); }
+  void skip(const std::string& what, const std::string& why) { add("skip", "-   ", what, why, ""); }
   void warn(const std::string& what, const std::string& detail, const std::string& fix) {
-    add("warn", what, detail, fix);
+    add("warn", "WARN", what, detail, fix);
   }
 
  private:
-  void add(const char* result, const std::string& what, const std::string& detail, const std::string& fix) {
+  /// `result` for JSON, `tag` for people.
+  void add(const char* result, const char* tag, const std::string& what, const std::string& detail,
+           const std::string& fix) {
     if (json) {
       nlohmann::json j{{"check", what}, {"result", result}, {"detail", detail}};
       if (!fix.empty()) j["fix"] = fix;
       list.push_back(std::move(j));
       return;
     }
-    static const std::map<std::string, const char*> tags{{"ok", "ok  "}, {"fail", "FAIL"}, {"skip", "-   "},
-                                                          {"warn", "WARN"}};
-    fmt::print("{} {}: {}\n", tags.at(result), what, detail);
+    fmt::print("{} {}: {}\n", tag, what, detail);
     if (!fix.empty()) fmt::print("     fix: {}\n", fix);
   }
 };
@@ -242,9 +241,7 @@ std::optional<saul::host::LinkSpec> find_adapter(Checks& c) {
            "or --link can0");
     return std::nullopt;
   }
-  std::string list;
-  for (const auto& f : found) list += (list.empty() ? "" : ", ") + f;
-  c.ok("adapter", list);
+  c.ok("adapter", fmt::format("{}", fmt::join(found, ", ")));
   if (links.size() != 1) return std::nullopt;
   c.ok("link", "none given: checking " + links[0]);
   return saul::host::parse_link_spec(links[0]);

@@ -111,7 +111,6 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   return status;
 }
 
-
 // --top: one row per id, a full-screen view on a terminal (tui.hpp, redrawn ten times a second); the table printed
 // once at the end in any case.
 struct TopRow {

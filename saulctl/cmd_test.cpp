@@ -27,9 +27,7 @@ struct TestOptions {
 
 std::unique_ptr<saul::host::SerialPort> open_console(const std::string& path) {
   if (path.empty()) return nullptr;
-  saul::host::SerialSettings s;
-  s.baud = 115200;
-  return saul::host::open_serial(path, s);
+  return saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1
 }
 
 void print_result(const bt::SuiteResult& r) {
@@ -70,8 +68,7 @@ int run_tests(const TestOptions& opt) {
       print_result(results.back());
     }
   } else {
-    const auto spec = resolve_link(opt.link);
-    auto link = saul::host::open_can_link(spec);
+    auto link = saul::host::open_can_link(resolve_link(opt.link));
     std::map<std::string, std::unique_ptr<saul::host::SerialPort>> consoles;
     if (auto p = open_console(opt.console_balance)) consoles["balance"] = std::move(p);
     if (auto p = open_console(opt.console_io)) consoles["io"] = std::move(p);
