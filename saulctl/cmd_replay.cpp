@@ -57,6 +57,13 @@ void print_lateness(const saul::host::LatenessStats& l, const char* unit) {
                unit);
 }
 
+/// --step: shows the `n`th thing to send and waits; true for Enter, false for q, quit or the end of the input.
+bool step_prompt(std::uint64_t n, const std::string& what) {
+  fmt::print(stderr, "[{}] {}  (Enter sends, q quits) ", n, what);
+  std::string answer;
+  return std::getline(std::cin, answer) && answer != "q" && answer != "quit";
+}
+
 /// A serial capture onto a serial port. `link_text` is --link as given (serial:...), or the resolved link's name.
 int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptions& can_options,
                       std::unique_ptr<saul::host::SerialCaptureReader> first_pass, const std::string& link_text) {
@@ -130,16 +137,12 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const SerialChunk& chunk, std::span<const std::uint8_t> bytes) {
-      ++stepped;
       const std::uint64_t t = chunk.timestamp_ns.value_or(0);
-      fmt::print(stderr, "[{}] ({:010}.{:06}) {:02X}{}  (Enter sends, q quits) ", stepped, t / 1'000'000'000ULL,
-                 t % 1'000'000'000ULL / 1'000ULL, fmt::join(bytes, ""),
-                 chunk.bytes.size() == bytes.size()
-                     ? std::string()
-                     : fmt::format(" ({} bytes of motion left out)", chunk.bytes.size() - bytes.size()));
-      std::string answer;
-      if (!std::getline(std::cin, answer) || answer == "q" || answer == "quit") return false;
-      return true;
+      const std::size_t left_out = chunk.bytes.size() - bytes.size();
+      return step_prompt(++stepped, fmt::format("({:010}.{:06}) {:02X}{}", t / 1'000'000'000ULL,
+                                                t % 1'000'000'000ULL / 1'000ULL, fmt::join(bytes, ""),
+                                                left_out ? fmt::format(" ({} bytes of motion left out)", left_out)
+                                                         : std::string()));
     };
   }
   const auto open_pass = [&opt, &read_options]() { return open_serial_capture_reader(opt.file, read_options); };
@@ -271,12 +274,7 @@ int run_replay(const ReplayCliOptions& opt) {
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const saul::CanFrame& f) {
-      ++stepped;
-      fmt::print(stderr, "[{}] {:<24} {}  (Enter sends, q quits) ", stepped, format_candump_frame(f),
-                 describe_frame(f));
-      std::string answer;
-      if (!std::getline(std::cin, answer) || answer == "q" || answer == "quit") return false;
-      return true;
+      return step_prompt(++stepped, fmt::format("{:<24} {}", format_candump_frame(f), describe_frame(f)));
     };
   }
   ReplayReport report;
