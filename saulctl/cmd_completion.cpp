@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <memory>
 #include <string>
@@ -27,8 +28,7 @@ std::string value_kind(const CLI::Option& opt) {
   const std::string type = opt.get_type_name();
   if (const auto open = type.find('{'), close = type.find('}'); open != std::string::npos && close > open) {
     std::string values = type.substr(open + 1, close - open - 1);
-    for (auto& c : values)
-      if (c == ',') c = ' ';
+    std::replace(values.begin(), values.end(), ',', ' ');
     return "values:" + values;
   }
   std::string pname = opt.get_positional() ? opt.get_name(true) : "";
@@ -113,8 +113,7 @@ std::string shared_functions(const std::vector<Level>& levels) {
     std::string lines;
     for (const auto& [name, what] : l.verbs) {
       std::string one = what.substr(0, what.find('\n'));
-      for (auto& c : one)
-        if (c == ':') c = ';';
+      std::replace(one.begin(), one.end(), ':', ';');
       lines += (lines.empty() ? "" : "\n") + name + ":" + one;
     }
     s += fmt::format("    {}) printf '%s\\n' '{}' ;;\n", l.path, quoted(lines));

@@ -87,22 +87,21 @@ std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& id
   return out;
 }
 
+namespace {
+std::string bad_duration(const std::string& text) {
+  return "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)";
+}
+}  // namespace
+
 std::chrono::milliseconds parse_duration(const std::string& text) {
   const auto us = saul::quantity::parse_duration_us(text);  // as bench suites read "500ms", "2s", "1m"
-  if (!us) throw CLI::ValidationError("duration", "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)");
+  if (!us) throw CLI::ValidationError("duration", bad_duration(text));
   return std::chrono::milliseconds(static_cast<long long>(*us / 1000));
 }
 
 CLI::Validator duration_check() {
   return CLI::Validator(
-      [](std::string& text) -> std::string {
-        try {
-          (void)parse_duration(text);
-        } catch (const CLI::ValidationError&) {
-          return "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)";
-        }
-        return "";
-      },
+      [](std::string& text) { return saul::quantity::parse_duration_us(text) ? std::string() : bad_duration(text); },
       "DURATION", "duration");
 }
 

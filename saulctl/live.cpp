@@ -36,14 +36,10 @@ void install_signal_handlers() {
 
 saul::host::LinkSpec resolve_link(const std::string& link) {
   std::string text = link;
-  if (text.empty()) {
-    if (const char* env = std::getenv("SAUL_LINK")) text = env;
-  }
-  if (text.empty()) {
-    if (const char* home = std::getenv("HOME")) {
-      std::ifstream f(std::string(home) + "/.config/saulctl/link");
-      std::getline(f, text);
-    }
+  if (const char* env = std::getenv("SAUL_LINK"); text.empty() && env) text = env;
+  if (const char* home = std::getenv("HOME"); text.empty() && home) {
+    std::ifstream f(std::string(home) + "/.config/saulctl/link");
+    std::getline(f, text);
   }
   if (text.empty())
     throw CLI::ValidationError("--link",

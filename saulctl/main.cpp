@@ -39,17 +39,8 @@ int main(int argc, char** argv) {
     std::vector<char*> argp;
     for (auto& a : args) argp.push_back(a.data());
     app.parse(static_cast<int>(argp.size()), argp.data());
-  } catch (const CLI::CallForHelp&) {
-    fmt::print("{}", app.help());
-    return saulctl::kOk;
-  } catch (const CLI::CallForAllHelp&) {
-    fmt::print("{}", app.help("", CLI::AppFormatMode::All));
-    return saulctl::kOk;
-  } catch (const CLI::CallForVersion& e) {
-    fmt::print("{}\n", e.what());
-    return saulctl::kOk;
   } catch (const CLI::ParseError& e) {
-    // Subcommand help (--help after a verb) arrives here as CallForHelp of the subcommand too.
+    // --help (of saulctl or a verb), --help-all and --version: printed on stdout, exit 0.
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
     return saulctl::report_usage_error(app, e);  // names the verb, suggests the nearest word, points to its help
   }
