@@ -41,8 +41,7 @@ std::uint64_t parse_rate_hz(const std::string& text);
 
 /// From what size decode and stats put the second core to work on a file: a candump, pcap or pcapng file of this
 /// size and more is cut into blocks worked on both cores, another format is read on a thread of its own. Below
-/// 4 MiB (~90 000 frames, ~20 ms of work) a thread costs more than it saves. An option, not an environment
-/// variable (issue 34): tests give 1 to check that both cores give the bytes of one.
+/// 4 MiB (~20 ms of work) a thread costs more than it saves; tests give 1 to check both cores give the same bytes.
 inline constexpr const char* kParallelFrom = "4MiB";
 /// Adds --parallel-from SIZE (default kParallelFrom) to a verb.
 void add_parallel_from_option(CLI::App* cmd, std::string& size);

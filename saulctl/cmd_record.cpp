@@ -246,7 +246,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
 }
 
 int run_record(const RecordOptions& opt) {
-  // Files only: '-' would be a file called '-' (one got committed once), and rotation needs names.
+  // Files only: '-' would be a file called '-', and rotation needs names.
   if (opt.output == "-")
     throw CLI::ValidationError("-o", "record writes files, not standard output: name one (-o run.log); to watch "
                                      "frames as they come, use saulctl sniff");

@@ -1,7 +1,5 @@
 // saulctl replay: a CAN capture back onto a bus, or a serial capture back onto a serial port, with its original
-// timing. Scheduling, filters, remapping, the motion rules, the cutting of serial bytes into frames and the lateness
-// statistics are in the host library (saulproto/host/replay/replay.hpp, serial_replay.hpp); this file asks, opens the link
-// and reports.
+// timing. All but the link and the report is in the host library (saulproto/host/replay/replay.hpp, serial_replay.hpp).
 #include <fmt/format.h>
 
 #include <iostream>

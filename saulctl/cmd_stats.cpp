@@ -5,7 +5,7 @@
 
 #include "capture_cli.hpp"
 #include "commands.hpp"
-#include "live.hpp"
+#include "grammar.hpp"
 #include "trace_cli.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/bus_stats.hpp"
