@@ -83,42 +83,35 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
   return r;
 }
 
-/// Flushes the writer when the link is idle, and at least every 100 ms while data arrive.
-class FlushPace {
- public:
-  template <class Writer>
-  void idle(Writer& writer) {
-    writer.flush();
-    last_ = steady_clock::now();
-  }
-  template <class Writer>
-  void wrote(Writer& writer) {
-    if (steady_clock::now() - last_ > milliseconds(100)) idle(writer);
-  }
-
- private:
-  steady_clock::time_point last_ = steady_clock::now();
-};
-
 /// The receive loop of both kinds of link, with its progress line: take(wait) reads and writes what came within
-/// `wait` (false when nothing did) until Ctrl-C, --duration from `start` or --count (of what `taken` counts, in
+/// `wait` (false when nothing did; the writer is flushed then) until Ctrl-C, --duration from `start` or --count (of what `taken` counts, in
 /// `unit`); after Ctrl-C what is on its way is drained. The writer is closed, complete and readable, whatever
 /// happened (a link's error is said). Returns the exit code.
 template <class Writer, class Take>
 int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Writer& writer, Take&& take,
                  const std::uint64_t& taken, const char* unit) {
   Progress progress(!opt.quiet);
+  // The writer is flushed when the link is idle, and at least every 100 ms while data arrive.
+  auto flushed = steady_clock::now();
+  const auto take_and_flush = [&](milliseconds wait) {
+    const bool got = take(wait);
+    if (!got || steady_clock::now() - flushed > milliseconds(100)) {
+      writer.flush();
+      flushed = steady_clock::now();
+    }
+    return got;
+  };
   int status = kOk;
   try {
     receive_until(opt.duration, start, opt.count, taken, [&](milliseconds wait) {
-      take(wait);
+      take_and_flush(wait);
       progress.update(taken, unit, writer.current_path(), writer.bytes_in_file());
     });
     // After Ctrl-C what the adapter already delivered is still read and written, until it is quiet for 200 ms (at
     // most one second; 50 ms lost bytes on a loaded machine), so frames that were on their way are not lost.
     const auto until = steady_clock::now() + seconds(1);
     while (g_interrupted && steady_clock::now() < until && (opt.count == 0 || taken < opt.count) &&
-           take(milliseconds(200))) {
+           take_and_flush(milliseconds(200))) {
     }
   } catch (const std::exception& e) {
     status = report_error(e);
@@ -168,18 +161,14 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
     fmt::print(stderr, "record: {} as {} (timestamps: {}); Ctrl-C to stop\n", link->name(), iface,
                to_string(link->timestamp_source()));
   std::uint64_t frames = 0;
-  FlushPace flushes;
   const auto start = steady_clock::now();
   auto take = [&](milliseconds wait) {
     const auto f = link->receive(wait);
-    if (!f) {
-      flushes.idle(writer);  // the bus is idle: put everything on disk
-      return false;
+    if (f) {
+      writer.write(*f, iface);
+      ++frames;
     }
-    writer.write(*f, iface);
-    ++frames;
-    flushes.wrote(writer);
-    return true;
+    return f.has_value();
   };
   const int status = receive_loop(opt, start, writer, take, frames, "frames");
   const auto s = link->stats();
@@ -221,21 +210,16 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
                spec.serial.baud, to_string(spec.serial));
   std::uint64_t bytes = 0;
   std::uint64_t chunks = 0;
-  FlushPace flushes;
   const auto start = steady_clock::now();
   std::array<std::uint8_t, 4096> buf{};
   auto take = [&](milliseconds wait) {
     const std::size_t n = port->read(buf, wait);
-    if (n == 0) {
-      flushes.idle(writer);
-      return false;
-    }
+    if (n == 0) return false;
     chunk.timestamp_ns = realtime_ns();
     chunk.bytes.assign(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n));
     writer.write(chunk);
     bytes += n;
     ++chunks;
-    flushes.wrote(writer);
     return true;
   };
   const int status = receive_loop(opt, start, writer, take, bytes, "bytes");

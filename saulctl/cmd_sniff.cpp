@@ -119,6 +119,7 @@ struct TopRow {
   std::uint8_t dlc = 0;
   bool seen_before = false;  ///< a frame before the last one (so changes can be marked)
   bool has = false;
+  [[nodiscard]] bool changed(std::size_t i) const { return seen_before && data[i] != previous[i]; }
 };
 
 double whole_run_load(const saul::host::BusStats& stats) {
@@ -142,9 +143,8 @@ std::string top_table(const saul::host::BusStats& stats, const std::map<saul::ho
     if (it != rows.end()) {
       const TopRow& r = it->second;
       for (std::size_t i = 0; i < r.dlc && i < 8; ++i) {
-        const bool changed = r.seen_before && r.data[i] != r.previous[i];
         if (!data.empty()) data += ' ';
-        data += fmt::format("{:02X}{}", r.data[i], changed ? "*" : "");
+        data += fmt::format("{:02X}{}", r.data[i], r.changed(i) ? "*" : "");
       }
     }
     const auto& c = st.cadence;
@@ -204,8 +204,7 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
     if (const auto it = rows.find(key); it != rows.end()) {
       const TopRow& r = it->second;
       for (std::size_t i = 0; i < r.dlc && i < 8; ++i) {
-        const bool changed = r.seen_before && r.data[i] != r.previous[i];
-        c = s.put(row, c, fmt::format("{:02X}", r.data[i]), changed ? Style::inverse : Style::normal);
+        c = s.put(row, c, fmt::format("{:02X}", r.data[i]), r.changed(i) ? Style::inverse : Style::normal);
         c = s.put(row, c, " ");
       }
     }
