@@ -280,6 +280,7 @@ TEST_CASE("bench suites parse stable (clauses joined by 'and') and mean") {
   fails("mean telemetry_a for 1s\n", "at least one condition");
   fails("mean telemetry_a speed_mmps>1 within 1s\n", "'within' is not a condition");
   fails("mean telemetry_a speed_mmps>1 for\n", "for DURATION");
+  fails("mean telemetry_a speed_mmps>1 for 1s 2s\n", "unexpected words after the duration");
 }
 
 TEST_CASE("the engine: stable restarts its clock on every excursion and passes once it held long enough") {
