@@ -220,8 +220,8 @@ OwnerCore::~OwnerCore() {
 }
 
 std::string OwnerCore::sharing_text() const {
-  if (!serving()) return "";
-  const int clients = client_count();
+  if (!serving_) return "";
+  const int clients = clients_count_;
   return clients == 0 ? std::string("shared, no other saulctl now") : fmt::format("shared with {} other saulctl", clients);
 }
 
@@ -274,7 +274,7 @@ std::optional<LinkError> OwnerCore::gone() const {
   return gone_;
 }
 
-void OwnerCore::wake() {
+void OwnerCore::wake_serving() {
   const std::uint64_t one = 1;
   [[maybe_unused]] const auto n = ::write(wake_fd_, &one, sizeof one);
 }
@@ -282,15 +282,10 @@ void OwnerCore::wake() {
 void OwnerCore::stop_serving() {
   if (thread_.joinable()) {
     stopping_ = true;
-    wake();
+    wake_serving();
     thread_.join();
   }
-  if (listen_fd_ >= 0) {
-    ::close(listen_fd_);
-    ::unlink(socket_path_.c_str());
-    listen_fd_ = -1;
-  }
-  serving_ = false;
+  close_listener();
   if (wake_fd_ >= 0) {
     ::close(wake_fd_);
     wake_fd_ = -1;
@@ -351,7 +346,7 @@ void OwnerCore::post_broadcast(std::vector<std::uint8_t> m) {
     std::lock_guard lock(posted_mu_);
     posted_.push_back(std::move(m));
   }
-  wake();
+  wake_serving();
 }
 
 void OwnerCore::device_gone(const std::string& text) {
@@ -361,7 +356,11 @@ void OwnerCore::device_gone(const std::string& text) {
     c->dead = true;
   }
   device_fd_ = -1;
-  if (listen_fd_ >= 0) {  // nothing left to share: new commands find the device missing themselves
+  close_listener();  // nothing left to share: new commands find the device missing themselves
+}
+
+void OwnerCore::close_listener() {
+  if (listen_fd_ >= 0) {
     ::close(listen_fd_);
     ::unlink(socket_path_.c_str());
     listen_fd_ = -1;

@@ -117,10 +117,10 @@ struct Hello {
   Kind kind = Kind::can;
   bool probe = false;  ///< doctor: only asks, does not join
   std::uint32_t pid = 0;
-  std::string command;
-  std::string link;  ///< the client's link text, for messages
+  std::string command{};
+  std::string link{};      ///< the client's link text, for messages
   std::uint32_t rate = 0;  ///< CAN bitrate, or serial baud rate
-  std::string format;      ///< serial: "8N1"
+  std::string format{};    ///< serial: "8N1"
   bool listen_only = false;
 };
 
@@ -186,12 +186,10 @@ class OwnerCore {
   /// The device is gone: clients get `text`, the socket goes, the device is no longer polled.
   void device_gone(const std::string& text);
   /// From any thread: the serving thread looks at the device again now (device_held() may have changed).
-  void wake_serving() { wake(); }
+  void wake_serving();
   /// On the serving thread: whether any client is attached (greeted or not), without a lock.
   [[nodiscard]] bool has_clients() const { return !clients_.empty(); }
 
-  [[nodiscard]] int client_count() const { return clients_count_.load(); }
-  [[nodiscard]] bool serving() const { return serving_.load(); }
   /// What a shared owner's sharing() says: "shared with 2 other saulctl"; "" when not serving.
   [[nodiscard]] std::string sharing_text() const;
   [[nodiscard]] const std::string& link_text() const { return link_text_; }
@@ -204,7 +202,8 @@ class OwnerCore {
   void read_client(Client& c, std::vector<std::pair<Client*, std::vector<std::uint8_t>>>& batch);
   void handle(Client& c, const std::vector<std::uint8_t>& m);
   void flush(Client& c);
-  void wake();
+  /// Closes and removes the listening socket: no new clients.
+  void close_listener();
 
   std::string device_;
   Kind kind_;

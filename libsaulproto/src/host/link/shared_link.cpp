@@ -112,10 +112,9 @@ std::vector<std::uint8_t> sent_message(std::uint32_t token, std::uint64_t client
 }
 
 /// The client side of an answer to a send: waits for Msg::sent of `token`, handing everything else to `other`.
-/// Returns the latency the owner measured; throws the owner's error, or timeout.
-template <class Other, class Error>
-std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::time_point deadline, Other&& other,
-                         Error&& error) {
+/// Returns the latency the owner measured; throws the owner's error as a LinkError, or timeout.
+template <class Other>
+std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::time_point deadline, Other&& other) {
   std::vector<std::uint8_t> m;
   for (;;) {
     const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
@@ -134,7 +133,7 @@ std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::
     const std::uint64_t latency = in.u64();
     const auto kind = in.u8();
     const std::string text = in.str();
-    if (!ok) error(kind, text);
+    if (!ok) throw LinkError(static_cast<LinkError::Kind>(kind), text);
     return latency;
   }
 }
@@ -340,11 +339,8 @@ class CanClient final : public CanLink {
     const auto t0 = steady_clock::now();
     const std::uint32_t token = ++token_;
     sock_->send(Out(Msg::frame).frame(frame).u32(token).u64(steady_ns()).take(), timeout);
-    last_send_ns_ = await_sent(
-        *sock_, token, t0 + timeout + milliseconds(500), [this](Msg type, In& in) { take(type, in); },
-        [](std::uint8_t kind, const std::string& text) {
-          throw LinkError(static_cast<LinkError::Kind>(kind), text);
-        });
+    const auto other = [this](Msg type, In& in) { take(type, in); };
+    last_send_ns_ = await_sent(*sock_, token, t0 + timeout + milliseconds(500), other);
   }
 
   std::optional<CanFrame> receive(milliseconds timeout) override {
@@ -453,12 +449,8 @@ class SharedCanLink final : public CanLink {
         link_(
             spec.device,
             [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
-              Hello h;
-              h.kind = Kind::can;
-              h.command = self_command();
-              h.link = spec.text();
-              h.rate = spec.bitrate;
-              h.listen_only = listen_only;
+              const Hello h{.kind = Kind::can, .command = self_command(), .link = spec.text(), .rate = spec.bitrate,
+                            .listen_only = listen_only};
               auto sock = ClientSocket::connect(spec.device, h);
               if (!sock) return nullptr;
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
@@ -627,12 +619,9 @@ class SerialClient final : public SerialPort {
     const auto t0 = steady_clock::now();
     try {
       sock_->send(Out(Msg::bytes).u32(token).bytes(data).take(), timeout);
-      await_sent(
-          *sock_, token, t0 + timeout + milliseconds(1000), [this](Msg type, In& in) { take(type, in); },
-          [](std::uint8_t kind, const std::string& text) {
-            throw serial_error_of(LinkError(static_cast<LinkError::Kind>(kind), text));
-          });
-    } catch (const LinkError& e) {
+      const auto other = [this](Msg type, In& in) { take(type, in); };
+      await_sent(*sock_, token, t0 + timeout + milliseconds(1000), other);
+    } catch (const LinkError& e) {  // the owner's error, or a timeout
       throw serial_error_of(e);
     }
   }
@@ -670,12 +659,8 @@ class SharedSerialPort final : public SerialPort {
       : port_(
             path,
             [path, settings]() -> std::unique_ptr<SerialPort> {
-              Hello h;
-              h.kind = Kind::serial;
-              h.command = self_command();
-              h.link = serial_text(path, settings);
-              h.rate = settings.baud;
-              h.format = to_string(settings);
+              const Hello h{.kind = Kind::serial, .command = self_command(), .link = serial_text(path, settings),
+                            .rate = settings.baud, .format = to_string(settings)};
               std::unique_ptr<ClientSocket> sock;
               try {
                 sock = ClientSocket::connect(path, h);
@@ -711,10 +696,7 @@ class SharedSerialPort final : public SerialPort {
 }  // namespace share
 
 std::optional<ShareInfo> query_share(const std::string& device) {
-  share::Hello h;
-  h.probe = true;
-  h.command = share::self_command();
-  const auto sock = share::ClientSocket::connect(device, h);
+  const auto sock = share::ClientSocket::connect(device, {.probe = true, .command = share::self_command()});
   if (!sock) return std::nullopt;
   return sock->owner();
 }
