@@ -183,6 +183,26 @@ bool wait_fd_event(int fd, short events, milliseconds timeout) {
   return ::poll(&p, 1, ms) > 0;  // a signal (EINTR) counts as a timeout: the caller's loop looks at its flag
 }
 
+EventFd::EventFd() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+EventFd::~EventFd() { ::close(fd_); }
+
+void EventFd::signal() const {
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const auto n = ::write(fd_, &one, sizeof one);
+}
+
+void EventFd::take() const {
+  std::uint64_t n = 0;
+  [[maybe_unused]] const auto got = ::read(fd_, &n, sizeof n);
+}
+
+bool EventFd::wait(steady_clock::time_point deadline) const {
+  const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+  if (left.count() < 0 || !wait_fd_event(fd_, POLLIN, left)) return false;
+  take();
+  return true;
+}
+
 bool saulctl_holds(const std::string& device) {
   const auto holders = device_holders(device);
   return std::any_of(holders.begin(), holders.end(), [](const DeviceHolder& h) { return h.is_saulctl(); });
@@ -227,7 +247,6 @@ std::string OwnerCore::sharing_text() const {
 
 void OwnerCore::start_serving(int device_fd) {
   device_fd_ = device_fd;
-  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   try {
     const std::string dir = share_directory();
     const std::string path = share_socket_path(device_);
@@ -274,11 +293,6 @@ std::optional<LinkError> OwnerCore::gone() const {
   return gone_;
 }
 
-void OwnerCore::wake_serving() {
-  const std::uint64_t one = 1;
-  [[maybe_unused]] const auto n = ::write(wake_fd_, &one, sizeof one);
-}
-
 void OwnerCore::stop_serving() {
   if (thread_.joinable()) {
     stopping_ = true;
@@ -286,10 +300,6 @@ void OwnerCore::stop_serving() {
     thread_.join();
   }
   close_listener();
-  if (wake_fd_ >= 0) {
-    ::close(wake_fd_);
-    wake_fd_ = -1;
-  }
 }
 
 void OwnerCore::release_clients(ByeReason reason, const std::string& text) {
@@ -483,7 +493,7 @@ void OwnerCore::run() {
   while (!stopping_) {
     fds.clear();
     polled.clear();
-    fds.push_back({wake_fd_, POLLIN, 0});
+    fds.push_back({wake_.fd(), POLLIN, 0});
     fds.push_back({listen_fd_, POLLIN, 0});
     // A held device is left out of the poll (a negative fd is ignored) and looked at again in 5 ms at the latest.
     const bool held = device_fd_ >= 0 && clients_.empty() && device_held();
@@ -496,8 +506,7 @@ void OwnerCore::run() {
     if (r < 0 && errno != EINTR) break;
     if (stopping_) break;
     if (fds[0].revents & POLLIN) {
-      std::uint64_t n = 0;
-      [[maybe_unused]] const auto got = ::read(wake_fd_, &n, sizeof n);
+      wake_.take();
       std::deque<std::vector<std::uint8_t>> posted;
       {
         std::lock_guard lock(posted_mu_);
