@@ -36,15 +36,10 @@ std::string lower(std::string s) {
 }
 
 std::optional<double> number(const std::string& s) {
-  if (s.empty()) return std::nullopt;
   std::size_t used = 0;
   double v = 0;
   try {
-    if (s.size() > 2 && s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) {
-      v = static_cast<double>(std::stoull(s, &used, 16));
-    } else {
-      v = std::stod(s, &used);
-    }
+    v = std::stod(s, &used);  // decimal, or hex after 0x (strtod reads both)
   } catch (...) {
     return std::nullopt;
   }
