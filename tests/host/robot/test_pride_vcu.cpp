@@ -165,9 +165,6 @@ TEST_CASE("pride vcu: neutral for 100 ms before finishing, then nothing more") {
   PrideVcu vcu(port, clock, drive());
   for (int i = 0; i < 3; ++i) vcu.step();
   vcu.begin_neutral();
-  auto moving = drive();
-  moving.forward_back = 50;
-  vcu.set_command(moving);  // ignored once neutral
   int steps = 0;
   while (!vcu.finished() && steps < 100) {
     vcu.step();

@@ -156,6 +156,9 @@ TEST_CASE("bench suite parse errors name the file and line") {
   fails("\n\nfly away\n", "t.saul:3: unknown step 'fly'");
   fails("expect telemetry_a state=BALANCE\n", "within");
   fails("expect telemetry_a pitch<abc within 1s\n", "not a number");
+  CHECK(parse_condition("command=0x02", "t.saul", 1).number == 2.0);  // hex values, as in frames
+  CHECK(parse_condition("erpm>-0x10", "t.saul", 1).number == -16.0);
+  fails("expect telemetry_a pitch<0x within 1s\n", "not a number");
   // one name per signal: the struct's field name is refused, with the names the message has
   fails("\nexpect telemetry_a pitch_x100<3 within 1s\n",
         "t.saul:2: telemetry_a has no signal 'pitch_x100'; its signals: pitch, pitch_raw, pid_out, speed_mmps, state");
@@ -280,6 +283,7 @@ TEST_CASE("bench suites parse stable (clauses joined by 'and') and mean") {
   fails("mean telemetry_a for 1s\n", "at least one condition");
   fails("mean telemetry_a speed_mmps>1 within 1s\n", "'within' is not a condition");
   fails("mean telemetry_a speed_mmps>1 for\n", "for DURATION");
+  fails("mean telemetry_a speed_mmps>1 for 1s 2s\n", "unexpected words after the duration");
 }
 
 TEST_CASE("the engine: stable restarts its clock on every excursion and passes once it held long enough") {

@@ -161,14 +161,14 @@ void EspConnection::drain(milliseconds quiet) {
   decoder_.reset();
 }
 
-std::optional<esp::Response> EspConnection::transact(esp::Op op, std::span<const std::uint8_t> packet,
-                                                  milliseconds timeout) {
-  send(packet);
+std::optional<esp::Response> EspConnection::transact(esp::Op op, const Result<std::size_t>& built,
+                                                     milliseconds timeout) {
+  send(std::span<const std::uint8_t>(packet_.data(), *built));
   return await(op, timeout, chip_.loader);
 }
 
-esp::Response EspConnection::command(esp::Op op, std::span<const std::uint8_t> packet, milliseconds timeout) {
-  auto r = transact(op, packet, timeout);
+esp::Response EspConnection::command(esp::Op op, const Result<std::size_t>& built, milliseconds timeout) {
+  auto r = transact(op, built, timeout);
   if (!r)
     throw FlashError(FlashError::Kind::no_answer,
                      fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
@@ -242,9 +242,7 @@ const ChipInfo& EspConnection::connect() {
 }
 
 void EspConnection::detect_chip() {
-  auto n = esp::build_get_security_info(packet_);
-  auto r =
-      transact(esp::Op::get_security_info, std::span<const std::uint8_t>(packet_.data(), *n), kSecurityInfoTimeout);
+  auto r = transact(esp::Op::get_security_info, esp::build_get_security_info(packet_), kSecurityInfoTimeout);
   bool identified = false;
   if (r && r->ok()) {
     if (auto si = esp::parse_security_info(r->data)) {
@@ -301,20 +299,18 @@ void EspConnection::detect_chip() {
 }
 
 std::uint32_t EspConnection::read_reg(std::uint32_t address) {
-  auto n = esp::build_read_reg(address, packet_);
-  return command(esp::Op::read_reg, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout).value;
+  return command(esp::Op::read_reg, esp::build_read_reg(address, packet_), kCommandTimeout).value;
 }
 
 void EspConnection::write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask) {
-  auto n = esp::build_write_reg(address, value, mask, 0, packet_);
-  (void)command(esp::Op::write_reg, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  (void)command(esp::Op::write_reg, esp::build_write_reg(address, value, mask, 0, packet_), kCommandTimeout);
 }
 
 void EspConnection::change_baud(std::uint32_t baud) {
   const std::uint32_t current = port_.settings().baud;
   if (baud == 0 || baud == current) return;
-  auto n = esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_);
-  (void)command(esp::Op::change_baudrate, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  const auto n = esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_);
+  (void)command(esp::Op::change_baudrate, n, kCommandTimeout);
   port_.set_baud(baud);
   drain(milliseconds(20));  // whatever the switch garbled
   if (options_.note) options_.note(fmt::format("baud rate {} -> {}", current, baud));

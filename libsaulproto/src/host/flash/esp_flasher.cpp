@@ -343,8 +343,7 @@ EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
       progress_(std::move(options.progress)) {}
 
 esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
-  auto n = esp::build_spi_flash_md5(offset, size, packet_);
-  auto r = command(esp::Op::spi_flash_md5, std::span<const std::uint8_t>(packet_.data(), *n), per_mb(8, size));
+  auto r = command(esp::Op::spi_flash_md5, esp::build_spi_flash_md5(offset, size, packet_), per_mb(8, size));
   auto md5 = esp::parse_md5(r.data);
   if (!md5)
     throw FlashError(FlashError::Kind::protocol,
@@ -355,10 +354,8 @@ esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
 }
 
 void EspFlasher::attach_flash(std::uint32_t flash_size) {
-  auto n = esp::build_spi_attach(0, chip_.loader, packet_);
-  (void)command(esp::Op::spi_attach, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
-  n = esp::build_spi_set_params(flash_size, packet_);
-  (void)command(esp::Op::spi_set_params, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+  (void)command(esp::Op::spi_attach, esp::build_spi_attach(0, chip_.loader, packet_), kCommandTimeout);
+  (void)command(esp::Op::spi_set_params, esp::build_spi_set_params(flash_size, packet_), kCommandTimeout);
 }
 
 void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::span<const std::uint8_t> payload,
@@ -374,8 +371,7 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
   auto n = compressed ? esp::build_flash_defl_begin(esp::defl_begin_size(size, loader), blocks, block, image.offset,
                                                     loader, packet_)
                       : esp::build_flash_begin(size, blocks, block, image.offset, loader, packet_);
-  (void)command(compressed ? esp::Op::flash_defl_begin : esp::Op::flash_begin,
-                std::span<const std::uint8_t>(packet_.data(), *n), begin_timeout);
+  (void)command(compressed ? esp::Op::flash_defl_begin : esp::Op::flash_begin, n, begin_timeout);
   const esp::Op data_op = compressed ? esp::Op::flash_defl_data : esp::Op::flash_data;
   std::vector<std::uint8_t> chunk(block, 0xFF);
   for (std::uint32_t seq = 0; seq < blocks; ++seq) {
@@ -393,9 +389,8 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
       slice = chunk;
     }
     n = compressed ? esp::build_flash_defl_data(seq, slice, packet_) : esp::build_flash_data(seq, slice, packet_);
-    const std::span<const std::uint8_t> request(packet_.data(), *n);
     for (int attempt = 1;; ++attempt) {
-      auto r = transact(data_op, request, per_mb(40, block));
+      auto r = transact(data_op, n, per_mb(40, block));
       if (r && r->ok()) break;
       if (attempt == kBlockAttempts) {
         if (!r)
@@ -427,11 +422,9 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
   }
   if (loader == esp::Loader::stub) {
     // The stub writes behind the answers: an empty begin makes it finish, END(1) keeps it in the loader.
-    n = esp::build_flash_begin(0, 0, block, 0, loader, packet_);
-    (void)command(esp::Op::flash_begin, std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+    (void)command(esp::Op::flash_begin, esp::build_flash_begin(0, 0, block, 0, loader, packet_), kCommandTimeout);
     n = compressed ? esp::build_flash_defl_end(true, packet_) : esp::build_flash_end(true, packet_);
-    (void)command(compressed ? esp::Op::flash_defl_end : esp::Op::flash_end,
-                  std::span<const std::uint8_t>(packet_.data(), *n), kCommandTimeout);
+    (void)command(compressed ? esp::Op::flash_defl_end : esp::Op::flash_end, n, kCommandTimeout);
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstdlib>
@@ -17,11 +18,8 @@
 namespace saul::host {
 namespace holders {  // named: the library is compiled in unity batches
 
-bool all_digits(const char* s) {
-  if (*s == 0) return false;
-  for (; *s; ++s)
-    if (*s < '0' || *s > '9') return false;
-  return true;
+bool all_digits(std::string_view s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
 std::string read_link(const std::string& path) {
@@ -35,7 +33,7 @@ std::string read_link(const std::string& path) {
 int pts_index(const std::string& canonical) {
   if (canonical.rfind("/dev/pts/", 0) != 0) return -1;
   const std::string n = canonical.substr(9);
-  return all_digits(n.c_str()) ? std::atoi(n.c_str()) : -1;
+  return all_digits(n) ? std::atoi(n.c_str()) : -1;
 }
 
 // The pseudo-terminal index a ptmx descriptor stands for (/proc/PID/fdinfo/FD, "tty-index:"), -1 when none.

@@ -188,17 +188,11 @@ class TermiosPort final : public SerialPort {
     t.c_cc[VMIN] = 0;
     t.c_cc[VTIME] = 0;
     const speed_t sp = standard_speed(s.baud);
-    if (sp != 0) {
-      ::cfsetispeed(&t, sp);
-      ::cfsetospeed(&t, sp);
-    }
+    if (sp != 0) ::cfsetspeed(&t, sp);
     if (::tcsetattr(fd_, TCSANOW, &t) != 0)
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(errno)));
-    if (sp == 0 && !set_custom_baud(fd_, s.baud))
-      throw SerialError(SerialError::Kind::config,
-                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, s.baud));
-    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+    check_rate(s.baud, sp != 0);
   }
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
@@ -242,17 +236,10 @@ class TermiosPort final : public SerialPort {
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: cannot read settings: {}", path_, std::strerror(errno)));
     const speed_t sp = standard_speed(baud);
-    if (sp != 0) {
-      ::cfsetispeed(&t, sp);
-      ::cfsetospeed(&t, sp);
-      if (::tcsetattr(fd_, TCSADRAIN, &t) != 0)
-        throw SerialError(SerialError::Kind::config,
-                          fmt::format("{}: cannot set {} baud: {}", path_, baud, std::strerror(errno)));
-    } else if (!set_custom_baud(fd_, baud)) {
+    if (sp != 0 && (::cfsetspeed(&t, sp) != 0 || ::tcsetattr(fd_, TCSADRAIN, &t) != 0))
       throw SerialError(SerialError::Kind::config,
-                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, baud));
-    }
-    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty()) throw SerialError(SerialError::Kind::config, why);
+                        fmt::format("{}: cannot set {} baud: {}", path_, baud, std::strerror(errno)));
+    check_rate(baud, sp != 0);
     settings_.baud = baud;
   }
 
@@ -262,6 +249,15 @@ class TermiosPort final : public SerialPort {
   [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
+  // After tcsetattr: a rate termios has no constant for goes through BOTHER; then what the driver set is checked.
+  void check_rate(std::uint32_t baud, bool standard) {
+    if (!standard && !set_custom_baud(fd_, baud))
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: the driver refuses {} baud (a non-standard rate)", path_, baud));
+    if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty())
+      throw SerialError(SerialError::Kind::config, why);
+  }
+
   std::string path_;
   SerialSettings settings_;
   DeviceClaim claim_;
@@ -271,21 +267,15 @@ class TermiosPort final : public SerialPort {
 class LibSerialPort final : public SerialPort {
  public:
   LibSerialPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {
-    if (sp_get_port_by_name(path_.c_str(), &port_) != SP_OK) {
+    sp_port* found = nullptr;
+    if (sp_get_port_by_name(path_.c_str(), &found) != SP_OK) {
       // libserialport finds ports through sysfs; a path it cannot find is either absent or not a tty.
       throw open_error(path_, ::access(path_.c_str(), F_OK) == 0 ? ENODEV : ENOENT);
     }
-    try {
-      claim_ = std::make_unique<DeviceClaim>(path_);  // before sp_open, which configures the port
-    } catch (...) {
-      sp_free_port(port_);
-      throw;
-    }
-    if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) {
-      const int e = sp_last_error_code();
-      sp_free_port(port_);
-      throw open_error(path_, e);
-    }
+    holder_.reset(found);
+    port_ = found;
+    claim_ = std::make_unique<DeviceClaim>(path_);  // before sp_open, which configures the port
+    if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) throw open_error(path_, sp_last_error_code());
     const bool ok = sp_set_baudrate(port_, static_cast<int>(s.baud)) == SP_OK &&
                     sp_set_bits(port_, s.data_bits) == SP_OK &&
                     sp_set_parity(port_, s.parity == Parity::none   ? SP_PARITY_NONE
@@ -297,22 +287,13 @@ class LibSerialPort final : public SerialPort {
       char* msg = sp_last_error_message();
       std::string text = msg ? msg : "unknown error";
       sp_free_error_message(msg);
-      sp_close(port_);
-      sp_free_port(port_);
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), text));
     }
     sp_get_port_handle(port_, &fd_);
-    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty()) {
-      sp_close(port_);
-      sp_free_port(port_);
+    if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty())
       throw SerialError(SerialError::Kind::config, why);
-    }
     claim_->make_exclusive();
-  }
-  ~LibSerialPort() override {
-    sp_close(port_);
-    sp_free_port(port_);
   }
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
@@ -360,8 +341,16 @@ class LibSerialPort final : public SerialPort {
  private:
   std::string path_;
   SerialSettings settings_;
+  // Closes the port (a port not open refuses that harmlessly) and frees it, also when the constructor throws.
+  struct PortFree {
+    void operator()(sp_port* p) const {
+      sp_close(p);
+      sp_free_port(p);
+    }
+  };
   std::unique_ptr<DeviceClaim> claim_;
-  sp_port* port_ = nullptr;
+  std::unique_ptr<sp_port, PortFree> holder_;  // after claim_: the port closes before the claim lets the device go
+  sp_port* port_ = nullptr;                   // holder_'s
   int fd_ = -1;
 };
 

@@ -183,6 +183,26 @@ bool wait_fd_event(int fd, short events, milliseconds timeout) {
   return ::poll(&p, 1, ms) > 0;  // a signal (EINTR) counts as a timeout: the caller's loop looks at its flag
 }
 
+EventFd::EventFd() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+EventFd::~EventFd() { ::close(fd_); }
+
+void EventFd::signal() const {
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const auto n = ::write(fd_, &one, sizeof one);
+}
+
+void EventFd::take() const {
+  std::uint64_t n = 0;
+  [[maybe_unused]] const auto got = ::read(fd_, &n, sizeof n);
+}
+
+bool EventFd::wait(steady_clock::time_point deadline) const {
+  const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+  if (left.count() < 0 || !wait_fd_event(fd_, POLLIN, left)) return false;
+  take();
+  return true;
+}
+
 bool saulctl_holds(const std::string& device) {
   const auto holders = device_holders(device);
   return std::any_of(holders.begin(), holders.end(), [](const DeviceHolder& h) { return h.is_saulctl(); });
@@ -220,14 +240,13 @@ OwnerCore::~OwnerCore() {
 }
 
 std::string OwnerCore::sharing_text() const {
-  if (!serving()) return "";
-  const int clients = client_count();
+  if (!serving_) return "";
+  const int clients = clients_count_;
   return clients == 0 ? std::string("shared, no other saulctl now") : fmt::format("shared with {} other saulctl", clients);
 }
 
 void OwnerCore::start_serving(int device_fd) {
   device_fd_ = device_fd;
-  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   try {
     const std::string dir = share_directory();
     const std::string path = share_socket_path(device_);
@@ -274,27 +293,13 @@ std::optional<LinkError> OwnerCore::gone() const {
   return gone_;
 }
 
-void OwnerCore::wake() {
-  const std::uint64_t one = 1;
-  [[maybe_unused]] const auto n = ::write(wake_fd_, &one, sizeof one);
-}
-
 void OwnerCore::stop_serving() {
   if (thread_.joinable()) {
     stopping_ = true;
-    wake();
+    wake_serving();
     thread_.join();
   }
-  if (listen_fd_ >= 0) {
-    ::close(listen_fd_);
-    ::unlink(socket_path_.c_str());
-    listen_fd_ = -1;
-  }
-  serving_ = false;
-  if (wake_fd_ >= 0) {
-    ::close(wake_fd_);
-    wake_fd_ = -1;
-  }
+  close_listener();
 }
 
 void OwnerCore::release_clients(ByeReason reason, const std::string& text) {
@@ -351,7 +356,7 @@ void OwnerCore::post_broadcast(std::vector<std::uint8_t> m) {
     std::lock_guard lock(posted_mu_);
     posted_.push_back(std::move(m));
   }
-  wake();
+  wake_serving();
 }
 
 void OwnerCore::device_gone(const std::string& text) {
@@ -361,7 +366,11 @@ void OwnerCore::device_gone(const std::string& text) {
     c->dead = true;
   }
   device_fd_ = -1;
-  if (listen_fd_ >= 0) {  // nothing left to share: new commands find the device missing themselves
+  close_listener();  // nothing left to share: new commands find the device missing themselves
+}
+
+void OwnerCore::close_listener() {
+  if (listen_fd_ >= 0) {
     ::close(listen_fd_);
     ::unlink(socket_path_.c_str());
     listen_fd_ = -1;
@@ -484,7 +493,7 @@ void OwnerCore::run() {
   while (!stopping_) {
     fds.clear();
     polled.clear();
-    fds.push_back({wake_fd_, POLLIN, 0});
+    fds.push_back({wake_.fd(), POLLIN, 0});
     fds.push_back({listen_fd_, POLLIN, 0});
     // A held device is left out of the poll (a negative fd is ignored) and looked at again in 5 ms at the latest.
     const bool held = device_fd_ >= 0 && clients_.empty() && device_held();
@@ -497,8 +506,7 @@ void OwnerCore::run() {
     if (r < 0 && errno != EINTR) break;
     if (stopping_) break;
     if (fds[0].revents & POLLIN) {
-      std::uint64_t n = 0;
-      [[maybe_unused]] const auto got = ::read(wake_fd_, &n, sizeof n);
+      wake_.take();
       std::deque<std::vector<std::uint8_t>> posted;
       {
         std::lock_guard lock(posted_mu_);

@@ -111,16 +111,34 @@ bool receive_message(int fd, std::vector<std::uint8_t>& m, bool& closed);
 /// Waits up to `timeout` for fd to poll `events`; false on timeout or a signal.
 bool wait_fd_event(int fd, short events, std::chrono::milliseconds timeout);
 
+/// An eventfd that wakes a thread (signal() from any thread): it waits in wait(), or polls fd() with others and
+/// take()s it.
+class EventFd {
+ public:
+  EventFd();
+  ~EventFd();
+  EventFd(const EventFd&) = delete;
+  EventFd& operator=(const EventFd&) = delete;
+  void signal() const;
+  void take() const;
+  /// Waits for a signal until `deadline` and takes it; false on timeout or a signal of the process (a poll).
+  bool wait(std::chrono::steady_clock::time_point deadline) const;
+  [[nodiscard]] int fd() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
 /// The hello a client sends and the owner checks.
 struct Hello {
   std::uint16_t version = kVersion;
   Kind kind = Kind::can;
   bool probe = false;  ///< doctor: only asks, does not join
   std::uint32_t pid = 0;
-  std::string command;
-  std::string link;  ///< the client's link text, for messages
+  std::string command{};
+  std::string link{};      ///< the client's link text, for messages
   std::uint32_t rate = 0;  ///< CAN bitrate, or serial baud rate
-  std::string format;      ///< serial: "8N1"
+  std::string format{};    ///< serial: "8N1"
   bool listen_only = false;
 };
 
@@ -186,12 +204,10 @@ class OwnerCore {
   /// The device is gone: clients get `text`, the socket goes, the device is no longer polled.
   void device_gone(const std::string& text);
   /// From any thread: the serving thread looks at the device again now (device_held() may have changed).
-  void wake_serving() { wake(); }
+  void wake_serving() { wake_.signal(); }
   /// On the serving thread: whether any client is attached (greeted or not), without a lock.
   [[nodiscard]] bool has_clients() const { return !clients_.empty(); }
 
-  [[nodiscard]] int client_count() const { return clients_count_.load(); }
-  [[nodiscard]] bool serving() const { return serving_.load(); }
   /// What a shared owner's sharing() says: "shared with 2 other saulctl"; "" when not serving.
   [[nodiscard]] std::string sharing_text() const;
   [[nodiscard]] const std::string& link_text() const { return link_text_; }
@@ -204,7 +220,8 @@ class OwnerCore {
   void read_client(Client& c, std::vector<std::pair<Client*, std::vector<std::uint8_t>>>& batch);
   void handle(Client& c, const std::vector<std::uint8_t>& m);
   void flush(Client& c);
-  void wake();
+  /// Closes and removes the listening socket: no new clients.
+  void close_listener();
 
   std::string device_;
   Kind kind_;
@@ -212,7 +229,7 @@ class OwnerCore {
   bool listen_only_;
   std::string socket_path_;
   int listen_fd_ = -1;
-  int wake_fd_ = -1;
+  EventFd wake_;
   int device_fd_ = -1;
   std::vector<std::unique_ptr<Client>> clients_;
   std::atomic<int> clients_count_{0};

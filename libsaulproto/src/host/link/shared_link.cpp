@@ -1,19 +1,10 @@
 // Shared CAN and serial links (shared_link.hpp) on the machinery of share_core.hpp.
 #include "saulproto/host/link/shared_link.hpp"
 
-#include <poll.h>
-#include <sys/eventfd.h>
-#include <unistd.h>
-
 #include <fmt/format.h>
 
-#include <climits>
-#include <condition_variable>
-#include <cstring>
 #include <span>
 
-#include "saulproto/host/link/device_holders.hpp"
-#include "saulproto/host/link/link_spec.hpp"
 #include "saulproto/host/link/slcan_link.hpp"
 #include "share_core.hpp"
 
@@ -28,34 +19,6 @@ constexpr std::size_t kMaxQueuedFrames = 8192;
 // The owner's own reader is behind when this many frames wait for it; the device is read again once half are taken.
 constexpr std::size_t kHoldFrames = 2048;
 constexpr std::size_t kMaxQueuedBytes = 1 << 16;
-
-/// What the owner keeps for its own process: frames or bytes the serving thread read, waited for on an eventfd
-/// (a poll, so a signal still interrupts the wait).
-class LocalInbox {
- public:
-  LocalInbox() : event_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
-  ~LocalInbox() { ::close(event_); }
-  LocalInbox(const LocalInbox&) = delete;
-  LocalInbox& operator=(const LocalInbox&) = delete;
-  void signal() const {
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto n = ::write(event_, &one, sizeof one);
-  }
-  /// Waits for a signal until `deadline`; false on timeout or a signal of the process.
-  bool wait(steady_clock::time_point deadline) const {
-    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-    if (left.count() < 0) return false;
-    if (!wait_fd_event(event_, POLLIN, left)) return false;
-    std::uint64_t n = 0;
-    [[maybe_unused]] const auto got = ::read(event_, &n, sizeof n);
-    return true;
-  }
-  [[nodiscard]] int fd() const { return event_; }
-  std::mutex mu;
-
- private:
-  int event_;
-};
 
 SerialError serial_error_of(const LinkError& e) {
   switch (e.kind()) {
@@ -112,10 +75,9 @@ std::vector<std::uint8_t> sent_message(std::uint32_t token, std::uint64_t client
 }
 
 /// The client side of an answer to a send: waits for Msg::sent of `token`, handing everything else to `other`.
-/// Returns the latency the owner measured; throws the owner's error, or timeout.
-template <class Other, class Error>
-std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::time_point deadline, Other&& other,
-                         Error&& error) {
+/// Returns the latency the owner measured; throws the owner's error as a LinkError, or timeout.
+template <class Other>
+std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::time_point deadline, Other&& other) {
   std::vector<std::uint8_t> m;
   for (;;) {
     const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
@@ -134,7 +96,7 @@ std::uint64_t await_sent(ClientSocket& sock, std::uint32_t token, steady_clock::
     const std::uint64_t latency = in.u64();
     const auto kind = in.u8();
     const std::string text = in.str();
-    if (!ok) error(kind, text);
+    if (!ok) throw LinkError(static_cast<LinkError::Kind>(kind), text);
     return latency;
   }
 }
@@ -171,7 +133,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
       {
-        std::lock_guard lock(inbox_.mu);
+        std::lock_guard lock(inbox_mu_);
         if (!queue_.empty()) {
           CanFrame f = queue_.front();
           queue_.pop_front();
@@ -188,7 +150,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   }
 
   void set_filters(const std::vector<CanFilter>& filters) override {
-    std::lock_guard lock(inbox_.mu);
+    std::lock_guard lock(inbox_mu_);
     filters_ = filters;
   }
   bool recover(std::string& hint) override {
@@ -197,7 +159,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   }
   [[nodiscard]] LinkStats stats() const override {
     LinkStats s = device_stats();
-    std::lock_guard lock(inbox_.mu);
+    std::lock_guard lock(inbox_mu_);
     s.rx_dropped += dropped_;
     s.last_send_ns = last_send_ns_;
     return s;
@@ -214,7 +176,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   void deliver(std::span<const CanFrame> frames) {
     bool queued = false;
     {
-      std::lock_guard lock(inbox_.mu);
+      std::lock_guard lock(inbox_mu_);
       for (const CanFrame& f : frames) {
         if (!passes(filters_, f)) continue;
         push_frame(queue_, f, dropped_);
@@ -229,7 +191,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   // the device.
   bool device_held() override {
     if (!paced_) return false;
-    std::lock_guard lock(inbox_.mu);
+    std::lock_guard lock(inbox_mu_);
     if (queue_.size() < kHoldFrames) return false;
     holding_ = true;
     return true;
@@ -320,7 +282,8 @@ class CanOwner final : public CanLink, private OwnerCore {
   std::unique_ptr<CanLink> real_;
   std::uint32_t bitrate_;
   bool paced_;                ///< LinkOpenOptions::paced
-  mutable LocalInbox inbox_;  ///< its mutex guards what follows
+  EventFd inbox_;                ///< wakes this process's reader
+  mutable std::mutex inbox_mu_;  ///< guards what follows
   std::vector<CanFilter> filters_;
   std::deque<CanFrame> queue_;
   std::uint64_t dropped_ = 0;
@@ -340,11 +303,8 @@ class CanClient final : public CanLink {
     const auto t0 = steady_clock::now();
     const std::uint32_t token = ++token_;
     sock_->send(Out(Msg::frame).frame(frame).u32(token).u64(steady_ns()).take(), timeout);
-    last_send_ns_ = await_sent(
-        *sock_, token, t0 + timeout + milliseconds(500), [this](Msg type, In& in) { take(type, in); },
-        [](std::uint8_t kind, const std::string& text) {
-          throw LinkError(static_cast<LinkError::Kind>(kind), text);
-        });
+    const auto other = [this](Msg type, In& in) { take(type, in); };
+    last_send_ns_ = await_sent(*sock_, token, t0 + timeout + milliseconds(500), other);
   }
 
   std::optional<CanFrame> receive(milliseconds timeout) override {
@@ -453,12 +413,8 @@ class SharedCanLink final : public CanLink {
         link_(
             spec.device,
             [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
-              Hello h;
-              h.kind = Kind::can;
-              h.command = self_command();
-              h.link = spec.text();
-              h.rate = spec.bitrate;
-              h.listen_only = listen_only;
+              const Hello h{.kind = Kind::can, .command = self_command(), .link = spec.text(), .rate = spec.bitrate,
+                            .listen_only = listen_only};
               auto sock = ClientSocket::connect(spec.device, h);
               if (!sock) return nullptr;
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
@@ -511,7 +467,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
       {
-        std::lock_guard lock(inbox_.mu);
+        std::lock_guard lock(inbox_mu_);
         if (!bytes_.empty()) return pop_bytes(bytes_, buf);
       }
       if (auto g = gone()) throw SerialError(SerialError::Kind::gone, g->what());
@@ -553,7 +509,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     }
     if (n > 0) {
       {
-        std::lock_guard lock(inbox_.mu);
+        std::lock_guard lock(inbox_mu_);
         push_bytes(bytes_, std::span<const std::uint8_t>(buf.data(), n));
       }
       inbox_.signal();
@@ -601,7 +557,8 @@ class SerialOwner final : public SerialPort, private OwnerCore {
 
   mutable std::mutex io_;
   std::unique_ptr<SerialPort> real_;
-  mutable LocalInbox inbox_;
+  EventFd inbox_;
+  mutable std::mutex inbox_mu_;
   std::deque<std::uint8_t> bytes_;
 };
 
@@ -627,12 +584,9 @@ class SerialClient final : public SerialPort {
     const auto t0 = steady_clock::now();
     try {
       sock_->send(Out(Msg::bytes).u32(token).bytes(data).take(), timeout);
-      await_sent(
-          *sock_, token, t0 + timeout + milliseconds(1000), [this](Msg type, In& in) { take(type, in); },
-          [](std::uint8_t kind, const std::string& text) {
-            throw serial_error_of(LinkError(static_cast<LinkError::Kind>(kind), text));
-          });
-    } catch (const LinkError& e) {
+      const auto other = [this](Msg type, In& in) { take(type, in); };
+      await_sent(*sock_, token, t0 + timeout + milliseconds(1000), other);
+    } catch (const LinkError& e) {  // the owner's error, or a timeout
       throw serial_error_of(e);
     }
   }
@@ -670,12 +624,8 @@ class SharedSerialPort final : public SerialPort {
       : port_(
             path,
             [path, settings]() -> std::unique_ptr<SerialPort> {
-              Hello h;
-              h.kind = Kind::serial;
-              h.command = self_command();
-              h.link = serial_text(path, settings);
-              h.rate = settings.baud;
-              h.format = to_string(settings);
+              const Hello h{.kind = Kind::serial, .command = self_command(), .link = serial_text(path, settings),
+                            .rate = settings.baud, .format = to_string(settings)};
               std::unique_ptr<ClientSocket> sock;
               try {
                 sock = ClientSocket::connect(path, h);
@@ -711,10 +661,7 @@ class SharedSerialPort final : public SerialPort {
 }  // namespace share
 
 std::optional<ShareInfo> query_share(const std::string& device) {
-  share::Hello h;
-  h.probe = true;
-  h.command = share::self_command();
-  const auto sock = share::ClientSocket::connect(device, h);
+  const auto sock = share::ClientSocket::connect(device, {.probe = true, .command = share::self_command()});
   if (!sock) return std::nullopt;
   return sock->owner();
 }

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <deque>
@@ -140,12 +141,10 @@ class SlcanLink final : public CanLink {
     }
   }
 
-  static bool is_lawicel_version(const char* text) {
+  static bool is_lawicel_version(std::string_view text) {
     // Lawicel answers "Vhhss": exactly four hex digits. The stock CANable firmware answers a git hash and more.
-    int n = 0;
-    for (; text[n]; ++n)
-      if (!std::isxdigit(static_cast<unsigned char>(text[n]))) return false;
-    return n == 4;
+    return text.size() == 4 &&
+           std::all_of(text.begin(), text.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
   }
 
   bool wait_for_version(milliseconds timeout) {

@@ -122,14 +122,6 @@ std::uint64_t LatenessStats::percentile_ns(double p) const {
   return max_;
 }
 
-std::uint64_t LatenessStats::over_ns(std::uint64_t threshold_ns) const {
-  if (threshold_ns == 1'000'000) return over_1ms_;
-  std::uint64_t n = 0;
-  for (std::size_t i = 0; i < bins_.size(); ++i)
-    if (upper_edge(i) > threshold_ns + (i < kFine ? 1'000 : 0)) n += bins_[i];
-  return n;
-}
-
 // ---- clock --------------------------------------------------------------------------------------------------------
 
 std::uint64_t MonotonicReplayClock::now_ns() {
@@ -179,10 +171,8 @@ ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_
   ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
   const unsigned loops = options.loops == 0 ? 1 : options.loops;
   for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
-    if (hooks.stop && hooks.stop()) {
-      report.stopped = true;
-      break;
-    }
+    report.stopped = hooks.stop && hooks.stop();
+    if (report.stopped) break;
     auto reader = open_pass();
     ++report.passes;
     if (pass > 0) pacer.next_pass();

@@ -255,14 +255,9 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
 
   const ChunkCutter::OnReady on_ready = [&](const SerialChunk& chunk, const std::vector<std::uint8_t>& kept) {
     if (report.stopped || kept.empty()) return;
-    if (hooks.stop && hooks.stop()) {
-      report.stopped = true;
-      return;
-    }
-    if ((hooks.step && !hooks.step(chunk, kept)) || !pacer.wait(chunk.timestamp_ns)) {
-      report.stopped = true;
-      return;
-    }
+    report.stopped = (hooks.stop && hooks.stop()) || (hooks.step && !hooks.step(chunk, kept)) ||
+                     !pacer.wait(chunk.timestamp_ns);
+    if (report.stopped) return;
     hooks.write(kept);
     ++report.writes;
     report.bytes_sent += kept.size();
@@ -271,10 +266,8 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
 
   const unsigned loops = options.loops == 0 ? 1 : options.loops;
   for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
-    if (hooks.stop && hooks.stop()) {
-      report.stopped = true;
-      break;
-    }
+    report.stopped = hooks.stop && hooks.stop();
+    if (report.stopped) break;
     auto reader = open_pass();
     ++report.passes;
     if (pass > 0) pacer.next_pass();
@@ -338,11 +331,12 @@ SerialReplayPreview preview_serial_replay(SerialCaptureReader& reader, std::opti
   std::vector<State> states;  // few links: a linear search is fine
   SerialReplayPreview preview;
 
-  auto feed = [](State& s, const SerialChunk& chunk) {
-    s.cutter->add(chunk, [&s](const SerialChunk&, const std::vector<std::uint8_t>& kept) {
+  const auto count_writes = [](State& s) {
+    return [&s](const SerialChunk&, const std::vector<std::uint8_t>& kept) {
       if (!kept.empty()) ++s.p.writes;
-    });
+    };
   };
+  auto feed = [&count_writes](State& s, const SerialChunk& chunk) { s.cutter->add(chunk, count_writes(s)); };
   auto decide = [&feed](State& s, SerialProtocol protocol, bool guessed) {
     s.p.protocol = protocol;
     s.p.guessed = guessed;
@@ -398,9 +392,7 @@ SerialReplayPreview preview_serial_replay(SerialCaptureReader& reader, std::opti
   }
   for (auto& s : states) {
     if (!s.decided) guess(s);
-    s.cutter->finish([&s](const SerialChunk&, const std::vector<std::uint8_t>& kept) {
-      if (!kept.empty()) ++s.p.writes;
-    });
+    s.cutter->finish(count_writes(s));
     s.p.frames = s.cutter->frames;
     s.p.motion = s.cutter->motion;
     s.p.motion_bytes = s.cutter->motion_bytes;

@@ -7,25 +7,12 @@ namespace saul::host {
 
 using namespace std::chrono;
 
-namespace {
-void check(const pride::VcuCommand& c) {
-  if (!c.in_range())
-    throw std::invalid_argument("pride: speed level must be 0..14 and FB, LR -100..+100");
-}
-}  // namespace
-
 PrideVcu::PrideVcu(SerialPort& port, VcuClock& clock, pride::VcuCommand command, PrideVcuOptions options)
     : port_(port), clock_(clock), command_(command), previous_command_(command), options_(options) {
-  check(command);
+  if (!command.in_range())
+    throw std::invalid_argument("pride: speed level must be 0..14 and FB, LR -100..+100");
   if (options_.period.count() <= 0) throw std::invalid_argument("pride: the frame period must be positive");
   next_ = clock_.now();  // the first frame goes out at once
-}
-
-void PrideVcu::set_command(const pride::VcuCommand& command) {
-  check(command);
-  if (neutral_) return;
-  previous_command_ = command_;
-  command_ = command;
 }
 
 void PrideVcu::begin_neutral() {

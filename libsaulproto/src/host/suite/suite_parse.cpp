@@ -36,15 +36,10 @@ std::string lower(std::string s) {
 }
 
 std::optional<double> number(const std::string& s) {
-  if (s.empty()) return std::nullopt;
   std::size_t used = 0;
   double v = 0;
   try {
-    if (s.size() > 2 && s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) {
-      v = static_cast<double>(std::stoull(s, &used, 16));
-    } else {
-      v = std::stod(s, &used);
-    }
+    v = std::stod(s, &used);  // decimal, or hex after 0x (strtod reads both)
   } catch (...) {
     return std::nullopt;
   }
@@ -345,32 +340,23 @@ Suite parse_suite(std::istream& in, const std::string& path) {
       s.duration_us = need_duration(w[i + 1], path, line);
       if (s.duration_us < 1'000'000 || s.duration_us > 600'000'000)
         throw ParseError(path, line, "trace: the duration must be 1 s to 10 min");
-    } else if (verb == "expect" || verb == "hold") {
-      const bool hold = verb == "hold";
-      const std::string until_word = hold ? "for" : "within";
+    } else if (verb == "expect" || verb == "hold" || verb == "mean") {
+      // MESSAGE COND..., then 'within DURATION' (expect) or 'for DURATION' (expect no, hold, mean)
       std::size_t i = 1;
-      s.kind = hold ? Step::Kind::hold : Step::Kind::expect;
-      if (!hold && i < w.size() && w[i] == "no") {
+      s.kind = verb == "hold" ? Step::Kind::hold : verb == "mean" ? Step::Kind::mean : Step::Kind::expect;
+      if (verb == "expect" && i < w.size() && w[i] == "no") {
         s.kind = Step::Kind::expect_none;
         ++i;
       }
-      const std::string until = s.kind == Step::Kind::expect_none ? "for" : until_word;
+      const std::string until = s.kind == Step::Kind::expect ? "within" : "for";
       auto c = parse_clause(w, i, {until.c_str()}, verb, path, line);
+      if (s.kind == Step::Kind::mean && (c.message.empty() || c.conditions.empty()))
+        throw ParseError(path, line, "mean needs a message name and at least one condition");
       s.message = std::move(c.message);
       s.conditions = std::move(c.conditions);
       if (i + 1 >= w.size()) throw ParseError(path, line, verb + " needs '" + until + " DURATION' at the end");
       s.duration_us = need_duration(w[i + 1], path, line);
       if (i + 2 != w.size()) throw ParseError(path, line, "unexpected words after the duration");
-    } else if (verb == "mean") {
-      s.kind = Step::Kind::mean;
-      std::size_t i = 1;
-      auto c = parse_clause(w, i, {"for"}, verb, path, line);
-      if (c.message.empty() || c.conditions.empty())
-        throw ParseError(path, line, "mean needs a message name and at least one condition");
-      s.message = std::move(c.message);
-      s.conditions = std::move(c.conditions);
-      if (i + 2 != w.size()) throw ParseError(path, line, "mean needs 'for DURATION' at the end");
-      s.duration_us = need_duration(w[i + 1], path, line);
     } else if (verb == "stable") {
       s.kind = Step::Kind::stable;
       std::size_t i = 1;

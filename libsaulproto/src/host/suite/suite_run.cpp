@@ -101,6 +101,10 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
     StepResult r;
     r.line = step.line;
     r.source = step.source;
+    const auto fail = [&r](std::string why) {
+      r.status = StepResult::Status::failed;
+      r.message = std::move(why);
+    };
     if (failed) {
       r.status = StepResult::Status::skipped;
       r.message = "not run: an earlier step failed";
@@ -131,17 +135,14 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           if (first_match(step, t0)) {
             r.message = fmt::format("seen after {}", us_text(target.now_us() - t0));
           } else {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no matching {} within {}", step.message.empty() ? "frame" : step.message,
-                                    us_text(step.duration_us));
+            fail(fmt::format("no matching {} within {}", step.message.empty() ? "frame" : step.message,
+                             us_text(step.duration_us)));
           }
           break;
         }
         case Step::Kind::expect_none: {
-          if (first_match(step, t0)) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0));
-          }
+          if (first_match(step, t0))
+            fail(fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0)));
           break;
         }
         case Step::Kind::hold: {
@@ -156,11 +157,9 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             return false;
           });
           if (!broken.empty()) {
-            r.status = StepResult::Status::failed;
-            r.message = broken;
+            fail(broken);
           } else if (count == 0) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
+            fail(fmt::format("no {} at all in {}", step.message, us_text(step.duration_us)));
           } else {
             r.message = fmt::format("held over {} frames", count);
           }
@@ -185,8 +184,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             return true;
           });
           if (count == 0) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("no {} at all in {}", step.message, us_text(step.duration_us));
+            fail(fmt::format("no {} at all in {}", step.message, us_text(step.duration_us)));
             break;
           }
           std::string means;
@@ -197,8 +195,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             plain.absolute = false;  // the mean is already of the absolute values
             const double mean = sums[c.absolute ? "|" + c.field + "|" : c.field] / static_cast<double>(count);
             if (!holds(plain, FieldValue{mean, fmt::format("{}", mean)})) {
-              r.status = StepResult::Status::failed;
-              r.message = fmt::format("{} mean {:.2f} breaks the condition ({})", c.field, mean, r.output);
+              fail(fmt::format("{} mean {:.2f} breaks the condition ({})", c.field, mean, r.output));
               break;
             }
           }
@@ -253,9 +250,8 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           if (done) {
             r.message = fmt::format("stable for {} from {} on; {}", us_text(stretch), us_text(since - t0), summary);
           } else {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("never stable for {} within {}: {}", us_text(step.duration_us),
-                                    us_text(step.limit_us), summary);
+            fail(fmt::format("never stable for {} within {}: {}", us_text(step.duration_us), us_text(step.limit_us),
+                             summary));
           }
           r.output = r.message;
           break;
@@ -266,8 +262,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             r.status = StepResult::Status::skipped;
             r.message = "no console for board " + step.board + " on this target";
           } else if (reply->find(step.expect_text) == std::string::npos) {
-            r.status = StepResult::Status::failed;
-            r.message = fmt::format("reply did not contain '{}': '{}'", step.expect_text, *reply);
+            fail(fmt::format("reply did not contain '{}': '{}'", step.expect_text, *reply));
           } else {
             r.message = "reply ok";
           }
@@ -297,8 +292,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           type(trace::TraceOff{});
           collect(20'000, bytes);  // the records still on their way
           if (const std::string refused = refusal_in(bytes); !refused.empty()) {
-            r.status = StepResult::Status::failed;
-            r.message = "BALANCE refused: " + refused;
+            fail("BALANCE refused: " + refused);
             if (refused.find(trace::kExciteCapRefusal) != std::string::npos)
               r.message += fmt::format(" (raise the cap before arming: 'console balance speed_limit 20 expect ok', "
                                        "then 30, 40 ... {})", trace::kExciteMinCapPct);
@@ -320,8 +314,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           }
           const std::string broken = check_tune(step.conditions, *traced);
           if (!broken.empty()) {
-            r.status = StepResult::Status::failed;
-            r.message = broken;
+            fail(broken);
           } else {
             r.message = "held: " + tune_figures_text(*traced);
           }
@@ -337,8 +330,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
         }
       }
     } catch (const std::exception& e) {
-      r.status = StepResult::Status::failed;
-      r.message = e.what();
+      fail(e.what());
     }
     r.elapsed_us = target.now_us() - t0;
     if (r.status == StepResult::Status::failed) failed = true;

@@ -136,11 +136,12 @@ class EspConnection {
   static constexpr std::chrono::milliseconds kCommandTimeout{3000};
 
  protected:
-  /// Sends one request (built in packet_) and waits for the answer to op; nullopt when none came in time.
-  std::optional<esp::Response> transact(esp::Op op, std::span<const std::uint8_t> packet,
+  /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length) and waits for the answer to
+  /// op; nullopt when none came in time.
+  std::optional<esp::Response> transact(esp::Op op, const Result<std::size_t>& built,
                                         std::chrono::milliseconds timeout);
   /// transact(), with no answer and a failure status as FlashError(no_answer / refused).
-  esp::Response command(esp::Op op, std::span<const std::uint8_t> packet, std::chrono::milliseconds timeout);
+  esp::Response command(esp::Op op, const Result<std::size_t>& built, std::chrono::milliseconds timeout);
   [[nodiscard]] bool cancelled() const { return options_.cancelled && options_.cancelled(); }
 
   SerialPort& port_;

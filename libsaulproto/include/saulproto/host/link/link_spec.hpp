@@ -38,10 +38,9 @@ struct LinkOpenOptions {
   /// slcan: share the adapter with other saulctl processes (shared_link.hpp): join its owner or become it.
   /// Off: hold it alone (a second saulctl gets "busy", naming this one).
   bool share = true;
-  /// slcan: this process takes every frame it receives (sniff, record). Then, while it is the adapter's owner with
-  /// no other saulctl attached, the adapter is read only as fast as it takes the frames: one that falls 2048 frames
-  /// behind leaves the rest in the adapter (and the kernel's buffer) instead of reading them only to drop the oldest.
-  /// Off (commands that mostly send): the adapter is always read, and the oldest frames unread are dropped, counted.
+  /// slcan: this process takes every frame it receives (sniff, record): while it owns the adapter with no other
+  /// saulctl attached, the adapter is read only as fast as it takes the frames (shared_link.hpp). Off (commands that
+  /// mostly send): the adapter is always read, and the oldest frames unread are dropped, counted.
   bool paced = false;
 };
 

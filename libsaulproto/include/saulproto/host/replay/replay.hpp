@@ -94,7 +94,6 @@ class LatenessStats {
   [[nodiscard]] std::uint64_t count() const { return count_; }
   [[nodiscard]] std::uint64_t max_ns() const { return max_; }
   [[nodiscard]] std::uint64_t percentile_ns(double p) const;  ///< p in 0..100
-  [[nodiscard]] std::uint64_t over_ns(std::uint64_t threshold_ns) const;  ///< exact for 1 ms; by bins otherwise
   [[nodiscard]] std::uint64_t over_1ms() const { return over_1ms_; }
 
  private:

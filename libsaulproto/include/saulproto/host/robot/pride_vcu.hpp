@@ -54,8 +54,6 @@ class PrideVcu {
   /// Throws std::invalid_argument when the command is outside the manual's ranges.
   PrideVcu(SerialPort& port, VcuClock& clock, pride::VcuCommand command, PrideVcuOptions options = {});
 
-  /// Replaces the command sent from the next frame on (ignored once neutral has begun). Throws like the constructor.
-  void set_command(const pride::VcuCommand& command);
   /// From now on only neutral frames (same speed level, FB 0, LR 0); finished() after options.neutral_time
   /// worth of them. Calling it again does not restart the neutral period.
   void begin_neutral();
@@ -82,7 +80,7 @@ class PrideVcu {
   SerialPort& port_;
   VcuClock& clock_;
   pride::VcuCommand command_;
-  pride::VcuCommand previous_command_;  // what the frame before a command change carried
+  pride::VcuCommand previous_command_;  // what the frames before neutral carried
   PrideVcuOptions options_;
   TimePoint next_;
   TimePoint echo_progress_{};  // last time an echo byte came back, or a send began an echo

@@ -1,34 +1,6 @@
-// Scripted bench tests: human-writable test files run against the simulated robot or the real one.
-//
-// A suite file (*.saul) is one step per line; '#' starts a comment. Durations are like 500ms, 2s, 1.5s, 1m.
-//
-//   suite: arm and balance                          name shown in reports (optional, default: file name)
-//   requires: sim                                   skip (not fail) on a target that is not the simulator
-//   send mode_cmd mode=balance                      one frame: velocity_cmd, mode_cmd, config_cmd, pid_gain,
-//   send frame 302#01                               or a raw frame in candump syntax
-//   send pid_set kp=1.5 ki=0.25 kd=0.05 sequence=9  the three 0x301 frames of one set
-//   stream velocity_cmd speed_mmps=200 every 50ms   keep sending in the background (until 'stop' or the end)
-//   stop                                            end the background stream
-//   expect command_ack command=2 result=applied within 300ms
-//   expect telemetry_a state=BALANCE |pitch|<3 within 2s
-//   expect no velocity_cmd for 1s                   nothing matching may arrive (conditions optional)
-//   hold telemetry_a state=BALANCE for 3s           every matching frame in the window satisfies it; >= 1 seen
-//   mean telemetry_a speed_mmps>=240 speed_mmps<=360 for 2s   the fields' means over the window satisfy it
-//   stable telemetry_a state=BALANCE |pitch|<5 and telemetry_b fault=0 for 5m within 20m
-//                                                   every frame of each message holds its conditions for 5 minutes
-//                                                   on end; a frame that breaks them, or a message silent for more
-//                                                   than 1 s, restarts the clock; fails at 'within' (the report
-//                                                   gives the longest stable stretch)
-//   console balance arm expect ok within 500ms      a USB console command and a text its reply must contain
-//   sim push 8                                      a simulator control command (fault injection, radio, ...)
-//   wait 1s
-//   trace step 0.5 for 4s                           BALANCE's 1 kHz loop trace for 4 s, with a test signal (step,
-//                                                   chirp or prbs, amplitude in degrees; none: plain `trace for 4s`)
-//   expect tune overshoot<25% settling<0.6s oscillation=none   tuning figures of the last trace (tune_expect.hpp)
-//
-// Conditions: SIGNAL OP VALUE with OP one of = != < <= > >=, and |SIGNAL| for the absolute value. Signals are named
-// as `saulctl decode --json` keys them (docs/cli.md "Signal names and units"): pitch in degrees, pitch_raw the wire
-// integer, named values by name (state=BALANCE) or number; a name the message lacks is an error listing its names.
+// Scripted bench tests: human-writable test files (*.saul, one step per line) run against the simulated robot or
+// the real one. The format, its steps and conditions are documented in docs/bench-tests.md ("The format"); a
+// condition names a signal as `saulctl decode --json` keys it (docs/cli.md "Signal names and units").
 //
 // Time comes from the Target, so a simulator target can run the same suite faster than real time.
 #pragma once
