@@ -140,11 +140,8 @@ std::string format_candump_line(const CanFrame& frame, std::string_view interfac
                      candump_interface(interface), format_candump_frame(frame));
 }
 
-void CandumpWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void CandumpWriter::put(const CanFrame& frame, std::string_view interface) {
   out_ << format_candump_line(frame, interface) << '\n';
-  check_written();
 }
 
 // ---- the reader -------------------------------------------------------------------------------------------------

@@ -87,7 +87,7 @@ struct FileSource {
   /// What stopped the decompressor (nullopt: nothing), as a corrupt record at the compressed byte it reached.
   [[nodiscard]] std::optional<CaptureError> decompression_error() const {
     if (!inflater || inflater->error().empty()) return std::nullopt;
-    return CaptureError{0, inflater->error(), PositionKind::byte_offset, inflater->compressed_bytes(), Recovery::stop};
+    return detail::byte_error(inflater->compressed_bytes(), Recovery::stop, inflater->error());
   }
 };
 
@@ -355,19 +355,11 @@ class FileWriter final : public CaptureWriter {
   }
 
   void write(const CanFrame& frame, std::string_view interface) override {
-    try {
-      inner_->write(frame, interface);
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
+    detail::naming_file(path_, [&] { inner_->write(frame, interface); });
   }
   McapCaptureWriter* mcap() noexcept override { return inner_->mcap(); }
   void flush() override {
-    try {
-      inner_->flush();
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
+    detail::naming_file(path_, [&] { inner_->flush(); });
   }
   void close() override {
     if (closed_) return;

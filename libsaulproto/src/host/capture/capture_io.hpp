@@ -21,15 +21,29 @@
 #include <string_view>
 #include <vector>
 
+#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host::detail {
 
-/// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR with 8 zero bytes, as
-/// asc2log converts an ASC ErrorFrame (ASC, BLF and TRC error records).
-inline constexpr std::uint32_t kErrBusError = 0x080;
+/// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR (0x080) with 8 zero bytes,
+/// as asc2log converts an ASC ErrorFrame (ASC, BLF and TRC error records). No timestamp.
+inline CanFrame bus_error_frame() {
+  CanFrame f;
+  f.error = true;
+  f.id = 0x080;
+  f.dlc = 8;
+  return f;
+}
+/// "can<N-1>" for a format's channel N (1-based).
+inline std::string channel_name(std::uint64_t channel) { return "can" + std::to_string(channel - 1); }
 /// The message for a CAN FD record, in every reader.
 inline constexpr std::string_view kFdUnsupported = "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
+
+/// A binary format's corrupt record at byte `position` of the file.
+inline CaptureError byte_error(std::uint64_t position, Recovery recovery, std::string message) {
+  return {0, std::move(message), PositionKind::byte_offset, position, recovery};
+}
 
 /// The number of `interface` among the interfaces a writer has seen, in order of first appearance (0-based);
 /// a new one is added. Throws std::invalid_argument when there would be more than `max` (the format's limit).
@@ -47,6 +61,16 @@ inline std::size_t channel_index(InterfaceIndex& seen, std::string_view interfac
 inline void flush_checked(std::ostream& out, std::string_view format) {
   out.flush();
   if (!out) throw std::runtime_error(std::string(format) + ": write failed");
+}
+
+/// Runs write(); a std::runtime_error it throws comes out naming the file: "cannot write 'PATH': ...".
+template <class Write>
+void naming_file(const std::string& path, const Write& write) {
+  try {
+    write();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("cannot write '" + path + "': " + e.what());
+  }
 }
 
 /// Closes a format writer (close_writer()) and then its file, and reports the first failure of either with the

@@ -102,16 +102,13 @@ GvretCsvWriter::GvretCsvWriter(std::ostream& out) : StreamCaptureWriter(out, "GV
   check_written();
 }
 
-void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void GvretCsvWriter::put(const CanFrame& frame, std::string_view interface) {
   if (frame.remote || frame.error) return;  // the format has neither
   const std::size_t bus = detail::channel_index(buses_, interface, 256, "GVRET CSV");
   std::string line = fmt::format("{},{:08X},{},Rx,{},{},", frame.timestamp_ns.value_or(0) / 1000, frame.id,
                                  frame.extended ? "true" : "false", bus, frame.dlc);
   for (std::size_t i = 0; i < 8; ++i) line += fmt::format("{:02X},", i < frame.dlc ? frame.data[i] : 0);
   out_ << line << '\n';
-  check_written();
 }
 
 }  // namespace saul::host

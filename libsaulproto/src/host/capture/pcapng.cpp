@@ -248,11 +248,7 @@ void PcapngReader::open() {
 }
 
 PcapngReader::Step PcapngReader::corrupt(std::uint64_t offset, Recovery recovery, std::string message) {
-  error_.column = 0;
-  error_.kind = PositionKind::byte_offset;
-  error_.position = offset;
-  error_.recovery = recovery;
-  error_.message = std::move(message);
+  error_ = detail::byte_error(offset, recovery, std::move(message));
   if (recovery == Recovery::stop) stopped_ = true;
   return Step::corrupt;
 }
@@ -505,9 +501,7 @@ PcapngWriter::PcapngWriter(std::ostream& out) : StreamCaptureWriter(out, "pcapng
   check_written();
 }
 
-void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void PcapngWriter::put(const CanFrame& frame, std::string_view interface) {
   if (interface.empty()) interface = "can0";
   if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
   const std::size_t known = interfaces_.size();
@@ -537,7 +531,6 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
   b.u32(static_cast<std::uint32_t>(packet.size()));
   b.raw(packet);
   b.finish_and_write(out_);
-  check_written();
 }
 
 }  // namespace saul::host

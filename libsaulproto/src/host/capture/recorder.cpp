@@ -180,11 +180,7 @@ void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns
   if (closed_) throw std::runtime_error("record: write after close");
   if (plan_.options().enabled() && plan_.due(position(*file_), items_in_file_, file_start_ns_, timestamp_ns))
     open_next();
-  try {
-    write(*inner_);
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
-  }
+  detail::naming_file(current_path_, [&] { write(*inner_); });
   if (!file_start_ns_) file_start_ns_ = timestamp_ns;
   ++items_in_file_;
 }
@@ -192,11 +188,7 @@ void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns
 template <class Writer>
 void RotatingFiles<Writer>::flush() {
   if (closed_) return;
-  try {
-    inner_->flush();
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
-  }
+  detail::naming_file(current_path_, [&] { inner_->flush(); });
 }
 
 template <class Writer>

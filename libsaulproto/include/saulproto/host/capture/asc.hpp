@@ -71,6 +71,9 @@ class AscReader final : public CaptureReader {
   Step frame_line(std::string_view line, std::uint64_t time_ns);
   Step canfd_line(std::string_view line, std::uint64_t time_ns);
   bool parse_id(std::size_t token, CanFrame& frame);  ///< false after reporting it corrupt
+  std::optional<std::uint64_t> channel(std::size_t token);  ///< 1..255; nullopt after reporting it corrupt
+  bool data_bytes(std::size_t first, CanFrame& frame);  ///< frame.dlc bytes; false after reporting one corrupt
+  Step emit(CanFrame frame, std::uint64_t channel, std::uint64_t time_ns);
   Step corrupt(std::size_t column, std::string message);
   [[nodiscard]] std::uint64_t absolute(std::uint64_t time_ns);
 
@@ -92,12 +95,11 @@ class AscWriter final : public StreamCaptureWriter {
  public:
   /// Nothing is written before the first frame (the header carries its date) or close().
   explicit AscWriter(std::ostream& out) : StreamCaptureWriter(out, "ASC") {}
-
-  /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
  private:
+  /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void header(std::uint64_t first_ns);
 

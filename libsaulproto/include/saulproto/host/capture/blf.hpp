@@ -69,6 +69,8 @@ class BlfReader final : public CaptureReader {
   enum class Step { frame, corrupt, skipped, need_more };
   enum class Load { loaded, corrupt, none };
   Status corrupt(std::uint64_t position, Recovery recovery, std::string message);
+  /// A corrupt object of the container under way; reading goes on after it.
+  Step bad_object(std::string message);
   Step object();
   Step can_object(std::uint32_t type, const std::uint8_t* body, std::uint32_t length, std::uint64_t time_ns);
   Load load_container();
@@ -94,13 +96,12 @@ class BlfReader final : public CaptureReader {
 class BlfWriter final : public StreamCaptureWriter {
  public:
   static constexpr std::size_t kContainerBytes = 128 * 1024;
-  explicit BlfWriter(std::ostream& out);
-  void write(const CanFrame& frame, std::string_view interface) override;
+  explicit BlfWriter(std::ostream& out) : StreamCaptureWriter(out, "BLF") {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
-
   void flush() override;
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void write_header(std::uint64_t file_size);
   void write_container();

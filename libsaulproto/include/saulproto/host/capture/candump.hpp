@@ -305,11 +305,10 @@ class CandumpReader final : public BatchCaptureReader {
 class CandumpWriter final : public StreamCaptureWriter {
  public:
   explicit CandumpWriter(std::ostream& out) : StreamCaptureWriter(out, "candump") {}
-
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
 };
 
 }  // namespace saul::host

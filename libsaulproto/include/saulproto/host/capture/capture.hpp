@@ -262,11 +262,21 @@ class CaptureWriter {
   virtual McapCaptureWriter* mcap() noexcept { return nullptr; }
 };
 
-/// The tail every writer onto a caller's std::ostream shares, so each format says only how it writes a frame and
-/// how it ends: flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
+/// Throws std::invalid_argument when `frame` cannot be written to any capture format.
+void check_writable(const CanFrame& frame);
+
+/// The head and tail every writer onto a caller's std::ostream shares, so each format says only how it writes a
+/// frame (put()) and how it ends: write() refuses after close() and frames check_writable() refuses, then checks
+/// the stream; flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
 /// format ("ASC: write failed", "ASC writer: write after close").
 class StreamCaptureWriter : public CaptureWriter {
  public:
+  void write(const CanFrame& frame, std::string_view interface) final {
+    if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
+    check_writable(frame);
+    put(frame, interface);
+    check_written();
+  }
   void flush() override {
     out_.flush();
     check_written();
@@ -280,12 +290,10 @@ class StreamCaptureWriter : public CaptureWriter {
 
  protected:
   StreamCaptureWriter(std::ostream& out, const char* name) : out_(out), name_(name) {}
+  /// Writes one frame that write() checked.
+  virtual void put(const CanFrame& frame, std::string_view interface) = 0;
   /// What the format writes at its end (a trailer, a header put right), before close()'s flush. Runs once.
   virtual void finish() {}
-  /// Every write() starts with it: a closed writer refuses.
-  void check_open() const {
-    if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
-  }
   /// After writing to out_: a failed stream throws.
   void check_written() const {
     if (!out_) throw std::runtime_error(std::string(name_) + ": write failed");
@@ -351,7 +359,7 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
 
 /// Creates (truncates) a capture file. The format is `format` when given, else from the extension; a name ending in
 /// .gz or .zst is compressed (the format then comes from the name without it: run.log.gz is a gzipped candump
-/// log). Throws CaptureOpenError when neither says, when it is a serial format (open_serial_capture_writer), or the
+/// log). Throws CaptureOpenError when neither says, when it is a serial format (RotatingSerialWriter), or the
 /// file cannot be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
@@ -388,8 +396,5 @@ CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
 /// Sentences saying what a copy into `format` lost (interface names, error-frame details, frames it cannot hold);
 /// empty when nothing.
 std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat format);
-
-/// Throws std::invalid_argument when `frame` cannot be written to any capture format.
-void check_writable(const CanFrame& frame);
 
 }  // namespace saul::host

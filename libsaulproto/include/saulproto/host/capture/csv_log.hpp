@@ -57,10 +57,10 @@ class CsvLogReader final : public CaptureReader {
 class CsvLogWriter final : public StreamCaptureWriter {
  public:
   explicit CsvLogWriter(std::ostream& out);
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
 };
 
 }  // namespace saul::host

@@ -50,11 +50,11 @@ class GvretCsvReader final : public CaptureReader {
 class GvretCsvWriter final : public StreamCaptureWriter {
  public:
   explicit GvretCsvWriter(std::ostream& out);
-  /// Remote and error frames are left out (the format has none).
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:
+  /// Remote and error frames are left out (the format has none).
+  void put(const CanFrame& frame, std::string_view interface) override;
   InterfaceIndex buses_;
 };
 

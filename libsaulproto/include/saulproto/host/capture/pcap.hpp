@@ -115,12 +115,11 @@ class PcapWriter final : public StreamCaptureWriter {
  public:
   /// Writes the file header at once.
   explicit PcapWriter(std::ostream& out, PcapWriterOptions options = {});
-
-  /// `interface` is not stored: pcap has no interface names.
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
 
  private:
+  /// `interface` is not stored: pcap has no interface names.
+  void put(const CanFrame& frame, std::string_view interface) override;
   PcapWriterOptions options_;
 };
 

@@ -111,11 +111,10 @@ class PcapngWriter final : public StreamCaptureWriter {
  public:
   /// Writes the Section Header Block at once.
   explicit PcapngWriter(std::ostream& out);
-
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   InterfaceIndex interfaces_;  ///< index = pcapng interface id
 };
 

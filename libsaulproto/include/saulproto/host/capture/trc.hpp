@@ -83,10 +83,10 @@ class TrcReader final : public CaptureReader {
 class TrcWriter final : public StreamCaptureWriter {
  public:
   explicit TrcWriter(std::ostream& out) : StreamCaptureWriter(out, "TRC") {}
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void header(std::uint64_t first_ns);
   InterfaceIndex buses_;
