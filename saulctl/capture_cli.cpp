@@ -13,11 +13,7 @@
 
 namespace saulctl {
 
-std::vector<std::string> input_format_names() {
-  std::vector<std::string> names;
-  for (const auto& f : saul::host::kCaptureFormats) names.emplace_back(saul::host::to_string(f.format));
-  return names;
-}
+std::vector<std::string> input_format_names() { return saul::host::capture_format_names(); }
 
 void add_input_format_option(CLI::App* cmd, std::string& input_format) {
   cmd->add_option("--input-format", input_format,

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "saulproto/core/hex.hpp"
+#include "capture_io.hpp"
 #include "text_fields.hpp"
 
 namespace saul::host {
@@ -391,13 +392,11 @@ std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std:
     std::uint64_t start = size;
     while (pos < size) {
       const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(sizeof probe, size - pos));
-      const ssize_t got = ::pread(fd, probe, want, static_cast<off_t>(pos));
-      if (got < 0) {
-        if (errno == EINTR) continue;
-        throw std::system_error(errno, std::generic_category(), "reading the capture");
-      }
+      int error = 0;
+      const std::size_t got = detail::pread_full(fd, probe, want, pos, &error);
+      if (error != 0) throw std::system_error(error, std::generic_category(), "reading the capture");
       if (got == 0) break;
-      const void* nl = std::memchr(probe, '\n', static_cast<std::size_t>(got));
+      const void* nl = std::memchr(probe, '\n', got);
       if (nl != nullptr) {
         start = pos + static_cast<std::uint64_t>(static_cast<const char*>(nl) - probe) + 1;
         break;

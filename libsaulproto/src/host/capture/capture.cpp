@@ -445,28 +445,29 @@ CaptureReader::Status BatchCaptureReader::next() {
 
 namespace {
 
-/// What saulctl knows of each format: its names (the first is to_string()'s, the others --format takes too), the
-/// file extensions that name it, and what it keeps of a frame.
+/// What saulctl knows of each format, in the order help lists them: its names (the first is to_string()'s, the
+/// others --format takes too), the file extensions that name it, its label in help text, and what it keeps of a frame.
 struct FormatInfo {
   CaptureFormat format;
   std::string_view names;
   std::string_view extensions;
+  std::string_view label;
   CaptureTraits traits;  // resolution, interface names, channel order, error details, remote frames, error frames
 };
 constexpr FormatInfo kFormats[] = {
-    {CaptureFormat::candump, "candump log", "log candump", {1000, true, false, true, true, true}},
-    {CaptureFormat::pcap, "pcap", "pcap cap", {1000, false, false, true, true, true}},
-    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", {1, true, false, true, true, true}},
-    {CaptureFormat::asc, "asc", "asc", {1000, false, true, false, true, true}},
-    {CaptureFormat::blf, "blf", "blf", {1, false, true, false, true, true}},
-    {CaptureFormat::trc, "trc", "trc", {1000, false, true, false, true, true}},
-    {CaptureFormat::csv, "csv", "csv", {1000, false, false, true, true, true}},
-    {CaptureFormat::gvret_csv, "gvret-csv", "", {1000, false, true, false, false, false}},
-    {CaptureFormat::mcap, "mcap", "mcap", {1, true, false, true, true, true}},
-    {CaptureFormat::serial, "serial", "serial", {1000, true, false, false, false, false}},
-    {CaptureFormat::sigrok, "sigrok", "", {1, true, false, false, false, false}},
-    {CaptureFormat::sigrok_json, "sigrok-json", "", {1, true, false, false, false, false}},
-    {CaptureFormat::pulseview_csv, "pulseview-csv", "", {1, true, false, false, false, false}},
+    {CaptureFormat::candump, "candump log", "log candump", "candump", {1000, true, false, true, true, true}},
+    {CaptureFormat::pcap, "pcap", "pcap cap", "pcap", {1000, false, false, true, true, true}},
+    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", "pcapng", {1, true, false, true, true, true}},
+    {CaptureFormat::asc, "asc", "asc", "ASC", {1000, false, true, false, true, true}},
+    {CaptureFormat::blf, "blf", "blf", "BLF", {1, false, true, false, true, true}},
+    {CaptureFormat::trc, "trc", "trc", "TRC", {1000, false, true, false, true, true}},
+    {CaptureFormat::csv, "csv", "csv", "CSV", {1000, false, false, true, true, true}},
+    {CaptureFormat::gvret_csv, "gvret-csv", "", "GVRET CSV", {1000, false, true, false, false, false}},
+    {CaptureFormat::mcap, "mcap", "mcap", "MCAP", {1, true, false, true, true, true}},
+    {CaptureFormat::serial, "serial", "serial", "serial log", {1000, true, false, false, false, false}},
+    {CaptureFormat::sigrok, "sigrok", "", "sigrok UART", {1, true, false, false, false, false}},
+    {CaptureFormat::sigrok_json, "sigrok-json", "", "sigrok JSON", {1, true, false, false, false, false}},
+    {CaptureFormat::pulseview_csv, "pulseview-csv", "", "PulseView CSV", {1, true, false, false, false, false}},
 };
 
 static_assert([] {
@@ -501,6 +502,22 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 }
 
 CaptureTraits capture_traits(CaptureFormat format) noexcept { return info(format).traits; }
+
+std::vector<std::string> capture_format_names() {
+  std::vector<std::string> names;
+  for (const FormatInfo& f : kFormats) names.emplace_back(to_string(f.format));
+  return names;
+}
+
+std::string capture_format_list(bool with_serial) {
+  std::string list;
+  for (const FormatInfo& f : kFormats) {
+    if (holds_serial_bytes(f.format) && !with_serial) continue;
+    if (!list.empty()) list += ", ";
+    list += f.label;
+  }
+  return list + "; .gz/.zst too";
+}
 
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept {
   const std::size_t slash = path.find_last_of('/');
@@ -553,21 +570,8 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
-  std::string_view after;
-  switch (error.recovery) {
-    case Recovery::next_line:
-      after = "line skipped";
-      break;
-    case Recovery::next_record:
-      after = "record skipped";
-      break;
-    case Recovery::next_block:
-      after = "block skipped";
-      break;
-    case Recovery::stop:
-      after = "reading stopped";
-      break;
-  }
+  static constexpr std::string_view kAfter[] = {"line skipped", "record skipped", "block skipped", "reading stopped"};
+  const std::string_view after = kAfter[static_cast<std::size_t>(error.recovery)];  // by Recovery
   if (error.kind == PositionKind::line)
     return fmt::format("{}:{}:{}: {} ({})", path, error.position, error.column + 1, error.message, after);
   return fmt::format("{}: byte {}: {} ({})", path, error.position, error.message, after);

@@ -91,8 +91,7 @@ void close_with_file(const CloseWriter& close_writer, std::ofstream& file, const
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
 inline constexpr std::uint32_t kSnaplen = 0xFFFF;
 
-// One load and at most one byte swap (the byte-by-byte form was not always inlined: a call per field of every
-// pcapng packet).
+// One load and at most one byte swap: they run per field of every packet.
 inline std::uint16_t load_u16(const std::uint8_t* p, bool big) noexcept {
   std::uint16_t v;
   std::memcpy(&v, p, sizeof v);
@@ -273,9 +272,13 @@ class BlockCutter {
 inline std::size_t window_bytes(std::uint64_t block) {
   return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{16} << 10);
 }
-/// PcapScanner::block_starts one at a time (`big`: the file's byte order).
+/// Record starts that cut a pcap file (`big`: its byte order) into blocks of about `block` bytes: 24, s1, ..., its
+/// size. From the first implausible or cut record on, the rest is one block (a corrupt file reads as in one piece).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);
-/// pcapng_block_starts one at a time.
+/// Packet block starts that cut a pcapng file: 0, s1, ..., its size; prefix_end() is the first packet block's start.
+/// Block k > 0 reads as the bytes [0, prefix_end) (the section header and interface descriptions) followed by its
+/// own. From the first block after the first packet that is not a packet block (a new section or interface, an
+/// unknown block), or whose length is not plausible, the rest is one block; a prefix over 1 MiB is not cut at all.
 std::unique_ptr<BlockCutter> pcapng_block_cutter(int fd, std::uint64_t size, std::uint64_t block);
 
 }  // namespace saul::host::detail

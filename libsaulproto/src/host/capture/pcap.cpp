@@ -191,14 +191,6 @@ std::unique_ptr<detail::BlockCutter> detail::pcap_block_cutter(int fd, std::uint
   return std::make_unique<PcapCutter>(fd, size, big, block);
 }
 
-std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
-  std::vector<std::uint64_t> starts;
-  const auto cut = detail::pcap_block_cutter(fd_, size_, big_, block);
-  std::uint64_t start = 0;
-  while (cut->next(start)) starts.push_back(start);
-  return starts;
-}
-
 // At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
 std::size_t PcapScanner::ensure(std::size_t n) {
   if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;

@@ -185,15 +185,6 @@ std::unique_ptr<detail::BlockCutter> detail::pcapng_block_cutter(int fd, std::ui
   return std::make_unique<PcapngCutter>(fd, size, block);
 }
 
-PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block) {
-  PcapngCutter cut(fd, size, block);
-  PcapngBlocks out;
-  std::uint64_t start = 0;
-  while (cut.next(start)) out.starts.push_back(start);
-  out.prefix_end = cut.prefix_end();
-  return out;
-}
-
 // ---- reader ----
 
 PcapngReader::PcapngReader(std::istream& in) : in_(&in) { open(); }

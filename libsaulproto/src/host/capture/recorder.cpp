@@ -119,26 +119,30 @@ std::uint64_t parse_size(const std::string& text) {
   throw std::invalid_argument(fmt::format("bad size '{}' (use e.g. 100M, 1.5G, 64k)", text));
 }
 
-bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
-                       std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const {
-  if (frames_in_file == 0) return false;  // never leave a file empty
-  if (options_.max_bytes > 0 && bytes_in_file >= options_.max_bytes) return true;
-  if (options_.max_duration_ns > 0 && file_start_ns && timestamp_ns && *timestamp_ns >= *file_start_ns &&
-      *timestamp_ns - *file_start_ns >= options_.max_duration_ns)
-    return true;
-  return false;
+// ---- the files of both writers --------------------------------------------------------------------------------
+
+template <class Writer>
+std::string RotatingFiles<Writer>::path_for(unsigned index) const {
+  return rotation_.enabled() ? numbered_path(path_, index) : path_;
 }
 
-// ---- the files of both writers --------------------------------------------------------------------------------
+template <class Writer>
+bool RotatingFiles<Writer>::due(std::optional<std::uint64_t> timestamp_ns) {
+  if (!rotation_.enabled() || items_in_file_ == 0) return false;  // never leave a file empty
+  if (rotation_.max_bytes > 0 && position(*file_) >= rotation_.max_bytes) return true;
+  return rotation_.max_duration_ns > 0 && file_start_ns_ && timestamp_ns && *timestamp_ns >= *file_start_ns_ &&
+         *timestamp_ns - *file_start_ns_ >= rotation_.max_duration_ns;
+}
 
 template <class Writer>
 RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions rotation,
                                      std::function<void(const std::string&)> on_new_file, MakeWriter make)
-    : plan_(path, rotation),
+    : path_(path),
+      rotation_(rotation),
       compressor_(compressor_for(rotation)),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
-  current_path_ = plan_.path_for(0);
+  current_path_ = path_for(0);
   file_ = create(current_path_);
   inner_ = make_(*file_);
   if (on_new_file_) on_new_file_(current_path_);
@@ -166,7 +170,7 @@ template <class Writer>
 void RotatingFiles<Writer>::open_next() {
   close_current();
   ++index_;
-  current_path_ = plan_.path_for(index_);
+  current_path_ = path_for(index_);
   file_ = create(current_path_);
   inner_ = make_(*file_);
   items_in_file_ = 0;
@@ -178,8 +182,7 @@ template <class Writer>
 void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns,
                                        const std::function<void(Writer&)>& write) {
   if (closed_) throw std::runtime_error("record: write after close");
-  if (plan_.options().enabled() && plan_.due(position(*file_), items_in_file_, file_start_ns_, timestamp_ns))
-    open_next();
+  if (due(timestamp_ns)) open_next();
   detail::naming_file(current_path_, [&] { write(*inner_); });
   if (!file_start_ns_) file_start_ns_ = timestamp_ns;
   ++items_in_file_;

@@ -51,14 +51,11 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text);
 /// "Tue Nov 14 22:13:20 2023" for the whole second of `ns` (UTC).
 std::string format_asc_date(std::uint64_t ns);
 
-class AscReader final : public CaptureReader {
+class AscReader final : public RecordCaptureReader {
  public:
   explicit AscReader(std::istream& in) : in_(in) {}
 
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
   /// True once a date or Begin Triggerblock line gave the wall clock of the measurement start.
@@ -86,9 +83,6 @@ class AscReader final : public CaptureReader {
   std::uint64_t elapsed_ns_ = 0;
   std::optional<std::uint64_t> start_ns_;
   bool trigger_block_date_ = false;
-  CanFrame frame_;
-  std::string name_;
-  CaptureError error_;
 };
 
 class AscWriter final : public StreamCaptureWriter {

@@ -39,7 +39,7 @@
 
 namespace saul::host {
 
-class BlfReader final : public CaptureReader {
+class BlfReader final : public RecordCaptureReader {
  public:
   static constexpr std::uint32_t kMaxContainerBytes = 16U << 20;  ///< uncompressed or compressed
   static constexpr std::uint32_t kMaxObjectBytes = 1U << 20;
@@ -49,9 +49,6 @@ class BlfReader final : public CaptureReader {
   ~BlfReader() override;
 
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
   /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
@@ -87,9 +84,6 @@ class BlfReader final : public CaptureReader {
   std::size_t pos_ = 0;
   std::uint64_t container_offset_ = 0;  // file offset of the container the bytes at pos_ came from
   bool ended_ = false;
-  CanFrame frame_;
-  std::string name_;
-  CaptureError error_;
   std::uint64_t skipped_objects_ = 0;
 };
 

@@ -57,38 +57,12 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 /// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .blf, .trc, .csv (python-can's), .serial
 /// (case-insensitive); nullopt otherwise, also for a compressed name (strip_compression_extension first).
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
-/// Every capture format with the name help text gives it, in the order help lists them: the one table every verb's
-/// help and --input-format take their list from, so a format added here is named wherever files are read.
-struct CaptureFormatInfo {
-  CaptureFormat format;
-  std::string_view label;  ///< "ASC", "GVRET CSV", "sigrok UART"
-};
-inline constexpr std::array<CaptureFormatInfo, 13> kCaptureFormats = {{
-    {CaptureFormat::candump, "candump"},
-    {CaptureFormat::pcap, "pcap"},
-    {CaptureFormat::pcapng, "pcapng"},
-    {CaptureFormat::asc, "ASC"},
-    {CaptureFormat::blf, "BLF"},
-    {CaptureFormat::trc, "TRC"},
-    {CaptureFormat::csv, "CSV"},
-    {CaptureFormat::gvret_csv, "GVRET CSV"},
-    {CaptureFormat::mcap, "MCAP"},
-    {CaptureFormat::serial, "serial log"},
-    {CaptureFormat::sigrok, "sigrok UART"},
-    {CaptureFormat::sigrok_json, "sigrok JSON"},
-    {CaptureFormat::pulseview_csv, "PulseView CSV"},
-}};
+/// Every format's to_string() name, in the order help lists them: --input-format's choices.
+std::vector<std::string> capture_format_names();
 /// For help text: the labels of the CAN formats, then (with_serial) the serial ones, and that any of them may be
-/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too".
-inline std::string capture_format_list(bool with_serial) {
-  std::string list;
-  for (const auto& f : kCaptureFormats) {
-    if (holds_serial_bytes(f.format) && !with_serial) continue;
-    if (!list.empty()) list += ", ";
-    list += f.label;
-  }
-  return list + "; .gz/.zst too";
-}
+/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too". Every verb's help takes its list from here (and
+/// capture_format_names from the same table), so a format added is named wherever files are read.
+std::string capture_format_list(bool with_serial);
 /// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
 /// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
 /// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),
@@ -114,7 +88,7 @@ enum class PositionKind : std::uint8_t { line, byte_offset };
 /// What the reader does after a corrupt record.
 enum class Recovery : std::uint8_t { next_line, next_record, next_block, stop };
 
-/// A corrupt record. The first two members keep the layout of the former CandumpError (column, message).
+/// A corrupt record.
 struct CaptureError {
   std::size_t column = 0;  ///< text formats: 0-based column where the problem starts; 0 for binary formats
   std::string message;     ///< what is wrong, e.g. "id is not hexadecimal"
@@ -238,6 +212,19 @@ class BatchCaptureReader : public CaptureReader {
   CaptureError none_;
   FrameBatch batch_;
   std::size_t frame_ = 0, corrupt_ = 0;  // what next() handed out of batch_
+};
+
+/// A reader of one record at a time (ASC, BLF, TRC, the CSV logs, pcapng): next() fills frame_ and name_, or error_.
+class RecordCaptureReader : public CaptureReader {
+ public:
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return name_; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+
+ protected:
+  CanFrame frame_;
+  std::string name_ = "can0";
+  CaptureError error_;
 };
 
 /// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own

@@ -58,24 +58,6 @@ std::string numbered_path(const std::string& path, unsigned index);
 /// Throws std::invalid_argument.
 std::uint64_t parse_size(const std::string& text);
 
-/// Where the files go and when a new one starts (shared by the CAN and serial writers).
-class RotationPlan {
- public:
-  RotationPlan(std::string path, RotationOptions options) : path_(std::move(path)), options_(options) {}
-  /// Path of the file with this index (the path itself when rotation is off).
-  [[nodiscard]] std::string path_for(unsigned index) const {
-    return options_.enabled() ? numbered_path(path_, index) : path_;
-  }
-  /// Whether a frame at timestamp_ns must go into a new file, given what the current file holds.
-  [[nodiscard]] bool due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
-                         std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const;
-  [[nodiscard]] const RotationOptions& options() const { return options_; }
-
- private:
-  std::string path_;
-  RotationOptions options_;
-};
-
 /// What the rotating writers of CAN frames and of serial chunks share (Writer: CaptureWriter or
 /// SerialCaptureWriter): the files, the format writer of the current one, when the next starts, and compression.
 /// `on_new_file(path)` is told of every file opened; `make` builds each file's format writer on its stream.
@@ -99,9 +81,14 @@ class RotatingFiles : public Writer {
   [[nodiscard]] const Writer& writer() const { return *inner_; }
 
  private:
+  /// Path of the file with this index (the path itself when rotation is off).
+  [[nodiscard]] std::string path_for(unsigned index) const;
+  /// Whether an item at timestamp_ns must go into a new file, given what the current file holds.
+  [[nodiscard]] bool due(std::optional<std::uint64_t> timestamp_ns);
   void open_next();
   void close_current();
-  RotationPlan plan_;
+  std::string path_;
+  RotationOptions rotation_;
   std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
   std::function<void(const std::string&)> on_new_file_;
   MakeWriter make_;
