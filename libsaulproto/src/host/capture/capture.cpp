@@ -203,16 +203,21 @@ CaptureFormat candump_or_serial(std::string_view line) {
   return CaptureFormat::serial;
 }
 
+/// Up to n bytes of a stream buffer, fewer only at its end (a decompressor hands out its data in pieces).
+std::size_t read_full(std::streambuf& source, char* dst, std::size_t n) {
+  std::size_t done = 0;
+  while (done < n) {
+    const std::streamsize got = source.sgetn(dst + done, static_cast<std::streamsize>(n - done));
+    if (got <= 0) break;
+    done += static_cast<std::size_t>(got);
+  }
+  return done;
+}
+
 /// Reads up to kHeadBytes from a stream buffer, for detection (the ReplayBuf hands them out again).
 std::string read_head(std::streambuf& source) {
   std::string head(kHeadBytes, '\0');
-  std::size_t got = 0;
-  while (got < head.size()) {  // a decompressor hands out its data in pieces
-    const std::streamsize n = source.sgetn(head.data() + got, static_cast<std::streamsize>(head.size() - got));
-    if (n <= 0) break;
-    got += static_cast<std::size_t>(n);
-  }
-  head.resize(got);
+  head.resize(read_full(source, head.data(), head.size()));
   return head;
 }
 
@@ -665,15 +670,7 @@ namespace {
 class FileText final : public CaptureText {
  public:
   FileText(std::unique_ptr<FileSource> source, CaptureFormat format) : source_(std::move(source)), format_(format) {}
-  std::size_t read(char* dst, std::size_t n) override {
-    std::size_t done = 0;
-    while (done < n) {  // a stream buffer may hand out less than asked before its end
-      const auto got = source_->stream.rdbuf()->sgetn(dst + done, static_cast<std::streamsize>(n - done));
-      if (got <= 0) break;
-      done += static_cast<std::size_t>(got);
-    }
-    return done;
-  }
+  std::size_t read(char* dst, std::size_t n) override { return read_full(*source_->stream.rdbuf(), dst, n); }
   [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
   [[nodiscard]] std::optional<CaptureError> end_error() const override { return source_->decompression_error(); }
