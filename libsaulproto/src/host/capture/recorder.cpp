@@ -4,12 +4,8 @@
 
 #include <cerrno>
 #include <cmath>
-#include <condition_variable>
 #include <cstring>
-#include <deque>
-#include <mutex>
 #include <stdexcept>
-#include <thread>
 
 #include "saulproto/core/quantity.hpp"
 #include "capture_io.hpp"
@@ -48,61 +44,23 @@ std::unique_ptr<FileCompressor> compressor_for(const RotationOptions& options) {
 
 }  // namespace
 
-struct FileCompressor::Queue {
-  std::mutex mutex;
-  std::condition_variable wake;
-  std::deque<std::string> paths;
-  bool busy = false;
-  bool stop = false;
-  std::string failure;
-  std::thread worker;
-};
-
-FileCompressor::FileCompressor(Compression compression) : compression_(compression), queue_(std::make_unique<Queue>()) {
-  queue_->worker = std::thread([q = queue_.get(), compression] {
-    std::unique_lock lock(q->mutex);
-    for (;;) {
-      q->wake.wait(lock, [q] { return q->stop || !q->paths.empty(); });
-      if (q->paths.empty()) return;  // stopping, nothing left
-      const std::string path = q->paths.front();
-      q->paths.pop_front();
-      q->busy = true;
-      lock.unlock();
-      std::string failure;
-      try {
-        compress_file(path, compression);
-      } catch (const std::runtime_error& e) {
-        failure = e.what();
-      }
-      lock.lock();
-      q->busy = false;
-      if (q->failure.empty()) q->failure = failure;
-      q->wake.notify_all();
+void FileCompressor::add(const std::string& path) {
+  // std::async's future waits for its thread when destroyed: the destructor waits for every file added
+  last_ = std::async(std::launch::async, [before = std::move(last_), path, compression = compression_]() mutable {
+    std::string failure = before.valid() ? before.get() : std::string();
+    try {
+      compress_file(path, compression);
+    } catch (const std::runtime_error& e) {
+      if (failure.empty()) failure = e.what();
     }
+    return failure;
   });
 }
 
-FileCompressor::~FileCompressor() {
-  {
-    std::lock_guard lock(queue_->mutex);
-    queue_->stop = true;
-  }
-  queue_->wake.notify_all();
-  queue_->worker.join();  // what was added is still compressed
-}
-
-void FileCompressor::add(const std::string& path) {
-  {
-    std::lock_guard lock(queue_->mutex);
-    queue_->paths.push_back(path);
-  }
-  queue_->wake.notify_all();
-}
-
 void FileCompressor::finish() {
-  std::unique_lock lock(queue_->mutex);
-  queue_->wake.wait(lock, [q = queue_.get()] { return q->paths.empty() && !q->busy; });
-  if (!queue_->failure.empty()) throw std::runtime_error(queue_->failure);
+  if (!last_.valid()) return;
+  const std::string failure = last_.get();
+  if (!failure.empty()) throw std::runtime_error(failure);
 }
 
 std::string numbered_path(const std::string& path, unsigned index) {

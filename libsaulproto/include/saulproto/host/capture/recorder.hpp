@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -31,23 +32,20 @@ struct RotationOptions {
   [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
 };
 
-/// Compresses finished files on a thread of its own, in order (compress_file: NAME.gz or NAME.zst, the plain file
-/// removed). finish() waits for all and throws the first failure.
+/// Compresses finished files in order (compress_file: NAME.gz or NAME.zst, the plain file removed), each on a thread
+/// of its own that first waits for the file before. finish() waits for all and throws the first failure; the
+/// destructor waits for all.
 class FileCompressor {
  public:
-  explicit FileCompressor(Compression compression);
-  ~FileCompressor();
-  FileCompressor(const FileCompressor&) = delete;
-  FileCompressor& operator=(const FileCompressor&) = delete;
+  explicit FileCompressor(Compression compression) : compression_(compression) {}
   void add(const std::string& path);
   /// Waits until every file added is compressed; throws std::runtime_error for the first that could not be.
   void finish();
   [[nodiscard]] Compression compression() const { return compression_; }
 
  private:
-  struct Queue;
   Compression compression_;
-  std::unique_ptr<Queue> queue_;
+  std::future<std::string> last_;  // the last file's compression: the first failure up to it ("": none)
 };
 
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
