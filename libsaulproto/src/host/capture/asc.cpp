@@ -32,21 +32,9 @@ bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
-bool all_digits(std::string_view s) {
-  if (s.empty()) return false;
-  for (char c : s)
-    if (c < '0' || c > '9') return false;
-  return true;
-}
+bool all_digits(std::string_view s) { return !s.empty() && s.find_first_not_of("0123456789") == s.npos; }
 
-bool hex_digits(std::string_view s) {
-  if (s.empty()) return false;
-  for (char c : s) {
-    const char l = detail::ascii_lower(c);
-    if (!((l >= '0' && l <= '9') || (l >= 'a' && l <= 'f'))) return false;
-  }
-  return true;
-}
+bool hex_digits(std::string_view s) { return !s.empty() && s.find_first_not_of("0123456789abcdefABCDEF") == s.npos; }
 
 using detail::parse_unsigned;
 

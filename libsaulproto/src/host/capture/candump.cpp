@@ -120,10 +120,9 @@ std::string format_candump_frame(const CanFrame& frame) {
     if (frame.dlc) s += static_cast<char>('0' + frame.dlc);
     return s;
   }
-  static constexpr char kHex[] = "0123456789ABCDEF";
   for (std::uint8_t b : frame.payload()) {
-    s += kHex[b >> 4];
-    s += kHex[b & 0xF];
+    s += hex::kUpperDigits[b >> 4];
+    s += hex::kUpperDigits[b & 0xF];
   }
   return s;
 }
@@ -217,32 +216,29 @@ bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& i
   return true;
 }
 
-CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes)
-    : fd_(fd), positional_(false), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
-}
+CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes) : fd_(fd), positional_(false) { allocate(block_bytes); }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
-    : fd_(fd), positional_(true), offset_(begin), end_(end), cap_(block_bytes + kMaxCandumpLine + 1),
-      block_(block_bytes) {
-  allocate();
+    : fd_(fd), positional_(true), offset_(begin), end_(end) {
+  allocate(block_bytes);
+}
+
+CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
+    : fd_(-1), positional_(false), text_(text) {
+  allocate(block_bytes);
+}
+
+CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes) : fd_(-1), positional_(false), in_(&in) {
+  allocate(block_bytes);
 }
 
 CandumpScanner::~CandumpScanner() = default;
 
-void CandumpScanner::allocate() {
+void CandumpScanner::allocate(std::size_t block_bytes) {
+  block_ = block_bytes;
+  cap_ = block_bytes + kMaxCandumpLine + 1;
   buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
   std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
-}
-
-CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
-    : fd_(-1), positional_(false), text_(text), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
-}
-
-CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes)
-    : fd_(-1), positional_(false), in_(&in), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
 }
 
 std::size_t CandumpScanner::fill(char* dst, std::size_t n) {

@@ -257,7 +257,7 @@ class CandumpScanner {
   /// A corrupt record at the current line.
   void corrupt(FrameBatch& batch, std::size_t column, std::string message);
   std::size_t fill(char* dst, std::size_t n);
-  void allocate();
+  void allocate(std::size_t block_bytes);
 
   int fd_;
   bool positional_;
