@@ -20,12 +20,10 @@ std::optional<saul::host::CaptureFormat> input_format(const std::string& input_f
 }
 
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
-  std::vector<std::string> formats;  // every capture format, CAN and serial
-  for (const auto& f : saul::host::kCaptureFormats) formats.emplace_back(saul::host::to_string(f.format));
   cmd->add_option("--input-format", options.input_format,
                   "read the file as this format instead of the one its content says (a .gz/.zst file is still "
                   "decompressed first)")
-      ->check(CLI::IsMember(formats));
+      ->check(CLI::IsMember(saul::host::capture_format_names()));  // every capture format, CAN and serial
   cmd->add_option("--protocol", options.protocol,
                   "serial captures: protocol of links the file does not name (sigrok/PulseView exports): "
                   "interboard, crsf, pride or raw (default: guessed from the first 4 KiB)")

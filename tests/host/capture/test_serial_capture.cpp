@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "saulproto/host/capture/capture.hpp"
+#include "saulproto/host/capture/recorder.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/report/serial_decode.hpp"
 
@@ -177,9 +178,9 @@ TEST_CASE("open_capture opens either kind; the CAN-only and serial-only openers 
   const auto dir = scratch_dir();
   CHECK_THROWS_AS(open_capture_writer((dir / "x.serial").string()), CaptureOpenError);
   {
-    auto w = open_serial_capture_writer((dir / "x.serial").string());
-    w->write(chunk(kSec, "tap", SerialProtocol::pride, {0xFE, 0x54}));
-    w->close();
+    RotatingSerialWriter w((dir / "x.serial").string());
+    w.write(chunk(kSec, "tap", SerialProtocol::pride, {0xFE, 0x54}));
+    w.close();
   }
   auto back = open_serial_capture_reader((dir / "x.serial").string());
   CHECK(read_chunks(*back) == std::vector<SerialChunk>{chunk(kSec, "tap", SerialProtocol::pride, {0xFE, 0x54})});

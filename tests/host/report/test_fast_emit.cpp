@@ -35,6 +35,7 @@
 #include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_text.hpp"
+#include "../../../libsaulproto/src/host/capture/capture_io.hpp"
 #include "host/capture/candump_model.hpp"
 #include "host/read_count.hpp"
 #include "host/temp_file.hpp"
@@ -43,6 +44,19 @@ using saul::CanFrame;
 using namespace saul::host;
 
 namespace {
+
+/// A file's block starts as a cutter gives them one at a time (pcapng: and where its header blocks end).
+struct PcapngBlocks {
+  std::vector<std::uint64_t> starts;
+  std::uint64_t prefix_end = 0;
+};
+PcapngBlocks cut_starts(detail::BlockCutter& cut) {
+  PcapngBlocks out;
+  std::uint64_t start = 0;
+  while (cut.next(start)) out.starts.push_back(start);
+  out.prefix_end = cut.prefix_end();
+  return out;
+}
 
 /// Frames of every described CAN message (right length, random bytes, so values, names and unnamed values all
 /// occur), plus unknown ids, wrong lengths, remote and error frames; each drawn twice or more now and then, so
@@ -502,7 +516,7 @@ TEST_CASE("fast decode: a pcapng file in blocks on two threads gives the bytes a
   TempFile file(png.str());
   {
     const int fd = ::open(file.path.c_str(), O_RDONLY);
-    const auto cut = pcapng_block_starts(fd, png.str().size(), 4096);
+    const auto cut = cut_starts(*detail::pcapng_block_cutter(fd, png.str().size(), 4096));
     CHECK(cut.starts.size() > 100);  // it was cut...
     CHECK(cut.starts[cut.starts.size() - 2] < png.str().size() * 3 / 4);  // ...up to the second interface
     // CaptureBlocks cuts it as its blocks are asked for, here by two threads at once in no order: the same blocks.
@@ -715,8 +729,10 @@ TEST_CASE("pcap and pcapng files are cut where a record-by-record walk cuts them
       INFO("block " << block);
       TempFile a(pcap), b(png);
       const int fa = ::open(a.path.c_str(), O_RDONLY), fb = ::open(b.path.c_str(), O_RDONLY);
-      CHECK(PcapScanner(fa, pcap.size()).block_starts(block) == pcap_starts_model(pcap, block));
-      const PcapngBlocks cut = pcapng_block_starts(fb, png.size(), block), model = pcapng_starts_model(png, block);
+      CHECK(cut_starts(*detail::pcap_block_cutter(fa, pcap.size(), false, block)).starts ==
+            pcap_starts_model(pcap, block));
+      const PcapngBlocks cut = cut_starts(*detail::pcapng_block_cutter(fb, png.size(), block));
+      const PcapngBlocks model = pcapng_starts_model(png, block);
       CHECK(cut.starts == model.starts);
       CHECK(cut.prefix_end == model.prefix_end);
       ::close(fa), ::close(fb);

@@ -12,7 +12,6 @@
 namespace saul::host {
 namespace {
 
-using detail::kErrBusError;
 using detail::kFdUnsupported;
 
 using detail::Civil;
@@ -33,21 +32,9 @@ bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
-bool all_digits(std::string_view s) {
-  if (s.empty()) return false;
-  for (char c : s)
-    if (c < '0' || c > '9') return false;
-  return true;
-}
+bool all_digits(std::string_view s) { return !s.empty() && s.find_first_not_of("0123456789") == s.npos; }
 
-bool hex_digits(std::string_view s) {
-  if (s.empty()) return false;
-  for (char c : s) {
-    const char l = detail::ascii_lower(c);
-    if (!((l >= '0' && l <= '9') || (l >= 'a' && l <= 'f'))) return false;
-  }
-  return true;
-}
+bool hex_digits(std::string_view s) { return !s.empty() && s.find_first_not_of("0123456789abcdefABCDEF") == s.npos; }
 
 using detail::parse_unsigned;
 
@@ -121,7 +108,7 @@ std::string format_asc_date(std::uint64_t ns) {
   const auto days = static_cast<std::int64_t>(sec / 86400U);
   const std::uint64_t in_day = sec % 86400U;
   const Civil c = civil_from_days(days);
-  return fmt::format("{} {} {:02} {:02}:{:02}:{:02} {}", kWeekdays[static_cast<std::size_t>((days + 4) % 7)],
+  return fmt::format("{} {} {:02} {:02}:{:02}:{:02} {}", kWeekdays[detail::weekday_from_days(days)],
                      kMonths[c.month - 1], c.day, in_day / 3600U, in_day / 60U % 60U, in_day % 60U, c.year);
 }
 
@@ -205,21 +192,12 @@ AscReader::Step AscReader::timed_line(std::string_view line) {
   const auto time = parse_time(tokens_[0].second);
   if (!time) return corrupt(tokens_[0].first, "time must be seconds with up to 9 decimals, e.g. 1.250000");
   if (tokens_.size() < 2) return corrupt(line.size(), "nothing after the time");
-  const auto [ch_col, ch] = tokens_[1];
+  const std::string_view ch = tokens_[1].second;
   if (iequals(ch, "CANFD")) return canfd_line(line, *time);
   if (!all_digits(ch)) return Step::skipped;  // an event: "Start of measurement", "Trigger", ...
   if (tokens_.size() >= 3 && iequals(tokens_[2].second.substr(0, 10), "errorframe")) {
-    const auto channel = parse_unsigned(ch, 10);
-    if (!channel || *channel == 0 || *channel > 255)
-      return corrupt(ch_col, "channel must be 1..255");
-    CanFrame f;
-    f.error = true;
-    f.id = kErrBusError;
-    f.dlc = 8;
-    f.timestamp_ns = absolute(*time);
-    frame_ = f;
-    name_ = fmt::format("can{}", *channel - 1);
-    return Step::frame;
+    const auto n = channel(1);
+    return n ? emit(detail::bus_error_frame(), *n, *time) : Step::corrupt;
   }
   if (tokens_.size() >= 4 && (iequals(tokens_[3].second, "rx") || iequals(tokens_[3].second, "tx")))
     return frame_line(line, *time);
@@ -230,6 +208,33 @@ AscReader::Step AscReader::timed_line(std::string_view line) {
   if (hex_digits(id))
     return corrupt(tokens_.size() >= 4 ? tokens_[3].first : line.size(), "expected Rx or Tx after the id");
   return Step::skipped;  // an event of the channel: "Statistic:", "SV:", ...
+}
+
+std::optional<std::uint64_t> AscReader::channel(std::size_t token) {
+  const auto n = parse_unsigned(tokens_[token].second, 10);
+  if (n && *n > 0 && *n <= 255) return n;
+  corrupt(tokens_[token].first, "channel must be 1..255");
+  return std::nullopt;
+}
+
+AscReader::Step AscReader::emit(CanFrame f, std::uint64_t channel, std::uint64_t time_ns) {
+  f.timestamp_ns = absolute(time_ns);
+  frame_ = f;
+  name_ = detail::channel_name(channel);
+  return Step::frame;
+}
+
+bool AscReader::data_bytes(std::size_t first, CanFrame& f) {
+  for (std::size_t i = 0; i < f.dlc; ++i) {
+    const auto [col, text] = tokens_[first + i];
+    const auto b = text.size() <= 3 ? parse_unsigned(text, base_) : std::nullopt;
+    if (!b || *b > 0xFF) {
+      corrupt(col, "data byte is not a number 0..255 in the file's base");
+      return false;
+    }
+    f.data[i] = static_cast<std::uint8_t>(*b);
+  }
+  return true;
 }
 
 bool AscReader::parse_id(std::size_t token, CanFrame& f) {
@@ -253,10 +258,9 @@ bool AscReader::parse_id(std::size_t token, CanFrame& f) {
 }
 
 AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_ns) {
-  const auto channel = parse_unsigned(tokens_[1].second, 10);
-  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[1].first, "channel must be 1..255");
+  const auto n = channel(1);
   CanFrame f;
-  if (!parse_id(2, f)) return Step::corrupt;
+  if (!n || !parse_id(2, f)) return Step::corrupt;
   if (tokens_.size() < 5) return corrupt(line.size(), "expected 'd' (data) or 'r' (remote) after the direction");
   const auto [kind_col, kind] = tokens_[4];
   if (kind == "r" || kind == "R") {
@@ -274,36 +278,20 @@ AscReader::Step AscReader::frame_line(std::string_view line, std::uint64_t time_
     f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);  // 9..15: 8 bytes
     if (tokens_.size() < std::size_t{6} + f.dlc)
       return corrupt(line.size(), fmt::format("{} data bytes announced, {} found", f.dlc, tokens_.size() - 6));
-    for (std::size_t i = 0; i < f.dlc; ++i) {
-      const auto [col, text] = tokens_[6 + i];
-      const auto b = text.size() <= 3 ? parse_unsigned(text, base_) : std::nullopt;
-      if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
-      f.data[i] = static_cast<std::uint8_t>(*b);
-    }
+    if (!data_bytes(6, f)) return Step::corrupt;
     // anything after the data (Vector's "Length = ... BitCount = ... ID = ...") is ignored
   } else {
     return corrupt(kind_col, "expected 'd' (data) or 'r' (remote) after the direction");
   }
-  f.timestamp_ns = absolute(time_ns);
-  frame_ = f;
-  name_ = fmt::format("can{}", *channel - 1);
-  return Step::frame;
+  return emit(f, *n, time_ns);
 }
 
 AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_ns) {
   if (tokens_.size() < 5) return corrupt(line.size(), "CANFD line ends after the channel");
-  const auto channel = parse_unsigned(tokens_[2].second, 10);
-  if (!channel || *channel == 0 || *channel > 255) return corrupt(tokens_[2].first, "channel must be 1..255");
-  if (iequals(tokens_[4].second.substr(0, 10), "errorframe") || iequals(tokens_[3].second.substr(0, 10), "errorframe")) {
-    CanFrame f;
-    f.error = true;
-    f.id = kErrBusError;
-    f.dlc = 8;
-    f.timestamp_ns = absolute(time_ns);
-    frame_ = f;
-    name_ = fmt::format("can{}", *channel - 1);
-    return Step::frame;
-  }
+  const auto n = channel(2);
+  if (!n) return Step::corrupt;
+  if (iequals(tokens_[4].second.substr(0, 10), "errorframe") || iequals(tokens_[3].second.substr(0, 10), "errorframe"))
+    return emit(detail::bus_error_frame(), *n, time_ns);
   CanFrame f;
   if (!parse_id(4, f)) return Step::corrupt;
   std::size_t k = 5;
@@ -334,17 +322,9 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
   f.dlc = static_cast<std::uint8_t>(*dlc > CanFrame::kMaxDlc ? CanFrame::kMaxDlc : *dlc);
   if (!f.remote) {
     if (*length != f.dlc) return corrupt(tokens_[k + 3].first, fmt::format("data length {} but DLC {}", *length, *dlc));
-    for (std::size_t i = 0; i < f.dlc; ++i) {
-      const auto [col, text] = tokens_[data + i];
-      const auto b = text.size() <= 3 ? parse_unsigned(text, base_) : std::nullopt;
-      if (!b || *b > 0xFF) return corrupt(col, "data byte is not a number 0..255 in the file's base");
-      f.data[i] = static_cast<std::uint8_t>(*b);
-    }
+    if (!data_bytes(data, f)) return Step::corrupt;
   }
-  f.timestamp_ns = absolute(time_ns);
-  frame_ = f;
-  name_ = fmt::format("can{}", *channel - 1);
-  return Step::frame;
+  return emit(f, *n, time_ns);
 }
 
 // ---- writer ----
@@ -357,9 +337,7 @@ void AscWriter::header(std::uint64_t first_ns) {
   header_written_ = true;
 }
 
-void AscWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void AscWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::size_t index = detail::channel_index(channels_, interface, 255, "ASC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!header_written_) header(ns);
@@ -379,7 +357,6 @@ void AscWriter::write(const CanFrame& frame, std::string_view interface) {
   }
   line += '\n';
   out_ << line;
-  check_written();
 }
 
 void AscWriter::finish() {

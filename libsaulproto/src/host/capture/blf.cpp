@@ -14,7 +14,6 @@
 namespace saul::host {
 namespace {
 
-using detail::kErrBusError;
 using detail::kFdUnsupported;
 
 using detail::load_u16;
@@ -134,12 +133,13 @@ BlfReader::BlfReader(std::istream& in) : in_(in) {
 BlfReader::~BlfReader() = default;
 
 BlfReader::Status BlfReader::corrupt(std::uint64_t position, Recovery recovery, std::string message) {
-  error_.column = 0;
-  error_.kind = PositionKind::byte_offset;
-  error_.position = position;
-  error_.recovery = recovery;
-  error_.message = std::move(message);
+  error_ = detail::byte_error(position, recovery, std::move(message));
   return Status::corrupt;
+}
+
+BlfReader::Step BlfReader::bad_object(std::string message) {
+  corrupt(container_offset_, Recovery::next_record, std::move(message));
+  return Step::corrupt;
 }
 
 std::size_t BlfReader::read_top(std::uint8_t* dst, std::size_t n) {
@@ -289,9 +289,7 @@ BlfReader::Step BlfReader::object() {
     }
     const std::size_t skip = found != buf_.end() ? gap : avail - 3;  // 3 bytes may start a signature
     pos_ += skip;
-    corrupt(container_offset_, Recovery::next_record,
-            fmt::format("{} bytes without an object signature \"LOBJ\" in the log container skipped", skip));
-    return Step::corrupt;
+    return bad_object(fmt::format("{} bytes without an object signature \"LOBJ\" in the log container skipped", skip));
   }
   const std::uint32_t header_size = load_u16(p + 4, false);
   const std::uint32_t version = load_u16(p + 6, false);
@@ -299,9 +297,7 @@ BlfReader::Step BlfReader::object() {
   const std::uint32_t type = load_u32(p + 12, false);
   if (size < kBaseHeader || header_size < kBaseHeader || header_size > size || size > kMaxObjectBytes) {
     pos_ += kObjectSignature.size();  // look for the next object after this signature
-    corrupt(container_offset_, Recovery::next_record,
-            fmt::format("object size {} (header {}) is not valid", size, header_size));
-    return Step::corrupt;
+    return bad_object(fmt::format("object size {} (header {}) is not valid", size, header_size));
   }
   if (avail < size) return Step::need_more;
   pos_ += size;
@@ -321,9 +317,7 @@ BlfReader::Step BlfReader::object() {
 BlfReader::Step BlfReader::can_object(std::uint32_t type, const std::uint8_t* body, std::uint32_t length,
                                       std::uint64_t time_ns) {
   auto too_short = [&](std::uint32_t need) {
-    corrupt(container_offset_, Recovery::next_record,
-            fmt::format("object of type {} has {} bytes after its header, {} needed", type, length, need));
-    return Step::corrupt;
+    return bad_object(fmt::format("object of type {} has {} bytes after its header, {} needed", type, length, need));
   };
   CanFrame f;
   f.timestamp_ns = time_ns;
@@ -345,12 +339,9 @@ BlfReader::Step BlfReader::can_object(std::uint32_t type, const std::uint8_t* bo
     case kCanError:
     case kCanErrorExt:
       if (length < 4) return too_short(4);
-      channel = load_u16(body, false);
-      f.error = true;
-      f.id = kErrBusError;
-      f.dlc = 8;
-      frame_ = f;
-      name_ = fmt::format("can{}", channel > 0 ? channel - 1 : 0);
+      frame_ = detail::bus_error_frame();
+      frame_.timestamp_ns = time_ns;
+      name_ = detail::channel_name(std::max(load_u16(body, false), std::uint16_t{1}));
       return Step::frame;
     case kCanFdMessage: {
       if (length < 20) return too_short(20);
@@ -382,26 +373,17 @@ BlfReader::Step BlfReader::can_object(std::uint32_t type, const std::uint8_t* bo
       ++skipped_objects_;
       return Step::skipped;
   }
-  if (data == nullptr) {
-    corrupt(container_offset_, Recovery::next_record, std::string(kFdUnsupported));
-    return Step::corrupt;
-  }
-  if (dlc > 15) {
-    corrupt(container_offset_, Recovery::next_record, fmt::format("DLC {} is above 15", dlc));
-    return Step::corrupt;
-  }
+  if (data == nullptr) return bad_object(std::string(kFdUnsupported));
+  if (dlc > 15) return bad_object(fmt::format("DLC {} is above 15", dlc));
   f.extended = (raw_id & kIdExtended) != 0;
   f.id = raw_id & CanFrame::kMaxExtendedId;
-  if (!f.extended && f.id > CanFrame::kMaxStandardId) {
-    corrupt(container_offset_, Recovery::next_record,
-            fmt::format("11-bit id 0x{:X} above 7FF (extended flag not set)", f.id));
-    return Step::corrupt;
-  }
+  if (!f.extended && f.id > CanFrame::kMaxStandardId)
+    return bad_object(fmt::format("11-bit id 0x{:X} above 7FF (extended flag not set)", f.id));
   f.remote = remote;
   f.dlc = static_cast<std::uint8_t>(std::min(dlc, 8U));  // classic CAN: a DLC of 9..15 still means 8 bytes
   if (!remote) std::copy_n(data, f.dlc, f.data.begin());
   frame_ = f;
-  name_ = fmt::format("can{}", channel > 0 ? channel - 1 : 0);
+  name_ = detail::channel_name(std::max(channel, 1U));
   return Step::frame;
 }
 
@@ -433,8 +415,6 @@ BlfReader::Status BlfReader::next() {
 }
 
 // ---- writer ----
-
-BlfWriter::BlfWriter(std::ostream& out) : StreamCaptureWriter(out, "BLF") {}
 
 void BlfWriter::write_header(std::uint64_t file_size) {
   std::array<std::uint8_t, kFileHeaderSize> h{};
@@ -488,9 +468,7 @@ void BlfWriter::write_container() {
   buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(chunk));
 }
 
-void BlfWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void BlfWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::size_t index = detail::channel_index(channels_, interface, 0xFFFF, "BLF");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!start_ns_) start_ns_ = ns - ns % 1'000'000;  // SYSTEMTIME holds milliseconds

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "saulproto/core/hex.hpp"
+#include "capture_io.hpp"
 #include "text_fields.hpp"
 
 namespace saul::host {
@@ -119,10 +120,9 @@ std::string format_candump_frame(const CanFrame& frame) {
     if (frame.dlc) s += static_cast<char>('0' + frame.dlc);
     return s;
   }
-  static constexpr char kHex[] = "0123456789ABCDEF";
   for (std::uint8_t b : frame.payload()) {
-    s += kHex[b >> 4];
-    s += kHex[b & 0xF];
+    s += hex::kUpperDigits[b >> 4];
+    s += hex::kUpperDigits[b & 0xF];
   }
   return s;
 }
@@ -140,11 +140,8 @@ std::string format_candump_line(const CanFrame& frame, std::string_view interfac
                      candump_interface(interface), format_candump_frame(frame));
 }
 
-void CandumpWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void CandumpWriter::put(const CanFrame& frame, std::string_view interface) {
   out_ << format_candump_line(frame, interface) << '\n';
-  check_written();
 }
 
 // ---- the reader -------------------------------------------------------------------------------------------------
@@ -219,32 +216,29 @@ bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& i
   return true;
 }
 
-CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes)
-    : fd_(fd), positional_(false), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
-}
+CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes) : fd_(fd), positional_(false) { allocate(block_bytes); }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
-    : fd_(fd), positional_(true), offset_(begin), end_(end), cap_(block_bytes + kMaxCandumpLine + 1),
-      block_(block_bytes) {
-  allocate();
+    : fd_(fd), positional_(true), offset_(begin), end_(end) {
+  allocate(block_bytes);
+}
+
+CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
+    : fd_(-1), positional_(false), text_(text) {
+  allocate(block_bytes);
+}
+
+CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes) : fd_(-1), positional_(false), in_(&in) {
+  allocate(block_bytes);
 }
 
 CandumpScanner::~CandumpScanner() = default;
 
-void CandumpScanner::allocate() {
+void CandumpScanner::allocate(std::size_t block_bytes) {
+  block_ = block_bytes;
+  cap_ = block_bytes + kMaxCandumpLine + 1;
   buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
   std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
-}
-
-CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
-    : fd_(-1), positional_(false), text_(text), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
-}
-
-CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes)
-    : fd_(-1), positional_(false), in_(&in), cap_(block_bytes + kMaxCandumpLine + 1), block_(block_bytes) {
-  allocate();
 }
 
 std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
@@ -394,13 +388,11 @@ std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std:
     std::uint64_t start = size;
     while (pos < size) {
       const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(sizeof probe, size - pos));
-      const ssize_t got = ::pread(fd, probe, want, static_cast<off_t>(pos));
-      if (got < 0) {
-        if (errno == EINTR) continue;
-        throw std::system_error(errno, std::generic_category(), "reading the capture");
-      }
+      int error = 0;
+      const std::size_t got = detail::pread_full(fd, probe, want, pos, &error);
+      if (error != 0) throw std::system_error(error, std::generic_category(), "reading the capture");
       if (got == 0) break;
-      const void* nl = std::memchr(probe, '\n', static_cast<std::size_t>(got));
+      const void* nl = std::memchr(probe, '\n', got);
       if (nl != nullptr) {
         start = pos + static_cast<std::uint64_t>(static_cast<const char*>(nl) - probe) + 1;
         break;

@@ -87,7 +87,7 @@ struct FileSource {
   /// What stopped the decompressor (nullopt: nothing), as a corrupt record at the compressed byte it reached.
   [[nodiscard]] std::optional<CaptureError> decompression_error() const {
     if (!inflater || inflater->error().empty()) return std::nullopt;
-    return CaptureError{0, inflater->error(), PositionKind::byte_offset, inflater->compressed_bytes(), Recovery::stop};
+    return detail::byte_error(inflater->compressed_bytes(), Recovery::stop, inflater->error());
   }
 };
 
@@ -203,16 +203,21 @@ CaptureFormat candump_or_serial(std::string_view line) {
   return CaptureFormat::serial;
 }
 
+/// Up to n bytes of a stream buffer, fewer only at its end (a decompressor hands out its data in pieces).
+std::size_t read_full(std::streambuf& source, char* dst, std::size_t n) {
+  std::size_t done = 0;
+  while (done < n) {
+    const std::streamsize got = source.sgetn(dst + done, static_cast<std::streamsize>(n - done));
+    if (got <= 0) break;
+    done += static_cast<std::size_t>(got);
+  }
+  return done;
+}
+
 /// Reads up to kHeadBytes from a stream buffer, for detection (the ReplayBuf hands them out again).
 std::string read_head(std::streambuf& source) {
   std::string head(kHeadBytes, '\0');
-  std::size_t got = 0;
-  while (got < head.size()) {  // a decompressor hands out its data in pieces
-    const std::streamsize n = source.sgetn(head.data() + got, static_cast<std::streamsize>(head.size() - got));
-    if (n <= 0) break;
-    got += static_cast<std::size_t>(n);
-  }
-  head.resize(got);
+  head.resize(read_full(source, head.data(), head.size()));
   return head;
 }
 
@@ -355,19 +360,11 @@ class FileWriter final : public CaptureWriter {
   }
 
   void write(const CanFrame& frame, std::string_view interface) override {
-    try {
-      inner_->write(frame, interface);
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
+    detail::naming_file(path_, [&] { inner_->write(frame, interface); });
   }
   McapCaptureWriter* mcap() noexcept override { return inner_->mcap(); }
   void flush() override {
-    try {
-      inner_->flush();
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
+    detail::naming_file(path_, [&] { inner_->flush(); });
   }
   void close() override {
     if (closed_) return;
@@ -453,28 +450,29 @@ CaptureReader::Status BatchCaptureReader::next() {
 
 namespace {
 
-/// What saulctl knows of each format: its names (the first is to_string()'s, the others --format takes too), the
-/// file extensions that name it, and what it keeps of a frame.
+/// What saulctl knows of each format, in the order help lists them: its names (the first is to_string()'s, the
+/// others --format takes too), the file extensions that name it, its label in help text, and what it keeps of a frame.
 struct FormatInfo {
   CaptureFormat format;
   std::string_view names;
   std::string_view extensions;
+  std::string_view label;
   CaptureTraits traits;  // resolution, interface names, channel order, error details, remote frames, error frames
 };
 constexpr FormatInfo kFormats[] = {
-    {CaptureFormat::candump, "candump log", "log candump", {1000, true, false, true, true, true}},
-    {CaptureFormat::pcap, "pcap", "pcap cap", {1000, false, false, true, true, true}},
-    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", {1, true, false, true, true, true}},
-    {CaptureFormat::asc, "asc", "asc", {1000, false, true, false, true, true}},
-    {CaptureFormat::blf, "blf", "blf", {1, false, true, false, true, true}},
-    {CaptureFormat::trc, "trc", "trc", {1000, false, true, false, true, true}},
-    {CaptureFormat::csv, "csv", "csv", {1000, false, false, true, true, true}},
-    {CaptureFormat::gvret_csv, "gvret-csv", "", {1000, false, true, false, false, false}},
-    {CaptureFormat::mcap, "mcap", "mcap", {1, true, false, true, true, true}},
-    {CaptureFormat::serial, "serial", "serial", {1000, true, false, false, false, false}},
-    {CaptureFormat::sigrok, "sigrok", "", {1, true, false, false, false, false}},
-    {CaptureFormat::sigrok_json, "sigrok-json", "", {1, true, false, false, false, false}},
-    {CaptureFormat::pulseview_csv, "pulseview-csv", "", {1, true, false, false, false, false}},
+    {CaptureFormat::candump, "candump log", "log candump", "candump", {1000, true, false, true, true, true}},
+    {CaptureFormat::pcap, "pcap", "pcap cap", "pcap", {1000, false, false, true, true, true}},
+    {CaptureFormat::pcapng, "pcapng", "pcapng ntar", "pcapng", {1, true, false, true, true, true}},
+    {CaptureFormat::asc, "asc", "asc", "ASC", {1000, false, true, false, true, true}},
+    {CaptureFormat::blf, "blf", "blf", "BLF", {1, false, true, false, true, true}},
+    {CaptureFormat::trc, "trc", "trc", "TRC", {1000, false, true, false, true, true}},
+    {CaptureFormat::csv, "csv", "csv", "CSV", {1000, false, false, true, true, true}},
+    {CaptureFormat::gvret_csv, "gvret-csv", "", "GVRET CSV", {1000, false, true, false, false, false}},
+    {CaptureFormat::mcap, "mcap", "mcap", "MCAP", {1, true, false, true, true, true}},
+    {CaptureFormat::serial, "serial", "serial", "serial log", {1000, true, false, false, false, false}},
+    {CaptureFormat::sigrok, "sigrok", "", "sigrok UART", {1, true, false, false, false, false}},
+    {CaptureFormat::sigrok_json, "sigrok-json", "", "sigrok JSON", {1, true, false, false, false, false}},
+    {CaptureFormat::pulseview_csv, "pulseview-csv", "", "PulseView CSV", {1, true, false, false, false, false}},
 };
 
 static_assert([] {
@@ -509,6 +507,22 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 }
 
 CaptureTraits capture_traits(CaptureFormat format) noexcept { return info(format).traits; }
+
+std::vector<std::string> capture_format_names() {
+  std::vector<std::string> names;
+  for (const FormatInfo& f : kFormats) names.emplace_back(to_string(f.format));
+  return names;
+}
+
+std::string capture_format_list(bool with_serial) {
+  std::string list;
+  for (const FormatInfo& f : kFormats) {
+    if (holds_serial_bytes(f.format) && !with_serial) continue;
+    if (!list.empty()) list += ", ";
+    list += f.label;
+  }
+  return list + "; .gz/.zst too";
+}
 
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept {
   const std::size_t slash = path.find_last_of('/');
@@ -561,21 +575,8 @@ std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t>
 }
 
 std::string format_capture_error(std::string_view path, const CaptureError& error) {
-  std::string_view after;
-  switch (error.recovery) {
-    case Recovery::next_line:
-      after = "line skipped";
-      break;
-    case Recovery::next_record:
-      after = "record skipped";
-      break;
-    case Recovery::next_block:
-      after = "block skipped";
-      break;
-    case Recovery::stop:
-      after = "reading stopped";
-      break;
-  }
+  static constexpr std::string_view kAfter[] = {"line skipped", "record skipped", "block skipped", "reading stopped"};
+  const std::string_view after = kAfter[static_cast<std::size_t>(error.recovery)];  // by Recovery
   if (error.kind == PositionKind::line)
     return fmt::format("{}:{}:{}: {} ({})", path, error.position, error.column + 1, error.message, after);
   return fmt::format("{}: byte {}: {} ({})", path, error.position, error.message, after);
@@ -669,15 +670,7 @@ namespace {
 class FileText final : public CaptureText {
  public:
   FileText(std::unique_ptr<FileSource> source, CaptureFormat format) : source_(std::move(source)), format_(format) {}
-  std::size_t read(char* dst, std::size_t n) override {
-    std::size_t done = 0;
-    while (done < n) {  // a stream buffer may hand out less than asked before its end
-      const auto got = source_->stream.rdbuf()->sgetn(dst + done, static_cast<std::streamsize>(n - done));
-      if (got <= 0) break;
-      done += static_cast<std::size_t>(got);
-    }
-    return done;
-  }
+  std::size_t read(char* dst, std::size_t n) override { return read_full(*source_->stream.rdbuf(), dst, n); }
   [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
   [[nodiscard]] std::optional<CaptureError> end_error() const override { return source_->decompression_error(); }

@@ -21,15 +21,29 @@
 #include <string_view>
 #include <vector>
 
+#include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/interface_index.hpp"
 
 namespace saul::host::detail {
 
-/// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR with 8 zero bytes, as
-/// asc2log converts an ASC ErrorFrame (ASC, BLF and TRC error records).
-inline constexpr std::uint32_t kErrBusError = 0x080;
+/// What a format's error record without SocketCAN details reads as: CAN_ERR_BUSERROR (0x080) with 8 zero bytes,
+/// as asc2log converts an ASC ErrorFrame (ASC, BLF and TRC error records). No timestamp.
+inline CanFrame bus_error_frame() {
+  CanFrame f;
+  f.error = true;
+  f.id = 0x080;
+  f.dlc = 8;
+  return f;
+}
+/// "can<N-1>" for a format's channel N (1-based).
+inline std::string channel_name(std::uint64_t channel) { return "can" + std::to_string(channel - 1); }
 /// The message for a CAN FD record, in every reader.
 inline constexpr std::string_view kFdUnsupported = "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
+
+/// A binary format's corrupt record at byte `position` of the file.
+inline CaptureError byte_error(std::uint64_t position, Recovery recovery, std::string message) {
+  return {0, std::move(message), PositionKind::byte_offset, position, recovery};
+}
 
 /// The number of `interface` among the interfaces a writer has seen, in order of first appearance (0-based);
 /// a new one is added. Throws std::invalid_argument when there would be more than `max` (the format's limit).
@@ -47,6 +61,16 @@ inline std::size_t channel_index(InterfaceIndex& seen, std::string_view interfac
 inline void flush_checked(std::ostream& out, std::string_view format) {
   out.flush();
   if (!out) throw std::runtime_error(std::string(format) + ": write failed");
+}
+
+/// Runs write(); a std::runtime_error it throws comes out naming the file: "cannot write 'PATH': ...".
+template <class Write>
+void naming_file(const std::string& path, const Write& write) {
+  try {
+    write();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("cannot write '" + path + "': " + e.what());
+  }
 }
 
 /// Closes a format writer (close_writer()) and then its file, and reports the first failure of either with the
@@ -67,8 +91,7 @@ void close_with_file(const CloseWriter& close_writer, std::ofstream& file, const
 /// The snapshot length our pcap and pcapng writers declare: more than any CAN frame record.
 inline constexpr std::uint32_t kSnaplen = 0xFFFF;
 
-// One load and at most one byte swap (the byte-by-byte form was not always inlined: a call per field of every
-// pcapng packet).
+// One load and at most one byte swap: they run per field of every packet.
 inline std::uint16_t load_u16(const std::uint8_t* p, bool big) noexcept {
   std::uint16_t v;
   std::memcpy(&v, p, sizeof v);
@@ -249,9 +272,13 @@ class BlockCutter {
 inline std::size_t window_bytes(std::uint64_t block) {
   return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{16} << 10);
 }
-/// PcapScanner::block_starts one at a time (`big`: the file's byte order).
+/// Record starts that cut a pcap file (`big`: its byte order) into blocks of about `block` bytes: 24, s1, ..., its
+/// size. From the first implausible or cut record on, the rest is one block (a corrupt file reads as in one piece).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);
-/// pcapng_block_starts one at a time.
+/// Packet block starts that cut a pcapng file: 0, s1, ..., its size; prefix_end() is the first packet block's start.
+/// Block k > 0 reads as the bytes [0, prefix_end) (the section header and interface descriptions) followed by its
+/// own. From the first block after the first packet that is not a packet block (a new section or interface, an
+/// unknown block), or whose length is not plausible, the rest is one block; a prefix over 1 MiB is not cut at all.
 std::unique_ptr<BlockCutter> pcapng_block_cutter(int fd, std::uint64_t size, std::uint64_t block);
 
 }  // namespace saul::host::detail

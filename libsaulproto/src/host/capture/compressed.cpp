@@ -267,29 +267,26 @@ class ZstdDeflater final : public CompressorBase {
 
 }  // namespace
 
+namespace {
+/// Each compression's name, the short name it is given by too, and its file suffix (by Compression).
+struct CompressionNames {
+  std::string_view name, short_name, suffix;
+};
+constexpr CompressionNames kNames[] = {{"none", "none", ""}, {"gzip", "gz", ".gz"}, {"zstd", "zst", ".zst"}};
+}  // namespace
+
 std::string_view to_string(Compression compression) noexcept {
-  switch (compression) {
-    case Compression::none: return "none";
-    case Compression::gzip: return "gzip";
-    case Compression::zstd: return "zstd";
-  }
-  return "?";
+  return kNames[static_cast<std::size_t>(compression)].name;
 }
 
 std::optional<Compression> compression_from_name(std::string_view name) noexcept {
-  if (name == "none") return Compression::none;
-  if (name == "gz" || name == "gzip") return Compression::gzip;
-  if (name == "zst" || name == "zstd") return Compression::zstd;
+  for (std::size_t i = 0; i < std::size(kNames); ++i)
+    if (name == kNames[i].name || name == kNames[i].short_name) return static_cast<Compression>(i);
   return std::nullopt;
 }
 
 std::string_view file_suffix(Compression compression) noexcept {
-  switch (compression) {
-    case Compression::none: return "";
-    case Compression::gzip: return ".gz";
-    case Compression::zstd: return ".zst";
-  }
-  return "";
+  return kNames[static_cast<std::size_t>(compression)].suffix;
 }
 
 Compression detect_compression(std::span<const std::uint8_t> head) noexcept {

@@ -173,14 +173,11 @@ CsvLogWriter::CsvLogWriter(std::ostream& out) : StreamCaptureWriter(out, "CSV") 
   check_written();
 }
 
-void CsvLogWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
-  check_open();
-  check_writable(frame);
+void CsvLogWriter::put(const CanFrame& frame, std::string_view /*interface*/) {
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   out_ << fmt::format("{}.{:06},0x{:x},{},{},{},{},{}\n", ns / 1'000'000'000ULL, ns % 1'000'000'000ULL / 1000,
                       frame.id, frame.extended ? 1 : 0, frame.remote ? 1 : 0, frame.error ? 1 : 0, frame.dlc,
                       base64_encode(frame.payload()));
-  check_written();
 }
 
 }  // namespace saul::host

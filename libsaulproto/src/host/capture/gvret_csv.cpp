@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <optional>
+#include <tuple>
 #include <stdexcept>
 
 #include "capture_io.hpp"
@@ -30,24 +32,14 @@ bool GvretCsvReader::fail(std::size_t column, std::string message) {
 bool GvretCsvReader::header(std::string_view line) {
   std::vector<std::pair<std::size_t, std::string_view>> fields;
   detail::split_fields(line, ',', fields);
-  std::optional<std::size_t> time, id, extended, bus, len, data;
-  for (std::size_t i = 0; i < fields.size(); ++i) {
-    const std::string name = upper_trimmed(fields[i].second);
-    if (name == "TIME STAMP") time = i;
-    if (name == "ID") id = i;
-    if (name == "EXTENDED") extended = i;
-    if (name == "BUS") bus = i;
-    if (name == "LEN") len = i;
-    if (name == "D1") data = i;
-  }
-  if (!time || !id || !extended || !bus || !len || !data)
+  static constexpr std::string_view kNames[] = {"TIME STAMP", "ID", "EXTENDED", "BUS", "LEN", "D1"};
+  std::array<std::optional<std::size_t>, std::size(kNames)> at;  // the columns of kNames
+  for (std::size_t i = 0; i < fields.size(); ++i)
+    for (std::size_t k = 0; k < at.size(); ++k)
+      if (upper_trimmed(fields[i].second) == kNames[k]) at[k] = i;
+  if (std::find(at.begin(), at.end(), std::nullopt) != at.end())
     return fail(0, "not SavvyCAN's CSV header (Time Stamp,ID,Extended,Dir,Bus,LEN,D1,...)");
-  time_ = *time;
-  id_ = *id;
-  extended_ = *extended;
-  bus_ = *bus;
-  len_ = *len;
-  data_ = *data;
+  std::tie(time_, id_, extended_, bus_, len_, data_) = std::tuple(*at[0], *at[1], *at[2], *at[3], *at[4], *at[5]);
   return true;
 }
 
@@ -102,16 +94,13 @@ GvretCsvWriter::GvretCsvWriter(std::ostream& out) : StreamCaptureWriter(out, "GV
   check_written();
 }
 
-void GvretCsvWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void GvretCsvWriter::put(const CanFrame& frame, std::string_view interface) {
   if (frame.remote || frame.error) return;  // the format has neither
   const std::size_t bus = detail::channel_index(buses_, interface, 256, "GVRET CSV");
   std::string line = fmt::format("{},{:08X},{},Rx,{},{},", frame.timestamp_ns.value_or(0) / 1000, frame.id,
                                  frame.extended ? "true" : "false", bus, frame.dlc);
   for (std::size_t i = 0; i < 8; ++i) line += fmt::format("{:02X},", i < frame.dlc ? frame.data[i] : 0);
   out_ << line << '\n';
-  check_written();
 }
 
 }  // namespace saul::host

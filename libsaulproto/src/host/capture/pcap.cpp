@@ -191,14 +191,6 @@ std::unique_ptr<detail::BlockCutter> detail::pcap_block_cutter(int fd, std::uint
   return std::make_unique<PcapCutter>(fd, size, big, block);
 }
 
-std::vector<std::uint64_t> PcapScanner::block_starts(std::uint64_t block) const {
-  std::vector<std::uint64_t> starts;
-  const auto cut = detail::pcap_block_cutter(fd_, size_, big_, block);
-  std::uint64_t start = 0;
-  while (cut->next(start)) starts.push_back(start);
-  return starts;
-}
-
 // At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
 std::size_t PcapScanner::ensure(std::size_t n) {
   if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;
@@ -228,15 +220,8 @@ std::size_t PcapScanner::ensure(std::size_t n) {
 }
 
 void PcapScanner::corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
-  FrameBatch::Corrupt bad;
-  bad.before = batch.frames.size();
-  bad.error.column = 0;
-  bad.error.kind = PositionKind::byte_offset;
-  bad.error.position = at;
-  bad.error.recovery = recovery;
-  bad.error.message = std::move(message);
   if (recovery == Recovery::stop) stopped_ = true;
-  batch.corrupt.push_back(std::move(bad));
+  batch.corrupt.push_back({batch.frames.size(), detail::byte_error(at, recovery, std::move(message))});
 }
 
 bool PcapScanner::next_batch(FrameBatch& batch) {
@@ -303,9 +288,7 @@ PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : StreamCap
   check_written();
 }
 
-void PcapWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
-  check_open();
-  check_writable(frame);
+void PcapWriter::put(const CanFrame& frame, std::string_view /*interface*/) {
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   const std::uint64_t sec = ns / 1'000'000'000ULL;
   if (sec > 0xFFFF'FFFFULL) throw std::invalid_argument("pcap: timestamp after the year 2106 does not fit");
@@ -318,7 +301,6 @@ void PcapWriter::write(const CanFrame& frame, std::string_view /*interface*/) {
   const auto packet = encode_socketcan_packet(frame);
   for (std::size_t i = 0; i < packet.size(); ++i) r[16 + i] = packet[i];
   detail::write_bytes(out_, r.data(), r.size());
-  check_written();
 }
 
 }  // namespace saul::host

@@ -185,15 +185,6 @@ std::unique_ptr<detail::BlockCutter> detail::pcapng_block_cutter(int fd, std::ui
   return std::make_unique<PcapngCutter>(fd, size, block);
 }
 
-PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block) {
-  PcapngCutter cut(fd, size, block);
-  PcapngBlocks out;
-  std::uint64_t start = 0;
-  while (cut.next(start)) out.starts.push_back(start);
-  out.prefix_end = cut.prefix_end();
-  return out;
-}
-
 // ---- reader ----
 
 PcapngReader::PcapngReader(std::istream& in) : in_(&in) { open(); }
@@ -248,11 +239,7 @@ void PcapngReader::open() {
 }
 
 PcapngReader::Step PcapngReader::corrupt(std::uint64_t offset, Recovery recovery, std::string message) {
-  error_.column = 0;
-  error_.kind = PositionKind::byte_offset;
-  error_.position = offset;
-  error_.recovery = recovery;
-  error_.message = std::move(message);
+  error_ = detail::byte_error(offset, recovery, std::move(message));
   if (recovery == Recovery::stop) stopped_ = true;
   return Step::corrupt;
 }
@@ -505,9 +492,7 @@ PcapngWriter::PcapngWriter(std::ostream& out) : StreamCaptureWriter(out, "pcapng
   check_written();
 }
 
-void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void PcapngWriter::put(const CanFrame& frame, std::string_view interface) {
   if (interface.empty()) interface = "can0";
   if (interface.size() > 1024) throw std::invalid_argument("pcapng: interface name longer than 1024 bytes");
   const std::size_t known = interfaces_.size();
@@ -537,7 +522,6 @@ void PcapngWriter::write(const CanFrame& frame, std::string_view interface) {
   b.u32(static_cast<std::uint32_t>(packet.size()));
   b.raw(packet);
   b.finish_and_write(out_);
-  check_written();
 }
 
 }  // namespace saul::host

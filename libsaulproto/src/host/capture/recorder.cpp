@@ -4,12 +4,8 @@
 
 #include <cerrno>
 #include <cmath>
-#include <condition_variable>
 #include <cstring>
-#include <deque>
-#include <mutex>
 #include <stdexcept>
-#include <thread>
 
 #include "saulproto/core/quantity.hpp"
 #include "capture_io.hpp"
@@ -48,61 +44,23 @@ std::unique_ptr<FileCompressor> compressor_for(const RotationOptions& options) {
 
 }  // namespace
 
-struct FileCompressor::Queue {
-  std::mutex mutex;
-  std::condition_variable wake;
-  std::deque<std::string> paths;
-  bool busy = false;
-  bool stop = false;
-  std::string failure;
-  std::thread worker;
-};
-
-FileCompressor::FileCompressor(Compression compression) : compression_(compression), queue_(std::make_unique<Queue>()) {
-  queue_->worker = std::thread([q = queue_.get(), compression] {
-    std::unique_lock lock(q->mutex);
-    for (;;) {
-      q->wake.wait(lock, [q] { return q->stop || !q->paths.empty(); });
-      if (q->paths.empty()) return;  // stopping, nothing left
-      const std::string path = q->paths.front();
-      q->paths.pop_front();
-      q->busy = true;
-      lock.unlock();
-      std::string failure;
-      try {
-        compress_file(path, compression);
-      } catch (const std::runtime_error& e) {
-        failure = e.what();
-      }
-      lock.lock();
-      q->busy = false;
-      if (q->failure.empty()) q->failure = failure;
-      q->wake.notify_all();
+void FileCompressor::add(const std::string& path) {
+  // std::async's future waits for its thread when destroyed: the destructor waits for every file added
+  last_ = std::async(std::launch::async, [before = std::move(last_), path, compression = compression_]() mutable {
+    std::string failure = before.valid() ? before.get() : std::string();
+    try {
+      compress_file(path, compression);
+    } catch (const std::runtime_error& e) {
+      if (failure.empty()) failure = e.what();
     }
+    return failure;
   });
 }
 
-FileCompressor::~FileCompressor() {
-  {
-    std::lock_guard lock(queue_->mutex);
-    queue_->stop = true;
-  }
-  queue_->wake.notify_all();
-  queue_->worker.join();  // what was added is still compressed
-}
-
-void FileCompressor::add(const std::string& path) {
-  {
-    std::lock_guard lock(queue_->mutex);
-    queue_->paths.push_back(path);
-  }
-  queue_->wake.notify_all();
-}
-
 void FileCompressor::finish() {
-  std::unique_lock lock(queue_->mutex);
-  queue_->wake.wait(lock, [q = queue_.get()] { return q->paths.empty() && !q->busy; });
-  if (!queue_->failure.empty()) throw std::runtime_error(queue_->failure);
+  if (!last_.valid()) return;
+  const std::string failure = last_.get();
+  if (!failure.empty()) throw std::runtime_error(failure);
 }
 
 std::string numbered_path(const std::string& path, unsigned index) {
@@ -119,26 +77,30 @@ std::uint64_t parse_size(const std::string& text) {
   throw std::invalid_argument(fmt::format("bad size '{}' (use e.g. 100M, 1.5G, 64k)", text));
 }
 
-bool RotationPlan::due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
-                       std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const {
-  if (frames_in_file == 0) return false;  // never leave a file empty
-  if (options_.max_bytes > 0 && bytes_in_file >= options_.max_bytes) return true;
-  if (options_.max_duration_ns > 0 && file_start_ns && timestamp_ns && *timestamp_ns >= *file_start_ns &&
-      *timestamp_ns - *file_start_ns >= options_.max_duration_ns)
-    return true;
-  return false;
+// ---- the files of both writers --------------------------------------------------------------------------------
+
+template <class Writer>
+std::string RotatingFiles<Writer>::path_for(unsigned index) const {
+  return rotation_.enabled() ? numbered_path(path_, index) : path_;
 }
 
-// ---- the files of both writers --------------------------------------------------------------------------------
+template <class Writer>
+bool RotatingFiles<Writer>::due(std::optional<std::uint64_t> timestamp_ns) {
+  if (!rotation_.enabled() || items_in_file_ == 0) return false;  // never leave a file empty
+  if (rotation_.max_bytes > 0 && position(*file_) >= rotation_.max_bytes) return true;
+  return rotation_.max_duration_ns > 0 && file_start_ns_ && timestamp_ns && *timestamp_ns >= *file_start_ns_ &&
+         *timestamp_ns - *file_start_ns_ >= rotation_.max_duration_ns;
+}
 
 template <class Writer>
 RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions rotation,
                                      std::function<void(const std::string&)> on_new_file, MakeWriter make)
-    : plan_(path, rotation),
+    : path_(path),
+      rotation_(rotation),
       compressor_(compressor_for(rotation)),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
-  current_path_ = plan_.path_for(0);
+  current_path_ = path_for(0);
   file_ = create(current_path_);
   inner_ = make_(*file_);
   if (on_new_file_) on_new_file_(current_path_);
@@ -166,7 +128,7 @@ template <class Writer>
 void RotatingFiles<Writer>::open_next() {
   close_current();
   ++index_;
-  current_path_ = plan_.path_for(index_);
+  current_path_ = path_for(index_);
   file_ = create(current_path_);
   inner_ = make_(*file_);
   items_in_file_ = 0;
@@ -178,13 +140,8 @@ template <class Writer>
 void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns,
                                        const std::function<void(Writer&)>& write) {
   if (closed_) throw std::runtime_error("record: write after close");
-  if (plan_.options().enabled() && plan_.due(position(*file_), items_in_file_, file_start_ns_, timestamp_ns))
-    open_next();
-  try {
-    write(*inner_);
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
-  }
+  if (due(timestamp_ns)) open_next();
+  detail::naming_file(current_path_, [&] { write(*inner_); });
   if (!file_start_ns_) file_start_ns_ = timestamp_ns;
   ++items_in_file_;
 }
@@ -192,11 +149,7 @@ void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns
 template <class Writer>
 void RotatingFiles<Writer>::flush() {
   if (closed_) return;
-  try {
-    inner_->flush();
-  } catch (const std::runtime_error& e) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}", current_path_, e.what()));
-  }
+  detail::naming_file(current_path_, [&] { inner_->flush(); });
 }
 
 template <class Writer>

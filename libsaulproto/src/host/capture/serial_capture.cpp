@@ -3,9 +3,6 @@
 
 #include <fmt/format.h>
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
 #include <stdexcept>
 
 #include "saulproto/host/capture/uart_export.hpp"
@@ -24,45 +21,6 @@ std::string_view word(std::string_view line, std::size_t& pos, std::size_t& star
   while (pos < line.size() && line[pos] != ' ') ++pos;
   return line.substr(start, pos - start);
 }
-
-/// Owns the file of a serial-log writer.
-class FileSerialWriter final : public SerialCaptureWriter {
- public:
-  FileSerialWriter(std::string path, std::unique_ptr<std::ofstream> file)
-      : path_(std::move(path)), file_(std::move(file)), inner_(*file_) {}
-  ~FileSerialWriter() override {
-    try {
-      close();
-    } catch (...) {  // call close() to see the error
-    }
-  }
-  void write(const SerialChunk& chunk) override {
-    try {
-      inner_.write(chunk);
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
-  }
-  void flush() override {
-    try {
-      inner_.flush();
-    } catch (const std::runtime_error& e) {
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, e.what()));
-    }
-  }
-  void close() override {
-    if (closed_) return;
-    closed_ = true;
-    detail::close_with_file([&] { inner_.close(); }, *file_, path_);
-  }
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::serial; }
-
- private:
-  std::string path_;
-  std::unique_ptr<std::ofstream> file_;
-  SerialLogWriter inner_;
-  bool closed_ = false;
-};
 
 }  // namespace
 
@@ -145,10 +103,9 @@ std::string format_serial_line(const SerialChunk& chunk) {
   const std::uint64_t ns = chunk.timestamp_ns.value_or(0);
   std::string s = fmt::format("({:010}.{:06}) {} {} ", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000,
                               chunk.link, to_string(chunk.protocol));
-  static constexpr char kHex[] = "0123456789ABCDEF";
   for (std::uint8_t b : chunk.bytes) {
-    s += kHex[b >> 4];
-    s += kHex[b & 0xF];
+    s += hex::kUpperDigits[b >> 4];
+    s += hex::kUpperDigits[b & 0xF];
   }
   if (chunk.bytes.empty()) s += '-';
   if (chunk.errors & uart_error::kParity) s += " !parity";
@@ -162,9 +119,7 @@ SerialLogReader::Status SerialLogReader::next() {
     ++line_number_;
     if (line_.empty() || line_[0] != '(') continue;  // comment or blank
     if (parse_serial_line(line_, chunk_, error_)) return Status::chunk;
-    error_.kind = PositionKind::line;
-    error_.position = line_number_;
-    error_.recovery = Recovery::next_line;
+    detail::line_error(error_, line_number_, error_.column, std::move(error_.message));
     return Status::corrupt;
   }
   return Status::end;
@@ -193,10 +148,7 @@ void SerialLogWriter::write(const SerialChunk& chunk) {
   if (!out_) throw std::runtime_error("serial log: write failed");
 }
 
-void SerialLogWriter::flush() {
-  out_.flush();
-  if (!out_) throw std::runtime_error("serial log: write failed");
-}
+void SerialLogWriter::flush() { detail::flush_checked(out_, "serial log"); }
 
 void SerialLogWriter::close() {
   if (closed_) return;
@@ -218,12 +170,6 @@ std::unique_ptr<SerialCaptureReader> make_serial_capture_reader(std::istream& in
 
 std::unique_ptr<SerialCaptureWriter> make_serial_capture_writer(std::ostream& out) {
   return std::make_unique<SerialLogWriter>(out);
-}
-
-std::unique_ptr<SerialCaptureWriter> open_serial_capture_writer(const std::string& path) {
-  auto file = std::make_unique<std::ofstream>(path, std::ios::out | std::ios::binary | std::ios::trunc);
-  if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
-  return std::make_unique<FileSerialWriter>(path, std::move(file));
 }
 
 }  // namespace saul::host

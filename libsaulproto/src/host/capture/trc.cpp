@@ -12,7 +12,6 @@
 namespace saul::host {
 namespace {
 
-using detail::kErrBusError;
 using detail::kFdUnsupported;
 
 constexpr std::int64_t kDaysFrom1899To1970 = 25569;  // 1899-12-30 .. 1970-01-01
@@ -64,16 +63,12 @@ TrcReader::Step TrcReader::error_frame(std::size_t time_token, std::optional<std
   const auto [time_col, time_text] = tokens_[time_token];
   const auto offset = detail::parse_scaled(time_text, 1'000'000, 6);
   if (!offset) return corrupt(time_col, "time offset must be milliseconds, e.g. 1059.900");
-  CanFrame f;
-  f.error = true;
-  f.id = kErrBusError;
-  f.dlc = 8;
-  f.timestamp_ns = start_ns_.value_or(0) + *offset;
-  frame_ = f;
+  frame_ = detail::bus_error_frame();
+  frame_.timestamp_ns = start_ns_.value_or(0) + *offset;
   name_ = "can0";
   if (bus_token && *bus_token < tokens_.size()) {
     const auto bus = detail::parse_decimal(tokens_[*bus_token].second);
-    if (bus && *bus > 0 && *bus <= 255) name_ = fmt::format("can{}", *bus - 1);
+    if (bus && *bus > 0 && *bus <= 255) name_ = detail::channel_name(*bus);
   }
   return Step::frame;
 }
@@ -144,7 +139,7 @@ TrcReader::Step TrcReader::frame_from(std::size_t time_token, std::optional<std:
     const auto [bus_col, bus_text] = tokens_[*bus_token];
     const auto bus = detail::parse_decimal(bus_text);
     if (!bus || *bus == 0 || *bus > 255) return corrupt(bus_col, "bus must be 1..255");
-    name_ = fmt::format("can{}", *bus - 1);
+    name_ = detail::channel_name(*bus);
   }
   const auto [id_col, id_text] = tokens_[id_token];
   const auto id = id_text.size() <= 8 ? detail::parse_hex(id_text) : std::nullopt;
@@ -244,9 +239,7 @@ void TrcWriter::header(std::uint64_t first_ns) {
   header_written_ = true;
 }
 
-void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
-  check_open();
-  check_writable(frame);
+void TrcWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::size_t index = detail::channel_index(buses_, interface, 255, "TRC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   if (!header_written_) header(ns);
@@ -263,7 +256,6 @@ void TrcWriter::write(const CanFrame& frame, std::string_view interface) {
     while (!line.empty() && line.back() == ' ') line.pop_back();
   }
   out_ << line << "\r\n";
-  check_written();
 }
 
 void TrcWriter::finish() {

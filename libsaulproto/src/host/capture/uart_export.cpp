@@ -3,10 +3,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
 #include "../util.hpp"
+#include "text_fields.hpp"
 
 namespace saul::host {
 namespace {
@@ -78,29 +80,13 @@ std::optional<std::int64_t> parse_pulseview_time(std::string_view text) noexcept
     negative = s.front() == '-';
     s.remove_prefix(1);
   }
-  // decimal number at the front
+  // a decimal number (digits, '.', digits) at the front
   auto number = [](std::string_view& t, long double& v) {
-    std::size_t i = 0;
-    long double x = 0;
-    bool any = false;
-    while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
-      x = x * 10 + (t[i] - '0');
-      ++i;
-      any = true;
-    }
-    if (i < t.size() && t[i] == '.') {
-      ++i;
-      long double scale = 0.1L;
-      while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
-        x += (t[i] - '0') * scale;
-        scale /= 10;
-        ++i;
-        any = true;
-      }
-    }
-    t.remove_prefix(i);
-    v = x;
-    return any;
+    const std::size_t n = std::min(t.find_first_not_of("0123456789."), t.size());
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + n, v, std::chars_format::fixed);
+    if (n == 0 || ec != std::errc() || end != t.data() + n) return false;
+    t.remove_prefix(n);
+    return true;
   };
   long double ns = 0;
   if (s.find(':') != std::string_view::npos) {
@@ -237,22 +223,20 @@ bool UartAnnotationFolder::finish() {
   return true;
 }
 
+UartExportReader::Line UartExportReader::corrupt(std::size_t column, std::string message) {
+  detail::line_error(error_, line_number_, column, std::move(message));
+  return Line::corrupt;
+}
+
 SerialCaptureReader::Status UartExportReader::next() {
   if (done_) return folder_.finish() ? Status::chunk : Status::end;
   UartAnnotation annotation;
-  while (std::getline(in_, line_)) {
-    ++line_number_;
-    std::string_view line = line_;
-    if (line_number_ == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  while (const auto text = detail::next_line(in_, line_, line_number_)) {
+    const std::string_view line = *text;
     annotation = UartAnnotation{};
     switch (parse(line, annotation)) {
       case Line::skip: continue;
-      case Line::corrupt:
-        error_.kind = PositionKind::line;
-        error_.position = line_number_;
-        error_.recovery = Recovery::next_line;
-        return Status::corrupt;
+      case Line::corrupt: return Status::corrupt;
       case Line::annotation:
         if (folder_.add(annotation)) return Status::chunk;
         continue;
@@ -273,9 +257,7 @@ UartExportReader::Line SigrokAnnotationReader::parse(std::string_view line, Uart
     if (dash == std::string_view::npos || space == std::string_view::npos || dash > space ||
         !parse_u64(line.substr(0, dash), start) || !parse_u64(line.substr(dash + 1, space - dash - 1), end)) {
       // "uart-1: ..." also starts with a letter, so a leading digit means sample numbers
-      error_.column = 0;
-      error_.message = "expected START-END sample numbers before the decoder name";
-      return Line::corrupt;
+      return corrupt(0, "expected START-END sample numbers before the decoder name");
     }
     a.start_sample = start;
     a.end_sample = end;
@@ -283,11 +265,8 @@ UartExportReader::Line SigrokAnnotationReader::parse(std::string_view line, Uart
   }
   const std::string_view rest = line.substr(pos);
   const std::size_t colon = rest.find(": ");
-  if (colon == std::string_view::npos || colon == 0) {
-    error_.column = pos;
-    error_.message = "expected 'NAME: TEXT' (a sigrok-cli or PulseView annotation)";
-    return Line::corrupt;
-  }
+  if (colon == std::string_view::npos || colon == 0)
+    return corrupt(pos, "expected 'NAME: TEXT' (a sigrok-cli or PulseView annotation)");
   a.source = unquote(rest.substr(0, colon));
   std::string_view text = rest.substr(colon + 2);
   const std::size_t second = text.find(": ");
@@ -305,25 +284,14 @@ UartExportReader::Line SigrokJsonTraceReader::parse(std::string_view line, UartA
     return Line::skip;
   if (t.back() == ',') t.remove_suffix(1);
   const auto j = nlohmann::json::parse(t.begin(), t.end(), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) {
-    error_.column = 0;
-    error_.message = "not a JSON trace event";
-    return Line::corrupt;
-  }
+  if (j.is_discarded() || !j.is_object()) return corrupt(0, "not a JSON trace event");
   const auto ph = j.find("ph");
-  if (ph == j.end() || !ph->is_string()) {
-    error_.column = 0;
-    error_.message = "trace event without \"ph\"";
-    return Line::corrupt;
-  }
+  if (ph == j.end() || !ph->is_string()) return corrupt(0, "trace event without \"ph\"");
   if (*ph != "B") return Line::skip;  // "E" closes the annotation "B" opened
   const auto ts = j.find("ts");
   const auto name = j.find("name");
-  if (ts == j.end() || !ts->is_number() || name == j.end() || !name->is_string()) {
-    error_.column = 0;
-    error_.message = "trace event without a numeric \"ts\" and a \"name\"";
-    return Line::corrupt;
-  }
+  if (ts == j.end() || !ts->is_number() || name == j.end() || !name->is_string())
+    return corrupt(0, "trace event without a numeric \"ts\" and a \"name\"");
   const double us = ts->get<double>();
   if (us >= 0) a.time_ns = static_cast<std::uint64_t>(std::llround(us * 1000.0));
   if (const auto pid = j.find("pid"); pid != j.end() && pid->is_string()) a.source = pid->get<std::string>();
@@ -334,11 +302,7 @@ UartExportReader::Line SigrokJsonTraceReader::parse(std::string_view line, UartA
 
 UartExportReader::Line PulseViewCsvReader::parse(std::string_view line, UartAnnotation& a) {
   if (trim(line).empty()) return Line::skip;
-  if (!split_pulseview_csv(line, fields_)) {
-    error_.column = 0;
-    error_.message = "a quoted field has no closing quote";
-    return Line::corrupt;
-  }
+  if (!split_pulseview_csv(line, fields_)) return corrupt(0, "a quoted field has no closing quote");
   if (!have_header_) {
     for (std::size_t i = 0; i < fields_.size(); ++i) {
       const std::string_view f = trim(fields_[i]);
@@ -350,11 +314,7 @@ UartExportReader::Line PulseViewCsvReader::parse(std::string_view line, UartAnno
       if (f == "Ann Class") class_ = index;
       if (f == "Value") value_ = index;
     }
-    if (value_ < 0) {
-      error_.column = 0;
-      error_.message = "not a PulseView table header (no \"Value\" column)";
-      return Line::corrupt;
-    }
+    if (value_ < 0) return corrupt(0, "not a PulseView table header (no \"Value\" column)");
     have_header_ = true;
     return Line::skip;
   }
@@ -362,11 +322,7 @@ UartExportReader::Line PulseViewCsvReader::parse(std::string_view line, UartAnno
     return index >= 0 && static_cast<std::size_t>(index) < fields_.size() ? trim(fields_[static_cast<std::size_t>(index)])
                                                                           : std::string_view();
   };
-  if (static_cast<std::size_t>(value_) >= fields_.size()) {
-    error_.column = 0;
-    error_.message = "fewer fields than the header has";
-    return Line::corrupt;
-  }
+  if (static_cast<std::size_t>(value_) >= fields_.size()) return corrupt(0, "fewer fields than the header has");
   std::uint64_t sample = 0;
   if (sample_ >= 0 && parse_u64(field(sample_), sample)) a.start_sample = sample;
   if (time_ >= 0) {

@@ -51,14 +51,11 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text);
 /// "Tue Nov 14 22:13:20 2023" for the whole second of `ns` (UTC).
 std::string format_asc_date(std::uint64_t ns);
 
-class AscReader final : public CaptureReader {
+class AscReader final : public RecordCaptureReader {
  public:
   explicit AscReader(std::istream& in) : in_(in) {}
 
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
   /// True once a date or Begin Triggerblock line gave the wall clock of the measurement start.
@@ -71,6 +68,9 @@ class AscReader final : public CaptureReader {
   Step frame_line(std::string_view line, std::uint64_t time_ns);
   Step canfd_line(std::string_view line, std::uint64_t time_ns);
   bool parse_id(std::size_t token, CanFrame& frame);  ///< false after reporting it corrupt
+  std::optional<std::uint64_t> channel(std::size_t token);  ///< 1..255; nullopt after reporting it corrupt
+  bool data_bytes(std::size_t first, CanFrame& frame);  ///< frame.dlc bytes; false after reporting one corrupt
+  Step emit(CanFrame frame, std::uint64_t channel, std::uint64_t time_ns);
   Step corrupt(std::size_t column, std::string message);
   [[nodiscard]] std::uint64_t absolute(std::uint64_t time_ns);
 
@@ -83,21 +83,17 @@ class AscReader final : public CaptureReader {
   std::uint64_t elapsed_ns_ = 0;
   std::optional<std::uint64_t> start_ns_;
   bool trigger_block_date_ = false;
-  CanFrame frame_;
-  std::string name_;
-  CaptureError error_;
 };
 
 class AscWriter final : public StreamCaptureWriter {
  public:
   /// Nothing is written before the first frame (the header carries its date) or close().
   explicit AscWriter(std::ostream& out) : StreamCaptureWriter(out, "ASC") {}
-
-  /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
  private:
+  /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void header(std::uint64_t first_ns);
 

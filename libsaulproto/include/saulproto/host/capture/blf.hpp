@@ -39,7 +39,7 @@
 
 namespace saul::host {
 
-class BlfReader final : public CaptureReader {
+class BlfReader final : public RecordCaptureReader {
  public:
   static constexpr std::uint32_t kMaxContainerBytes = 16U << 20;  ///< uncompressed or compressed
   static constexpr std::uint32_t kMaxObjectBytes = 1U << 20;
@@ -49,9 +49,6 @@ class BlfReader final : public CaptureReader {
   ~BlfReader() override;
 
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
   /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
@@ -69,6 +66,8 @@ class BlfReader final : public CaptureReader {
   enum class Step { frame, corrupt, skipped, need_more };
   enum class Load { loaded, corrupt, none };
   Status corrupt(std::uint64_t position, Recovery recovery, std::string message);
+  /// A corrupt object of the container under way; reading goes on after it.
+  Step bad_object(std::string message);
   Step object();
   Step can_object(std::uint32_t type, const std::uint8_t* body, std::uint32_t length, std::uint64_t time_ns);
   Load load_container();
@@ -85,22 +84,18 @@ class BlfReader final : public CaptureReader {
   std::size_t pos_ = 0;
   std::uint64_t container_offset_ = 0;  // file offset of the container the bytes at pos_ came from
   bool ended_ = false;
-  CanFrame frame_;
-  std::string name_;
-  CaptureError error_;
   std::uint64_t skipped_objects_ = 0;
 };
 
 class BlfWriter final : public StreamCaptureWriter {
  public:
   static constexpr std::size_t kContainerBytes = 128 * 1024;
-  explicit BlfWriter(std::ostream& out);
-  void write(const CanFrame& frame, std::string_view interface) override;
+  explicit BlfWriter(std::ostream& out) : StreamCaptureWriter(out, "BLF") {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
-
   void flush() override;
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void write_header(std::uint64_t file_size);
   void write_container();

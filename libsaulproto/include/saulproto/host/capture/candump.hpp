@@ -257,7 +257,7 @@ class CandumpScanner {
   /// A corrupt record at the current line.
   void corrupt(FrameBatch& batch, std::size_t column, std::string message);
   std::size_t fill(char* dst, std::size_t n);
-  void allocate();
+  void allocate(std::size_t block_bytes);
 
   int fd_;
   bool positional_;
@@ -305,11 +305,10 @@ class CandumpReader final : public BatchCaptureReader {
 class CandumpWriter final : public StreamCaptureWriter {
  public:
   explicit CandumpWriter(std::ostream& out) : StreamCaptureWriter(out, "candump") {}
-
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
 };
 
 }  // namespace saul::host

@@ -57,38 +57,12 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 /// By file name: .log/.candump, .pcap/.cap, .pcapng/.ntar, .asc, .blf, .trc, .csv (python-can's), .serial
 /// (case-insensitive); nullopt otherwise, also for a compressed name (strip_compression_extension first).
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
-/// Every capture format with the name help text gives it, in the order help lists them: the one table every verb's
-/// help and --input-format take their list from, so a format added here is named wherever files are read.
-struct CaptureFormatInfo {
-  CaptureFormat format;
-  std::string_view label;  ///< "ASC", "GVRET CSV", "sigrok UART"
-};
-inline constexpr std::array<CaptureFormatInfo, 13> kCaptureFormats = {{
-    {CaptureFormat::candump, "candump"},
-    {CaptureFormat::pcap, "pcap"},
-    {CaptureFormat::pcapng, "pcapng"},
-    {CaptureFormat::asc, "ASC"},
-    {CaptureFormat::blf, "BLF"},
-    {CaptureFormat::trc, "TRC"},
-    {CaptureFormat::csv, "CSV"},
-    {CaptureFormat::gvret_csv, "GVRET CSV"},
-    {CaptureFormat::mcap, "MCAP"},
-    {CaptureFormat::serial, "serial log"},
-    {CaptureFormat::sigrok, "sigrok UART"},
-    {CaptureFormat::sigrok_json, "sigrok JSON"},
-    {CaptureFormat::pulseview_csv, "PulseView CSV"},
-}};
+/// Every format's to_string() name, in the order help lists them: --input-format's choices.
+std::vector<std::string> capture_format_names();
 /// For help text: the labels of the CAN formats, then (with_serial) the serial ones, and that any of them may be
-/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too".
-inline std::string capture_format_list(bool with_serial) {
-  std::string list;
-  for (const auto& f : kCaptureFormats) {
-    if (holds_serial_bytes(f.format) && !with_serial) continue;
-    if (!list.empty()) list += ", ";
-    list += f.label;
-  }
-  return list + "; .gz/.zst too";
-}
+/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too". Every verb's help takes its list from here (and
+/// capture_format_names from the same table), so a format added is named wherever files are read.
+std::string capture_format_list(bool with_serial);
 /// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
 /// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
 /// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),
@@ -114,7 +88,7 @@ enum class PositionKind : std::uint8_t { line, byte_offset };
 /// What the reader does after a corrupt record.
 enum class Recovery : std::uint8_t { next_line, next_record, next_block, stop };
 
-/// A corrupt record. The first two members keep the layout of the former CandumpError (column, message).
+/// A corrupt record.
 struct CaptureError {
   std::size_t column = 0;  ///< text formats: 0-based column where the problem starts; 0 for binary formats
   std::string message;     ///< what is wrong, e.g. "id is not hexadecimal"
@@ -240,6 +214,19 @@ class BatchCaptureReader : public CaptureReader {
   std::size_t frame_ = 0, corrupt_ = 0;  // what next() handed out of batch_
 };
 
+/// A reader of one record at a time (ASC, BLF, TRC, the CSV logs, pcapng): next() fills frame_ and name_, or error_.
+class RecordCaptureReader : public CaptureReader {
+ public:
+  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
+  [[nodiscard]] std::string_view interface() const override { return name_; }
+  [[nodiscard]] const CaptureError& error() const override { return error_; }
+
+ protected:
+  CanFrame frame_;
+  std::string name_ = "can0";
+  CaptureError error_;
+};
+
 /// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own
 /// their file and close it (without throwing) when destroyed if close() was not called.
 class CaptureWriter {
@@ -262,11 +249,21 @@ class CaptureWriter {
   virtual McapCaptureWriter* mcap() noexcept { return nullptr; }
 };
 
-/// The tail every writer onto a caller's std::ostream shares, so each format says only how it writes a frame and
-/// how it ends: flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
+/// Throws std::invalid_argument when `frame` cannot be written to any capture format.
+void check_writable(const CanFrame& frame);
+
+/// The head and tail every writer onto a caller's std::ostream shares, so each format says only how it writes a
+/// frame (put()) and how it ends: write() refuses after close() and frames check_writable() refuses, then checks
+/// the stream; flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
 /// format ("ASC: write failed", "ASC writer: write after close").
 class StreamCaptureWriter : public CaptureWriter {
  public:
+  void write(const CanFrame& frame, std::string_view interface) final {
+    if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
+    check_writable(frame);
+    put(frame, interface);
+    check_written();
+  }
   void flush() override {
     out_.flush();
     check_written();
@@ -280,12 +277,10 @@ class StreamCaptureWriter : public CaptureWriter {
 
  protected:
   StreamCaptureWriter(std::ostream& out, const char* name) : out_(out), name_(name) {}
+  /// Writes one frame that write() checked.
+  virtual void put(const CanFrame& frame, std::string_view interface) = 0;
   /// What the format writes at its end (a trailer, a header put right), before close()'s flush. Runs once.
   virtual void finish() {}
-  /// Every write() starts with it: a closed writer refuses.
-  void check_open() const {
-    if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
-  }
   /// After writing to out_: a failed stream throws.
   void check_written() const {
     if (!out_) throw std::runtime_error(std::string(name_) + ": write failed");
@@ -351,7 +346,7 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
 
 /// Creates (truncates) a capture file. The format is `format` when given, else from the extension; a name ending in
 /// .gz or .zst is compressed (the format then comes from the name without it: run.log.gz is a gzipped candump
-/// log). Throws CaptureOpenError when neither says, when it is a serial format (open_serial_capture_writer), or the
+/// log). Throws CaptureOpenError when neither says, when it is a serial format (RotatingSerialWriter), or the
 /// file cannot be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
@@ -388,8 +383,5 @@ CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
 /// Sentences saying what a copy into `format` lost (interface names, error-frame details, frames it cannot hold);
 /// empty when nothing.
 std::vector<std::string> conversion_losses(const CopyStats& stats, CaptureFormat format);
-
-/// Throws std::invalid_argument when `frame` cannot be written to any capture format.
-void check_writable(const CanFrame& frame);
 
 }  // namespace saul::host

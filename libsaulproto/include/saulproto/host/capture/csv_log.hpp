@@ -31,13 +31,10 @@ std::string base64_encode(std::span<const std::uint8_t> bytes);
 /// is not base64 or holds more than out.size() bytes.
 int base64_decode(std::string_view text, std::span<std::uint8_t> out);
 
-class CsvLogReader final : public CaptureReader {
+class CsvLogReader final : public RecordCaptureReader {
  public:
   explicit CsvLogReader(std::istream& in) : in_(in) {}
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return "can0"; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:
@@ -49,18 +46,16 @@ class CsvLogReader final : public CaptureReader {
   std::vector<std::size_t> field_;  // column index of timestamp, arbitration_id, extended, remote, error, dlc, data
   std::size_t columns_ = 0;
   bool have_header_ = false;
-  CanFrame frame_;
-  CaptureError error_;
   std::uint64_t line_number_ = 0;
 };
 
 class CsvLogWriter final : public StreamCaptureWriter {
  public:
   explicit CsvLogWriter(std::ostream& out);
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
 };
 
 }  // namespace saul::host

@@ -24,13 +24,10 @@
 
 namespace saul::host {
 
-class GvretCsvReader final : public CaptureReader {
+class GvretCsvReader final : public RecordCaptureReader {
  public:
   explicit GvretCsvReader(std::istream& in) : in_(in) {}
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:
@@ -41,20 +38,17 @@ class GvretCsvReader final : public CaptureReader {
   std::string line_;
   std::size_t time_ = 0, id_ = 1, extended_ = 2, bus_ = 3, len_ = 4, data_ = 5;  // column indexes
   bool have_header_ = false;
-  CanFrame frame_;
-  std::string name_ = "can0";
-  CaptureError error_;
   std::uint64_t line_number_ = 0;
 };
 
 class GvretCsvWriter final : public StreamCaptureWriter {
  public:
   explicit GvretCsvWriter(std::ostream& out);
-  /// Remote and error frames are left out (the format has none).
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:
+  /// Remote and error frames are left out (the format has none).
+  void put(const CanFrame& frame, std::string_view interface) override;
   InterfaceIndex buses_;
 };
 

@@ -1,7 +1,6 @@
 // Interface names numbered in order of first appearance, for the writers that number them (pcapng interface ids,
 // ASC and BLF channels) and for copy_frames(): a frame's name is looked up in O(1), the last one first (a log's
-// frames come in runs of one interface), where a walk through the names seen made a log of many names quadratic
-// (a million names: 20 minutes to convert).
+// frames come in runs of one interface), so that a log of many names does not convert in quadratic time.
 #pragma once
 
 #include <cstddef>

@@ -48,7 +48,7 @@ class PcapScanner {
   /// Reads the regular file `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as
   /// PcapReader does (CaptureOpenError).
   PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes = std::size_t{1} << 20);
-  /// Reads only the records from byte `begin` (a record's start, e.g. from block_starts()) to `end`.
+  /// Reads only the records from byte `begin` (a record's start, where CaptureBlocks cuts) to `end`.
   PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
               std::size_t block_bytes = std::size_t{1} << 20);
   /// The same with the file's bytes [begin, end) already in memory (`bytes`, kept alive by the caller): nothing is
@@ -65,10 +65,6 @@ class PcapScanner {
   bool next_batch(FrameBatch& batch);
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
 
-  /// Record starts that cut the file into blocks of about `block` bytes, for decoding blocks on several threads:
-  /// {24, s1, s2, ..., size}. Walks the record headers (one read of the file in large pieces); from the first
-  /// implausible or cut record on, the rest is one block, so a corrupt file reads as it does in one piece.
-  [[nodiscard]] std::vector<std::uint64_t> block_starts(std::uint64_t block) const;
   [[nodiscard]] bool big_endian() const noexcept { return big_; }
   [[nodiscard]] bool nanosecond() const noexcept { return nano_; }
 
@@ -115,12 +111,11 @@ class PcapWriter final : public StreamCaptureWriter {
  public:
   /// Writes the file header at once.
   explicit PcapWriter(std::ostream& out, PcapWriterOptions options = {});
-
-  /// `interface` is not stored: pcap has no interface names.
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
 
  private:
+  /// `interface` is not stored: pcap has no interface names.
+  void put(const CanFrame& frame, std::string_view interface) override;
   PcapWriterOptions options_;
 };
 

@@ -32,7 +32,7 @@ namespace saul::host {
 /// undeclared interface); the writer's write() throws std::invalid_argument.
 inline constexpr std::size_t kPcapngMaxInterfaces = 65536;
 
-class PcapngReader final : public CaptureReader {
+class PcapngReader final : public RecordCaptureReader {
  public:
   /// Reads the first Section Header Block; throws CaptureOpenError when the stream does not start with one.
   explicit PcapngReader(std::istream& in);
@@ -47,9 +47,6 @@ class PcapngReader final : public CaptureReader {
   /// points into stay put until the next call. frame() and interface() are not kept up to date by it.
   bool next_batch(FrameBatch& batch, std::size_t max);
   bool next_batch(FrameBatch& batch) override { return next_batch(batch, FrameBatch::kMax); }
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
   /// Byte order of the current section.
@@ -90,32 +87,16 @@ class PcapngReader final : public CaptureReader {
   bool stopped_ = false;
   std::vector<Interface> interfaces_;
   std::vector<std::uint8_t> body_;  ///< the block being parsed; bounded by the largest block accepted
-  std::string name_;
-  CanFrame frame_;
-  CaptureError error_;
 };
-
-/// How a pcapng file can be cut for decoding on several threads: `starts` = {0, s1, ..., size}, each s a packet
-/// block's start about `block` bytes after the one before; `prefix_end` is the first packet block's start. Block
-/// k > 0 reads as the bytes [0, prefix_end) (the section header and interface descriptions) followed by
-/// [starts[k], starts[k+1]). From the first block after the first packet that is not a packet block (a new section
-/// or interface, an unknown block), or whose length is not plausible, the rest is one block, so such a file reads as
-/// it does in one piece; a prefix over 1 MiB is not cut at all. Walks the block headers with large reads of `fd`.
-struct PcapngBlocks {
-  std::vector<std::uint64_t> starts;
-  std::uint64_t prefix_end = 0;
-};
-PcapngBlocks pcapng_block_starts(int fd, std::uint64_t size, std::uint64_t block);
 
 class PcapngWriter final : public StreamCaptureWriter {
  public:
   /// Writes the Section Header Block at once.
   explicit PcapngWriter(std::ostream& out);
-
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   InterfaceIndex interfaces_;  ///< index = pcapng interface id
 };
 

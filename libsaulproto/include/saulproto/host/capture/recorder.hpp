@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -31,23 +32,20 @@ struct RotationOptions {
   [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
 };
 
-/// Compresses finished files on a thread of its own, in order (compress_file: NAME.gz or NAME.zst, the plain file
-/// removed). finish() waits for all and throws the first failure.
+/// Compresses finished files in order (compress_file: NAME.gz or NAME.zst, the plain file removed), each on a thread
+/// of its own that first waits for the file before. finish() waits for all and throws the first failure; the
+/// destructor waits for all.
 class FileCompressor {
  public:
-  explicit FileCompressor(Compression compression);
-  ~FileCompressor();
-  FileCompressor(const FileCompressor&) = delete;
-  FileCompressor& operator=(const FileCompressor&) = delete;
+  explicit FileCompressor(Compression compression) : compression_(compression) {}
   void add(const std::string& path);
   /// Waits until every file added is compressed; throws std::runtime_error for the first that could not be.
   void finish();
   [[nodiscard]] Compression compression() const { return compression_; }
 
  private:
-  struct Queue;
   Compression compression_;
-  std::unique_ptr<Queue> queue_;
+  std::future<std::string> last_;  // the last file's compression: the first failure up to it ("": none)
 };
 
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
@@ -57,24 +55,6 @@ std::string numbered_path(const std::string& path, unsigned index);
 /// by core/quantity.hpp).
 /// Throws std::invalid_argument.
 std::uint64_t parse_size(const std::string& text);
-
-/// Where the files go and when a new one starts (shared by the CAN and serial writers).
-class RotationPlan {
- public:
-  RotationPlan(std::string path, RotationOptions options) : path_(std::move(path)), options_(options) {}
-  /// Path of the file with this index (the path itself when rotation is off).
-  [[nodiscard]] std::string path_for(unsigned index) const {
-    return options_.enabled() ? numbered_path(path_, index) : path_;
-  }
-  /// Whether a frame at timestamp_ns must go into a new file, given what the current file holds.
-  [[nodiscard]] bool due(std::uint64_t bytes_in_file, std::uint64_t frames_in_file,
-                         std::optional<std::uint64_t> file_start_ns, std::optional<std::uint64_t> timestamp_ns) const;
-  [[nodiscard]] const RotationOptions& options() const { return options_; }
-
- private:
-  std::string path_;
-  RotationOptions options_;
-};
 
 /// What the rotating writers of CAN frames and of serial chunks share (Writer: CaptureWriter or
 /// SerialCaptureWriter): the files, the format writer of the current one, when the next starts, and compression.
@@ -99,9 +79,14 @@ class RotatingFiles : public Writer {
   [[nodiscard]] const Writer& writer() const { return *inner_; }
 
  private:
+  /// Path of the file with this index (the path itself when rotation is off).
+  [[nodiscard]] std::string path_for(unsigned index) const;
+  /// Whether an item at timestamp_ns must go into a new file, given what the current file holds.
+  [[nodiscard]] bool due(std::optional<std::uint64_t> timestamp_ns);
   void open_next();
   void close_current();
-  RotationPlan plan_;
+  std::string path_;
+  RotationOptions rotation_;
   std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
   std::function<void(const std::string&)> on_new_file_;
   MakeWriter make_;

@@ -170,9 +170,7 @@ struct OpenedCapture {
 OpenedCapture open_capture(const std::string& path, const SerialReadOptions& options = {},
                            std::optional<CaptureFormat> format = std::nullopt);
 
-/// A serial-log writer onto a caller's stream.
+/// A serial-log writer onto a caller's stream (a file: RotatingSerialWriter, recorder.hpp).
 std::unique_ptr<SerialCaptureWriter> make_serial_capture_writer(std::ostream& out);
-/// Creates (truncates) a serial log; throws CaptureOpenError when it cannot.
-std::unique_ptr<SerialCaptureWriter> open_serial_capture_writer(const std::string& path);
 
 }  // namespace saul::host

@@ -43,14 +43,11 @@ namespace saul::host {
 /// is not a number or lies before 1970.
 std::optional<std::uint64_t> parse_trc_start_time(std::string_view days);
 
-class TrcReader final : public CaptureReader {
+class TrcReader final : public RecordCaptureReader {
  public:
   explicit TrcReader(std::istream& in) : in_(in) {}
 
   Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
 
   /// 10 for 1.0 (no $FILEVERSION), 11, 12, 13, 20, 21.
@@ -74,19 +71,16 @@ class TrcReader final : public CaptureReader {
   int version_ = 10;
   std::optional<std::uint64_t> start_ns_;
   std::string columns_;  // version 2: one letter per column, "NOTBIdRLD"
-  CanFrame frame_;
-  std::string name_ = "can0";
-  CaptureError error_;
   std::uint64_t line_number_ = 0;
 };
 
 class TrcWriter final : public StreamCaptureWriter {
  public:
   explicit TrcWriter(std::ostream& out) : StreamCaptureWriter(out, "TRC") {}
-  void write(const CanFrame& frame, std::string_view interface) override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
 
  private:
+  void put(const CanFrame& frame, std::string_view interface) override;
   void finish() override;
   void header(std::uint64_t first_ns);
   InterfaceIndex buses_;

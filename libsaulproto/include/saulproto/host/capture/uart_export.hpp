@@ -87,12 +87,14 @@ class UartExportReader : public SerialCaptureReader {
   enum class Line { annotation, skip, corrupt };
   /// Parses one line into annotation (or says to skip it, or fills error_'s column and message).
   virtual Line parse(std::string_view line, UartAnnotation& annotation) = 0;
-  CaptureError error_;
+  /// The line is corrupt at `column` (reading goes on at the next line).
+  Line corrupt(std::size_t column, std::string message);
 
  private:
   std::istream& in_;
   std::string line_;
   std::uint64_t line_number_ = 0;
+  CaptureError error_;
   UartAnnotationFolder folder_;
   CaptureFormat format_;
   bool done_ = false;
