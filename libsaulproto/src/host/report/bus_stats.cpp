@@ -523,14 +523,12 @@ nlohmann::json BusStats::json(std::string_view name) const {
 
 namespace {
 
-// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. A line is cut at
-// its '#': the head, "IFACE ID", is looked up in a small table of the heads seen (a bus has a few dozen), which keeps
-// where its frames count (BusStats::Known); the data's hex digits are read as bytes in a few word operations and,
-// with the head, looked up in a table of the contents seen, which keeps the frame's exact stuff bits and decode.
-// The data is first compared with the head's last data (most lines repeat it), and a head whose data seldom repeat
-// skips the contents' table for a while. So a line costs its time, a lookup or two and a few additions; a content
-// not seen before (a changed telemetry value) also costs its stuff bits and decode. A line of any other shape is
-// refused and read the usual way.
+// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. The head, "IFACE
+// ID", is looked up in a small table of the heads seen, which keeps where its frames count (BusStats::Known); the
+// data, with the head, in a table of the contents seen, which keeps the frame's exact stuff bits and decode (first
+// compared with the head's last data, which most lines repeat; a head whose data seldom repeat skips the table for a
+// while). So a line costs its time, a lookup or two and a few additions. A line of any other shape is refused and
+// read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}
