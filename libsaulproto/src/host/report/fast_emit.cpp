@@ -47,10 +47,10 @@ std::string_view bool_text(bool b) { return b ? "true" : "false"; }
 
 }  // namespace
 
-std::string csv_quote(const std::string& s) {
+std::string csv_quote(std::string_view s) {
   bool plain = true;
-  for (char c : s) plain = plain && c != ',' && c != '"';  // (find_first_of calls memchr once per character)
-  if (plain) return s;
+  for (char c : s) plain = plain && c != ',' && c != '"' && c != '\n';  // (find_first_of: a memchr per character)
+  if (plain) return std::string(s);
   std::string q = "\"";
   for (char c : s) {
     if (c == '"') q += '"';

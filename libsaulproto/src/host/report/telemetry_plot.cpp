@@ -103,13 +103,7 @@ const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t i
 // A series of one described signal, by its name: its physical value (pitch in deg), in the signal's unit.
 PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
                          std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
-  PlotSeriesSpec s;
-  s.label = std::move(label);
-  s.column = std::move(column);
-  s.message = std::move(message);
-  s.field = signal.name;
-  s.controller = controller;
-  return s;
+  return {std::move(label), std::move(column), std::move(message), std::nullopt, signal.name, controller};
 }
 
 std::string with_unit(std::string_view what, const signals::SignalDesc& signal) {
@@ -307,11 +301,7 @@ void TelemetryPlotter::select(const PlotMessage& m) {
       throw PlotUsageError(unknown_signal_error(fmt::format("'{}' ({})", request_.id, m.name), described_as, f));
   if (fields.empty()) throw PlotUsageError(fmt::format("'{}' has no numeric fields to plot", request_.id));
   for (const auto& f : fields) {
-    PlotSeriesSpec s;
-    s.column = f;
-    s.message = std::string(m.name);
-    s.can_id = can_id_;
-    s.field = f;
+    const PlotSeriesSpec s{"", f, std::string(m.name), can_id_, f, std::nullopt};
     panels_.push_back(PlotPanelSpec{fmt::format("{}: {}", request_.id, f), {}, {s}});
   }
 }

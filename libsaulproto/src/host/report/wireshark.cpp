@@ -28,13 +28,8 @@ const char* field_type(const SignalDesc& s) {
 }
 
 const char* text_mode(const SignalDesc& s) {
-  switch (s.text) {
-    case Text::raw: return "raw";
-    case Text::name: return "name";
-    case Text::physical: return "physical";
-    case Text::physical_int: return "physical_int";
-  }
-  return "raw";
+  constexpr const char* kModes[] = {"raw", "name", "physical", "physical_int"};  // in Text's order
+  return kModes[static_cast<std::size_t>(s.text)];
 }
 
 /// The key of the value shown() gives: the signal's name, or for a scaled wire integer (whose physical value is
