@@ -7,14 +7,15 @@
 #include <vector>
 
 #include "saulproto/host/report/bus_stats.hpp"
+#include "../capture/test_captures.hpp"
 
 using saul::CanFrame;
 using namespace saul::host;
 
 namespace {
 
-/// The frame's bits SOF..data, then its CRC-15, then the stuffing rule, one bit at a time.
-unsigned stuff_bits_model(const CanFrame& f) {
+/// The frame's bits SOF..data, one bit at a time.
+std::vector<int> frame_bits_model(const CanFrame& f) {
   std::vector<int> bits;
   auto put = [&](std::uint32_t v, int width) {
     for (int i = width - 1; i >= 0; --i) bits.push_back(static_cast<int>((v >> i) & 1U));
@@ -34,13 +35,25 @@ unsigned stuff_bits_model(const CanFrame& f) {
   }
   put(f.dlc, 4);
   for (std::uint8_t b : f.payload()) put(b, 8);
+  return bits;
+}
+
+/// The CAN CRC-15 (polynomial 0x4599) of the frame's bits SOF..data, one bit at a time.
+unsigned crc15_model(const CanFrame& f) {
   unsigned crc = 0;
-  for (int b : bits) {
+  for (int b : frame_bits_model(f)) {
     const bool next = (b != 0) != (((crc >> 14) & 1U) != 0);
     crc = (crc << 1) & 0x7FFF;
     if (next) crc ^= 0x4599;
   }
-  put(crc, 15);
+  return crc;
+}
+
+/// The frame's bits SOF..data, then its CRC-15, then the stuffing rule, one bit at a time.
+unsigned stuff_bits_model(const CanFrame& f) {
+  std::vector<int> bits = frame_bits_model(f);
+  const unsigned crc = crc15_model(f);
+  for (int i = 14; i >= 0; --i) bits.push_back(static_cast<int>((crc >> i) & 1U));
   unsigned stuff = 0, run = 0;
   int last = -1;
   for (int b : bits) {
@@ -60,6 +73,15 @@ unsigned stuff_bits_model(const CanFrame& f) {
 }
 
 }  // namespace
+
+TEST_CASE("can bits: the bit-by-bit model's CRC-15 gives the Python model's values") {
+  // The frames of test_bus_stats.cpp "CAN frame lengths on the wire", whose exact stuff bits follow from these CRCs.
+  using capture_test::make;
+  CHECK(crc15_model(make(0x300, false, {0xE8, 0x03, 0x0C, 0xFE}, 0)) == 0x18D8);
+  CHECK(crc15_model(make(0x000, false, {}, 0)) == 0);
+  CHECK(crc15_model(make(0x938, true, {0xFF, 0xFF, 0xFB, 0x50, 0x00, 0x23, 0x00, 0xFA}, 0)) == 0x63C6);
+  CHECK(crc15_model(make(0x1FFFFFFF, true, {0, 0, 0, 0, 0, 0, 0, 0}, 0)) == 0x7DA3);
+}
 
 TEST_CASE("can bits: table-driven stuff bits equal the bit-by-bit rule on random and run-heavy frames") {
   std::mt19937_64 rng(15);

@@ -154,6 +154,7 @@ TEST_CASE("names from files that are not UTF-8, or hold a comma, a quote or a sp
         "c\xEF\xBF\xBD\xEF\xBF\xBD");  // each byte a U+FFFD
   CHECK(line(DecodeFormat::jsonl, f, "a\"b\\c").find(R"("interface":"a\"b\\c",)") != std::string::npos);
   CHECK(line(DecodeFormat::csv, f, "a,\"b").starts_with("1700000000.050000,\"a,\"\"b\",300,0,0,4,"));
+  CHECK(line(DecodeFormat::csv, f, "a\nb").starts_with("1700000000.050000,\"a\nb\",300,"));  // one row, as RFC 4180
   CHECK(line(DecodeFormat::text, f, "a b\tc").starts_with("(1700000000.050000) a_b_c 300#E8030CFE "));
   CHECK(line(DecodeFormat::text, f, "").starts_with("(1700000000.050000) can0 300#"));
   BusStats stats;

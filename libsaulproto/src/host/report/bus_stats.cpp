@@ -17,48 +17,6 @@
 namespace saul::host {
 namespace {
 
-/// The bits of a frame from SOF to the end of the data field, as the transmitter sends them before stuffing.
-struct FrameBits {
-  // SOF, arbitration (29-bit: 32), control (6), data (64) and the CRC (15) that can_frame_bits() appends. The CRC
-  // was once left out: an 8-byte 29-bit frame (every VESC status) wrote past the end, into n (found by UBSan).
-  std::uint8_t bits[1 + 32 + 6 + 64 + 15]{};
-  unsigned n = 0;
-  void put(std::uint32_t value, unsigned width) {
-    assert(n + width <= sizeof bits);
-    for (unsigned i = width; i-- > 0;) bits[n++] = static_cast<std::uint8_t>((value >> i) & 1U);
-  }
-};
-
-FrameBits frame_bits(const CanFrame& f) {
-  FrameBits b;
-  b.put(0, 1);  // SOF
-  if (f.extended) {
-    b.put(f.id >> 18, 11);  // base id
-    b.put(1, 1);            // SRR
-    b.put(1, 1);            // IDE
-    b.put(f.id & 0x3FFFF, 18);
-    b.put(f.remote ? 1 : 0, 1);  // RTR
-    b.put(0, 2);                 // r1, r0
-  } else {
-    b.put(f.id & 0x7FF, 11);
-    b.put(f.remote ? 1 : 0, 1);  // RTR
-    b.put(0, 2);                 // IDE, r0
-  }
-  b.put(f.dlc > 8 ? 8 : f.dlc, 4);
-  for (std::uint8_t byte : f.payload()) b.put(byte, 8);
-  return b;
-}
-
-std::uint16_t crc15(const FrameBits& b) {
-  std::uint16_t crc = 0;
-  for (unsigned i = 0; i < b.n; ++i) {
-    const bool next = (b.bits[i] != 0) != (((crc >> 14) & 1U) != 0);
-    crc = static_cast<std::uint16_t>((crc << 1) & 0x7FFF);
-    if (next) crc ^= 0x4599;
-  }
-  return crc;
-}
-
 double seconds(std::uint64_t ns) { return static_cast<double>(ns) / 1e9; }
 
 std::uint64_t saturating_add(std::uint64_t a, std::uint64_t b) {
@@ -81,6 +39,13 @@ std::string duration_text(double ns) {
   return fmt::format("{:.1f} us", ns / 1e3);
 }
 
+/// The rate, mean gap and longest gap columns of a table ("-" without gaps).
+std::string cadence_cells(const Cadence& c) {
+  if (c.gaps == 0) return fmt::format("{:>9} {:>11} {:>11}", "-", "-", "-");
+  return fmt::format("{:>9.2f} {:>11} {:>11}", c.rate_hz(), duration_text(c.mean_gap_ns()),
+                     duration_text(static_cast<double>(c.max_gap_ns)));
+}
+
 std::string stamp_text(std::uint64_t ns) {
   return fmt::format("{:010}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
 }
@@ -94,6 +59,12 @@ constexpr std::pair<std::uint32_t, const char*> kErrorClasses[] = {
 
 std::string id_text(bool extended, std::uint32_t id) {
   return extended ? fmt::format("{:08X}", id) : fmt::format("{:03X}", id);
+}
+
+/// A frame's FrameFacts, its stuff bits already counted (`stuff`: can_stuff_bits(), 0 for an error frame).
+FrameFacts facts_of(const CanFrame& f, unsigned stuff) {
+  const auto r = decode_bus_name(f);
+  return {stuff, r ? Reason::ok : r.reason(), r ? r.value().name : nullptr};
 }
 
 /// "serial:/dev/ttyUSB0@460800:8E1" -> 460800 and 11 bits per byte.
@@ -118,8 +89,6 @@ void baud_from_link(const std::string& link, std::uint32_t& baud, unsigned& bits
 }
 
 }  // namespace
-
-std::uint16_t can_crc15(const CanFrame& frame) noexcept { return crc15(frame_bits(frame)); }
 
 unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept {
   if (frame.error) return 0;
@@ -178,17 +147,6 @@ double Cadence::jitter_ns() const {
   return variance > 0 ? static_cast<double>(std::sqrt(variance)) : 0;
 }
 
-FrameFacts facts_of(const CanFrame& f) { return facts_of(f, f.error ? 0 : can_stuff_bits(f)); }
-
-FrameFacts facts_of(const CanFrame& f, unsigned stuff) {
-  FrameFacts facts;
-  facts.stuff = stuff;
-  const auto r = decode_bus_name(f);
-  facts.reason = r ? Reason::ok : r.reason();
-  facts.name = r ? r.value().name : nullptr;
-  return facts;
-}
-
 const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   const FrameKey key = frame_key(f);
   if (entries_.empty()) entries_.resize(kSlots);  // at first use: a BusStats given every frame's facts has none
@@ -196,7 +154,7 @@ const FrameFacts& FrameFactsCache::get(const CanFrame& f) {
   if (e.used && e.key == key) return e.facts;
   e.used = true;
   e.key = key;
-  e.facts = facts_of(f);
+  e.facts = facts_of(f, f.error ? 0 : can_stuff_bits(f));
   return e.facts;
 }
 
@@ -461,20 +419,14 @@ std::string BusStats::text(std::string_view name) const {
     out += fmt::format("{} frames on interfaces beyond the first {} (not listed, no load worked out): more "
                        "interfaces than a bench has; is the log's interface column noise?\n",
                        other.frames, kMaxInterfaces);
-  out += fmt::format("error frames: {}", error_frames_);
-  if (!error_kinds_.empty()) {
+  // "3 (2 bus_off, 1 no_ack)"
+  auto counted = [](std::uint64_t total, const std::map<std::string, std::uint64_t>& by_kind) {
     std::string kinds;
-    for (const auto& [kind, count] : error_kinds_) kinds += fmt::format("{}{} {}", kinds.empty() ? "" : ", ", count, kind);
-    out += " (" + kinds + ")";
-  }
-  out += fmt::format("\ndecode errors: {}", decode_errors());
-  if (!failures_.empty()) {
-    std::string reasons;
-    for (const auto& [reason, count] : failures_)
-      reasons += fmt::format("{}{} {}", reasons.empty() ? "" : ", ", count, reason);
-    out += " (" + reasons + ")";
-  }
-  out += '\n';
+    for (const auto& [kind, count] : by_kind) kinds += fmt::format("{}{} {}", kinds.empty() ? "" : ", ", count, kind);
+    return by_kind.empty() ? fmt::format("{}", total) : fmt::format("{} ({})", total, kinds);
+  };
+  out += fmt::format("error frames: {}\ndecode errors: {}\n", counted(error_frames_, error_kinds_),
+                     counted(decode_errors(), failures_));
   const auto velocity = ids_.find(IdKey{false, saulcan::kVelocityCmdId});
   if (velocity == ids_.end()) {
     out += "0x300 velocity_cmd: none in the capture (the BALANCE board would not drive)\n";
@@ -493,12 +445,9 @@ std::string BusStats::text(std::string_view name) const {
     const Cadence& c = s.cadence;
     const std::string from =
         c.gaps > 0 && first_ns_ ? fmt::format("+{:.3f} s", seconds(c.max_gap_start_ns - *first_ns_)) : "-";
-    out += fmt::format("{:<9} {:<20} {:>7} {:>9} {:>11} {:>11} {:>11} {:>10} {:>5} {:>7}\n",
-                       id_text(key.first, key.second), s.type, c.count,
-                       c.gaps ? fmt::format("{:.2f}", c.rate_hz()) : "-",
-                       c.gaps ? duration_text(c.mean_gap_ns()) : "-",
-                       c.gaps ? duration_text(static_cast<double>(c.max_gap_ns)) : "-", from,
-                       c.gaps > 1 ? duration_text(c.jitter_ns()) : "-", s.bits_worst, s.decode_errors);
+    out += fmt::format("{:<9} {:<20} {:>7} {} {:>11} {:>10} {:>5} {:>7}\n", id_text(key.first, key.second), s.type,
+                       c.count, cadence_cells(c), from, c.gaps > 1 ? duration_text(c.jitter_ns()) : "-", s.bits_worst,
+                       s.decode_errors);
   }
   if (const Unlisted other = unlisted_ids(); other.frames > 0)
     out += fmt::format("... and {} frames ({} remote, {} decode errors) of ids beyond the first {} (not listed): "
@@ -574,14 +523,12 @@ nlohmann::json BusStats::json(std::string_view name) const {
 
 namespace {
 
-// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. A line is cut at
-// its '#': the head, "IFACE ID", is looked up in a small table of the heads seen (a bus has a few dozen), which keeps
-// where its frames count (BusStats::Known); the data's hex digits are read as bytes in a few word operations and,
-// with the head, looked up in a table of the contents seen, which keeps the frame's exact stuff bits and decode.
-// The data is first compared with the head's last data (most lines repeat it), and a head whose data seldom repeat
-// skips the contents' table for a while. So a line costs its time, a lookup or two and a few additions; a content
-// not seen before (a changed telemetry value) also costs its stuff bits and decode. A line of any other shape is
-// refused and read the usual way.
+// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. The head, "IFACE
+// ID", is looked up in a small table of the heads seen, which keeps where its frames count (BusStats::Known); the
+// data, with the head, in a table of the contents seen, which keeps the frame's exact stuff bits and decode (first
+// compared with the head's last data, which most lines repeat; a head whose data seldom repeat skips the table for a
+// while). So a line costs its time, a lookup or two and a few additions. A line of any other shape is refused and
+// read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}
@@ -914,10 +861,7 @@ std::string SerialStats::text(std::string_view name) const {
     if (link.messages.empty()) continue;
     out += fmt::format("  {:<20} {:>7} {:>9} {:>11} {:>11}\n", "message", "count", "rate/s", "mean gap", "longest gap");
     for (const auto& [type, m] : link.messages)
-      out += fmt::format("  {:<20} {:>7} {:>9} {:>11} {:>11}\n", type, m.count,
-                         m.gaps ? fmt::format("{:.2f}", m.rate_hz()) : "-",
-                         m.gaps ? duration_text(m.mean_gap_ns()) : "-",
-                         m.gaps ? duration_text(static_cast<double>(m.max_gap_ns)) : "-");
+      out += fmt::format("  {:<20} {:>7} {}\n", type, m.count, cadence_cells(m));
   }
   if (const auto& other = decoder_.unlisted(); other.chunks > 0)
     out += fmt::format("\n{} chunks ({} bytes) on links beyond the first {}: not decoded (more links than a bench "

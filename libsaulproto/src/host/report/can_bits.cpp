@@ -1,12 +1,9 @@
-// The exact stuff-bit count of a classic CAN frame, table-driven: the frame's header (SOF to the DLC) padded at the
-// front to whole bytes so that the data bytes follow unshifted, its CRC-15 a byte at a time from a 256-entry table
-// (the data's share a lookup per byte, independent of each other), and the bit stuffing as a state machine over
-// (last bit, run length) stepped a byte at a time from a table of 9 states x 256 bytes, then over the CRC's 8 + 7
-// bits. What the header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. Exactly the
-// bit-by-bit rule (after five equal bits the opposite bit is inserted, and it starts the next run), checked against the
-// bit-by-bit model on random frames and the Python model's vectors in tests/host/report/test_bus_stats.cpp. On x86-64
-// CPUs with SSSE3 the data bytes' steps are composed with byte shuffles instead (can_stuff_bits_ssse3), the same
-// counts; tests check both.
+// The exact stuff-bit count of a classic CAN frame, table-driven: the header (SOF to the DLC) padded at the front to
+// whole bytes so that the data bytes follow unshifted, the CRC-15 a byte at a time from a table, and the stuffing as
+// a state machine over (last bit, run length) stepped a byte at a time, then over the CRC's 8 + 7 bits. What the
+// header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. On x86-64 with SSSE3 the
+// data bytes' steps are composed with byte shuffles instead (can_stuff_bits_ssse3). tests/host/report/test_can_bits.cpp
+// holds both to the bit-by-bit rule.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -213,7 +210,7 @@ unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* da
 // The data bytes' steps composed as maps rather than taken one after another: step k is a map from the 9 states to
 // the next (and the stuff bits it inserts from each), and maps compose with a byte shuffle. Eight maps in a tree of
 // three levels take a few cycles where the chain of 8 dependent table lookups takes ~50 (each waits for the state
-// the one before found): 16 -> 4 ns a frame in a loop of frames (stats works out each content it has not seen).
+// the one before found).
 [[gnu::target("ssse3")]] unsigned can_stuff_bits_ssse3(const CanStuffStart& start, const std::uint8_t* data) noexcept {
   const unsigned n = start.bytes;
   // Named, not an array indexed in loops: GCC then kept the maps on the stack and the shuffles waited on it.

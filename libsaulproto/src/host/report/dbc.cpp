@@ -22,20 +22,17 @@ using namespace saul::saulcan;
 
 constexpr std::uint32_t kDbcExtended = 0x80000000U;  // DBC marks a 29-bit id with bit 31
 
+/// A DBC signal: a described signal, or one bit of a byte of named bits (`bit`: unsigned, unscaled, no unit).
 struct Signal {
+  const signals::SignalDesc* desc = nullptr;
+  bool bit = false;
   std::string name;
-  std::string mux;          ///< "", "M" (the multiplexer) or "m<N>" (present when the multiplexer is N)
-  unsigned start = 0;       ///< @1: the least significant bit; @0: the most significant bit (sawtooth numbering)
+  unsigned start = 0;  ///< @1: the least significant bit; @0: the most significant bit (sawtooth numbering)
   unsigned length = 0;
-  bool little_endian = true;
-  bool is_signed = false;
-  std::int32_t scale_num = 1;  ///< factor scale_num / scale_den (for 1 / den: exact for the decimal scales)
-  std::int32_t scale_den = 1;
-  double offset = 0;
   std::string unit;
-  std::string receiver;
-  bool is_float = false;    ///< IEEE float32 (SIG_VALTYPE_ 1)
-  const signals::SignalDesc* desc = nullptr;  ///< what it was made from (value tables, wire-integer comments)
+  /// A scaled signal: factor scale_num / scale_den (for 1 / den: exact for the decimal scales).
+  [[nodiscard]] bool scaled() const { return !bit && (desc->scale_num != 1 || desc->scale_den != 1); }
+  [[nodiscard]] bool is_float() const { return desc->kind == signals::Kind::float32; }  ///< SIG_VALTYPE_ 1
 };
 
 struct Message {
@@ -43,6 +40,7 @@ struct Message {
   std::string name;
   unsigned dlc = 0;
   std::string sender;
+  std::string receiver;
   std::vector<Signal> signals;
   std::string comment;
 };
@@ -59,20 +57,28 @@ std::string dbc_number(double v) {
 
 // [min|max] is the range the signal's bits can carry, scaled (not the description's valid range: tools that
 // check values against it would then refuse frames saulctl decodes).
-std::string signal_line(const Signal& s) {
+std::string signal_line(const Signal& s, const std::string& receiver) {
+  const signals::SignalDesc& d = *s.desc;
+  const bool is_signed = !s.bit && d.kind == signals::Kind::signed_int;
+  const std::int32_t num = s.bit ? 1 : d.scale_num;
+  const std::int32_t den = s.bit ? 1 : d.scale_den;
   double lo = 0, hi = 0;
-  if (!s.is_float) {
-    const double raw_lo = s.is_signed ? -std::ldexp(1.0, static_cast<int>(s.length) - 1) : 0.0;
-    const double raw_hi = s.is_signed ? std::ldexp(1.0, static_cast<int>(s.length) - 1) - 1
-                                      : std::ldexp(1.0, static_cast<int>(s.length)) - 1;
-    lo = raw_lo * s.scale_num / s.scale_den + s.offset;
-    hi = raw_hi * s.scale_num / s.scale_den + s.offset;
+  if (!s.is_float()) {
+    const double raw_lo = is_signed ? -std::ldexp(1.0, static_cast<int>(s.length) - 1) : 0.0;
+    const double raw_hi = is_signed ? std::ldexp(1.0, static_cast<int>(s.length) - 1) - 1
+                                    : std::ldexp(1.0, static_cast<int>(s.length)) - 1;
+    lo = raw_lo * num / den + d.offset;
+    hi = raw_hi * num / den + d.offset;
   }
-  const double factor = s.scale_num == 1 ? 1.0 / s.scale_den : static_cast<double>(s.scale_num) / s.scale_den;
-  return fmt::format(" SG_ {}{} : {}|{}@{}{} ({},{}) [{}|{}] \"{}\" {}\n", s.name, s.mux.empty() ? "" : " " + s.mux,
-                     s.start, s.length, s.little_endian ? 1 : 0, s.is_signed || s.is_float ? '-' : '+',
-                     dbc_number(factor), dbc_number(s.offset), dbc_number(lo), dbc_number(hi), s.unit,
-                     s.receiver.empty() ? "Vector__XXX" : s.receiver);
+  // "", "M" (the multiplexer) or "m<N>" (present when the multiplexer is N)
+  const std::string mux = d.mux == signals::Mux::multiplexer   ? " M"
+                          : d.mux == signals::Mux::multiplexed ? fmt::format(" m{}", d.mux_value)
+                                                               : "";
+  const double factor = num == 1 ? 1.0 / den : static_cast<double>(num) / den;
+  return fmt::format(" SG_ {}{} : {}|{}@{}{} ({},{}) [{}|{}] \"{}\" {}\n", s.name, mux, s.start, s.length,
+                     d.order == signals::ByteOrder::little_endian ? 1 : 0, is_signed || s.is_float() ? '-' : '+',
+                     dbc_number(factor), dbc_number(d.offset), dbc_number(lo), dbc_number(hi), s.unit,
+                     receiver.empty() ? "Vector__XXX" : receiver);
 }
 
 // The DBC's own choices where it departs from the description:
@@ -86,45 +92,22 @@ std::string dbc_unit(const signals::MessageDesc& m, const signals::SignalDesc& s
 // The DBC signals of one described signal: itself; a byte of named bits becomes one 1-bit signal per bit
 // ("fault_rc_loss"); a signal in the CAN id (the VESC controller) none, since every controller has its own
 // messages here.
-void add_signals(const signals::MessageDesc& m, const signals::SignalDesc& d, const std::string& receiver,
-                 std::vector<Signal>& out) {
+void add_signals(const signals::MessageDesc& m, const signals::SignalDesc& d, std::vector<Signal>& out) {
   if (d.place != signals::Place::payload) return;
-  Signal s;
-  s.name = d.name;
-  s.start = d.start_bit;
-  s.length = d.length;
-  s.little_endian = d.order == signals::ByteOrder::little_endian;
-  s.is_signed = d.kind == signals::Kind::signed_int;
-  s.is_float = d.kind == signals::Kind::float32;
-  s.scale_num = d.scale_num;
-  s.scale_den = d.scale_den;
-  s.offset = d.offset;
-  s.unit = dbc_unit(m, d);
-  s.receiver = receiver;
-  s.desc = &d;
-  if (d.mux == signals::Mux::multiplexer) s.mux = "M";
-  if (d.mux == signals::Mux::multiplexed) s.mux = fmt::format("m{}", d.mux_value);
   if (!d.value_bits) {
-    out.push_back(std::move(s));
+    out.push_back({&d, false, d.name, d.start_bit, d.length, dbc_unit(m, d)});
     return;
   }
   for (const auto& bit : d.values) {
-    Signal b = s;
-    b.name = fmt::format("{}_{}", d.name, bit.name);
-    b.start = d.start_bit + static_cast<unsigned>(bit.value);
-    b.length = 1;
-    b.is_signed = false;
-    b.scale_num = b.scale_den = 1;
-    b.unit.clear();
-    b.desc = nullptr;
-    out.push_back(std::move(b));
+    const unsigned start = d.start_bit + static_cast<unsigned>(bit.value);
+    out.push_back({&d, true, fmt::format("{}_{}", d.name, bit.name), start, 1, ""});
   }
 }
 
 Message message_of(const signals::MessageDesc& m, std::uint32_t dbc_id, std::string name, std::string sender,
-                   const std::string& receiver, std::string comment) {
-  Message msg{dbc_id, std::move(name), m.length, std::move(sender), {}, std::move(comment)};
-  for (const auto& d : m.signals) add_signals(m, d, receiver, msg.signals);
+                   std::string receiver, std::string comment) {
+  Message msg{dbc_id, std::move(name), m.length, std::move(sender), std::move(receiver), {}, std::move(comment)};
+  for (const auto& d : m.signals) add_signals(m, d, msg.signals);
   return msg;
 }
 
@@ -186,15 +169,6 @@ std::vector<Message> vesc_messages(std::uint8_t c) {
   return out;
 }
 
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') out += '\\';
-    out += ch;
-  }
-  return out + '"';
-}
-
 }  // namespace
 
 std::string make_dbc(const DbcOptions& options) {
@@ -213,11 +187,11 @@ std::string make_dbc(const DbcOptions& options) {
   out += "BU_: " + nodes + "\n\n";
   for (const auto& msg : messages) {
     out += fmt::format("BO_ {} {}: {} {}\n", msg.dbc_id, msg.name, msg.dlc, msg.sender);
-    for (const auto& s : msg.signals) out += signal_line(s);
+    for (const auto& s : msg.signals) out += signal_line(s, msg.receiver);
     out += "\n";
   }
 
-  out += "\nCM_ " + quoted(
+  out += "\nCM_ " + c_literal(
       "SAUL-TEE robot bus, 500 kbit/s (written by saulctl dbc; docs/protocol.md sections 3 and 6). SAUL frames: "
       "11-bit ids, little-endian. VESC frames: 29-bit ids (bit 31 set here, as DBC marks extended ids), "
       "big-endian, id = command << 8 | controller id. 0x301 is multiplexed by gain; each gain is a "
@@ -228,27 +202,27 @@ std::string make_dbc(const DbcOptions& options) {
     out += fmt::format("CM_ BU_ VESC_{} \"VESC motor controller id {}{}.\";\n", c, c,
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)
-    if (!msg.comment.empty()) out += fmt::format("CM_ BO_ {} {};\n", msg.dbc_id, quoted(msg.comment));
+    if (!msg.comment.empty()) out += fmt::format("CM_ BO_ {} {};\n", msg.dbc_id, c_literal(msg.comment));
   // A scaled signal whose wire integer saulctl's JSON keeps gets that integer's key as its comment.
   for (const auto& msg : messages)
     for (const auto& s : msg.signals)
-      if (s.desc != nullptr && s.desc->text == signals::Text::raw && (s.scale_num != 1 || s.scale_den != 1))
-        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, quoted(raw_key(*s.desc) + " on the wire"));
+      if (s.scaled() && s.desc->text == signals::Text::raw)
+        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, c_literal(raw_key(*s.desc) + " on the wire"));
   out += "\n";
 
   // Value tables: the names saulctl decode prints (descending, as DBC editors write them).
   for (const auto& msg : messages)
     for (const auto& s : msg.signals) {
-      if (s.desc == nullptr || s.desc->values.empty() || s.desc->value_bits) continue;
+      if (s.bit || s.desc->values.empty()) continue;
       out += fmt::format("VAL_ {} {}", msg.dbc_id, s.name);
       for (auto it = s.desc->values.rbegin(); it != s.desc->values.rend(); ++it)
-        out += fmt::format(" {} {}", it->value, quoted(it->name));
+        out += fmt::format(" {} {}", it->value, c_literal(it->name));
       out += " ;\n";
     }
   out += "\n";
   for (const auto& msg : messages)
     for (const auto& s : msg.signals)
-      if (s.is_float) out += fmt::format("SIG_VALTYPE_ {} {} : 1;\n", msg.dbc_id, s.name);
+      if (s.is_float()) out += fmt::format("SIG_VALTYPE_ {} {} : 1;\n", msg.dbc_id, s.name);
   return out;
 }
 

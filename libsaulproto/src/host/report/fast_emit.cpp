@@ -47,10 +47,10 @@ std::string_view bool_text(bool b) { return b ? "true" : "false"; }
 
 }  // namespace
 
-std::string csv_quote(const std::string& s) {
+std::string csv_quote(std::string_view s) {
   bool plain = true;
-  for (char c : s) plain = plain && c != ',' && c != '"';  // (find_first_of calls memchr once per character)
-  if (plain) return s;
+  for (char c : s) plain = plain && c != ',' && c != '"' && c != '\n';  // (find_first_of: a memchr per character)
+  if (plain) return std::string(s);
   std::string q = "\"";
   for (char c : s) {
     if (c == '"') q += '"';
@@ -61,63 +61,6 @@ std::string csv_quote(const std::string& s) {
 
 FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
 FrameEmitter::~FrameEmitter() = default;
-
-char* FrameEmitter::time_chars(std::uint64_t ns, char* w, bool parens) {
-  // "({:010}.{:06})" absolute, "({:>4}.{:06})" relative or delta, as TimeColumn writes it: a time before the first
-  // frame's (relative) or the previous one's (delta: the log's times went back) is negative, "(  -0.050000)".
-  if (!first_) first_ = ns;
-  std::uint64_t shown = ns;
-  bool negative = false;
-  if (time_ != TimeMode::absolute) {
-    const std::uint64_t from = time_ == TimeMode::relative ? *first_ : previous_.value_or(ns);
-    negative = ns < from;
-    shown = negative ? from - ns : ns - from;
-  }
-  previous_ = ns;
-  const std::uint64_t sec = shown / 1'000'000'000ULL;
-  auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
-  if (!seconds_valid_ || sec != seconds_ || negative != seconds_negative_) {  // the same for thousands of frames
-    char digits[24];
-    char* end = digits;
-    if (negative) *end++ = '-';
-    end = std::to_chars(end, digits + sizeof digits, sec).ptr;
-    const auto n = static_cast<std::size_t>(end - digits);
-    const std::size_t width = time_ == TimeMode::absolute ? 10 : 4;
-    seconds_text_.assign(n < width ? width - n : 0, time_ == TimeMode::absolute ? '0' : ' ');
-    seconds_text_.append(digits, n);
-    seconds_text_ += '.';
-    seconds_ = sec;
-    seconds_negative_ = negative;
-    seconds_valid_ = true;
-  }
-  if (parens) *w++ = '(';
-  w = put_chars(w, seconds_text_);
-  for (int i = 5; i >= 0; --i) {
-    w[i] = static_cast<char>('0' + usec % 10);
-    usec /= 10;
-  }
-  w += 6;
-  if (parens) *w++ = ')';
-  return w;
-}
-
-char* FrameEmitter::stamp_chars(std::uint64_t ns, char* w) {
-  const std::uint64_t sec = ns / 1'000'000'000ULL;
-  auto rest = static_cast<std::uint32_t>(ns % 1'000'000'000ULL);
-  if (sec == 0) return std::to_chars(w, w + kTimeColumnMax, rest).ptr;
-  if (!stamp_valid_ || sec != stamp_seconds_) {
-    char digits[24];
-    stamp_text_.assign(digits, std::to_chars(digits, digits + sizeof digits, sec).ptr);
-    stamp_seconds_ = sec;
-    stamp_valid_ = true;
-  }
-  w = put_chars(w, stamp_text_);
-  for (int i = 8; i >= 0; --i) {
-    w[i] = static_cast<char>('0' + rest % 10);
-    rest /= 10;
-  }
-  return w + 9;
-}
 
 // What the line says of the frame's content before the per-frame columns' place (the split of a cached line):
 // text "300#E8030CFE{pad} [!reason [detail]]", CSV "300,0,0,4,E8030CFE,[!reason,]", JSON
@@ -237,11 +180,11 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   // One line in one go: room for all of it, then written in place.
   const std::size_t room = hit ? e.text.size() : 6 * detail.size() + (d ? 2 * message_chars_max(*d) : 0);
   const std::size_t at = out.size();
-  out.resize(at + 2 * kTimeColumnMax + interface_column_.size() + room + 320);
+  out.resize(at + 2 * TimeColumn::kMaxChars + interface_column_.size() + room + 320);
   char* w = out.data() + at;
   const std::uint64_t ns = f.timestamp_ns.value_or(0);
   if (!json) {
-    w = time_chars(ns, w, text);
+    w = time_.write(w, ns, text);
     *w++ = text ? ' ' : ',';
     w = put_chars(w, interface_column_);
     *w++ = text ? ' ' : ',';
@@ -253,7 +196,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   if (json) {
     if (f.timestamp_ns) {
       w = put_chars(w, ",\"timestamp_ns\":");
-      w = stamp_chars(*f.timestamp_ns, w);
+      w = std::to_chars(w, w + TimeColumn::kMaxChars, *f.timestamp_ns).ptr;
     }
     w = put_chars(w, "},\"interface\":");
     w = put_chars(w, interface_column_);
@@ -272,7 +215,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   }
   if (json) {
     w = put_chars(w, ",\"time\":\"");
-    w = time_chars(ns, w, false);
+    w = time_.write(w, ns, false);
     w = put_chars(w, "\"}");
   }
   *w++ = '\n';

@@ -126,6 +126,19 @@ char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, 
 
 std::string raw_key(const signals::SignalDesc& s) { return std::string(s.name) + "_raw"; }
 
+std::string c_literal(std::string_view s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + '"';
+}
+
 namespace {
 
 /// append_json_string() at w (room for 6 characters per byte of s, and 2).

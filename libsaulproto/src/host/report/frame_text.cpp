@@ -4,6 +4,9 @@
 
 #include <fmt/format.h>
 
+#include <charconv>
+#include <iterator>
+
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/format.hpp"
@@ -42,19 +45,44 @@ std::string describe_error_frame(const CanFrame& f) {
   return s.empty() ? std::string("error frame") : s;
 }
 
-std::string TimeColumn::operator()(std::uint64_t ns) {
+char* TimeColumn::write(char* w, std::uint64_t ns, bool parens) {
+  // "({:010}.{:06})" absolute, "({:>4}.{:06})" relative or delta: a time before the first frame's (relative) or the
+  // previous one's (delta: the log's times went back) is negative, "(  -0.050000)".
   if (!first_) first_ = ns;
-  if (mode_ == TimeMode::absolute) {
-    previous_ = ns;
-    return fmt::format("({:010}.{:06})", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
+  std::uint64_t shown = ns;
+  bool negative = false;
+  if (mode_ != TimeMode::absolute) {
+    const std::uint64_t from = mode_ == TimeMode::relative ? *first_ : previous_.value_or(ns);
+    negative = ns < from;
+    shown = negative ? from - ns : ns - from;
   }
-  // since the first stamp or the previous one; a stamp before it (times that went back) is negative
-  const std::uint64_t from = mode_ == TimeMode::relative ? *first_ : previous_.value_or(ns);
   previous_ = ns;
-  const bool negative = ns < from;
-  const std::uint64_t shown = negative ? from - ns : ns - from;
-  return fmt::format("({:>4}.{:06})", fmt::format("{}{}", negative ? "-" : "", shown / 1'000'000'000ULL),
-                     (shown % 1'000'000'000ULL) / 1000);
+  const std::uint64_t sec = shown / 1'000'000'000ULL;
+  auto usec = static_cast<std::uint32_t>((shown % 1'000'000'000ULL) / 1000);
+  if (!seconds_ || sec != *seconds_ || negative != seconds_negative_) {  // the same for thousands of frames
+    char digits[24];
+    char* end = digits;
+    if (negative) *end++ = '-';
+    end = std::to_chars(end, std::end(digits), sec).ptr;
+    const auto n = static_cast<std::size_t>(end - digits);
+    const std::size_t width = mode_ == TimeMode::absolute ? 10 : 4;
+    seconds_text_.assign(n < width ? width - n : 0, mode_ == TimeMode::absolute ? '0' : ' ');
+    seconds_text_.append(digits, n);
+    seconds_text_ += '.';
+    seconds_ = sec;
+    seconds_negative_ = negative;
+  }
+  if (parens) *w++ = '(';
+  w = put_chars(w, seconds_text_);
+  for (int i = 5; i >= 0; --i, usec /= 10) w[i] = static_cast<char>('0' + usec % 10);
+  w += 6;
+  if (parens) *w++ = ')';
+  return w;
+}
+
+std::string TimeColumn::operator()(std::uint64_t ns) {
+  char text[kMaxChars];
+  return std::string(text, write(text, ns));
 }
 
 std::string describe_frame(const CanFrame& frame) {

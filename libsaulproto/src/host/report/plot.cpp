@@ -5,7 +5,6 @@
 #include "saulproto/host/report/format.hpp"  // json_line
 #include "../util.hpp"
 
-#include <fcntl.h>
 #include <fmt/format.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -19,7 +18,7 @@
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
-#include <sstream>
+#include <stdexcept>
 
 extern char** environ;
 
@@ -57,7 +56,7 @@ std::string time_axis_label(const PlotDocument& doc) {
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw PlotOutputError(fmt::format("{}: cannot be read: the interactive page needs Debian's libjs-dygraphs "
+    throw std::runtime_error(fmt::format("{}: cannot be read: the interactive page needs Debian's libjs-dygraphs "
                                       "(apt install libjs-dygraphs, or scripts/setup.sh), or write .svg/.png/.pdf",
                                       path));
   std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -254,24 +253,12 @@ std::string page_script() {
   return js;
 }
 
-// gnuplot strings: single-quoted ('' for a quote, nothing else special), double-quoted where a line break is
-// needed.
+// gnuplot strings: single-quoted ('' for a quote, nothing else special), double-quoted (c_literal) where a
+// line break is needed.
 std::string gp_single(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
   return out + "'";
-}
-std::string gp_double(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '\\' || c == '"') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
 }
 
 }  // namespace
@@ -316,21 +303,6 @@ std::vector<PlotBinner::Point> PlotBinner::points() const {
       if (out.empty() || out.back().t != p.t || out.back().v != p.v) out.push_back(p);
   }
   return out;
-}
-
-std::vector<double> nice_ticks(double lo, double hi, int target) {
-  std::vector<double> ticks;
-  if (!(hi > lo) || target < 1) return {lo};
-  const double raw = (hi - lo) / target;
-  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = magnitude;
-  for (double m : {1.0, 2.0, 5.0, 10.0}) {
-    step = m * magnitude;
-    if (step >= raw) break;
-  }
-  const double first = std::ceil(lo / step - 1e-9) * step;
-  for (double t = first; t <= hi + step * 1e-9; t += step) ticks.push_back(std::fabs(t) < step * 1e-9 ? 0.0 : t);
-  return ticks;
 }
 
 namespace {
@@ -472,7 +444,7 @@ std::string gnuplot_script(const PlotDocument& doc, const std::string& format, c
   if (doc.markers_total > 0) heading += "\n" + marker_summary(doc);
   for (const auto& note : doc.notes) heading += "\n" + note;
   const double t1 = doc.t1 > doc.t0 ? doc.t1 : doc.t0 + 1;
-  s += fmt::format("set multiplot layout {},1 title {} font ',12'\n", std::max<std::size_t>(n, 1), gp_double(heading));
+  s += fmt::format("set multiplot layout {},1 title {} font ',12'\n", std::max<std::size_t>(n, 1), c_literal(heading));
   s += fmt::format("set xrange [{}:{}]\nset offsets 0, 0, graph 0.06, graph 0.06\nset grid lc rgb '#dddddd'\nset key top right horizontal opaque box lc rgb "
                    "'#cccccc'\nset lmargin 10\nset rmargin 3\n",
                    doc.t0, t1);
@@ -506,13 +478,13 @@ std::string gnuplot_script(const PlotDocument& doc, const std::string& format, c
 void render_static(const PlotDocument& doc, const std::string& format, const std::string& output) {
   char path[] = "/tmp/saulctl-plot-XXXXXX.gp";
   const int fd = ::mkstemps(path, 3);
-  if (fd < 0) throw PlotOutputError("cannot write gnuplot's script to /tmp: check that /tmp is writable");
+  if (fd < 0) throw std::runtime_error("cannot write gnuplot's script to /tmp: check that /tmp is writable");
   const std::string script = gnuplot_script(doc, format, output);
   bool written = ::write(fd, script.data(), script.size()) == static_cast<ssize_t>(script.size());
   written = ::close(fd) == 0 && written;
   if (!written) {
     ::unlink(path);
-    throw PlotOutputError("cannot write gnuplot's script to /tmp: is it full?");
+    throw std::runtime_error("cannot write gnuplot's script to /tmp: is it full?");
   }
   char program[] = "gnuplot";
   char* argv[] = {program, path, nullptr};
@@ -522,11 +494,11 @@ void render_static(const PlotDocument& doc, const std::string& format, const std
   if (spawned == 0) ::waitpid(pid, &status, 0);
   ::unlink(path);
   if (spawned != 0)
-    throw PlotOutputError(fmt::format("gnuplot cannot be run ({}): SVG, PNG and PDF are drawn by gnuplot; install it "
+    throw std::runtime_error(fmt::format("gnuplot cannot be run ({}): SVG, PNG and PDF are drawn by gnuplot; install it "
                                       "(apt install gnuplot-nox, or scripts/setup.sh), or write .html or .csv",
                                       std::strerror(spawned)));
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw PlotOutputError(fmt::format("gnuplot failed ({}): see its message above; write .html or .csv meanwhile",
+    throw std::runtime_error(fmt::format("gnuplot failed ({}): see its message above; write .html or .csv meanwhile",
                                       WIFEXITED(status) ? fmt::format("exit {}", WEXITSTATUS(status)) : "killed"));
 }
 

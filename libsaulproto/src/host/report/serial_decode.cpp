@@ -1,6 +1,7 @@
 #include "saulproto/host/report/serial_decode.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <exception>
@@ -40,12 +41,6 @@ std::uint64_t protocol_baud(SerialProtocol protocol) {
   return 115'200;
 }
 
-std::string hex(std::span<const std::uint8_t> bytes) {
-  std::string s;
-  for (std::uint8_t b : bytes) s += fmt::format("{:02X}", b);
-  return s;
-}
-
 }  // namespace
 
 std::string name_of(const SerialMessage& message) {
@@ -75,9 +70,9 @@ std::string describe(const SerialMessage& message) {
                              },
                              [](const pride::Message& m) { return describe(m); },
                              [](const CrsfUndecoded& u) {
-                               return fmt::format("!{} crsf address=0x{:02X} type=0x{:02X} payload={}",
+                               return fmt::format("!{} crsf address=0x{:02X} type=0x{:02X} payload={:02X}",
                                                   to_string(u.reason), u.frame.address, u.frame.type,
-                                                  hex(u.frame.payload()));
+                                                  fmt::join(u.frame.payload(), ""));
                              }},
                     message);
 }
@@ -95,7 +90,7 @@ nlohmann::json to_json(const SerialMessage& message) {
                                j["type"] = name_of(message);
                                j["error"] = to_string(u.reason);
                                j["address"] = u.frame.address;
-                               j["payload"] = hex(u.frame.payload());
+                               j["payload"] = fmt::format("{:02X}", fmt::join(u.frame.payload(), ""));
                                return j;
                              }},
                     message);
@@ -145,13 +140,12 @@ void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callba
     }
   };
   std::visit(detail::Overload{[&](std::monostate&) { extra_.bytes += bytes.size(); },
-                      [&](interboard::StreamDecoder& d) { per_byte(d); },
-                      [&](pride::StreamDecoder& d) { per_byte(d); },
                       [&](crsf::StreamDecoder& d) {
                         extra_.bytes += bytes.size();
                         crsf_frames([&](const auto& on_frame) { d.push(bytes, on_frame); },
                                     [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
-                      }},
+                      },
+                      per_byte},  // interboard, Pride
              decoder_);
 }
 
@@ -181,12 +175,11 @@ void SerialStreamDecoder::abandon(const Callback& on_message) {
     }
   };
   std::visit(detail::Overload{[](std::monostate&) {},
-                      [&](interboard::StreamDecoder& d) { rescan(d); },
-                      [&](pride::StreamDecoder& d) { rescan(d); },
                       [&](crsf::StreamDecoder& d) {
                         crsf_frames([&](const auto& on_frame) { d.flush(on_frame); },
                                     [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
-                      }},
+                      },
+                      rescan},  // interboard, Pride
              decoder_);
 }
 
@@ -206,17 +199,10 @@ void SerialStreamDecoder::note_uart_errors(std::uint8_t errors) {
 
 void SerialStreamDecoder::finish(const Callback& on_message) {
   std::visit(detail::Overload{[](std::monostate&) {},
-                      [&](interboard::StreamDecoder& d) {
+                      [&](crsf::StreamDecoder&) { abandon(on_message); },  // flushes, as a line gone idle does
+                      [&](auto& d) {  // interboard, Pride
                         if (d.pending() > 0) ++extra_.incomplete;
                         d.drop_partial();
-                      },
-                      [&](pride::StreamDecoder& d) {
-                        if (d.pending() > 0) ++extra_.incomplete;
-                        d.drop_partial();
-                      },
-                      [&](crsf::StreamDecoder& d) {
-                        crsf_frames([&](const auto& on_frame) { d.flush(on_frame); },
-                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
                       }},
              decoder_);
 }

@@ -1,8 +1,9 @@
 #include "saulproto/host/report/signal_rows.hpp"
 
+#include "saulproto/host/report/fast_emit.hpp"  // csv_quote
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-
 
 namespace saul::host {
 
@@ -82,23 +83,10 @@ std::string unknown_signal_error(std::string_view message_name, const signals::M
   return fmt::format("{} has no signal '{}'; its signals: {}", message_name, name, fmt::join(signal_names(*m), ", "));
 }
 
-namespace {
-// A field that needs quoting in CSV: an interface or link name with a comma or a quote.
-std::string csv_field(std::string_view s) {
-  if (s.find_first_of(",\"\n") == std::string_view::npos) return std::string(s);
-  std::string q = "\"";
-  for (char c : s) {
-    if (c == '"') q += '"';
-    q += c;
-  }
-  return q + '"';
-}
-}  // namespace
-
 std::string long_csv_rows(std::string_view time, std::string_view interface, std::string_view id,
                           const SignalValues& values) {
   std::string out;
-  const std::string lead = fmt::format("{},{},{},{},", time, csv_field(interface), id,
+  const std::string lead = fmt::format("{},{},{},{},", time, csv_quote(interface), id,
                                        values.message != nullptr ? values.message->name : "");
   for (const auto& r : signal_rows(values)) out += fmt::format("{}{},{},{}\n", lead, r.signal, r.value, r.unit);
   return out;

@@ -103,13 +103,7 @@ const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t i
 // A series of one described signal, by its name: its physical value (pitch in deg), in the signal's unit.
 PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
                          std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
-  PlotSeriesSpec s;
-  s.label = std::move(label);
-  s.column = std::move(column);
-  s.message = std::move(message);
-  s.field = signal.name;
-  s.controller = controller;
-  return s;
+  return {std::move(label), std::move(column), std::move(message), std::nullopt, signal.name, controller};
 }
 
 std::string with_unit(std::string_view what, const signals::SignalDesc& signal) {
@@ -186,6 +180,33 @@ std::string bit_name(unsigned bit) {
   const char* name = signals::value_name(fault_signal(), bit);
   return name != nullptr ? name : fmt::format("bit{}", bit);
 }
+
+/// The robot state a message reports, if it is one that does.
+std::optional<unsigned> robot_state_of(const PlotMessage& m) {
+  if (m.bus != nullptr) {
+    if (const auto* a = std::get_if<saulcan::TelemetryA>(m.bus)) return static_cast<unsigned>(a->state);
+  } else if (m.serial != nullptr) {
+    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
+      if (const auto* s = std::get_if<interboard::State>(ib)) return s->error_state;
+  }
+  return std::nullopt;
+}
+
+/// The fault bits a message reports, if it is one that does.
+std::optional<unsigned> fault_bits_of(const PlotMessage& m) {
+  if (m.bus != nullptr) {
+    if (const auto* b = std::get_if<saulcan::TelemetryB>(m.bus)) return b->faults;
+  } else if (m.serial != nullptr) {
+    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
+      if (const auto* f = std::get_if<interboard::Fault>(ib)) return f->flags;
+  }
+  return std::nullopt;
+}
+
+/// "1763800000.500900": a capture timestamp as candump writes it.
+std::string format_timestamp(std::uint64_t ns) {
+  return fmt::format("{}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
+}
 }  // namespace
 
 std::string state_name(unsigned value) {
@@ -218,26 +239,6 @@ std::string change_detail(const StateChange& c) {
   return fault_names(c.from.value_or(0)) + " -> " + fault_names(c.to);
 }
 
-std::optional<unsigned> robot_state_of(const PlotMessage& m) {
-  if (m.bus != nullptr) {
-    if (const auto* a = std::get_if<saulcan::TelemetryA>(m.bus)) return static_cast<unsigned>(a->state);
-  } else if (m.serial != nullptr) {
-    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
-      if (const auto* s = std::get_if<interboard::State>(ib)) return s->error_state;
-  }
-  return std::nullopt;
-}
-
-std::optional<unsigned> fault_bits_of(const PlotMessage& m) {
-  if (m.bus != nullptr) {
-    if (const auto* b = std::get_if<saulcan::TelemetryB>(m.bus)) return b->faults;
-  } else if (m.serial != nullptr) {
-    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
-      if (const auto* f = std::get_if<interboard::Fault>(ib)) return f->flags;
-  }
-  return std::nullopt;
-}
-
 void ChangeTracker::note(const StateChange& change) {
   ++total_;
   if (kept_.size() < keep_) kept_.push_back(change);
@@ -263,10 +264,6 @@ bool ChangeTracker::observe(const PlotMessage& m, std::uint64_t index, std::opti
 }
 
 // ---- the plot ---------------------------------------------------------------------------------------------------
-
-std::string format_timestamp(std::uint64_t ns) {
-  return fmt::format("{}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
-}
 
 template <class Visit>
 void TelemetryPlotter::each(const Visit& visit) const {
@@ -304,11 +301,7 @@ void TelemetryPlotter::select(const PlotMessage& m) {
       throw PlotUsageError(unknown_signal_error(fmt::format("'{}' ({})", request_.id, m.name), described_as, f));
   if (fields.empty()) throw PlotUsageError(fmt::format("'{}' has no numeric fields to plot", request_.id));
   for (const auto& f : fields) {
-    PlotSeriesSpec s;
-    s.column = f;
-    s.message = std::string(m.name);
-    s.can_id = can_id_;
-    s.field = f;
+    const PlotSeriesSpec s{"", f, std::string(m.name), can_id_, f, std::nullopt};
     panels_.push_back(PlotPanelSpec{fmt::format("{}: {}", request_.id, f), {}, {s}});
   }
 }
@@ -443,28 +436,15 @@ void TelemetryPlotter::write_csv(std::ostream& out) const {
   each([&](const PlotMessage& m, const Position& pos) {
     row.clear();
     bool any = false;
+    auto cell = [&](const auto& value) {  // an empty cell for what the message does not carry
+      row += ',';
+      if (value) row += fmt::format("{}", *value);
+      any = any || value.has_value();
+    };
     for (const auto& panel : panels_)
-      for (const auto& s : panel.series) {
-        row += ',';
-        if (const auto v = s.value(m)) {
-          row += fmt::format("{}", *v);
-          any = true;
-        }
-      }
-    if (states) {
-      row += ',';
-      if (const auto v = robot_state_of(m)) {
-        row += fmt::format("{}", *v);
-        any = true;
-      }
-    }
-    if (faults) {
-      row += ',';
-      if (const auto v = fault_bits_of(m)) {
-        row += fmt::format("{}", *v);
-        any = true;
-      }
-    }
+      for (const auto& s : panel.series) cell(s.value(m));
+    if (states) cell(robot_state_of(m));
+    if (faults) cell(fault_bits_of(m));
     if (!any) return;
     const double t = position(pos);
     out << (timed() ? fmt::format("{:.6f}", t) : fmt::format("{:.0f}", t)) << row << '\n';

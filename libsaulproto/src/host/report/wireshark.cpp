@@ -20,16 +20,6 @@ using signals::Protocol;
 using signals::SignalDesc;
 using signals::Text;
 
-/// A Lua string literal (the descriptions are ASCII; quotes and backslashes escaped anyway).
-std::string lua_string(std::string_view s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
 /// The ProtoField type of a signal's field: what its JSON value is.
 const char* field_type(const SignalDesc& s) {
   if (s.kind == Kind::string || s.text == Text::name) return "string";
@@ -38,19 +28,8 @@ const char* field_type(const SignalDesc& s) {
 }
 
 const char* text_mode(const SignalDesc& s) {
-  switch (s.text) {
-    case Text::raw: return "raw";
-    case Text::name: return "name";
-    case Text::physical: return "physical";
-    case Text::physical_int: return "physical_int";
-  }
-  return "raw";
-}
-
-template <class F>
-void each_message(F&& f) {
-  for (Protocol p : {Protocol::saul_can, Protocol::vesc_can})
-    for (const MessageDesc& m : signals::messages(p)) f(p, m);
+  constexpr const char* kModes[] = {"raw", "name", "physical", "physical_int"};  // in Text's order
+  return kModes[static_cast<std::size_t>(s.text)];
 }
 
 /// The key of the value shown() gives: the signal's name, or for a scaled wire integer (whose physical value is
@@ -60,25 +39,25 @@ std::string shown_key(const SignalDesc& s) { return signals::text_in_unit(s) ? r
 /// Each (message, key) with its ProtoField type.
 template <class F>
 void each_field(F&& f) {
-  each_message([&](Protocol, const MessageDesc& m) {
-    for (const SignalDesc& s : m.signals) {
-      f(m, shown_key(s), field_type(s));
-      if (signals::text_in_unit(s)) f(m, std::string(s.name), signals::text_decimals(s) > 0 ? "double" : "int32");
-    }
-  });
+  for (Protocol p : {Protocol::saul_can, Protocol::vesc_can})
+    for (const MessageDesc& m : signals::messages(p))
+      for (const SignalDesc& s : m.signals) {
+        f(m, shown_key(s), field_type(s));
+        if (signals::text_in_unit(s)) f(m, std::string(s.name), signals::text_decimals(s) > 0 ? "double" : "int32");
+      }
 }
 
 std::string field_name(const MessageDesc& m, std::string_view key) { return fmt::format("saul.{}.{}", m.name, key); }
 
 std::string signal_table(const SignalDesc& s) {
   std::string values;
-  for (const auto& v : s.values) values += fmt::format("[{}] = {}, ", v.value, lua_string(v.name));
+  for (const auto& v : s.values) values += fmt::format("[{}] = {}, ", v.value, c_literal(v.name));
   return fmt::format(
       "      {{ name = {}, key = {}, physical = {}, whole = {}, unit = {}, at = \"{}\", start = {}, bits = {}, kind = \"{}\", order = \"{}\",\n"
       "        num = {}, den = {}, offset = {:.17g}, min = {}, max = {}, checked = {}, text = \"{}\", mux = \"{}\",\n"
       "        mux_value = {}, values = {{ {}}}, value_bits = {} }},\n",
-      lua_string(s.name), lua_string(shown_key(s)), lua_string(signals::text_in_unit(s) ? s.name : ""),
-      signals::text_decimals(s) < 0 ? "true" : "false", lua_string(s.unit),
+      c_literal(s.name), c_literal(shown_key(s)), c_literal(signals::text_in_unit(s) ? s.name : ""),
+      signals::text_decimals(s) < 0 ? "true" : "false", c_literal(s.unit),
       s.place == Place::can_id ? "can_id" : "payload", s.start_bit, s.length,
       s.kind == Kind::string        ? "string"
       : s.kind == Kind::float32     ? "float32"
@@ -245,9 +224,9 @@ std::string wireshark_dissector_lua() {
       "}\n"
       "local FIELDS = {}\n";
   each_field([&](const MessageDesc& m, const std::string& key, const char* type) {
-    out += fmt::format("FIELDS[{0}] = FIELDS[{0}] or {{}}\n", lua_string(m.name));
-    out += fmt::format("FIELDS[{}][{}] = ProtoField.{}({}, {})\n", lua_string(m.name), lua_string(key), type,
-                       lua_string(field_name(m, key)), lua_string(fmt::format("{} {}", m.name, key)));
+    out += fmt::format("FIELDS[{0}] = FIELDS[{0}] or {{}}\n", c_literal(m.name));
+    out += fmt::format("FIELDS[{}][{}] = ProtoField.{}({}, {})\n", c_literal(m.name), c_literal(key), type,
+                       c_literal(field_name(m, key)), c_literal(fmt::format("{} {}", m.name, key)));
   });
   out +=
       "local all = { F.message, F.problem }\n"
@@ -261,7 +240,7 @@ std::string wireshark_dissector_lua() {
     out += p == Protocol::saul_can ? "local SAUL = {\n" : "local VESC = {\n";
     for (const MessageDesc& m : signals::messages(p)) {
       out += fmt::format("  [0x{:X}] = {{ name = {}, length = {}, exact = {}, signals = {{\n", m.id,
-                         lua_string(m.name), m.length, m.exact_length ? "true" : "false");
+                         c_literal(m.name), m.length, m.exact_length ? "true" : "false");
       for (const SignalDesc& s : m.signals) out += signal_table(s);
       out += "  } },\n";
     }

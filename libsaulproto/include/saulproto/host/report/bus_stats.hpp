@@ -1,11 +1,8 @@
-// What `saulctl stats` computes over a capture, in one pass and constant memory in the number of frames (memory
-// grows only with the number of distinct ids, interfaces, error kinds and serial links):
-//
+// What `saulctl stats` computes over a capture, in one pass; memory grows only with the number of distinct ids,
+// interfaces, error kinds and serial links.
 //  - CAN: per id the count, rate, mean and longest gap (and when), gap jitter, decode failures; error frames by
-//    kind; decode errors by reason; bus load at a bit rate from each frame's real length on the wire, with stuff
-//    bits worst case (as can-utils canbusload does by default), exact (the frame's own bits and CRC stuffed, as
-//    canbusload -e) and none; the busiest window; how often 0x300 fell silent for longer than the BALANCE
-//    board's 500 ms Orin timeout.
+//    kind; bus load from each frame's length on the wire with stuff bits worst case (canbusload's default), exact
+//    (canbusload -e) and none; the busiest window; 0x300 silences over the BALANCE board's 500 ms Orin timeout.
 //  - serial: per link the bytes, byte rate and line load, the decoder's counters, and per message type the
 //    count, rate and longest gap.
 #pragma once
@@ -41,8 +38,7 @@ enum class StuffBits : std::uint8_t {
 /// 47 + 8n (11-bit id) or 67 + 8n (29-bit id) bits without stuffing, n the data bytes (0 for a remote frame),
 /// plus stuff bits over SOF..CRC (34 + 8n or 54 + 8n bits). Error frames are not on the wire as frames: 0.
 unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept;
-/// The stuff bits the transmitter inserts in a data or remote frame, from SOF to the end of the CRC (its own bits
-/// and CRC-15), counted a byte at a time from tables (can_bits.cpp).
+/// The stuff bits the transmitter inserts in a data or remote frame, from SOF to the end of the CRC-15.
 unsigned can_stuff_bits(const CanFrame& frame) noexcept;
 /// What a frame's id, flags and DLC decide of its stuff bits: its header (SOF to the DLC) stuffed and put through
 /// the CRC. A caller that sees the same ids again (stats' line tables) keeps it per id and DLC.
@@ -53,8 +49,7 @@ struct CanStuffStart {
   std::uint8_t bytes = 0;   ///< data bytes that follow (0 for a remote frame)
 };
 CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std::uint8_t dlc) noexcept;
-/// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`: a
-/// table lookup per data byte for the CRC and one for the stuffing, then two for the CRC's bits.
+/// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`.
 unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept;
 namespace detail {
 /// The two ways can_stuff_bits(start, data) counts, for tests and benchmarks: a table step per data byte (any CPU),
@@ -63,15 +58,12 @@ unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* da
 unsigned can_stuff_bits_ssse3(const CanStuffStart& start, const std::uint8_t* data) noexcept;
 bool can_stuff_ssse3() noexcept;
 }  // namespace detail
-/// The CAN CRC-15 (polynomial 0x4599) of the frame's bits from SOF to the end of the data, as sent.
-std::uint16_t can_crc15(const CanFrame& frame) noexcept;
 
 /// The BALANCE board stops driving when no 0x300 came for this long.
 inline constexpr std::uint64_t kOrinTimeoutNs = 500'000'000ULL;
 
 /// Timing of a stream of events (frames of one id, messages of one type), in constant memory. The gaps are summed
-/// as integers, so two Cadences of consecutive parts of a stream append() to exactly the figures of one Cadence
-/// over the whole (stats reads a file's blocks on several threads and must give what one thread gives).
+/// as integers, so that append() of consecutive parts (stats' blocks, on several threads) gives exactly one pass.
 struct Cadence {
   __extension__ typedef unsigned __int128 Sum;
   std::uint64_t count = 0;
@@ -84,8 +76,7 @@ struct Cadence {
   Sum back_sum_ns = 0;               ///< how far the times went back, summed (such a step's gap counts as 0)
   Sum gap_square_sum = 0;            ///< sum of the gaps' squares (ns^2; held at its maximum rather than wrapping)
   /// The sum of the gaps. Each gap is max(0, t[i] - t[i-1]) = (t[i] - t[i-1]) + max(0, t[i-1] - t[i]): the first
-  /// terms add up to last - first, so only the steps back are summed as they come (one addition less per event on
-  /// stats' path, where it was ~4 % of the CPU).
+  /// terms add up to last - first, so only the steps back are summed as they come.
   [[nodiscard]] Sum gap_sum_ns() const noexcept {
     return first_ns ? Sum{*last_ns} - Sum{*first_ns} + back_sum_ns : 0;  // >= 0: the wrap of Sum cancels
   }
@@ -144,11 +135,6 @@ struct FrameFacts {
   Reason reason = Reason::ok;  ///< ok: it decoded, as `name`
   const char* name = nullptr;  ///< saul::name_of() of the decoded message
 };
-
-/// A frame's FrameFacts, worked out (its stuff bits and its decode).
-FrameFacts facts_of(const CanFrame& frame);
-/// The same with its stuff bits already counted (`stuff`: can_stuff_bits(), 0 for an error frame).
-FrameFacts facts_of(const CanFrame& frame, unsigned stuff);
 
 /// FrameFacts of frames, remembered in a direct-mapped table: a repeated frame (most of a robot bus) costs a
 /// lookup. One per thread.
@@ -251,11 +237,10 @@ class BusStats {
   /// `known`. Cost: a few additions, the lookups only when `known` is stale.
   void add_known(const Content& content, std::string_view interface, std::uint64_t ns, Known& known);
 
-  /// A capture's report lists at most this many ids and interfaces, the first in file order (and 0x300 always):
-  /// a bus has a few dozen ids on one or two interfaces, and a log whose id or interface column is noise (a wrong
-  /// bit rate, a corrupt or hostile file) must not take memory without end (2 M distinct ids took 0.9 GB, 3.4 GB for
-  /// --json). The frames of the others are counted in unlisted_ids() / unlisted_interfaces(), and everywhere else.
-  /// Block statistics list all theirs (their memory is bounded by the block); append() applies the limits.
+  /// A capture's report lists at most this many ids and interfaces, the first in file order (and 0x300 always), so
+  /// that a log whose id or interface column is noise (a wrong bit rate, a hostile file) cannot take memory without
+  /// end. The others' frames are counted in unlisted_ids() / unlisted_interfaces(), and everywhere else. Block
+  /// statistics list all theirs (bounded by the block); append() applies the limits.
   static constexpr std::size_t kMaxIds = 4096;
   static constexpr std::size_t kMaxInterfaces = 256;
   /// The frames of the ids, or interfaces, beyond the listed ones.
@@ -338,12 +323,11 @@ class BusStats {
 };
 
 /// Adds every frame of `reader` (opened from `path` by open_capture; `compressed`: gzip or zstd) to `stats` through
-/// the one read path (capture/read_path.hpp): a large candump, pcap or pcapng file, and a candump log that cannot be
-/// cut up front (compressed, a pipe), in blocks counted on options.threads threads into BusStats(options, Block{})
-/// and appended in file order, so the figures are one thread's; else batch by batch, read ahead on a second thread
-/// from options.parallel_from bytes on. Corrupt records go to add_corrupt() and on_corrupt(error) in file order;
-/// on_progress(records, bytes) says how far it got. also(frame), when given, sees every frame in file order on this
-/// thread, after its stats.add() (no blocks then). `reader` may be given up for the file's text.
+/// the one read path (capture/read_path.hpp): in blocks counted on options.threads threads and appended in file
+/// order (the figures are one thread's), or batch by batch. Corrupt records go to add_corrupt() and
+/// on_corrupt(error) in file order; on_progress(records, bytes) says how far it got. also(frame), when given, sees
+/// every frame in file order on this thread, after its stats.add() (no blocks then). `reader` may be given up for
+/// the file's text.
 void add_capture(BusStats& stats, const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
                  const ReadOptions& options, const std::function<void(const CaptureError&)>& on_corrupt,
                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,

@@ -10,7 +10,6 @@
 
 #include <array>
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -57,8 +56,8 @@ struct DecodeCounts {
 /// The CSV header line of DecodeFormat::csv (with newline).
 inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended,remote,dlc,data,message,fields\n";
 
-/// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma or a quote.
-std::string csv_quote(const std::string& s);
+/// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma, a quote or a line break.
+std::string csv_quote(std::string_view s);
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
@@ -71,7 +70,7 @@ class FrameEmitter {
   /// Appends the frame's line and its newline to `out` and counts how it decoded.
   void add(const CanFrame& frame, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts);
   /// The first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
-  void set_first(std::uint64_t ns) noexcept { first_ = ns; }
+  void set_first(std::uint64_t ns) noexcept { time_.note(ns); }
   /// Error frames with what they report (sniff's lines), not only "!error_frame" (decode's).
   void show_error_detail() noexcept { error_detail_ = true; }
 
@@ -84,26 +83,14 @@ class FrameEmitter {
     std::string text;
     std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
-  /// The time column's text written at `w` (room for kTimeColumnMax characters); returns its end.
-  char* time_chars(std::uint64_t ns, char* w, bool parens);
-  static constexpr std::size_t kTimeColumnMax = 30;  // "(" "-" 20 digits "." 6 digits ")"
-  /// timestamp_ns's digits at `w` (room for kTimeColumnMax characters); returns their end.
-  char* stamp_chars(std::uint64_t ns, char* w);
-  /// The line's text of the frame's content before the split (room for 2 * kTimeColumnMax + 6 * detail + 256).
+  /// The line's text of the frame's content before the split (room for 2 * TimeColumn::kMaxChars + 6 * detail +
+  /// 256).
   char* head_chars(char* w, const CanFrame& frame, Reason reason, const std::string& detail);
   /// The message of a frame that decoded, after the split (room for 2 * message_chars_max(message) + 16).
   char* message_chars(char* w, const signals::MessageDesc& message, const CanFrame& frame);
 
   DecodeFormat format_;
-  TimeMode time_;
-  std::optional<std::uint64_t> first_, previous_;
-  bool seconds_valid_ = false;
-  std::uint64_t seconds_ = 0;
-  bool seconds_negative_ = false;
-  std::string seconds_text_;
-  bool stamp_valid_ = false;
-  std::uint64_t stamp_seconds_ = 0;
-  std::string stamp_text_;
+  TimeColumn time_;
   std::vector<Entry> cache_;
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
   bool error_detail_ = false;

@@ -21,6 +21,9 @@ class TimeColumn {
  public:
   explicit TimeColumn(TimeMode mode) : mode_(mode) {}
   std::string operator()(std::uint64_t ns);
+  /// The same written at `w` (room for kMaxChars characters), with or without the parentheses; returns its end.
+  char* write(char* w, std::uint64_t ns, bool parens = true);
+  static constexpr std::size_t kMaxChars = 30;  // "(" "-" 20 digits "." 6 digits ")"
   /// Counts a stamp written elsewhere (the FrameEmitter's lines) as the first or previous one, without text.
   void note(std::uint64_t ns) {
     if (!first_) first_ = ns;
@@ -33,6 +36,9 @@ class TimeColumn {
   TimeMode mode_;
   std::optional<std::uint64_t> first_;
   std::optional<std::uint64_t> previous_;
+  std::optional<std::uint64_t> seconds_;  // the seconds in seconds_text_ ("1763800000." or "  -0."), and their sign
+  bool seconds_negative_ = false;
+  std::string seconds_text_;
 };
 
 /// "velocity_cmd speed_mmps=1000 steer_mrad=-500", or "!wrong_dlc" / "!unknown_id" when it does not decode,

@@ -16,9 +16,7 @@
 
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace saul::host {
@@ -49,9 +47,6 @@ class PlotBinner {
   std::optional<double> min_, max_;
 };
 
-/// 1-2-5 tick positions covering [lo, hi] with about `target` ticks.
-std::vector<double> nice_ticks(double lo, double hi, int target = 6);
-
 /// One line of a panel.
 struct PlotSeries {
   std::string label;  ///< legend text; a panel with one unlabelled series draws no legend
@@ -59,10 +54,6 @@ struct PlotSeries {
 };
 
 struct PlotPanel {
-  PlotPanel() = default;
-  /// A panel of one series.
-  PlotPanel(std::string panel_title, PlotBinner binner, std::string label = {})
-      : title(std::move(panel_title)), series{PlotSeries{std::move(label), std::move(binner)}} {}
   std::string title;  ///< e.g. "0x400: pitch_x100", "pitch [deg]"
   std::vector<PlotSeries> series;
   /// Points of all series.
@@ -105,7 +96,7 @@ inline constexpr std::size_t kInteractiveColumns = 8192;
 inline constexpr std::size_t kStaticColumns = 3000;
 
 /// Seconds since 1970 of the plot's time 0, from the capture timestamp in the title ("from 1763800000.500900",
-/// as format_timestamp writes it); nullopt when the title has none (a capture without timestamps).
+/// as telemetry_plot writes it); nullopt when the title has none (a capture without timestamps).
 std::optional<double> start_time_in_title(const std::string& title);
 /// "2025-11-22 08:26:40.500 UTC".
 std::string human_time(double epoch_s);
@@ -118,14 +109,9 @@ struct DygraphsAssets {
   std::string style;         ///< dygraph.min.css
   std::string synchronizer;  ///< extras/synchronizer.js (panels zoom together)
 };
-/// Reads them from Debian's libjs-dygraphs (`dir`). Throws PlotOutputError naming the package when absent.
+/// Reads them from Debian's libjs-dygraphs (`dir`). Throws std::runtime_error naming the package when absent (a
+/// plot that cannot be written: the message ends with what to do).
 DygraphsAssets load_dygraphs(const std::string& dir = "/usr/share/javascript/dygraphs");
-
-/// A plot that cannot be written: a missing package, gnuplot failing. The message ends with what to do.
-class PlotOutputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 /// One HTML page holding everything itself (scripts and data inline, nothing fetched): a dygraphs chart per
 /// panel at the window's full width, zoom (drag) and pan (shift-drag) shared by all panels, double-click to zoom
@@ -139,7 +125,7 @@ std::string render_html(const PlotDocument& document, const DygraphsAssets& dygr
 /// data inline ($panelN datablocks), one plot per panel stacked (multiplot), markers as dashed vertical arrows with
 /// labels, series told apart by colour, dash pattern and width.
 std::string gnuplot_script(const PlotDocument& document, const std::string& format, const std::string& output);
-/// Runs gnuplot on gnuplot_script. Throws PlotOutputError (gnuplot missing, or failing with its message).
+/// Runs gnuplot on gnuplot_script. Throws std::runtime_error (gnuplot missing, or failing with its message).
 void render_static(const PlotDocument& document, const std::string& format, const std::string& output);
 
 }  // namespace saul::host

@@ -122,14 +122,12 @@ std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept;
 /// its decode errors; nullopt when none does. For captures that do not say (logic-analyser exports).
 std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t> bytes);
 
-/// Decodes every link of a capture, one SerialStreamDecoder per link, created as links appear (memory grows with
-/// the number of links only). A link whose chunks say raw gets `fallback` when given; else its protocol is
-/// guessed from its first guess_bytes bytes, which are held back until then (or until finish()).
-/// Every message comes with the chunk its frame's last byte came in (its time and link), however late the frame
-/// is found. When a link has been quiet for longer than idle_gap_ns() before a chunk (the gap between the chunks'
-/// times less the new chunk's own time on the wire), an unfinished candidate that hides frames behind it is given
-/// up first (SerialStreamDecoder::abandon), so those frames come out at once; a candidate that hides none is
-/// kept, since it may be a real frame that a USB adapter delivered in two reads.
+/// Decodes every link of a capture, one SerialStreamDecoder per link, created as links appear. A link whose chunks
+/// say raw gets `fallback` when given; else its protocol is guessed from its first guess_bytes bytes, held back
+/// until then (or until finish()). Every message comes with the chunk its frame's last byte came in, however late
+/// the frame is found. When a link was quiet for longer than idle_gap_ns() before a chunk (less the chunk's own
+/// time on the wire), an unfinished candidate that hides frames behind it is given up first (abandon()), so those
+/// frames come out at once; one that hides none is kept: a USB adapter may deliver a real frame in two reads.
 class SerialCaptureDecoder {
  public:
   /// A message, with the chunk that completed it (its time and link) and the link's protocol.
@@ -150,9 +148,8 @@ class SerialCaptureDecoder {
   };
   /// Every link, in order of first appearance.
   [[nodiscard]] std::vector<Link> links() const;
-  /// Links decoded at most: a bench has a few, and a capture whose link column is noise (a corrupt or hostile file)
-  /// must not take a decoder's memory per name (300 000 names took 1 GB and 344 s, a linear search per chunk). The
-  /// chunks of the links after the first kMaxLinks are counted in unlisted(), not decoded.
+  /// Links decoded at most: a bench has a few, and a capture whose link column is noise (a hostile file) must not
+  /// take a decoder's memory per name. The chunks of the links after the first kMaxLinks are counted in unlisted().
   static constexpr std::size_t kMaxLinks = 64;
   struct Unlisted {
     std::uint64_t chunks = 0;

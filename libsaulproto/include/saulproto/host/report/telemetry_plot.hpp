@@ -97,11 +97,6 @@ std::string change_label(const StateChange& change);
 /// For the table: "OFF -> BALANCE", "BALANCE (first seen)", "none -> rc_loss+orin_timeout".
 std::string change_detail(const StateChange& change);
 
-/// The robot state a message reports, if it is one that does.
-std::optional<unsigned> robot_state_of(const PlotMessage& m);
-/// The fault bits a message reports, if it is one that does.
-std::optional<unsigned> fault_bits_of(const PlotMessage& m);
-
 /// Follows state and fault values through a capture and keeps the first `keep` changes; counts all of them.
 class ChangeTracker {
  public:
@@ -197,8 +192,5 @@ class TelemetryPlotter {
   std::optional<std::uint64_t> min_index_, max_index_;    // the same by message number
   std::optional<std::uint64_t> first_point_ns_, last_point_ns_;
 };
-
-/// "1763800000.500900": a capture timestamp as candump writes it.
-std::string format_timestamp(std::uint64_t ns);
 
 }  // namespace saul::host
