@@ -29,6 +29,7 @@
 #include "../util.hpp"
 #include "capture_io.hpp"
 #include "read_path.hpp"
+#include "text_fields.hpp"
 
 namespace saul::host {
 namespace {
@@ -227,21 +228,14 @@ std::span<const std::uint8_t> head_bytes(const std::string& s) {
 
 /// A line of candump's default output (no -L): "  can0  400   [7]  96 00 ..." (with -t, a "(time)" first).
 bool looks_like_candump_default(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t pos = 0;
-  while (words.size() < 4) {
-    while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
-    if (pos >= line.size()) break;
-    const std::size_t end = std::min(line.find_first_of(" \t", pos), line.size());
-    words.push_back(line.substr(pos, end - pos));
-    pos = end;
-  }
-  if (!words.empty() && words[0].starts_with('(')) words.erase(words.begin());
+  std::vector<std::pair<std::size_t, std::string_view>> words;
+  detail::split_tokens(line, words);
+  if (!words.empty() && words[0].second.starts_with('(')) words.erase(words.begin());
   if (words.size() < 3) return false;
   const auto hex = [](std::string_view w) {
     return !w.empty() && w.find_first_not_of("0123456789abcdefABCDEF") == std::string_view::npos;
   };
-  const std::string_view id = words[1], dlc = words[2];
+  const std::string_view id = words[1].second, dlc = words[2].second;
   return (id.size() == 3 || id.size() == 8) && hex(id) && dlc.size() >= 3 && dlc.front() == '[' &&
          dlc.back() == ']' && is_digit(dlc[1]);
 }
