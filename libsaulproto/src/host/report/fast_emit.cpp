@@ -12,8 +12,6 @@
 namespace saul::host {
 namespace {
 
-enum Outcome : std::uint8_t { kDecoded, kUnknown, kRejected, kErrorFrame };
-
 constexpr char kHex[] = "0123456789ABCDEF";
 
 
@@ -148,18 +146,9 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   Result<DecodedName> result = Reason::ok;
   if (!hit) {
     result = decode_bus_name(f);
-    e.outcome = result ? kDecoded
-                : result.reason() == Reason::unknown_id  ? kUnknown
-                : result.reason() == Reason::error_frame ? kErrorFrame
-                                                         : kRejected;
+    e.reason = result ? Reason::ok : result.reason();
   }
-  ++counts.frames;
-  switch (e.outcome) {
-    case kDecoded: ++counts.decoded; break;
-    case kUnknown: ++counts.unknown; break;
-    case kErrorFrame: ++counts.errors; break;
-    default: ++counts.rejected; break;
-  }
+  counts.count(e.reason);
   const bool text = format_ == DecodeFormat::text;
   const bool json = format_ == DecodeFormat::jsonl;
   if (text && interface.empty()) interface = "can0";

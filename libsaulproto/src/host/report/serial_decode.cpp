@@ -209,14 +209,16 @@ void SerialStreamDecoder::finish(const Callback& on_message) {
 
 SerialDecodeCounters SerialStreamDecoder::counters() const {
   SerialDecodeCounters c = extra_;
+  auto framing = [&c](const auto& k) {  // interboard and CRSF count the same framing errors
+    c.frames = k.frames;
+    c.crc_errors = k.crc_errors;
+    c.length_errors = k.length_errors;
+    c.unknown_types = k.unknown_types;
+  };
   std::visit(detail::Overload{[](const std::monostate&) {},
                       [&](const interboard::StreamDecoder& d) {
-                        const auto& k = d.counters();
-                        c.frames = k.frames;
-                        c.crc_errors = k.crc_errors;
-                        c.length_errors = k.length_errors;
-                        c.unknown_types = k.unknown_types;
-                        c.bytes_skipped = k.bytes_skipped - skip_adjust_;
+                        framing(d.counters());
+                        c.bytes_skipped = d.counters().bytes_skipped - skip_adjust_;
                       },
                       [&](const pride::StreamDecoder& d) {
                         const auto& k = d.counters();
@@ -226,13 +228,9 @@ SerialDecodeCounters SerialStreamDecoder::counters() const {
                         c.bytes_skipped = k.bytes_skipped - skip_adjust_;
                       },
                       [&](const crsf::StreamDecoder& d) {
-                        const auto& k = d.counters();
-                        c.frames = k.frames;
-                        c.crc_errors = k.crc_errors;
-                        c.length_errors = k.length_errors;
-                        c.unknown_types = k.unknown_types;
-                        c.bytes_skipped = k.bytes_skipped;
-                        c.incomplete = k.incomplete;
+                        framing(d.counters());
+                        c.bytes_skipped = d.counters().bytes_skipped;
+                        c.incomplete = d.counters().incomplete;
                       }},
              decoder_);
   return c;

@@ -38,19 +38,20 @@ struct DecodeCounts {
     errors += o.errors;
     return *this;
   }
-  /// One frame's decode counted: decoded, unknown id, error frame, or rejected (any other reason).
-  void count(const Result<BusMessage>& result) noexcept {
+  /// One frame's decode counted: decoded (ok), unknown id, error frame, or rejected (any other reason).
+  void count(Reason reason) noexcept {
     ++frames;
-    if (result) {
+    if (reason == Reason::ok) {
       ++decoded;
-    } else if (result.reason() == Reason::unknown_id) {
+    } else if (reason == Reason::unknown_id) {
       ++unknown;
-    } else if (result.reason() == Reason::error_frame) {
+    } else if (reason == Reason::error_frame) {
       ++errors;
     } else {
       ++rejected;
     }
   }
+  void count(const Result<BusMessage>& result) noexcept { count(result ? Reason::ok : result.reason()); }
 };
 
 /// The CSV header line of DecodeFormat::csv (with newline).
@@ -79,7 +80,7 @@ class FrameEmitter {
     std::uint64_t k1 = 0;
     std::uint64_t k2 = 0;
     bool used = false;
-    std::uint8_t outcome = 0;
+    Reason reason = Reason::ok;  // of the decode
     std::string text;
     std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
