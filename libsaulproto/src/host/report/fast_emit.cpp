@@ -45,18 +45,6 @@ std::string_view bool_text(bool b) { return b ? "true" : "false"; }
 
 }  // namespace
 
-std::string csv_quote(std::string_view s) {
-  bool plain = true;
-  for (char c : s) plain = plain && c != ',' && c != '"' && c != '\n';  // (find_first_of: a memchr per character)
-  if (plain) return std::string(s);
-  std::string q = "\"";
-  for (char c : s) {
-    if (c == '"') q += '"';
-    q += c;
-  }
-  return q + '"';
-}
-
 FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
 FrameEmitter::~FrameEmitter() = default;
 

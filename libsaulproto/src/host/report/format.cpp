@@ -126,6 +126,18 @@ char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, 
 
 std::string raw_key(const signals::SignalDesc& s) { return std::string(s.name) + "_raw"; }
 
+std::string csv_quote(std::string_view s) {
+  bool plain = true;
+  for (char c : s) plain = plain && c != ',' && c != '"' && c != '\n';  // (find_first_of: a memchr per character)
+  if (plain) return std::string(s);
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + '"';
+}
+
 std::string c_literal(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {

@@ -1,6 +1,6 @@
 #include "saulproto/host/report/signal_rows.hpp"
 
-#include "saulproto/host/report/fast_emit.hpp"  // csv_quote
+#include "saulproto/host/report/format.hpp"  // csv_quote
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>

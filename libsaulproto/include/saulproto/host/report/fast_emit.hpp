@@ -57,9 +57,6 @@ struct DecodeCounts {
 /// The CSV header line of DecodeFormat::csv (with newline).
 inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended,remote,dlc,data,message,fields\n";
 
-/// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma, a quote or a line break.
-std::string csv_quote(std::string_view s);
-
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
  public:

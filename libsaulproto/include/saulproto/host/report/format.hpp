@@ -73,6 +73,8 @@ inline char* put_chars(char* w, std::string_view s) {
 /// `s` as a C string literal, as DBC, Lua and gnuplot read it: in double quotes, '"' and '\\' escaped with a
 /// backslash, a line break as "\\n".
 std::string c_literal(std::string_view s);
+/// A CSV field: as it is, or in double quotes (inner quotes doubled) when it holds a comma, a quote or a line break.
+std::string csv_quote(std::string_view s);
 
 /// `s` as a JSON string with its quotes, as nlohmann's dump() writes it (bytes that are not UTF-8 as U+FFFD).
 void append_json_string(std::string& out, std::string_view s);
