@@ -101,9 +101,18 @@ void timing(const Series& s, Report& r, std::vector<Segment>& segments) {
   const double median = quantile(periods, 0.5);
   const double period = median * (SAUL_TUNE_MUTANT == 1 ? 1.1 : 1.0);
   r.sample_rate_hz = 1.0 / period;
-  r.period_p50_us = median * 1e6;
-  r.period_p99_us = quantile(periods, 0.99) * 1e6;
-  r.period_max_us = *std::max_element(periods.begin(), periods.end()) * 1e6;
+  // A trace of every N-th iteration (`trace on N`, tune record --divider) steps its loop counter by N: the loop's
+  // period is the record's over N, and a counter step of N loses nothing.
+  if (!s.seq.empty()) {
+    std::vector<double> steps;
+    for (std::size_t i = 1; i < s.seq.size(); ++i)
+      if (s.seq[i] > s.seq[i - 1]) steps.push_back(s.seq[i] - s.seq[i - 1]);
+    if (!steps.empty()) r.loop_divider = static_cast<std::uint64_t>(std::max<long long>(1, std::llround(quantile(steps, 0.5))));
+  }
+  const double per_iteration = 1e6 / static_cast<double>(r.loop_divider);
+  r.period_p50_us = median * per_iteration;
+  r.period_p99_us = quantile(periods, 0.99) * per_iteration;
+  r.period_max_us = *std::max_element(periods.begin(), periods.end()) * per_iteration;
   std::size_t begin = 0;
   for (std::size_t i = 0; i < dt.size(); ++i) {
     if (dt[i] <= 1.5 * period) continue;  // one iteration late is jitter; a missing one is a gap
@@ -118,8 +127,10 @@ void timing(const Series& s, Report& r, std::vector<Segment>& segments) {
   segments.push_back({begin, s.size()});
   if (!s.seq.empty()) {
     std::uint64_t missing = 0;
+    const auto n = static_cast<double>(r.loop_divider);
     for (std::size_t i = 1; i < s.seq.size(); ++i)  // a counter going back (a restart, a wrap) is no loss
-      if (s.seq[i] > s.seq[i - 1] + 1) missing += static_cast<std::uint64_t>(s.seq[i] - s.seq[i - 1] - 1);
+      if (s.seq[i] > s.seq[i - 1] + n)
+        missing += static_cast<std::uint64_t>(std::max<long long>(1, std::llround((s.seq[i] - s.seq[i - 1]) / n) - 1));
     r.seq_missing = missing;
   }
 }

@@ -109,11 +109,13 @@ struct Report {
   std::uint64_t records = 0;
   double duration_s = 0;
   double sample_rate_hz = 0;      ///< 1 / the median period
-  // Loop timing (the time column's steps)
+  /// Loop iterations per record: the seq column's median step (a trace of every N-th loop), 1 without seq.
+  std::uint64_t loop_divider = 1;
+  // Loop timing: the time column's steps over loop_divider (the loop's own period, averaged over N iterations)
   double period_p50_us = 0, period_p99_us = 0, period_max_us = 0;
-  std::uint64_t missed_iterations = 0;  ///< by the time column: periods missing in the gaps
-  /// By the loop's counter (a seq column): iterations absent from the trace (dropped by it, or rows left out as
-  /// bad). Missed by time but not by seq: the loop itself ran late.
+  std::uint64_t missed_iterations = 0;  ///< by the time column: periods missing in the gaps (records, at a divider)
+  /// By the loop's counter (a seq column): records absent from the trace (dropped by it, or rows left out as
+  /// bad; at a divider of N, a counter step of 2N is one). Missed by time but not by seq: the loop itself ran late.
   std::optional<std::uint64_t> seq_missing;
   std::uint64_t gaps_total = 0;
   std::vector<Gap> gaps;          ///< the first few
