@@ -2,7 +2,7 @@
 # The main job on a machine with no robot: sets up, builds saulctl, starts the simulated SAUL-TEE (both boards'
 # firmware on a physics model, exposed as a CANable2 on a pseudo-terminal), raises its speed cap to 50 % and arms it
 # with the virtual button, puts it in balance mode and shows it balancing in `saulctl monitor`; then the tuning
-# instrument: 10 s of the balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on
+# instrument: 20 s of the balance loop at 1 kHz with a 1-degree chirp on its setpoint (`saulctl tune record` on
 # BALANCE's console) and what it says about the gains (`saulctl tune report`: step response, oscillation,
 # saturation; build/demo-tune.html).
 #   scripts/demo.sh                 20 s of live telemetry (SAUL_DEMO_SECONDS to change)
@@ -38,5 +38,6 @@ sleep 3.2
 echo "button up" >"$control"
 "$saulctl" mode balance --yes --link "slcan:$can"
 "$saulctl" monitor --link "slcan:$can" --duration "${SAUL_DEMO_SECONDS:-20}s"
-"$saulctl" tune record --console-balance "$balance" --duration 10s --excite chirp --amplitude 1 -o build/demo.trace
+# 20 s: the step response's 8 s windows want 20 s or more (10 s gives 5 windows and rough figures: docs/tuning.md).
+"$saulctl" tune record --console-balance "$balance" --duration 20s --excite chirp --amplitude 1 -o build/demo.trace
 "$saulctl" tune report build/demo.trace -o build/demo-tune.html

@@ -44,8 +44,9 @@ std::string gains_text(const Gains& g) {
 /// "ok" or "CHECK (why)".
 std::string verdict(bool healthy, const std::string& why) { return healthy ? "ok" : "CHECK: " + why; }
 
-std::string settling_text(const StepFigures& f) {
-  return f.settling_time_s ? fmt::format("{:.3f}", *f.settling_time_s) : std::string("never");
+/// The settling time in s, or "unsettled": still outside the 5 % band in the response's last fifth (null in JSON).
+std::string settling_text(const StepFigures& f, std::string_view unit = "") {
+  return f.settling_time_s ? fmt::format("{:.3f}{}", *f.settling_time_s, unit) : std::string("unsettled");
 }
 
 /// The steady error's line, by its sign (docs/tuning.md, "The steady error"). Short of the setpoint (positive): the
@@ -81,8 +82,8 @@ void step_text(std::string& out, const StepFigures& f, const Health& h) {
                      f.overshoot_pct,
                      verdict(f.overshoot_pct <= h.overshoot_pct,
                              fmt::format("above {:g} %: the loop rings (less Kp, more Kd)", h.overshoot_pct)));
-  out += fmt::format("  settling      {:>8} s   until pitch stays within 5 % of the final value  {}\n",
-                     settling_text(f),
+  out += fmt::format("  settling    {:>10}   until pitch stays within 5 % of the final value  {}\n",
+                     settling_text(f, " s"),
                      verdict(settles, fmt::format("slower than {:g} s: the robot sways after a push", h.settling_s)));
   steady_text(out, f, h);
   out += fmt::format("  delay         {:>8.3f} s   to half of the final value\n", f.delay_s);
