@@ -8,6 +8,7 @@ import json
 import math
 import os
 import shutil
+import re
 import subprocess
 import sys
 import tempfile
@@ -90,6 +91,17 @@ for zeta, fn in [(0.4, 4.0), (0.5, 3.0), (0.6, 2.5)]:
             rel = float(np.max(np.abs(cpp - ref) / np.maximum(ref, 1e-12 * ref.max())))
             check(f"{name}: scipy.signal.welch of rate_dps: the same density to 1e-6 (max relative diff {rel:.1e})",
                   j["spectra"][0]["signal"] == "rate_dps" and rel <= 1e-6)
+
+# A loop that rings beyond the 1.5 s response (zeta 0.05 at 2 Hz: its envelope exp(-zeta wn t) is still 0.4 at
+# 1.5 s): settling null in JSON, "unsettled" in the text (it printed "never s").
+ringing = written("ringing.csv", traces.trace(0.05, 2.0, "prbs", seconds=60, seed=5))
+code, j, err = report(ringing)
+text = subprocess.run([SAULCTL, "tune", "report", ringing], capture_output=True, text=True).stdout
+settling_line = next((line for line in text.splitlines() if line.startswith("  settling")), None)
+check("a loop ringing past 1.5 s: settling null, the text says unsettled",
+      j is not None and j["step"] is not None and j["step"]["settling_time_s"] is None
+      and re.match(r"  settling +unsettled +until pitch stays", settling_line or "") is not None,
+      (((j or {}).get("step") or {}).get("settling_time_s", err) if j else err, settling_line))
 
 # (b) an oscillation planted in the rate (a sinusoid off the bins) is found within +-0.5 Hz, as scipy finds it
 for hz in [7.3, 17.3, 41.7]:
