@@ -18,6 +18,11 @@ Read any capture file saulctl reads, in batches decoded in C++::
 
 Decode serial links live: ``saulproto.StreamDecoder("interboard" | "crsf" | "pride").push(data)``.
 
+Measure the balance loop's tuning from a loop trace, a CSV or a CAN capture (``saulctl tune report --json``'s
+figures: step response, spectra, oscillation, saturation, loop timing; docs/tuning.md)::
+
+    saulproto.tune_report("run.trace")["step"]["overshoot_pct"]
+
 Fields come from the messages' signal descriptions (libsaulproto core/signals*.hpp): a wire integer with a scale
 becomes its physical value under the signal's name (``pitch_x100`` -250 -> ``pitch`` -2.5 deg, ``battery_mv`` ->
 ``battery`` in V, ``tilt_limit_x100`` -> ``tilt_limit`` in deg); every other field keeps the name and value
@@ -30,7 +35,7 @@ from . import _saulproto
 
 __all__ = [
     "decode", "encode_velocity", "encode_mode", "encode_pid_set", "encode_config", "read_capture", "messages",
-    "load", "Batch", "StreamDecoder", "units",
+    "load", "Batch", "StreamDecoder", "units", "tune_report",
 ]
 
 units = _saulproto.units
@@ -158,3 +163,12 @@ def load(path, **options):
             total["rejected"][reason] = total["rejected"].get(reason, 0) + n
         total["corrupt_records"].extend(b.corrupt_records)
     return Batch(total)
+
+
+def tune_report(path):
+    """The balance loop's tuning figures from a loop trace (``saulctl tune record``), a CSV with time_s,
+    setpoint_deg and pitch_deg columns, or a CAN capture (its 10 Hz telemetry): the dict ``saulctl tune report
+    --json`` prints (docs/tuning.md lists its keys). Raises ValueError naming the file and why when it cannot be
+    analysed at all; rows or records left out are listed under 'problems'."""
+    import json
+    return json.loads(_saulproto.tune_report_json(str(path)))

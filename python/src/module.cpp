@@ -1,6 +1,6 @@
 // _saulproto: the C++ half of the Python package saulproto (python/saulproto/__init__.py is the other half and the
 // documented interface). One frame decoded into a dict, the Orin's commands encoded into (id, bytes), and the
-// batch reader and stream decoders bound in captures.cpp and streams.cpp.
+// batch reader, stream decoders and tuning report bound in captures.cpp, streams.cpp and tune.cpp.
 #include <pybind11/stl.h>
 
 #include <cmath>
@@ -18,6 +18,7 @@ namespace saulpy {
 
 void bind_captures(py::module_& m);
 void bind_streams(py::module_& m);
+void bind_tune(py::module_& m);
 
 namespace {
 
@@ -130,4 +131,5 @@ PYBIND11_MODULE(_saulproto, m) {
         "{field: unit} of a message type as decode() and read_capture() name its fields ('' for none).");
   bind_captures(m);
   bind_streams(m);
+  bind_tune(m);
 }
