@@ -107,7 +107,8 @@ void timing(const Series& s, Report& r, std::vector<Segment>& segments) {
     std::vector<double> steps;
     for (std::size_t i = 1; i < s.seq.size(); ++i)
       if (s.seq[i] > s.seq[i - 1]) steps.push_back(s.seq[i] - s.seq[i - 1]);
-    if (!steps.empty()) r.loop_divider = static_cast<std::uint64_t>(std::max<long long>(1, std::llround(quantile(steps, 0.5))));
+    if (!steps.empty())
+      r.loop_divider = static_cast<std::uint64_t>(std::max<long long>(1, std::llround(quantile(steps, 0.5))));
   }
   const double per_iteration = 1e6 / static_cast<double>(r.loop_divider);
   r.period_p50_us = median * per_iteration;

@@ -182,14 +182,16 @@ std::string to_text(const Report& r, const Health& h) {
   const bool telemetry = r.source == SeriesSource::telemetry;
   out += fmt::format("{}: {} records over {:.3f} s at {:.4g} Hz ({}{}), {}\n", r.name, r.records, r.duration_s,
                      r.sample_rate_hz, telemetry ? "CAN telemetry 0x400" : "loop trace",
-                     r.loop_divider > 1 ? fmt::format(", every {}th iteration", r.loop_divider) : "", gains_text(r.gains));
+                     r.loop_divider > 1 ? fmt::format(", a record every {} iterations", r.loop_divider) : "",
+                     gains_text(r.gains));
   out += fmt::format("loop period   p50 {:.0f} us, p99 {:.0f} us, max {:.0f} us; {} gaps, {} iterations missed  {}\n",
                      r.period_p50_us, r.period_p99_us, r.period_max_us, r.gaps_total, r.missed_iterations,
                      telemetry ? std::string("(telemetry: the bus's timing, not the loop's)")
                                : verdict(r.gaps_total == 0 && r.period_p99_us <= h.period_p99_us,
                                          "the loop runs late or the trace lost records"));
   if (r.seq_missing)
-    out += fmt::format("loop counter  {} {} missing by seq{}\n", *r.seq_missing, r.loop_divider > 1 ? "records" : "iterations",
+    out += fmt::format("loop counter  {} {} missing by seq{}\n", *r.seq_missing,
+                       r.loop_divider > 1 ? "records" : "iterations",
                        *r.seq_missing < r.missed_iterations ? ": the rest of the missed ones, the loop ran late" : "");
   for (std::size_t k = 0; k < std::min<std::size_t>(r.gaps.size(), 5); ++k)
     out += fmt::format("  gap at {:.3f} s (line {}): {:.1f} ms, {} missing\n", r.gaps[k].at_s, r.gaps[k].line,
