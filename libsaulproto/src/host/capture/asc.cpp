@@ -119,14 +119,7 @@ AscReader::Status AscReader::next() {
     ++line_number_;
     std::string_view line = line_;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    switch (parse_line(line)) {
-      case Step::frame:
-        return Status::frame;
-      case Step::corrupt:
-        return Status::corrupt;
-      case Step::skipped:
-        break;
-    }
+    if (const Step step = parse_line(line); step != Step::skipped) return status(step);
   }
   return Status::end;
 }

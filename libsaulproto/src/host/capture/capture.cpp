@@ -36,8 +36,6 @@ namespace {
 
 constexpr std::size_t kHeadBytes = 4096;
 
-
-
 /// Serves the bytes already read for format detection, then the rest of the file: detection never seeks, so
 /// pipes and process substitutions work.
 class ReplayBuf final : public std::streambuf {
@@ -576,62 +574,43 @@ std::string format_capture_error(std::string_view path, const CaptureError& erro
   return fmt::format("{}: byte {}: {} ({})", path, error.position, error.message, after);
 }
 
+namespace {
+
+template <class Reader>
+std::unique_ptr<CaptureReader> make_reader(std::istream& in) {
+  return std::make_unique<Reader>(in);
+}
+template <class Writer>
+std::unique_ptr<CaptureWriter> make_writer(std::ostream& out) {
+  return std::make_unique<Writer>(out);
+}
+/// The CAN formats' readers and writers, by CaptureFormat (the serial formats come after them).
+constexpr std::pair<std::unique_ptr<CaptureReader> (*)(std::istream&), std::unique_ptr<CaptureWriter> (*)(std::ostream&)>
+    kFactories[] = {
+        {make_reader<CandumpReader>, make_writer<CandumpWriter>},
+        {make_reader<PcapReader>, make_writer<PcapWriter>},
+        {make_reader<PcapngReader>, make_writer<PcapngWriter>},
+        {make_reader<AscReader>, make_writer<AscWriter>},
+        {make_reader<BlfReader>, make_writer<BlfWriter>},
+        {make_reader<TrcReader>, make_writer<TrcWriter>},
+        {make_reader<CsvLogReader>, make_writer<CsvLogWriter>},
+        {make_reader<GvretCsvReader>, make_writer<GvretCsvWriter>},
+        {make_reader<McapFrameReader>, make_writer<McapCaptureWriter>},
+};
+static_assert(std::size(kFactories) == static_cast<std::size_t>(CaptureFormat::serial));
+
+}  // namespace
+
 std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format) {
-  switch (format) {
-    case CaptureFormat::candump:
-      return std::make_unique<CandumpReader>(in);
-    case CaptureFormat::pcap:
-      return std::make_unique<PcapReader>(in);
-    case CaptureFormat::pcapng:
-      return std::make_unique<PcapngReader>(in);
-    case CaptureFormat::asc:
-      return std::make_unique<AscReader>(in);
-    case CaptureFormat::blf:
-      return std::make_unique<BlfReader>(in);
-    case CaptureFormat::trc:
-      return std::make_unique<TrcReader>(in);
-    case CaptureFormat::csv:
-      return std::make_unique<CsvLogReader>(in);
-    case CaptureFormat::gvret_csv:
-      return std::make_unique<GvretCsvReader>(in);
-    case CaptureFormat::mcap:
-      return std::make_unique<McapFrameReader>(in);
-    case CaptureFormat::serial:
-    case CaptureFormat::sigrok:
-    case CaptureFormat::sigrok_json:
-    case CaptureFormat::pulseview_csv:
-      throw CaptureOpenError(fmt::format("this is a {} file of serial bytes, not CAN frames", to_string(format)));
-  }
-  throw std::invalid_argument("unknown capture format");
+  if (holds_serial_bytes(format))
+    throw CaptureOpenError(fmt::format("this is a {} file of serial bytes, not CAN frames", to_string(format)));
+  return kFactories[static_cast<std::size_t>(format)].first(in);
 }
 
 std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFormat format) {
-  switch (format) {
-    case CaptureFormat::candump:
-      return std::make_unique<CandumpWriter>(out);
-    case CaptureFormat::pcap:
-      return std::make_unique<PcapWriter>(out);
-    case CaptureFormat::pcapng:
-      return std::make_unique<PcapngWriter>(out);
-    case CaptureFormat::asc:
-      return std::make_unique<AscWriter>(out);
-    case CaptureFormat::blf:
-      return std::make_unique<BlfWriter>(out);
-    case CaptureFormat::trc:
-      return std::make_unique<TrcWriter>(out);
-    case CaptureFormat::csv:
-      return std::make_unique<CsvLogWriter>(out);
-    case CaptureFormat::gvret_csv:
-      return std::make_unique<GvretCsvWriter>(out);
-    case CaptureFormat::mcap:
-      return std::make_unique<McapCaptureWriter>(out);
-    case CaptureFormat::serial:
-    case CaptureFormat::sigrok:
-    case CaptureFormat::sigrok_json:
-    case CaptureFormat::pulseview_csv:
-      break;
-  }
-  throw std::invalid_argument(fmt::format("{} is not a CAN capture format", to_string(format)));
+  if (holds_serial_bytes(format))
+    throw std::invalid_argument(fmt::format("{} is not a CAN capture format", to_string(format)));
+  return kFactories[static_cast<std::size_t>(format)].second(out);
 }
 
 namespace {
@@ -750,7 +729,7 @@ std::unique_ptr<CaptureWriter> open_capture_writer_made(
   // "convert ... - >> all.log" keeps what was there. Not for BLF, which seeks back to its header at the end: in
   // append mode that header would be written at the end instead (a pipe cannot seek, and BLF then leaves it).
   const bool append = to_stdout && *format != CaptureFormat::blf;
-  file->open(capture_write_name(path), std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc));
+  file->open(to_stdout ? "/dev/stdout" : path.c_str(), std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc));
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
   return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression, make);
 }

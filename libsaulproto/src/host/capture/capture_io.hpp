@@ -1,6 +1,5 @@
 // Private helpers of the capture formats: byte-order loads and stores, reading that counts the offset and skips
-// without seeking (so pipes work), a window for walking headers, closing a writer with its file. Not installed, not
-// part of the API.
+// without seeking (so pipes work), a window for walking headers, closing a writer with its file.
 #pragma once
 
 #include <unistd.h>
@@ -139,19 +138,13 @@ inline std::size_t pread_full(int fd, void* dst, std::size_t n, std::uint64_t at
   return done;
 }
 
-/// A window of a regular file for walking record or block headers with large reads: at(pos, n) gives the n bytes
-/// at file offset pos, nullptr past the end or on a read error. Used to cut files into blocks for several threads;
-/// the block just walked can be lent to the thread that is to read it, so that its bytes are read from the file once.
-///
-/// A walk goes forward: where it runs past the bytes read, the next read starts where the last one ended (and the
-/// bytes from the window's start are kept, so that the block being walked stays whole for lend()); it never reads the
-/// same bytes twice. What follows a lent block (the next block's first bytes) is copied over to the new buffer, not
-/// read again. Without lend() the window keeps at most about two windows' bytes before it lets go of its start.
-/// A pointer at() returned is good until the next at() or lend(): either may move or replace the buffer.
+/// A window of a regular file for walking record or block headers forward with large reads, each byte read once:
+/// at(pos, n) gives the n bytes at file offset pos (nullptr past the end or on a read error), good until the next
+/// at() or lend(). The block just walked can be lent whole to the thread that is to read it (lend()); without lend()
+/// the window keeps at most about two windows' bytes.
 class HeaderWindow {
  public:
-  /// Room kept in front of the bytes read, for a caller of lend() to put a few bytes before them (pcapng: the
-  /// file's section and interface blocks, which every block is read after).
+  /// Room kept in front of the bytes read, for a caller of lend() to put bytes before them (pcapng's header blocks).
   static constexpr std::size_t kFront = 4096;
   HeaderWindow(int fd, std::uint64_t size, std::size_t window)
       : fd_(fd), size_(size), window_(window), buf_(kFront + window) {}
@@ -177,8 +170,7 @@ class HeaderWindow {
     return buf_.data() + kFront + (pos - from_);
   }
   /// When the window holds the file's bytes [from, to): swaps its buffer with `into`, which then holds them from
-  /// into[offset] on (offset >= kFront); the window keeps what it read after `to` (copied into the buffer it got
-  /// from `into`), so a walk that goes on from `to` or after it reads nothing again. False otherwise.
+  /// into[offset] on (offset >= kFront), keeping what it read after `to`. False otherwise.
   bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
     if (from < from_ || to > to_ || from > to || from_ == to_) return false;
     offset = kFront + static_cast<std::size_t>(from - from_);
@@ -198,9 +190,8 @@ class HeaderWindow {
   std::uint64_t from_ = 0, to_ = 0;  // the file bytes in buf_ from buf_[kFront] on
 };
 
-/// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end).
-/// Straight from the stream's buffer: istream::read() would build a sentry per call, a fifth of the cost of
-/// reading a pcapng packet; the readers look at the count, never at the stream's state.
+/// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end). Straight
+/// from the stream's buffer: istream::read()'s sentry per call cost a fifth of reading a pcapng packet.
 inline std::size_t read_counted(std::istream& in, std::uint8_t* dst, std::size_t n, std::uint64_t& offset) {
   std::streambuf* buf = in.rdbuf();
   const auto got = buf == nullptr ? std::size_t{0}
@@ -225,9 +216,8 @@ inline std::uint64_t skip_counted(std::istream& in, std::uint64_t n, std::uint64
   return done;
 }
 
-/// A file's block starts found one at a time by walking its record headers (pcap, pcapng), so that CaptureBlocks can
-/// hand out the first blocks while the walk goes on: the walk (~11 ms for 1 M pcapng packets, one core) then overlaps
-/// the decoding instead of coming before it.
+/// A file's block starts found one at a time by walking its record headers (pcap, pcapng), so that the walk overlaps
+/// the decoding of the first blocks instead of coming before it.
 class BlockCutter {
  public:
   virtual ~BlockCutter() = default;
@@ -267,18 +257,16 @@ class BlockCutter {
   std::uint64_t first_;
   std::uint64_t size_;
 };
-/// The window a cutter walks a file with: a block and some (so that a block's walk usually takes one read, and its
-/// bytes can be lent to its reader whole; the some is copied to the next window, not read again).
+/// The window a cutter walks a file with: a block and some, so that a block's walk usually takes one read.
 inline std::size_t window_bytes(std::uint64_t block) {
   return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{16} << 10);
 }
 /// Record starts that cut a pcap file (`big`: its byte order) into blocks of about `block` bytes: 24, s1, ..., its
 /// size. From the first implausible or cut record on, the rest is one block (a corrupt file reads as in one piece).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);
-/// Packet block starts that cut a pcapng file: 0, s1, ..., its size; prefix_end() is the first packet block's start.
-/// Block k > 0 reads as the bytes [0, prefix_end) (the section header and interface descriptions) followed by its
-/// own. From the first block after the first packet that is not a packet block (a new section or interface, an
-/// unknown block), or whose length is not plausible, the rest is one block; a prefix over 1 MiB is not cut at all.
+/// Packet block starts that cut a pcapng file: 0, s1, ..., its size; block k > 0 reads as the header blocks
+/// [0, prefix_end()) followed by its own. From the first block after the first packet that is not a packet block,
+/// or whose length is not plausible, the rest is one block; a prefix over 1 MiB is not cut at all.
 std::unique_ptr<BlockCutter> pcapng_block_cutter(int fd, std::uint64_t size, std::uint64_t block);
 
 }  // namespace saul::host::detail

@@ -1,6 +1,5 @@
-// Private helpers of the capture formats that carry calendar dates (ASC date lines, BLF's SYSTEMTIME, TRC's
-// $STARTTIME): days since 1970-01-01 of a date and back, on std::chrono's proleptic Gregorian calendar. UTC, no leap
-// seconds. Not installed, not part of the API.
+// Private helpers of the capture formats that carry calendar dates (ASC, BLF, TRC): days since 1970-01-01 of a date
+// and back, on std::chrono's proleptic Gregorian calendar. UTC, no leap seconds.
 #pragma once
 
 #include <chrono>

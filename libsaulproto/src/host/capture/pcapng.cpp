@@ -273,14 +273,8 @@ PcapngReader::Status PcapngReader::next() {
         return Status::corrupt;
       }
     }
-    switch (block(start, type, load_u32(h.data() + 4, big_), header_bytes)) {
-      case Step::frame:
-        return Status::frame;
-      case Step::corrupt:
-        return Status::corrupt;
-      case Step::skipped:
-        break;
-    }
+    if (const Step step = block(start, type, load_u32(h.data() + 4, big_), header_bytes); step != Step::skipped)
+      return status(step);
   }
 }
 

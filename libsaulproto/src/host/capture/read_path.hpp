@@ -1,13 +1,10 @@
-// The one read path of a capture file's frames (private to the host library): decode (report/fast_decode.cpp),
-// stats (report/bus_stats.cpp) and the work that takes frames in order (read_in_order: convert, plot, replay) hand
-// it what they do with a batch of frames, and it reads the file the fastest way the file and the work allow, with
-// the same results whichever way:
-//  - in blocks on ReadOptions::threads threads: an uncompressed candump, pcap or pcapng regular file of at least
-//    parallel_from bytes (CaptureBlocks), or a candump log that cannot be cut up front, compressed or from a pipe,
-//    cut as it is read (CaptureTextBlocks). Each block is worked into a piece of its own; the pieces are taken in
-//    file order, their corrupt records' positions made the file's.
-//  - else in batches (CaptureReader::next_batch, any format) on this thread, with a second thread reading ahead
-//    from parallel_from bytes on. Each batch is a piece, taken at once.
+// The one read path of a capture file's frames (private to the host library): decode, stats and read_in_order
+// (convert, plot, replay) hand it what they do with a batch of frames, and it reads the file the fastest way the
+// file and the work allow, with the same results whichever way:
+//  - in blocks on ReadOptions::threads threads (a piece per block, taken in file order): an uncompressed candump,
+//    pcap or pcapng regular file of at least parallel_from bytes (CaptureBlocks), or a candump log that is
+//    compressed or a pipe, cut as it is read (CaptureTextBlocks);
+//  - else in batches on this thread, a second thread reading ahead from parallel_from bytes on.
 // The work says whether its results allow blocks (decode --time delta and stats --signals need every frame in order).
 #pragma once
 

@@ -50,6 +50,9 @@ SerialProtocol protocol_for_baud(std::uint32_t baud) noexcept {
   }
 }
 
+namespace {
+
+/// Parses one serial-log line (no newline). False with error's column and message when it is not one.
 bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& error) {
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   std::uint64_t ns = 0;
@@ -99,6 +102,7 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
   return true;
 }
 
+/// One serial-log line, without newline, for a chunk of at most 64 bytes (the writer splits longer ones).
 std::string format_serial_line(const SerialChunk& chunk) {
   const std::uint64_t ns = chunk.timestamp_ns.value_or(0);
   std::string s = fmt::format("({:010}.{:06}) {} {} ", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000,
@@ -113,6 +117,8 @@ std::string format_serial_line(const SerialChunk& chunk) {
   if (chunk.errors & uart_error::kBreak) s += " !break";
   return s;
 }
+
+}  // namespace
 
 SerialLogReader::Status SerialLogReader::next() {
   while (std::getline(in_, line_)) {
@@ -158,14 +164,10 @@ void SerialLogWriter::close() {
 
 std::unique_ptr<SerialCaptureReader> make_serial_capture_reader(std::istream& in, CaptureFormat format,
                                                                 const SerialReadOptions& options) {
-  switch (format) {
-    case CaptureFormat::serial: return std::make_unique<SerialLogReader>(in);
-    case CaptureFormat::sigrok: return std::make_unique<SigrokAnnotationReader>(in, options);
-    case CaptureFormat::sigrok_json: return std::make_unique<SigrokJsonTraceReader>(in, options);
-    case CaptureFormat::pulseview_csv: return std::make_unique<PulseViewCsvReader>(in, options);
-    default: break;
-  }
-  throw std::invalid_argument(fmt::format("{} holds CAN frames, not serial bytes", to_string(format)));
+  if (!holds_serial_bytes(format))
+    throw std::invalid_argument(fmt::format("{} holds CAN frames, not serial bytes", to_string(format)));
+  if (format == CaptureFormat::serial) return std::make_unique<SerialLogReader>(in);
+  return make_uart_export_reader(in, format, options);
 }
 
 std::unique_ptr<SerialCaptureWriter> make_serial_capture_writer(std::ostream& out) {

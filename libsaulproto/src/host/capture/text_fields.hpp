@@ -1,6 +1,5 @@
-// Private helpers of the text capture formats (candump and serial logs, ASC, TRC, the CSV logs): white-space tokens
-// with their columns, "(time)" stamps and exact number parsing (no floating point, no locale). Not installed, not
-// part of the API.
+// Private helpers of the text capture formats: tokens with their columns, "(time)" stamps and exact number parsing
+// (no floating point, no locale).
 #pragma once
 
 #include <charconv>

@@ -45,11 +45,7 @@ std::optional<std::uint64_t> parse_trc_start_time(std::string_view days) {
 
 TrcReader::Status TrcReader::next() {
   while (const auto line = detail::next_line(in_, line_, line_number_)) {
-    switch (parse_line(*line)) {
-      case Step::frame: return Status::frame;
-      case Step::corrupt: return Status::corrupt;
-      case Step::skipped: break;
-    }
+    if (const Step step = parse_line(*line); step != Step::skipped) return status(step);
   }
   return Status::end;
 }

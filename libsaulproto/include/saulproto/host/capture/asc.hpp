@@ -1,33 +1,12 @@
-// Vector ASC text logs, as can-utils' log2asc and python-can's ASCWriter write them (and CANalyzer/CANoe, for the
-// classic CAN lines):
-//
-//   date Tue Nov 14 22:13:20 2023
-//   base hex  timestamps absolute
-//   internal events logged
-//   Begin Triggerblock Tue Nov 14 22:13:20 2023
-//      0.000000 Start of measurement
-//      0.001250 1  938x            Rx   d 8 FF FF FB 50 00 23 00 FA
-//      0.002500 1  123             Rx   r 4
-//      0.005000 1  ErrorFrame
-//   End TriggerBlock
-//
-// Times are seconds since the start of the measurement even when the header says "timestamps absolute"; the
-// wall clock comes from the date line (or the Begin Triggerblock line, which wins, as in python-can). A date is
-// read as UTC: the format has no time zone, and log2asc and python-can write the local time of the converting
-// machine. When no date parses, timestamps are the relative times alone. "timestamps relative" means each time
-// is counted from the previous frame (as asc2log reads it). Extended ids carry an 'x' suffix; "base dec" switches ids, DLCs and data
-// bytes to decimal. Channel N reads as interface "can<N-1>". An ErrorFrame line carries no SocketCAN class or
-// data: it reads as a bus error (id 0x080, 8 zero bytes), as asc2log converts it. A classic DLC of 9..15 (CANoe
-// writes "3FF Tx d D 55 AA ...") means 8 data bytes. CANFD lines ("<time> CANFD <ch> <dir> <id> [<name>] <brs>
-// <esi> <dlc> <len> <data> <duration> <bits> <flags> ...") whose flags say classic CAN (no EDL bit 0x1000; remote
-// bit 0x10), as `log2asc -f` and CANoe on FD channels write them, read as classic frames; real CAN FD frames are
-// reported as unsupported.
-//
-// Reading is line by line; a corrupt line is reported with line and column and skipped. Lines of other events
-// (Statistic:, Start of measurement, TxRq transmit requests, ...) are skipped silently.
-// Writing: the header above, times relative to the whole second before the first frame (so date + time gives the
-// frame's microsecond back), log2asc's column layout, channels numbered in order of first appearance of each
-// interface name, "End TriggerBlock" at close().
+// Vector ASC text logs, as can-utils' log2asc, python-can's ASCWriter and CANalyzer/CANoe write them; the quirks
+// and the choice made for each are in docs/captures.md ("Vector ASC"). Reading is line by line: times are seconds
+// since the measurement start (its wall clock from the date or Begin Triggerblock line, read as UTC; "timestamps
+// relative": from the previous frame), extended ids end in 'x', "base dec" makes numbers decimal, channel N reads
+// as "can<N-1>", an ErrorFrame as a bus error (0x080, 8 zero bytes), a DLC of 9..15 as 8 bytes, and a CANFD line
+// that nothing marks as FD as a classic frame (real FD frames are reported as unsupported). A corrupt line is
+// reported with line and column and skipped; other events (Statistic:, TxRq, ...) are skipped silently.
+// Writing: log2asc's layout, times from the whole second before the first frame (date + time gives each frame's
+// microsecond back), channels numbered in order of first appearance, "End TriggerBlock" at close().
 #pragma once
 
 #include <cstdint>
@@ -62,7 +41,6 @@ class AscReader final : public RecordCaptureReader {
   [[nodiscard]] bool wall_clock() const noexcept { return start_ns_.has_value(); }
 
  private:
-  enum class Step { frame, corrupt, skipped };
   Step parse_line(std::string_view line);
   Step timed_line(std::string_view line);
   Step frame_line(std::string_view line, std::uint64_t time_ns);

@@ -1,28 +1,15 @@
-// Vector BLF ("binary logging format"), as CANoe/CANalyzer, python-can's BLFWriter and SavvyCAN write it.
-//
-// Layout (little-endian throughout): a file header ("LOGG", its size, application and format versions, file and
-// uncompressed sizes, object count, start and stop time as Windows SYSTEMTIME), then objects. Every object starts
-// with "LOBJ", its header size, header version, object size and type, and is followed by (object size mod 4)
-// padding bytes. At the top level the objects are log containers (type 10) whose payload, zlib-compressed
-// (method 2) or stored (method 0), is a stream of further objects; an object may continue in the next container.
-// Object headers of version 1 and 2 carry a timestamp in 10 µs or 1 ns units, relative to the file header's start
-// time. The start time has no time zone: it is read as UTC, as for ASC (python-can and CANoe write local time).
-//
-// Reading: CAN_MESSAGE (1) and CAN_MESSAGE2 (86) as frames; CAN_ERROR (2) and CAN_ERROR_EXT (73) as error frames
-// (a bus error, class 0x080 with 8 zero bytes, like an ASC ErrorFrame: BLF error objects carry no SocketCAN
-// class); CAN_FD_MESSAGE (100) and CAN_FD_MESSAGE_64 (101) as classic frames when their EDL flag is clear,
-// otherwise reported as CAN FD (unsupported), like the FD records of the other formats. Every other object type
-// is counted (skipped_objects()) and skipped. Channel N reads as "can<N-1>". A classic DLC of 9..15 reads as 8
-// bytes.
-// Hostile files: every length is checked against what is left (an object of size 0 or smaller than its header is
-// corrupt, never a loop); a container may declare at most kMaxContainerBytes uncompressed and must inflate to
-// exactly that; an object longer than kMaxObjectBytes is corrupt. After a corrupt object or container the reader
-// looks for the next "LOBJ" and carries on. Memory stays below a few containers whatever the file.
-//
-// Writing: a 144-byte header, then CAN_MESSAGE objects (header version 1, 1 ns timestamps relative to the first
-// frame's millisecond) and CAN_ERROR_EXT for error frames, in zlib containers of 128 KiB. Channels are numbered
-// 1, 2, ... in order of first appearance of each interface name. close() fixes the header's sizes, count and
-// stop time when the stream can seek back (a file); otherwise (a pipe, a .gz) they stay as first written.
+// Vector BLF (binary logging format), as CANoe/CANalyzer, python-can's BLFWriter and SavvyCAN write it: a file
+// header, then log containers (zlib-compressed or stored) holding a stream of objects, all little-endian (layout and
+// choices: docs/captures.md "Vector BLF").
+// Reading: CAN_MESSAGE and CAN_MESSAGE2 as frames, CAN_ERROR and CAN_ERROR_EXT as a bus error (0x080, 8 zero
+// bytes), CAN_FD_MESSAGE and CAN_FD_MESSAGE_64 as classic frames when their EDL flag is clear (else reported as CAN
+// FD), every other object counted (skipped_objects()) and skipped. Channel N reads as "can<N-1>", a DLC of 9..15
+// as 8 bytes; times are read as UTC.
+// Hostile files: every length is checked against what is left; a container may declare at most kMaxContainerBytes
+// uncompressed and must inflate to exactly that, an object may be at most kMaxObjectBytes; after a corrupt object or
+// container the reader carries on at the next "LOBJ". Memory stays below a few containers whatever the file.
+// Writing: CAN_MESSAGE and CAN_ERROR_EXT objects (1 ns times) in 128 KiB zlib containers, channels numbered in order
+// of first appearance; close() fixes the header's sizes, count and stop time when the stream can seek back (a file).
 #pragma once
 
 #include <cstdint>

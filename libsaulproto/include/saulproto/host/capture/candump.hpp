@@ -1,20 +1,11 @@
-// can-utils candump log lines: "(1700000000.000000) can0 300#E8030CFE", as `candump -L` prints and
-// `candump -l` writes, and as canplayer reads them.
+// can-utils candump log lines, "(1700000000.000000) can0 300#E8030CFE", as `candump -L` prints, `candump -l` writes
+// and canplayer reads them (syntax and choices: docs/captures.md "candump"). CAN FD lines ("##") are reported as
+// unsupported: the robot's bus is classic CAN.
 //
-// Frame syntax: 3 hex digits = 11-bit id, 8 = 29-bit id; "#R" or "#R<len>" remote; an id with the error flag
-// (0x20000000) is an error frame; a raw-DLC suffix "_9".."_F" after 8 data bytes (or "R8") is accepted and the frame
-// keeps its 8 bytes. Lines that do not start with '(' are comments to canplayer and are skipped.
-// CAN FD lines ("##") are recognised and reported as unsupported: the robot's bus is classic CAN.
-// CandumpReader and CandumpWriter are the candump members of the capture interface (capture.hpp).
-//
-// CandumpScanner is the one reader: large reads into one buffer, lines scanned in place (no std::string per line),
-// frames handed out in batches, from a file descriptor, a range of a regular file, text in memory or a stream.
-// Memory is one buffer (block size + the longest line accepted), whatever the file size. A line longer than
-// kMaxCandumpLine bytes is never held: it is reported as corrupt ("line longer than ...") at its line number and
-// skipped, and reading carries on with the next line. (A long line that does not start with '(' is a comment to
-// canplayer, skipped like any other comment.) A file can be read in ranges (split_candump_blocks): each range
-// starts at a line start, so several threads can read one file, each with its own scanner, and the caller puts the
-// results back in file order.
+// CandumpScanner is the one reader: large reads into one buffer, lines scanned in place, frames handed out in
+// batches, from a file descriptor, a range of a regular file, text in memory or a stream. Memory is one buffer
+// (block size + kMaxCandumpLine), whatever the file size: a longer line is reported as corrupt and skipped. A file
+// can be read in ranges that start at line starts (split_candump_blocks), each by a scanner of its own.
 #pragma once
 
 #include <bit>
@@ -39,8 +30,7 @@ struct CandumpLine {
   std::string_view interface;  ///< points into the parsed line
 };
 
-/// Why a line did not parse: column (0-based, where the problem starts) and message. The reader also fills
-/// the line number in position.
+/// Why a line did not parse: column (0-based) and message (the reader fills the line number).
 using CandumpError = CaptureError;
 
 /// Parses one line (without its newline). On failure returns false and fills error.
@@ -50,8 +40,8 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
 /// if_name such as text2pcap's "Fake IF, text2pcap" would otherwise split the line).
 std::string candump_interface(std::string_view interface);
 
-/// Formats one frame as a log line without newline: "(sec.usec) iface ID#DATA" (iface as candump_interface()
-/// writes it). Frames without a timestamp get 0. Microsecond resolution, as `candump -l` writes by default.
+/// One frame as a log line without newline, "(sec.usec) iface ID#DATA" (iface as candump_interface() writes it),
+/// in microseconds as `candump -l` writes; a frame without a timestamp gets 0.
 std::string format_candump_line(const CanFrame& frame, std::string_view interface);
 
 /// The compact frame text alone, e.g. "300#E8030CFE", "00000344#000005DC", "123#R4".
@@ -60,23 +50,17 @@ std::string format_candump_frame(const CanFrame& frame);
 /// The longest candump line the scanner accepts (a real one is under 100 bytes).
 inline constexpr std::size_t kMaxCandumpLine = 64 * 1024;
 
-/// Takes whole candump lines before the scanner parses them: a consumer that can handle the usual lines cheaper
-/// than a CanFrame each (stats keeps what it worked out of a line by the line's text). take() gets every line that
-/// starts with '(' and is not too long, in file order; a line it refuses (false) is read the usual way. The
-/// scanner's buffer goes on for kCandumpLineSlack bytes after any line (bytes of no meaning), so that take() may read
-/// a line in whole words.
+/// Takes whole candump lines before the scanner parses them (stats handles the usual lines cheaper than a CanFrame
+/// each). take() gets every line that starts with '(' and is not too long, in file order; a line it refuses (false)
+/// is read the usual way. kCandumpLineSlack bytes (of no meaning) follow any line, so take() may read whole words.
 inline constexpr std::size_t kCandumpLineSlack = 64;
 class CandumpLineTaker {
  public:
   virtual bool take(std::string_view line) = 0;
-  /// The same for a run of whole lines: takes the lines at the start of [begin, end) that end in '\n' before
-  /// `end`, in order, up to the first it does not take (any line may be refused here: the scanner then reads it
-  /// the usual way, take() included). Returns how many it took and sets `used` to the bytes they span, newlines
-  /// included. kCandumpLineSlack bytes follow `end`. Why: a call per line and the scanner's checks cost as much as
-  /// stats' own work on a line it knows. The default takes none.
-  virtual std::size_t take_run(const char* begin, const char* end, std::size_t& used) {
-    (void)begin;
-    (void)end;
+  /// The same for the whole lines at the start of [begin, end), up to the first it does not take (which the
+  /// scanner then reads the usual way, take() included): returns how many it took, `used` the bytes they span. A
+  /// call per line would cost as much as stats' own work on a line. The default takes none.
+  virtual std::size_t take_run(const char* /*begin*/, const char* /*end*/, std::size_t& used) {
     used = 0;
     return 0;
   }
@@ -85,10 +69,9 @@ class CandumpLineTaker {
   ~CandumpLineTaker() = default;
 };
 
-/// The usual shape of a line, "(SEC.FRAC) IFACE ID#DATA" (single spaces, an 11- or 29-bit data frame, nothing after
-/// it): its frame (timestamp included) and interface (a view into `line`), in one pass. False for any other shape
-/// (remote, error and FD frames, '.' separators, raw DLC, CR, extra spaces, any error), which parse_candump_line
-/// reads; for the lines it accepts both give the same frame.
+/// The usual shape of a line, "(SEC.FRAC) IFACE ID#DATA" (single spaces, an 11- or 29-bit data frame), in one pass:
+/// its frame and interface (a view into `line`). False for any other shape, which parse_candump_line reads; for the
+/// lines it accepts both give the same frame.
 bool parse_candump_usual(std::string_view line, CanFrame& frame, std::string_view& interface) noexcept;
 namespace detail {
 // A candump line's text read a word at a time (stats' line tables): words loaded from memory on a little-endian
@@ -235,19 +218,18 @@ class CandumpScanner {
   CandumpScanner& operator=(const CandumpScanner&) = delete;
   ~CandumpScanner();
 
-  /// Fills `batch` (cleared first) with the lines of up to one block (at most FrameBatch::kMax frames); false (batch empty) at the end. Throws
-  /// std::runtime_error when reading fails.
+  /// Fills `batch` (cleared first) with the lines of up to one block (at most FrameBatch::kMax frames); false
+  /// (batch empty) at the end. Throws std::runtime_error when reading fails.
   bool next_batch(FrameBatch& batch) { return next_batch(batch, nullptr); }
-  /// The same with the lines `taker` takes left out of the batch: those are handled by then, so that the caller
-  /// sees everything in file order a batch ends at the first frame or corrupt line the taker did not take (false
-  /// at the end, when the taker may have taken everything).
+  /// The same with the lines `taker` takes left out; in file order with them, a batch ends at the first frame or
+  /// corrupt line the taker did not take (false at the end, when the taker may have taken everything).
   bool next_batch(FrameBatch& batch, CandumpLineTaker* taker);
   /// Lines seen so far (comments and corrupt lines included).
   [[nodiscard]] std::uint64_t lines() const noexcept { return line_; }
   /// Bytes read so far (from the range's start).
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return consumed_; }
-  /// The first line that was neither blank nor a candump line (skipped as a comment), its first 256 bytes: what
-  /// a file that yields no frame looks like (describe_non_capture). Empty when there was none.
+  /// The first 256 bytes of the first line that was neither blank nor a candump line (a comment), "" when none:
+  /// what a file that yields no frame looks like.
   [[nodiscard]] const std::string& first_other() const noexcept { return first_other_; }
 
   static constexpr std::size_t kDefaultBlock = std::size_t{1} << 20;
@@ -276,13 +258,11 @@ class CandumpScanner {
   std::string first_other_;
 };
 
-/// Splits [0, size) of a regular file into ranges of about `block` bytes that start at line starts (a range may
-/// be longer, never empty): returns the range starts, first 0, plus `size` as the last element. Reads only near
-/// the nominal boundaries (and through any line that crosses one). Throws std::runtime_error when reading fails.
+/// The starts of ranges of about `block` bytes (never empty) that cut [0, size) of a regular file at line starts:
+/// 0, ..., then `size`. Reads only near the cuts. Throws std::runtime_error when reading fails.
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block);
 
-/// The candump member of the capture interface: CandumpScanner's batches, handed out frame by frame too. Comment
-/// lines are skipped; a corrupt line is reported and the reader carries on with the next line.
+/// The candump member of the capture interface: CandumpScanner's batches, handed out frame by frame too.
 class CandumpReader final : public BatchCaptureReader {
  public:
   /// Reads a stream the caller keeps alive (a compressed file: what its decompressor gives).
@@ -300,8 +280,7 @@ class CandumpReader final : public BatchCaptureReader {
   CandumpScanner scanner_;
 };
 
-/// Writes `candump -l` lines ("(sec.usec) iface ID#DATA", LF), which canplayer replays and candump's tools read.
-/// Microsecond resolution. White space in an interface name is written as '_'.
+/// Writes `candump -l` lines (format_candump_line, LF), which canplayer replays.
 class CandumpWriter final : public StreamCaptureWriter {
  public:
   explicit CandumpWriter(std::ostream& out) : StreamCaptureWriter(out, "candump") {}

@@ -1,13 +1,8 @@
-// Capture files of CAN traffic, whatever their format: one reader and one writer interface, format detection by
-// content, and factories that open files. The formats themselves live in candump.hpp, pcap.hpp, pcapng.hpp,
-// asc.hpp, blf.hpp, trc.hpp, csv_log.hpp and gvret_csv.hpp; docs/captures.md says what each keeps and loses. Any of
-// them may be compressed (gzip or zstd, compressed.hpp): the file factories look through that by content. Byte captures of the serial links share the format
-// enum and its detection; their reader interface and open_capture(), which opens either kind, are in
-// serial_capture.hpp.
-//
-// Readers stream: each next() reads one record (a line, a pcap record, a pcapng block), so memory stays constant
-// whatever the file size. A corrupt record is reported with its position (line number for text formats, byte
-// offset for binary ones) and, where the format allows, the reader carries on after it.
+// Capture files of CAN traffic, whatever their format (one header per format; docs/captures.md says what each keeps
+// and loses), maybe gzip or zstd compressed (compressed.hpp): one reader and one writer interface, format detection
+// by content, and factories that open files. The serial links' byte captures share the format enum and detection
+// (serial_capture.hpp). Readers stream in constant memory; a corrupt record is reported with its position (line for
+// text formats, byte offset for binary ones) and, where the format allows, the reader carries on after it.
 #pragma once
 
 #include <array>
@@ -49,8 +44,7 @@ enum class CaptureFormat : std::uint8_t {
 /// True for the formats that hold serial bytes rather than CAN frames.
 constexpr bool holds_serial_bytes(CaptureFormat format) noexcept { return format >= CaptureFormat::serial; }
 
-/// "candump", "pcap", "pcapng", "asc", "blf", "trc", "csv", "gvret-csv", "serial", "sigrok", "sigrok-json",
-/// "pulseview-csv".
+/// "candump", "pcap", ..., "gvret-csv", "mcap", "serial", "sigrok", "sigrok-json", "pulseview-csv".
 std::string_view to_string(CaptureFormat format) noexcept;
 /// The inverse of to_string; also accepts "log" for candump. Case-sensitive.
 std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noexcept;
@@ -59,17 +53,12 @@ std::optional<CaptureFormat> capture_format_from_name(std::string_view name) noe
 std::optional<CaptureFormat> capture_format_from_extension(std::string_view path) noexcept;
 /// Every format's to_string() name, in the order help lists them: --input-format's choices.
 std::vector<std::string> capture_format_names();
-/// For help text: the labels of the CAN formats, then (with_serial) the serial ones, and that any of them may be
-/// compressed: "candump, pcap, ..., GVRET CSV; .gz/.zst too". Every verb's help takes its list from here (and
-/// capture_format_names from the same table), so a format added is named wherever files are read.
+/// For help text: the labels of the CAN formats, then (with_serial) the serial ones: "candump, pcap, ..., GVRET CSV;
+/// .gz/.zst too". Every verb's help takes its list from here, so a format added is named wherever files are read.
 std::string capture_format_list(bool with_serial);
-/// By the first bytes of a file (give at least 512 when the file has them): pcap magic in both byte orders and
-/// both resolutions, the pcapng Section Header Block, a line starting "(" and a digit (candump, or the serial log
-/// when its third word has no '#'), a line starting "date ", "base " or "Begin Triggerblock" (ASC),
-/// '{"traceEvents"' (sigrok JSON), a "Sample,Time,Decoder" header (PulseView CSV), or a sigrok annotation line
-/// ("uart-1: ..." or "START-END NAME: ..."), "LOGG" (BLF), a ";$FILEVERSION"/";$STARTTIME" line or a PCAN
-/// message line "N) ..." after ';' comments (TRC), python-can's or SavvyCAN's CSV header. nullopt when none matches
-/// (compressed data included: see detect_compression).
+/// By the first bytes of a file (give at least 512 when the file has them): binary magics (pcap, pcapng, BLF,
+/// MCAP), else the first line that tells a text format (candump or serial log, ASC, TRC, the CSVs, sigrok).
+/// nullopt when none matches (compressed data included: see detect_compression).
 std::optional<CaptureFormat> detect_capture_format(std::span<const std::uint8_t> head) noexcept;
 
 /// What a format can carry, so callers (and tests) know what a round trip keeps.
@@ -110,8 +99,7 @@ class CaptureOpenError : public std::runtime_error {
 /// A batch of frames as every reader hands them out (CaptureReader::next_batch): frames in file order, their
 /// interfaces (views valid until the reader's next call) and the corrupt records among them.
 struct FrameBatch {
-  /// The most frames one batch holds.
-  static constexpr std::size_t kMax = 4096;
+  static constexpr std::size_t kMax = 4096;  ///< the most frames one batch holds
   struct Corrupt {
     std::size_t before = 0;  ///< the corrupt record came before frames[before] (== frames.size(): after the last)
     CaptureError error;      ///< candump read in blocks: the line number counts from the block's first line
@@ -154,11 +142,10 @@ class CaptureReader {
   /// Advances to the next frame. On Status::frame, frame() and interface() describe it; on Status::corrupt,
   /// error() does (a Recovery::stop error is followed by Status::end). Never throws for bad content.
   virtual Status next() = 0;
-  /// Fills `batch` (cleared first) with what next() would give, in order, up to FrameBatch::kMax frames; false
-  /// (batch empty) at the end. Read a reader with next() or with next_batch(), not both. The candump, pcap and
-  /// pcapng readers read in batches; the default calls next() and copies the names into batch.names.
+  /// Fills `batch` (cleared first) with what next() would give, up to FrameBatch::kMax frames; false (batch empty)
+  /// at the end. Read a reader with next() or with next_batch(), not both.
   virtual bool next_batch(FrameBatch& batch);
-  /// The frame last read; timestamp_ns is set whenever the format has one (all four do).
+  /// The frame last read; timestamp_ns is set whenever the format has one.
   [[nodiscard]] virtual const CanFrame& frame() const = 0;
   /// Interface or channel name of the frame last read (valid until the next call of next()). Formats without
   /// names report "can0" (pcap), "can<N-1>" for ASC channel N, "can<i>" for a pcapng interface with no if_name.
@@ -171,12 +158,11 @@ class CaptureReader {
   [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const { return std::nullopt; }
 };
 
-/// How decode and stats read a capture (read_capture, the one read path): on one thread; with a second thread
-/// reading ahead; or cut into blocks that `threads` threads work on, handed back in file order (the same results).
+/// How the one read path (read_capture) reads a capture: on one thread, with a second thread reading ahead, or cut
+/// into blocks that `threads` threads work on, handed back in file order (the same results).
 struct ReadOptions {
   unsigned threads = 2;
-  /// Files this big or bigger use `threads` (4 MiB: ~20 ms of work on one core, from where a second thread pays).
-  std::uint64_t parallel_from = std::uint64_t{4} << 20;
+  std::uint64_t parallel_from = std::uint64_t{4} << 20;  ///< files this big use `threads` (~20 ms of work on one core)
   std::uint64_t block = std::uint64_t{256} << 10;  ///< bytes per block
   bool live = false;  ///< one thread, each batch handed on as soon as it is read (a pipe from candump -L)
 };
@@ -187,11 +173,10 @@ struct ReadCounts {
   std::uint64_t corrupt = 0;
 };
 
-/// The one read path (read_capture, as decode and stats read) for work that takes every frame in file order:
-/// convert, plot, replay. `each` gets the batches as next_batch() gives them (corrupt records in
-/// FrameBatch::corrupt; FrameBatch::walk) and returns false to stop reading. From options.parallel_from bytes on
-/// a second thread reads a few batches ahead. `progress` (may be empty) follows each batch with the records and
-/// file bytes read so far. Throws what reading or `each` throws.
+/// The one read path for work that takes every frame in file order (convert, plot, replay): `each` gets the batches
+/// as next_batch() gives them and returns false to stop reading (from options.parallel_from bytes on, a second
+/// thread reads ahead). `progress` (may be empty) gets the records and file bytes read so far after each batch.
+/// Throws what reading or `each` throws.
 ReadCounts read_in_order(std::unique_ptr<CaptureReader>& reader, const ReadOptions& options,
                          const std::function<bool(const FrameBatch&)>& each,
                          const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {});
@@ -222,6 +207,9 @@ class RecordCaptureReader : public CaptureReader {
   [[nodiscard]] const CaptureError& error() const override { return error_; }
 
  protected:
+  /// What reading one record gave: a frame, a corrupt record, or nothing to hand out (reading goes on).
+  enum class Step { frame, corrupt, skipped };
+  static Status status(Step step) { return step == Step::frame ? Status::frame : Status::corrupt; }
   CanFrame frame_;
   std::string name_ = "can0";
   CaptureError error_;
@@ -252,10 +240,8 @@ class CaptureWriter {
 /// Throws std::invalid_argument when `frame` cannot be written to any capture format.
 void check_writable(const CanFrame& frame);
 
-/// The head and tail every writer onto a caller's std::ostream shares, so each format says only how it writes a
-/// frame (put()) and how it ends: write() refuses after close() and frames check_writable() refuses, then checks
-/// the stream; flush() pushes the stream and checks it; close() runs finish() once, then flushes. Errors name the
-/// format ("ASC: write failed", "ASC writer: write after close").
+/// What every writer onto a caller's std::ostream shares, so each format says only how it writes a frame (put())
+/// and how it ends (finish(), run once by close()). Errors name the format ("ASC: write failed").
 class StreamCaptureWriter : public CaptureWriter {
  public:
   void write(const CanFrame& frame, std::string_view interface) final {
@@ -295,27 +281,19 @@ class StreamCaptureWriter : public CaptureWriter {
 };
 
 /// The name a capture path is opened by: "-" is standard input ("/dev/stdin"; a file called "-" is "./-"), any
-/// other path itself. Every function here that opens a path for reading goes through it, so every verb reads
-/// `-` as decode does.
+/// other path itself: every verb reads `-` as decode does.
 inline const char* capture_open_name(const std::string& path) noexcept {
   return path == "-" ? "/dev/stdin" : path.c_str();
 }
-/// The name a capture path is written to: "-" is standard output ("/dev/stdout"), any other path itself.
-inline const char* capture_write_name(const std::string& path) noexcept {
-  return path == "-" ? "/dev/stdout" : path.c_str();
-}
 
-/// Opens a capture file for reading ("-": standard input). A gzip or zstd file is decompressed on the fly (told by
-/// content, whatever its name). The format is `format` when given, else detected from the (decompressed) content
-/// (detect_capture_format), else from the extension (without .gz/.zst). Throws CaptureOpenError when the file
-/// cannot be opened, its format cannot be told, or its header is not usable, or it holds serial bytes (see
-/// open_capture), or the extension says candump but no line of its first 4 KiB is one (another tool's text log).
-/// Works on pipes too (nothing is seeked). A decompression error ends the reading with one corrupt record
-/// (Recovery::stop).
+/// Opens a capture file for reading ("-": standard input; pipes work, nothing is seeked), gzip or zstd told by
+/// content. The format is `format`, else detected from the content, else from the extension (without .gz/.zst).
+/// Throws CaptureOpenError when the file cannot be opened, its format cannot be told, its header is not usable, it
+/// holds serial bytes, or the extension says candump but no line of its first 4 KiB is one. A decompression error
+/// ends the reading with one corrupt record (Recovery::stop).
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
-/// A capture file's content as bytes in order, through its decompressor when it is gzip or zstd: for candump text
-/// that the read path cuts into blocks and parses on several threads (CaptureTextBlocks).
+/// A capture file's content as bytes in order, decompressed: candump text that the read path cuts into blocks.
 class CaptureText {
  public:
   virtual ~CaptureText() = default;
@@ -324,30 +302,25 @@ class CaptureText {
   /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with bytes_total).
   [[nodiscard]] virtual std::uint64_t bytes_read() const = 0;
   [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const = 0;
-  /// After the end: what open_capture_reader's reader reports then, a decompression error as one corrupt record
-  /// (Recovery::stop); nullopt at a clean end.
+  /// After the end: a decompression error as one corrupt record (Recovery::stop); nullopt at a clean end.
   [[nodiscard]] virtual std::optional<CaptureError> end_error() const = 0;
   [[nodiscard]] virtual CaptureFormat format() const = 0;
   /// Whether the file is gzip or zstd.
   [[nodiscard]] virtual bool compressed() const = 0;
 };
 /// The content of a candump capture that open_capture() or open_capture_reader() opened, as text from that same
-/// open file, for the read path, which cuts it into blocks (CaptureTextBlocks). A pipe or a process
-/// substitution can be read only once: opening its path again would find the bytes the first look took gone (and a
-/// compressed one unreadable). `reader` is given up for the text; nullptr (and `reader` kept) when it is not such a
-/// reader, not candump, or something has read from it already.
+/// open file (a pipe can be read only once). `reader` is given up for the text; nullptr (and `reader` kept) when it
+/// is not such a reader, not candump, or something has read from it already.
 std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& reader);
 /// What the first bytes of a file that is no capture look like, for the message that refuses it: "binary data of
-/// no format saulctl knows, starting 28 B1 ...", "candump's default output, ... record with 'candump -L ...'",
-/// "a BusMaster log", "a text file whose first line is '...'". open_capture_reader's refusals name it too.
+/// no format saulctl knows, starting 28 B1 ...", "a BusMaster log", "a text file whose first line is '...'", ...
 std::string describe_non_capture(std::string_view head);
 /// A reader of `format` over a stream the caller keeps alive. Throws CaptureOpenError for a bad binary header.
 std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureFormat format);
 
-/// Creates (truncates) a capture file. The format is `format` when given, else from the extension; a name ending in
-/// .gz or .zst is compressed (the format then comes from the name without it: run.log.gz is a gzipped candump
-/// log). Throws CaptureOpenError when neither says, when it is a serial format (RotatingSerialWriter), or the
-/// file cannot be created.
+/// Creates (truncates) a capture file ("-": standard output). The format is `format`, else from the extension; a
+/// name ending in .gz or .zst is compressed (run.log.gz: a gzipped candump log). Throws CaptureOpenError when neither
+/// says, for a serial format, or when the file cannot be created.
 std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
                                                    std::optional<CaptureFormat> format = std::nullopt);
 /// As open_capture_writer, with the format writer that `make` builds on the opened (maybe compressing) stream:
@@ -371,10 +344,9 @@ struct CopyStats {
 };
 
 /// Copies every frame of `in` (opened from `path`, `compressed` when gzip or zstd; path may be empty) to `out`
-/// (out is not closed) through the read path with `read`: read_in_order, or, into MCAP, McapCaptureWriter::copy (in
-/// blocks on both cores when the file allows). Corrupt records are passed to on_corrupt (may be empty) and skipped; remote and
-/// error frames that out's format cannot hold are left out and counted. `progress` as read_in_order's. Cost
-/// O(frames); memory O(CopyStats::kListed) of its own.
+/// (not closed) through read_in_order (into MCAP: McapCaptureWriter::copy). Corrupt records go to on_corrupt (may
+/// be empty); remote and error frames that out's format cannot hold are left out and counted. Memory
+/// O(CopyStats::kListed) of its own.
 CopyStats copy_frames(std::unique_ptr<CaptureReader>& in, CaptureWriter& out,
                       const std::function<void(const CaptureError&)>& on_corrupt,
                       const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {},

@@ -1,14 +1,8 @@
-// A capture file read in blocks on several threads. Each block starts at a record's start (a candump line, a pcap
-// record, a pcapng packet block), so every thread reads its own blocks with its own scanner and the caller puts
-// what they found back in file order: the one read path's blocks (src/host/capture/read_path.hpp, under decode and
-// stats). Uncompressed regular files of those three formats only; the cuts are found once, up front
-// (candump: reads near each nominal cut, up front; pcap and pcapng: a walk over the record headers, as far as the
-// blocks asked for so far, so that the first blocks are read while the rest is still being cut).
-//
-// A compressed candump log cannot be cut up front: CaptureTextBlocks cuts its text as it inflates, a block at a time.
-//
-// A corrupt file reads as it does in one piece: where a cut could not be made safely (an implausible pcap record, a
-// pcapng section or interface block after the first packet) the rest of the file is one block.
+// A capture file read in blocks on several threads, for the one read path (src/host/capture/read_path.hpp). Each
+// block starts at a record's start (a candump line, a pcap record, a pcapng packet block), so every thread reads its
+// own blocks and the caller puts the results back in file order. Uncompressed regular candump, pcap and pcapng files
+// only; CaptureTextBlocks cuts a candump log's text as it is read (compressed, a pipe). A corrupt file reads as it
+// does in one piece: where no cut can be made safely, the rest of the file is one block.
 #pragma once
 
 #include <condition_variable>
@@ -32,20 +26,17 @@ class BlockCutter;
 class CaptureBlocks {
  public:
   /// `path` cut into blocks of about `block_bytes`; nullptr when it is not an uncompressed candump, pcap or pcapng
-  /// regular file (read it with open_capture then). Throws std::system_error when reading fails.
+  /// regular file. Throws std::system_error when reading fails.
   static std::unique_ptr<CaptureBlocks> open(const std::string& path, std::uint64_t block_bytes);
-  /// The same over a file already open (`fd` not owned, `size` its size) whose format is known: a candump file
-  /// (uncompressed candump text), or a pcap or pcapng file (nullptr when its header says otherwise).
+  /// The same over an open file (`fd` not owned) of a known format (nullptr when its header says otherwise).
   static std::unique_ptr<CaptureBlocks> of(int fd, std::uint64_t size, CaptureFormat format, std::uint64_t block_bytes);
   CaptureBlocks(const CaptureBlocks&) = delete;
   CaptureBlocks& operator=(const CaptureBlocks&) = delete;
   ~CaptureBlocks();
 
   [[nodiscard]] CaptureFormat format() const noexcept { return format_; }
-  /// Whether there is a block k. A pcap or pcapng file is cut as it is read: this walks its record headers up to
-  /// block k's start when that is not known yet (the walk is serial, behind a lock; threads reading other blocks go
-  /// on meanwhile), and read(k) walks on to its end, handing the bytes the walk read to its reader. Thread-safe;
-  /// every block before an existing one exists.
+  /// Whether there is a block k. Thread-safe. A pcap or pcapng file is cut as it is read: this walks its record
+  /// headers up to block k's start (serially, behind a lock), and read(k) walks on to its end.
   [[nodiscard]] bool has(std::size_t k) const;
   /// The number of blocks (cuts the whole file first).
   [[nodiscard]] std::size_t count() const;
@@ -58,16 +49,13 @@ class CaptureBlocks {
   };
   /// What reading a block found besides its frames.
   struct Read {
-    /// candump: the block's lines. Its corrupt records' positions are lines counted from the block's first line,
-    /// so the caller adds the lines of the blocks before. pcap and pcapng: 0 (positions are file offsets already).
+    /// candump: the block's lines (its corrupt records' lines count from the block's first line); else 0.
     std::uint64_t lines = 0;
     std::uint64_t bytes = 0;  ///< the block's share of the file (the blocks' shares add up to its size)
   };
-  /// Block k's (has(k)) frames and corrupt records, batch by batch in file order, to each(batch) until it returns false.
-  /// Blocks can be read at the same time on different threads, each with its own Scratch. Throws
-  /// std::system_error when reading fails.
-  /// A candump block's lines go to `taker` first (CandumpScanner::next_batch): `each` then sees only the rest, in
-  /// order with them; other formats ignore it.
+  /// Block k's (has(k)) frames and corrupt records, batch by batch in file order, to each(batch) until it returns
+  /// false; blocks can be read at once on several threads, each with its own Scratch. A candump block's lines go to
+  /// `taker` first (CandumpScanner::next_batch). Throws std::system_error when reading fails.
   Read read(std::size_t k, Scratch& scratch, const std::function<bool(const FrameBatch&)>& each,
             CandumpLineTaker* taker = nullptr) const;
   /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt
@@ -100,18 +88,15 @@ class CaptureBlocks {
   mutable std::vector<std::uint8_t> prefix_;  // pcapng: the file's bytes [0, prefix_end_), once a block k > 0 asked
 };
 
-/// A candump log read from a stream (CaptureText: a compressed one, as it inflates) and cut into blocks of whole
-/// lines, each taken by whichever thread asks for the next one, in turn: the read path's blocks of a compressed
-/// log or a pipe. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (the scanner
-/// reports it as too long, at its line) and the rest of it is dropped as it is read: a block holds at most about
-/// twice the block size plus one such line.
+/// A candump log read from a stream (CaptureText: compressed, or a pipe) and cut into blocks of whole lines, taken
+/// by the threads in turn. A line longer than kMaxCandumpLine keeps its first kMaxCandumpLine + 1 bytes (reported as
+/// too long by the scanner), the rest of it is dropped: a block holds at most about twice the block size.
 class CaptureTextBlocks {
  public:
   CaptureTextBlocks(CaptureText& text, std::size_t block_bytes)
       : text_(text), block_(block_bytes == 0 ? 1 : block_bytes) {}
-  /// Block k's lines into `out`, once blocks 0 .. k - 1 were taken (a thread asking for k waits for that), and the
-  /// bytes of the file read for them; false when the text ended before it. Read a block with
-  /// CandumpScanner(out, ...).
+  /// Block k's lines into `out` once blocks 0 .. k - 1 were taken (waits for that), and the file bytes read for
+  /// them; false when the text ended before it.
   bool take(std::size_t k, std::string& out, std::uint64_t& bytes_read);
 
  private:

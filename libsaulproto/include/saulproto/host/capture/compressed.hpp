@@ -1,12 +1,7 @@
-// Compressed capture files: any format inside gzip (.gz, zlib) or Zstandard (.zst, libzstd), told by the first
-// bytes of the file, not by its name. open_capture_reader() and open_capture() (capture.hpp) look through them;
-// open_capture_writer() compresses when the name ends in .gz or .zst; `saulctl record --compress` compresses each
-// rotated file once it is finished (compress_file).
-//
-// Both directions stream through fixed buffers: memory does not grow with the file. Inflating a gzip stream needs
-// its 32 KiB window; a Zstandard frame may ask for a window of up to 128 MiB (windowLog 27, zstd's own default
-// limit), a frame asking for more is refused as corrupt. Several gzip members one after the other (as `cat a.gz
-// b.gz` makes) and several zstd frames read as one stream.
+// Compressed capture files: any format inside gzip (.gz) or Zstandard (.zst), told by the first bytes, not the name
+// (docs/captures.md "Compressed files"). Both directions stream through fixed buffers: a gzip stream needs its 32 KiB
+// window, a zstd frame may ask for at most 128 MiB (windowLog 27; more is refused as corrupt). Several gzip members
+// or zstd frames one after the other read as one stream.
 #pragma once
 
 #include <cstdint>
@@ -35,23 +30,20 @@ Compression compression_from_extension(std::string_view path) noexcept;
 /// The name without its .gz or .zst ("run.blf.gz" -> "run.blf"), so the inner format can be told by extension.
 std::string_view strip_compression_extension(std::string_view path) noexcept;
 
-/// A stream buffer that reads compressed bytes from `source` and hands out the decompressed ones. At the end of
-/// the data, or at the first corrupt byte, it reports end of file; error() then says which (empty at a clean end).
+/// A stream buffer of the decompressed bytes of `source`. At the end of the data or at the first corrupt byte it
+/// reports end of file; error() then says which (empty at a clean end).
 class DecompressingBuf : public std::streambuf {
  public:
   /// Bytes taken from the source so far (for progress over the compressed file's size).
   [[nodiscard]] virtual std::uint64_t compressed_bytes() const = 0;
-  /// Empty, or what is wrong: "gzip data is corrupt: invalid distance too far back", "the compressed file ends
-  /// before its end marker (truncated?)".
+  /// Empty, or what is wrong: "gzip data is corrupt: invalid distance too far back", ...
   [[nodiscard]] virtual const std::string& error() const = 0;
 };
-/// Throws std::invalid_argument for Compression::none. (A compressed candump log still uses both cores: the read
-/// path cuts the text into blocks as it inflates and parses them on a second thread, read_path.hpp.)
+/// Throws std::invalid_argument for Compression::none.
 std::unique_ptr<DecompressingBuf> make_decompressing_buf(std::streambuf& source, Compression compression);
 
-/// A stream buffer that compresses what is written to it onto `sink`. pubsync() pushes out everything written so
-/// far (a sync flush: the compressed file is readable up to there); finish() ends the stream, and must be called
-/// once at the end (the destructor does not). Write errors of the sink make overflow()/sync() fail.
+/// A stream buffer that compresses onto `sink`. pubsync() is a sync flush (the file is readable up to there);
+/// finish() ends the stream and must be called at the end (the destructor does not). Sink errors fail overflow/sync.
 class CompressingBuf : public std::streambuf {
  public:
   /// Ends the compressed stream and flushes it to the sink; throws std::runtime_error when the sink fails.

@@ -1,15 +1,8 @@
-// python-can's CSV log (can.CSVWriter / can.CSVReader, "python -m can.logger -f run.csv"):
-//
-//   timestamp,arbitration_id,extended,remote,error,dlc,data
-//   1700000000.00125,0x938,1,0,0,8,///7UAAjAPo=
-//
-// timestamp: seconds (Python's repr of a float: read exactly as the decimal it prints, to the nanosecond);
-// arbitration_id: hex with 0x; extended, remote, error: 1 or 0; dlc: decimal; data: the payload in base64 (empty
-// for remote frames). An error frame keeps its SocketCAN class (the id) and data bytes, as python-can's socketcan
-// interface hands them over. The file has no channel: every frame reads as "can0", and the writer drops the
-// interface name. The columns are found by their names in the header line (python-can writes them in the order
-// above); a line that does not parse is reported with line and column and skipped.
-// Writing: the same header, timestamps with 6 decimals (microseconds), LF line ends.
+// python-can's CSV log (can.CSVWriter / can.CSVReader): "timestamp,arbitration_id,extended,remote,error,dlc,data",
+// e.g. "1700000000.00125,0x938,1,0,0,8,///7UAAjAPo=" (data in base64). The timestamp is read exactly as the decimal
+// Python printed; an error frame keeps its SocketCAN class (the id) and data. No channel: every frame reads as
+// "can0". Columns are found by their names in the header; a line that does not parse is reported and skipped.
+// Writing: the same header, microseconds, LF line ends.
 #pragma once
 
 #include <cstdint>

@@ -1,14 +1,9 @@
-// SavvyCAN's native CSV log ("GVRET" logs, File > Save Frames > GVRET), read and written as SavvyCAN does:
-//
+// SavvyCAN's native CSV log ("GVRET"), read and written as SavvyCAN does:
 //   Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8
 //   1700000000001250,00000938,true,Rx,0,8,FF,FF,FB,50,00,23,00,FA,
-//
-// Time Stamp: microseconds (SavvyCAN's own clock or Unix time, as the capture was made); ID: hex; Extended:
-// true/false (an id above 7FF is 29-bit whatever it says, as SavvyCAN reads it); Dir: Rx/Tx (absent in the first
-// version of the format, "Time Stamp,ID,Extended,Bus,LEN,..."); Bus: 0-based, read as "can<Bus>"; LEN: 0..8, then
-// that many hex bytes (the writer always fills D1..D8, zeros after LEN, and ends the line with a comma). The
-// format has no remote and no error frames: the writer leaves them out (copy_frames counts them,
-// conversion_losses says so). Buses are numbered 0, 1, ... in order of first appearance of each interface name.
+// Microseconds; an id above 7FF is 29-bit whatever Extended says; no Dir column in the format's first version; bus
+// N reads as "can<N>". No remote or error frames: the writer leaves them out (copy_frames counts them). Buses are
+// numbered 0, 1, ... in order of first appearance.
 #pragma once
 
 #include <cstdint>

@@ -1,15 +1,9 @@
-// libpcap capture files with LINKTYPE_CAN_SOCKETCAN (227), as tcpdump, Wireshark and tshark read them.
-//
-// Each packet is the SocketCAN frame with its CAN id in BIG-endian (network) order, unlike the host-order
-// can_frame of a live socket: u32 id + flags (0x80000000 EFF, 0x40000000 RTR, 0x20000000 ERR), u8 payload_length,
-// u8 padding (CAN FD flags), u8 reserved, u8 reserved/len8_dlc, then the data. payload_length is authoritative:
-// records may carry the full 8 data bytes (16-byte records, as Linux captures) or fewer.
-//
-// Reading: both byte orders, microsecond (A1B2C3D4) and nanosecond (A1B23C4D) magic. A record with bad content is
-// reported and skipped (its length is known); a truncated record or an implausible record length stops reading.
-// CAN FD packets are reported as unsupported: the robot's bus is classic CAN. Every frame reads as interface
-// "can0" (pcap has no interface names).
-// PcapScanner is the one reader, of regular files and streams alike; PcapReader hands its frames out one at a time.
+// libpcap capture files with LINKTYPE_CAN_SOCKETCAN (227), as tcpdump, Wireshark and tshark read them (packet
+// layout and choices: docs/captures.md). Each packet is the SocketCAN frame with its CAN id BIG-endian, unlike a
+// live socket's can_frame; payload_length is authoritative (records of 16 bytes or of the payload alone).
+// Reading: both byte orders, µs and ns magic. A record with bad content is reported and skipped; a truncated
+// record or an implausible length stops reading. CAN FD packets are reported as unsupported. Every frame reads as
+// "can0". PcapScanner is the one reader; PcapReader hands its frames out one at a time.
 // Writing: little-endian, microsecond magic unless asked for nanoseconds, snaplen 65535, 16-byte records.
 #pragma once
 
@@ -39,10 +33,9 @@ std::string_view decode_socketcan_packet(std::span<const std::uint8_t> packet, C
 /// Wireshark expects). The frame must be valid().
 std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noexcept;
 
-/// The pcap reader: large reads into one buffer, records decoded in place, frames handed out in batches
-/// (FrameBatch, interfaces all "can0"). Reads a regular file with pread(2) (whole, or a range of it for one block of
-/// decode's and stats' two-core paths) or a stream (a compressed file, a pipe). Memory is one buffer (block size +
-/// the longest record accepted), whatever the file size.
+/// The pcap reader: large reads into one buffer, records decoded in place, frames handed out in batches. Reads a
+/// regular file with pread(2) (whole, or a range of it: a block of the read path) or a stream. Memory is one buffer
+/// (block size + the longest record accepted), whatever the file size.
 class PcapScanner {
  public:
   /// Reads the regular file `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as
@@ -60,8 +53,7 @@ class PcapScanner {
   PcapScanner& operator=(const PcapScanner&) = delete;
   ~PcapScanner();
 
-  /// Fills `batch` (cleared first) with up to FrameBatch::kMax records; false (batch empty) at the end. A record
-  /// with bad content is reported and skipped; a truncated record or an implausible length stops the reading.
+  /// Fills `batch` (cleared first) with up to FrameBatch::kMax records; false (batch empty) at the end.
   bool next_batch(FrameBatch& batch);
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
 
@@ -88,7 +80,7 @@ class PcapScanner {
   bool stopped_ = false;
 };
 
-/// The pcap member of the capture interface: PcapScanner over a stream, its batches handed out frame by frame too.
+/// PcapScanner over a stream as a CaptureReader.
 class PcapReader final : public BatchCaptureReader {
  public:
   /// Reads the 24-byte file header; throws CaptureOpenError when it is missing, not pcap, or not link type 227.

@@ -1,14 +1,8 @@
-// pcapng capture files whose interfaces have LINKTYPE_CAN_SOCKETCAN (227), as Wireshark, tshark and python-can
-// read them. Packets are the same as in pcap (pcap.hpp: CAN id big-endian, payload_length authoritative).
-//
-// Reading: Section Header Blocks in either byte order (a file may hold several sections), Interface Description
-// Blocks with if_name, if_tsresol (powers of 10 and of 2) and if_tsoffset, Enhanced Packet Blocks, Simple Packet
-// Blocks (interface 0, no timestamp: their frames have none, and their length is cut to the snap length). Unknown block
-// types and packets of non-CAN interfaces are skipped by their length. A block with bad content but a sane length
-// is reported and skipped; a block length that is not a multiple of 4 (or below 12) or a file that ends inside a
-// block stops reading. An interface without if_name reads as "can<index>".
-// Writing: one little-endian section; one IDB per interface name at its first frame (if_name, if_tsresol 9 =
-// nanoseconds, snaplen 65535); one EPB per frame with a 16-byte packet.
+// pcapng capture files whose interfaces have LINKTYPE_CAN_SOCKETCAN (227), packets as in pcap (pcap.hpp); what is
+// read and how: docs/captures.md. Several sections in either byte order, if_name, if_tsresol and if_tsoffset are
+// read; unknown blocks and packets of non-CAN interfaces are skipped by their length. A block with bad content but
+// a sane length is reported and skipped; a bad block length or a file that ends inside a block stops reading.
+// Writing: one little-endian section, an IDB per interface name at its first frame (ns resolution), an EPB per frame.
 #pragma once
 
 #include <cstdint>
@@ -26,10 +20,9 @@
 
 namespace saul::host {
 
-/// Interfaces of one section, at most, that the reader reads and the writer writes: each is a block of its own in the
-/// file and a name held in memory, and a file of millions (hostile, or a log whose interface column is noise) must
-/// not grow without end. The reader reports the declarations after them as corrupt (and their packets as of an
-/// undeclared interface); the writer's write() throws std::invalid_argument.
+/// The most interfaces of one section that the reader reads and the writer writes (each is a name in memory: a
+/// hostile file must not grow it without end). The reader reports the declarations after them as corrupt; the
+/// writer's write() throws std::invalid_argument.
 inline constexpr std::size_t kPcapngMaxInterfaces = 65536;
 
 class PcapngReader final : public RecordCaptureReader {
@@ -40,11 +33,9 @@ class PcapngReader final : public RecordCaptureReader {
   explicit PcapngReader(std::span<const std::uint8_t> bytes);
 
   Status next() override;
-  /// Fills `batch` (cleared first) with what next() would give, in order, up to `max` frames and corrupt records;
-  /// false (batch empty) at the end. Over bytes in memory the usual packet (an Enhanced Packet Block of a SocketCAN
-  /// interface that reads cleanly) is decoded straight from the bytes, ~4x faster than next() one by one;
-  /// anything else goes through next(), which may come only first in a batch, so the interface names the batch
-  /// points into stay put until the next call. frame() and interface() are not kept up to date by it.
+  /// Fills `batch` (cleared first) with what next() would give, up to `max` frames and corrupt records; false at the
+  /// end. Over bytes in memory the usual packet is decoded in place (~4x faster than next()); frame() and
+  /// interface() are not kept up to date by it.
   bool next_batch(FrameBatch& batch, std::size_t max);
   bool next_batch(FrameBatch& batch) override { return next_batch(batch, FrameBatch::kMax); }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
@@ -60,7 +51,6 @@ class PcapngReader final : public RecordCaptureReader {
     std::uint32_t snaplen = 0;  ///< 0: no limit
     std::string name;
   };
-  enum class Step { frame, corrupt, skipped };
 
   Step block(std::uint64_t start, std::uint32_t type, std::uint32_t length, std::uint32_t header_bytes);
   Step interface_block(std::uint64_t start);

@@ -1,12 +1,8 @@
-// Writing a recording into a series of files: `saulctl record --rotate-size 100M --rotate-time 10m`.
-//
-// Without rotation the writer writes exactly the path given. With rotation the files are numbered
-// NAME-000.EXT, NAME-001.EXT, ... (the extension stays last, so the format is still told by it); a new file is
-// started before the frame that would go into a file that already holds max_bytes, or whose first frame is
-// max_duration older than this one (by the frames' own timestamps). Each file is closed properly (complete and
-// readable on its own: pcapng and pcap start with their headers again, ASC ends its trigger block) before the
-// next is opened. With RotationOptions::compress each finished file is then compressed into NAME-000.EXT.gz (or
-// .zst) on another thread while the recording goes on, and the plain file removed; close() waits for the last.
+// Writing a recording into a series of files: `saulctl record --rotate-size 100M --rotate-time 10m`. With rotation
+// the files are NAME-000.EXT, NAME-001.EXT, ...; a new file starts before the frame that would go into a file that
+// holds max_bytes already, or whose first frame is max_duration older (by the frames' timestamps). Each file is
+// complete and readable on its own. With RotationOptions::compress each finished file is compressed on another
+// thread (NAME-000.EXT.gz or .zst, the plain file removed); close() waits for the last.
 #pragma once
 
 #include <cstdint>
@@ -32,9 +28,8 @@ struct RotationOptions {
   [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
 };
 
-/// Compresses finished files in order (compress_file: NAME.gz or NAME.zst, the plain file removed), each on a thread
-/// of its own that first waits for the file before. finish() waits for all and throws the first failure; the
-/// destructor waits for all.
+/// Compresses finished files in order (compress_file), each on a thread of its own that first waits for the file
+/// before; the destructor waits for all.
 class FileCompressor {
  public:
   explicit FileCompressor(Compression compression) : compression_(compression) {}
@@ -51,14 +46,12 @@ class FileCompressor {
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
 std::string numbered_path(const std::string& path, unsigned index);
 
-/// Parses "100M", "1.5G", "64k", "4096" (bytes; k/M/G are powers of 1024, an optional trailing "B" or "iB"; read
-/// by core/quantity.hpp).
+/// Parses "100M", "1.5G", "64k", "4096" (bytes; k/M/G are powers of 1024, an optional "B" or "iB" after them).
 /// Throws std::invalid_argument.
 std::uint64_t parse_size(const std::string& text);
 
 /// What the rotating writers of CAN frames and of serial chunks share (Writer: CaptureWriter or
-/// SerialCaptureWriter): the files, the format writer of the current one, when the next starts, and compression.
-/// `on_new_file(path)` is told of every file opened; `make` builds each file's format writer on its stream.
+/// SerialCaptureWriter). `on_new_file(path)` is told of every file opened; `make` builds each file's format writer.
 template <class Writer>
 class RotatingFiles : public Writer {
  public:

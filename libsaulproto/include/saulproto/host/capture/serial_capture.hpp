@@ -1,19 +1,12 @@
-// Byte captures of the robot's UART links (inter-board 460800 8N1, CRSF 420000 8N1, Pride 38400 8E1), in three
-// kinds of files, all read through one interface (SerialCaptureReader) that hands out timestamped chunks of bytes:
-//
-//  - our own serial log (CaptureFormat::serial, written and read here), one text line per chunk of bytes as it
-//    came off the port, candump-like:
+// Byte captures of the robot's UART links (inter-board 460800 8N1, CRSF 420000 8N1, Pride 38400 8E1), read through
+// one interface (SerialCaptureReader) that hands out timestamped chunks of bytes (docs/captures.md):
+//  - our own serial log (CaptureFormat::serial), one line per chunk as it came off the port, candump-like:
 //        (1763800000.000100) serial:/dev/ttyUSB0@460800:8N1 interboard AA0501F40106FF010F
-//    time, the link as saulctl names it, the protocol the bytes carry (interboard, crsf, pride, raw), then the
-//    bytes in hex, exact. A chunk that a logic analyser flagged ends in " !parity", " !framing" or " !break"
-//    (several may follow each other); "-" stands for no bytes (an error with no byte, such as a break).
-//    docs/captures.md says why this format (and not pcapng) was chosen;
-//  - logic-analyser exports of sigrok's UART decoder (uart_export.hpp): sigrok-cli's annotation text and its
-//    Google-trace JSON, PulseView's annotation export and its table CSV. They name no protocol: give one in
+//    time, link, protocol (interboard, crsf, pride, raw), the bytes in hex, then " !parity", " !framing" or " !break"
+//    marks of a logic analyser ("-" for no bytes);
+//  - logic-analyser exports of sigrok's UART decoder (uart_export.hpp), which name no protocol: give one in
 //    SerialReadOptions, or let the caller guess it (guess_serial_protocol in serial_decode.hpp).
-//
-// Format detection and the file factories are shared with the CAN formats (capture.hpp): detect_capture_format
-// tells all of them apart, and open_capture (capture.hpp) opens either kind of file.
+// Format detection and open_capture() are shared with the CAN formats (capture.hpp).
 #pragma once
 
 #include <cstdint>
@@ -60,17 +53,14 @@ struct SerialChunk {
   bool operator==(const SerialChunk&) const = default;
 };
 
-/// How to read files that do not say everything themselves (logic-analyser exports), and the format of a file
-/// whose content should not decide (`--input-format`).
+/// How to read files that do not say everything themselves (logic-analyser exports).
 struct SerialReadOptions {
   /// The protocol of every chunk of a file that names none (sigrok, PulseView); raw when absent.
   std::optional<SerialProtocol> protocol;
-  /// Sample rate of the logic capture, to turn sample numbers into time (sigrok-cli
-  /// --protocol-decoder-samplenum, PulseView exports). 0 = unknown: such chunks carry no timestamp, except where
-  /// the file has times of its own (the JSON trace, PulseView's Time column).
+  /// Of the logic capture, to turn sample numbers into time; 0 = unknown: such chunks carry no timestamp, except
+  /// where the file has times of its own (the JSON trace, PulseView's Time column).
   std::uint64_t samplerate_hz = 0;
-  /// The file's format, CAN or serial, instead of the one its content says: used by open_capture() and
-  /// open_serial_capture_reader() when they are given no format of their own.
+  /// The file's format instead of the one its content says (`--input-format`), when no format is given otherwise.
   std::optional<CaptureFormat> format;
 };
 
@@ -111,11 +101,6 @@ class SerialCaptureWriter {
   [[nodiscard]] virtual CaptureFormat format() const = 0;
 };
 
-/// Parses one serial-log line (no newline). False with error's column and message when it is not one.
-bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& error);
-/// One serial-log line, without newline, for a chunk of at most 64 bytes (the writer splits longer ones).
-std::string format_serial_line(const SerialChunk& chunk);
-
 /// Reads our serial log. Lines not starting with '(' are comments.
 class SerialLogReader final : public SerialCaptureReader {
  public:
@@ -147,13 +132,10 @@ class SerialLogWriter final : public SerialCaptureWriter {
   bool closed_ = false;
 };
 
-/// A reader of a serial `format` (serial, sigrok, sigrok_json, pulseview_csv) over a stream the caller keeps
-/// alive. Throws std::invalid_argument for a CAN format.
+/// A reader of a serial `format` over a stream the caller keeps alive. Throws std::invalid_argument for a CAN format.
 std::unique_ptr<SerialCaptureReader> make_serial_capture_reader(std::istream& in, CaptureFormat format,
                                                                 const SerialReadOptions& options = {});
-/// Opens a serial capture file for reading: `format` when given, else detected from the content, else from the
-/// extension (.serial). Throws CaptureOpenError when the file cannot be opened, its format cannot be told, or it
-/// holds CAN frames.
+/// Opens a serial capture file for reading, as open_capture_reader() opens CAN captures.
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
                                                                 const SerialReadOptions& options = {},
                                                                 std::optional<CaptureFormat> format = std::nullopt);

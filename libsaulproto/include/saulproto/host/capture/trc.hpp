@@ -1,5 +1,6 @@
-// PEAK trace files (.trc), as PCAN-View, PCAN-Explorer, PEAK-Converter and python-can write them. Lines starting
-// with ';' are comments, except the header directives ";$FILEVERSION=", ";$STARTTIME=" and ";$COLUMNS=".
+// PEAK trace files (.trc), as PCAN-View, PCAN-Explorer, PEAK-Converter and python-can write them (choices:
+// docs/captures.md "PEAK TRC"). Lines starting with ';' are comments, except ";$FILEVERSION=", ";$STARTTIME=" and
+// ";$COLUMNS=".
 //
 //   1.0  (no $FILEVERSION)  "     1)      1841  0001    8  00 00 ..."        number) time(ms) id dlc data
 //   1.1   "     1)      1841.0  Rx         0001  8  00 00 ..."                 number) time type id dlc data
@@ -8,19 +9,12 @@
 //   2.0   "      1      1059.900 DT     0300 Rx 7  00 00 ..."                  columns N,O,T,I,d,l,D by default
 //   2.1   "      1      1059.900 DT 1      0300 Rx -  7    00 00 ..."          columns N,O,T,B,I,d,R,L,D by default
 //
-// Version 2 files name their columns in $COLUMNS (N number, O offset, T type, B bus, I id, d direction, R reserved,
-// l length, L DLC, D data); the reader follows it. An id of more than 4 hex digits is a 29-bit id. Times are
-// milliseconds since $STARTTIME, a count of days since 1899-12-30 (read as UTC, like ASC's date: PEAK writes the
-// local time); without it, times are the offsets alone.
-// Types: 1.x Rx/Tx frames (data "RTR" for a remote frame), "Error" as an error frame, "Warng" (bus status) skipped;
-// 2.x DT data, RR remote, ER error frame, FD/FB/FE/BI CAN FD (reported as unsupported), ST/EC/EV skipped. An error
-// frame carries no SocketCAN class: it reads as a bus error (0x080, 8 zero bytes), as in ASC. Bus N reads as
-// "can<N-1>" (1.0, 1.1 and 2.0 files have no bus: "can0"). A classic DLC of 9..15 reads as 8 bytes.
-//
-// Writing: version 2.1 with the columns N,O,T,B,I,d,R,L,D, python-can's layout; times in ms with 3 decimals
-// (microseconds) from a $STARTTIME that is exact in the file (a multiple of 0.864 s, 1e-5 days, at or before the
-// first frame), so that start + offset gives each frame's microsecond back. Buses are numbered 1, 2, ... in order
-// of first appearance of each interface name. Remote frames as RR, error frames as ER.
+// Version 2 lines follow $COLUMNS (N number, O offset, T type, B bus, I id, d direction, R reserved, l length, L DLC,
+// D data). An id of more than 4 hex digits is 29-bit. Times are ms since $STARTTIME (days since 1899-12-30, read as
+// UTC). Error frames read as a bus error (0x080, 8 zero bytes), CAN FD types are reported as unsupported, status
+// lines are skipped; bus N reads as "can<N-1>" ("can0" without a bus column); a DLC of 9..15 reads as 8 bytes.
+// Writing: version 2.1 in python-can's columns, from a $STARTTIME exact in the file (a multiple of 0.864 s), so that
+// start + offset gives each frame's microsecond back; buses numbered in order of first appearance.
 #pragma once
 
 #include <array>
@@ -54,7 +48,6 @@ class TrcReader final : public RecordCaptureReader {
   [[nodiscard]] int version() const { return version_; }
 
  private:
-  enum class Step { frame, corrupt, skipped };
   Step parse_line(std::string_view line);
   Step directive(std::string_view line);
   Step v1_line();
