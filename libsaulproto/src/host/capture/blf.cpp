@@ -81,7 +81,7 @@ void store_systemtime(std::uint8_t* p, std::uint64_t ns) {
                                                detail::weekday_from_days(days), c.day, sec / 3600, sec / 60 % 60,
                                                sec % 60, in_day / 1'000'000 % 1000};
   for (std::size_t i = 0; i < fields.size(); ++i)
-    detail::store_u16le(p + 2 * i, static_cast<std::uint16_t>(fields[i]));
+    bytes::put_u16le(p + 2 * i, static_cast<std::uint16_t>(fields[i]));
 }
 
 BlfReader::Container inflate_container(std::uint64_t offset, std::vector<std::uint8_t> data, std::uint32_t declared) {
@@ -329,13 +329,18 @@ BlfReader::Step BlfReader::can_object(std::uint32_t type, const std::uint8_t* bo
   switch (type) {
     case kCanMessage:
     case kCanMessage2:
-      if (length < 16) return too_short(16);
+    case kCanFdMessage: {  // the same fields; CAN_FD_MESSAGE's data after 12 more bytes (its FD flags among them)
+      const bool fd = type == kCanFdMessage;
+      if (length < (fd ? 20U : 16U)) return too_short(fd ? 20 : 16);
+      if (fd && (body[13] & kFdEdl) != 0) break;
       channel = load_u16(body, false);
       remote = (body[2] & kMsgRemote) != 0;
       dlc = body[3];
       raw_id = load_u32(body + 4, false);
-      data = body + 8;
+      data = body + (fd ? 20 : 8);
+      if (fd && !remote && length < 20 + std::min(dlc, 8U)) return too_short(20 + std::min(dlc, 8U));
       break;
+    }
     case kCanError:
     case kCanErrorExt:
       if (length < 4) return too_short(4);
@@ -343,18 +348,6 @@ BlfReader::Step BlfReader::can_object(std::uint32_t type, const std::uint8_t* bo
       frame_.timestamp_ns = time_ns;
       name_ = detail::channel_name(std::max(load_u16(body, false), std::uint16_t{1}));
       return Step::frame;
-    case kCanFdMessage: {
-      if (length < 20) return too_short(20);
-      if ((body[13] & kFdEdl) != 0) break;
-      channel = load_u16(body, false);
-      remote = (body[2] & kMsgRemote) != 0;
-      dlc = body[3];
-      raw_id = load_u32(body + 4, false);
-      data = body + 20;
-      const unsigned bytes = std::min(dlc, 8U);
-      if (!remote && length < 20 + bytes) return too_short(20 + bytes);
-      break;
-    }
     case kCanFdMessage64: {
       if (length < 40) return too_short(40);
       const std::uint32_t flags = load_u32(body + 12, false);
@@ -419,16 +412,16 @@ BlfReader::Status BlfReader::next() {
 void BlfWriter::write_header(std::uint64_t file_size) {
   std::array<std::uint8_t, kFileHeaderSize> h{};
   std::copy(kFileSignature.begin(), kFileSignature.end(), h.begin());
-  detail::store_u32le(h.data() + 4, kFileHeaderSize);
+  bytes::put_u32le(h.data() + 4, kFileHeaderSize);
   // application 5 and format version 2.6.8.1, as python-can writes them (files Vector's tools open)
   const std::array<std::uint8_t, 8> versions = {5, 0, 0, 0, 2, 6, 8, 1};
   std::copy(versions.begin(), versions.end(), h.begin() + 8);
-  detail::store_u32le(h.data() + 16, static_cast<std::uint32_t>(file_size));
-  detail::store_u32le(h.data() + 20, static_cast<std::uint32_t>(file_size >> 32));
+  bytes::put_u32le(h.data() + 16, static_cast<std::uint32_t>(file_size));
+  bytes::put_u32le(h.data() + 20, static_cast<std::uint32_t>(file_size >> 32));
   const std::uint64_t uncompressed = kFileHeaderSize + uncompressed_bytes_;
-  detail::store_u32le(h.data() + 24, static_cast<std::uint32_t>(uncompressed));
-  detail::store_u32le(h.data() + 28, static_cast<std::uint32_t>(uncompressed >> 32));
-  detail::store_u32le(h.data() + 32, objects_);
+  bytes::put_u32le(h.data() + 24, static_cast<std::uint32_t>(uncompressed));
+  bytes::put_u32le(h.data() + 28, static_cast<std::uint32_t>(uncompressed >> 32));
+  bytes::put_u32le(h.data() + 32, objects_);
   if (start_ns_) {
     store_systemtime(h.data() + 40, *start_ns_);
     store_systemtime(h.data() + 56, std::max(stop_ns_, *start_ns_));
@@ -452,12 +445,12 @@ void BlfWriter::write_container() {
   const auto size = static_cast<std::uint32_t>(kBaseHeader + kContainerHeader + packed_size);
   std::array<std::uint8_t, kBaseHeader + kContainerHeader> h{};
   std::copy(kObjectSignature.begin(), kObjectSignature.end(), h.begin());
-  detail::store_u16le(h.data() + 4, kBaseHeader);
-  detail::store_u16le(h.data() + 6, 1);
-  detail::store_u32le(h.data() + 8, size);
-  detail::store_u32le(h.data() + 12, kLogContainer);
-  detail::store_u16le(h.data() + 16, kZlibDeflate);
-  detail::store_u32le(h.data() + 24, static_cast<std::uint32_t>(chunk));
+  bytes::put_u16le(h.data() + 4, kBaseHeader);
+  bytes::put_u16le(h.data() + 6, 1);
+  bytes::put_u32le(h.data() + 8, size);
+  bytes::put_u32le(h.data() + 12, kLogContainer);
+  bytes::put_u16le(h.data() + 16, kZlibDeflate);
+  bytes::put_u32le(h.data() + 24, static_cast<std::uint32_t>(chunk));
   detail::write_bytes(out_, h.data(), h.size());
   detail::write_bytes(out_, packed.data(), packed_size);
   const std::array<std::uint8_t, 3> padding{};
@@ -478,19 +471,19 @@ void BlfWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::uint32_t body = frame.error ? 32 : 16;
   std::array<std::uint8_t, kHeaderV1 + 32> o{};
   std::copy(kObjectSignature.begin(), kObjectSignature.end(), o.begin());
-  detail::store_u16le(o.data() + 4, kHeaderV1);
-  detail::store_u16le(o.data() + 6, 1);
-  detail::store_u32le(o.data() + 8, kHeaderV1 + body);
-  detail::store_u32le(o.data() + 12, frame.error ? kCanErrorExt : kCanMessage);
-  detail::store_u32le(o.data() + 16, kTimeNanoseconds);
-  detail::store_u32le(o.data() + 24, static_cast<std::uint32_t>(rel));
-  detail::store_u32le(o.data() + 28, static_cast<std::uint32_t>(rel >> 32));
+  bytes::put_u16le(o.data() + 4, kHeaderV1);
+  bytes::put_u16le(o.data() + 6, 1);
+  bytes::put_u32le(o.data() + 8, kHeaderV1 + body);
+  bytes::put_u32le(o.data() + 12, frame.error ? kCanErrorExt : kCanMessage);
+  bytes::put_u32le(o.data() + 16, kTimeNanoseconds);
+  bytes::put_u32le(o.data() + 24, static_cast<std::uint32_t>(rel));
+  bytes::put_u32le(o.data() + 28, static_cast<std::uint32_t>(rel >> 32));
   std::uint8_t* b = o.data() + kHeaderV1;
-  detail::store_u16le(b, static_cast<std::uint16_t>(index + 1));
+  bytes::put_u16le(b, static_cast<std::uint16_t>(index + 1));
   if (!frame.error) {  // CAN_ERROR_EXT stays all zero but its channel: no SocketCAN class fits its fields
     b[2] = frame.remote ? kMsgRemote : 0;
     b[3] = frame.dlc;
-    detail::store_u32le(b + 4, frame.id | (frame.extended ? kIdExtended : 0));
+    bytes::put_u32le(b + 4, frame.id | (frame.extended ? kIdExtended : 0));
     const auto payload = frame.payload();
     std::copy(payload.begin(), payload.end(), b + 8);
   }

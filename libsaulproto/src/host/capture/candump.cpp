@@ -51,7 +51,7 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   std::string_view data = text.substr(hash + 1);
   std::size_t data_col = frame_start + hash + 1;
   if (!data.empty() && data[0] == '#')
-    return column_error(error, data_col, "CAN FD frame: the robot's bus is classic CAN, FD is not supported");
+    return column_error(error, data_col, std::string(detail::kFdUnsupported));
   if (hash == 8) {
     constexpr std::uint32_t kErrFlag = 0x2000'0000;
     if (id & kErrFlag) {

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "saulproto/core/bytes.hpp"  // our writers store little-endian with bytes::put_u16le / put_u32le
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/interface_index.hpp"
 
@@ -107,16 +108,6 @@ inline std::uint64_t load_u64(const std::uint8_t* p, bool big) noexcept {
   const std::uint64_t a = load_u32(p, big);
   const std::uint64_t b = load_u32(p + 4, big);
   return big ? (a << 32 | b) : (b << 32 | a);
-}
-
-/// Little-endian stores into a byte buffer (our writers always write little-endian files).
-inline void store_u16le(std::uint8_t* p, std::uint16_t v) noexcept {
-  p[0] = static_cast<std::uint8_t>(v);
-  p[1] = static_cast<std::uint8_t>(v >> 8);
-}
-
-inline void store_u32le(std::uint8_t* p, std::uint32_t v) noexcept {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
 }
 
 inline void write_bytes(std::ostream& out, const std::uint8_t* p, std::size_t n) {

@@ -36,6 +36,8 @@ bool write_all(std::streambuf& sink, const char* src, std::size_t n) {
 /// What both decompressors keep: the source, the output buffer, the count of compressed bytes, the first error.
 class InflaterBase : public DecompressingBuf {
  public:
+  InflaterBase(const InflaterBase&) = delete;
+  InflaterBase& operator=(const InflaterBase&) = delete;
   [[nodiscard]] std::uint64_t compressed_bytes() const override { return compressed_; }
   [[nodiscard]] const std::string& error() const override { return error_; }
 
@@ -72,8 +74,6 @@ class GzipInflater final : public InflaterBase {
     if (inflateInit2(&z_, 15 + 32) != Z_OK) throw std::runtime_error("zlib: cannot start inflating");
   }
   ~GzipInflater() override { inflateEnd(&z_); }
-  GzipInflater(const GzipInflater&) = delete;
-  GzipInflater& operator=(const GzipInflater&) = delete;
 
  protected:
   int_type underflow() override {
@@ -128,8 +128,6 @@ class ZstdInflater final : public InflaterBase {
     ZSTD_DCtx_setParameter(d_, ZSTD_d_windowLogMax, kZstdWindowLogMax);
   }
   ~ZstdInflater() override { ZSTD_freeDCtx(d_); }
-  ZstdInflater(const ZstdInflater&) = delete;
-  ZstdInflater& operator=(const ZstdInflater&) = delete;
 
  protected:
   int_type underflow() override {
@@ -169,6 +167,10 @@ class ZstdInflater final : public InflaterBase {
 
 /// The put area collects what is written; a full area, a sync and finish() hand it to the compressor.
 class CompressorBase : public CompressingBuf {
+ public:
+  CompressorBase(const CompressorBase&) = delete;
+  CompressorBase& operator=(const CompressorBase&) = delete;
+
  protected:
   explicit CompressorBase(std::streambuf& sink) : sink_(sink) { setp(in_.data(), in_.data() + in_.size()); }
 
@@ -219,8 +221,6 @@ class GzipDeflater final : public CompressorBase {
       throw std::runtime_error("zlib: cannot start deflating");
   }
   ~GzipDeflater() override { deflateEnd(&z_); }
-  GzipDeflater(const GzipDeflater&) = delete;
-  GzipDeflater& operator=(const GzipDeflater&) = delete;
 
  private:
   bool compress(const char* data, std::size_t n, Mode mode) override {
@@ -247,8 +247,6 @@ class ZstdDeflater final : public CompressorBase {
     ZSTD_CCtx_setParameter(c_, ZSTD_c_checksumFlag, 1);
   }
   ~ZstdDeflater() override { ZSTD_freeCCtx(c_); }
-  ZstdDeflater(const ZstdDeflater&) = delete;
-  ZstdDeflater& operator=(const ZstdDeflater&) = delete;
 
  private:
   bool compress(const char* data, std::size_t n, Mode mode) override {

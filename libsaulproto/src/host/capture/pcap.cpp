@@ -36,7 +36,7 @@ std::string_view decode_socketcan_packet(std::span<const std::uint8_t> packet, C
   const std::uint32_t id_flags = load_u32(packet.data(), true);
   const std::uint8_t length = packet[4];
   if ((packet[5] & kCanFdFdf) != 0 || packet.size() == kCanFdMtu)
-    return "CAN FD frame: the robot's bus is classic CAN, FD is not supported";
+    return detail::kFdUnsupported;
   if (length > CanFrame::kMaxDlc) return "payload_length above 8";
   const std::uint32_t id = id_flags & CanFrame::kMaxExtendedId;
   const bool error = (id_flags & kErrFlag) != 0;
@@ -278,12 +278,12 @@ bool PcapScanner::next_batch(FrameBatch& batch) {
 
 PcapWriter::PcapWriter(std::ostream& out, PcapWriterOptions options) : StreamCaptureWriter(out, "pcap"), options_(options) {
   std::array<std::uint8_t, 24> h{};
-  detail::store_u32le(h.data(), options_.nanosecond ? kMagicNano : kMagicMicro);
-  detail::store_u16le(h.data() + 4, 2);
-  detail::store_u16le(h.data() + 6, 4);
+  bytes::put_u32le(h.data(), options_.nanosecond ? kMagicNano : kMagicMicro);
+  bytes::put_u16le(h.data() + 4, 2);
+  bytes::put_u16le(h.data() + 6, 4);
   // thiszone and sigfigs stay 0
-  detail::store_u32le(h.data() + 16, detail::kSnaplen);
-  detail::store_u32le(h.data() + 20, kLinktypeCanSocketcan);
+  bytes::put_u32le(h.data() + 16, detail::kSnaplen);
+  bytes::put_u32le(h.data() + 20, kLinktypeCanSocketcan);
   detail::write_bytes(out_, h.data(), h.size());
   check_written();
 }
@@ -294,10 +294,10 @@ void PcapWriter::put(const CanFrame& frame, std::string_view /*interface*/) {
   if (sec > 0xFFFF'FFFFULL) throw std::invalid_argument("pcap: timestamp after the year 2106 does not fit");
   const std::uint64_t frac = options_.nanosecond ? ns % 1'000'000'000ULL : ns % 1'000'000'000ULL / 1000U;
   std::array<std::uint8_t, 32> r{};
-  detail::store_u32le(r.data(), static_cast<std::uint32_t>(sec));
-  detail::store_u32le(r.data() + 4, static_cast<std::uint32_t>(frac));
-  detail::store_u32le(r.data() + 8, 16);
-  detail::store_u32le(r.data() + 12, 16);
+  bytes::put_u32le(r.data(), static_cast<std::uint32_t>(sec));
+  bytes::put_u32le(r.data() + 4, static_cast<std::uint32_t>(frac));
+  bytes::put_u32le(r.data() + 8, 16);
+  bytes::put_u32le(r.data() + 12, 16);
   const auto packet = encode_socketcan_packet(frame);
   for (std::size_t i = 0; i < packet.size(); ++i) r[16 + i] = packet[i];
   detail::write_bytes(out_, r.data(), r.size());

@@ -65,16 +65,8 @@ class BlockBuilder {
     u32(type);
     u32(0);  // total length, patched in finish()
   }
-  void u16(std::uint16_t v) {
-    std::array<std::uint8_t, 2> b{};
-    detail::store_u16le(b.data(), v);
-    bytes_.insert(bytes_.end(), b.begin(), b.end());
-  }
-  void u32(std::uint32_t v) {
-    std::array<std::uint8_t, 4> b{};
-    detail::store_u32le(b.data(), v);
-    bytes_.insert(bytes_.end(), b.begin(), b.end());
-  }
+  void u16(std::uint16_t v) { little_endian(v, 2); }
+  void u32(std::uint32_t v) { little_endian(v, 4); }
   void raw(std::span<const std::uint8_t> v) { bytes_.insert(bytes_.end(), v.begin(), v.end()); }
   void pad() {
     while (bytes_.size() % 4) bytes_.push_back(0);
@@ -88,11 +80,14 @@ class BlockBuilder {
   void finish_and_write(std::ostream& out) {
     const auto total = static_cast<std::uint32_t>(bytes_.size() + 4);
     u32(total);
-    detail::store_u32le(bytes_.data() + 4, total);
+    bytes::put_u32le(bytes_.data() + 4, total);
     detail::write_bytes(out, bytes_.data(), bytes_.size());
   }
 
  private:
+  void little_endian(std::uint32_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i) bytes_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
   std::vector<std::uint8_t> bytes_;
 };
 

@@ -37,11 +37,6 @@ void close_and_compress(Writer& writer, std::ofstream& file, std::string& path, 
   compressor->finish();
 }
 
-std::unique_ptr<FileCompressor> compressor_for(const RotationOptions& options) {
-  if (options.compress == Compression::none) return nullptr;
-  return std::make_unique<FileCompressor>(options.compress);
-}
-
 }  // namespace
 
 void FileCompressor::add(const std::string& path) {
@@ -97,7 +92,8 @@ RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions ro
                                      std::function<void(const std::string&)> on_new_file, MakeWriter make)
     : path_(path),
       rotation_(rotation),
-      compressor_(compressor_for(rotation)),
+      compressor_(rotation.compress == Compression::none ? nullptr
+                                                          : std::make_unique<FileCompressor>(rotation.compress)),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
   current_path_ = path_for(0);

@@ -24,19 +24,15 @@ std::string_view word(std::string_view line, std::size_t& pos, std::size_t& star
 
 }  // namespace
 
+constexpr std::string_view kProtocolNames[] = {"raw", "interboard", "crsf", "pride"};  // by SerialProtocol
+
 std::string_view to_string(SerialProtocol protocol) noexcept {
-  switch (protocol) {
-    case SerialProtocol::raw: return "raw";
-    case SerialProtocol::interboard: return "interboard";
-    case SerialProtocol::crsf: return "crsf";
-    case SerialProtocol::pride: return "pride";
-  }
-  return "?";
+  return kProtocolNames[static_cast<std::size_t>(protocol)];
 }
 
 std::optional<SerialProtocol> serial_protocol_from_name(std::string_view name) noexcept {
-  for (auto p : {SerialProtocol::raw, SerialProtocol::interboard, SerialProtocol::crsf, SerialProtocol::pride})
-    if (name == to_string(p)) return p;
+  for (std::size_t i = 0; i < std::size(kProtocolNames); ++i)
+    if (name == kProtocolNames[i]) return static_cast<SerialProtocol>(i);
   return std::nullopt;
 }
 
