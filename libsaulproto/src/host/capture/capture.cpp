@@ -585,17 +585,18 @@ std::unique_ptr<CaptureWriter> make_writer(std::ostream& out) {
   return std::make_unique<Writer>(out);
 }
 /// The CAN formats' readers and writers, by CaptureFormat (the serial formats come after them).
-constexpr std::pair<std::unique_ptr<CaptureReader> (*)(std::istream&), std::unique_ptr<CaptureWriter> (*)(std::ostream&)>
-    kFactories[] = {
-        {make_reader<CandumpReader>, make_writer<CandumpWriter>},
-        {make_reader<PcapReader>, make_writer<PcapWriter>},
-        {make_reader<PcapngReader>, make_writer<PcapngWriter>},
-        {make_reader<AscReader>, make_writer<AscWriter>},
-        {make_reader<BlfReader>, make_writer<BlfWriter>},
-        {make_reader<TrcReader>, make_writer<TrcWriter>},
-        {make_reader<CsvLogReader>, make_writer<CsvLogWriter>},
-        {make_reader<GvretCsvReader>, make_writer<GvretCsvWriter>},
-        {make_reader<McapFrameReader>, make_writer<McapCaptureWriter>},
+using MakeReader = std::unique_ptr<CaptureReader> (*)(std::istream&);
+using MakeWriter = std::unique_ptr<CaptureWriter> (*)(std::ostream&);
+constexpr std::pair<MakeReader, MakeWriter> kFactories[] = {
+    {make_reader<CandumpReader>, make_writer<CandumpWriter>},
+    {make_reader<PcapReader>, make_writer<PcapWriter>},
+    {make_reader<PcapngReader>, make_writer<PcapngWriter>},
+    {make_reader<AscReader>, make_writer<AscWriter>},
+    {make_reader<BlfReader>, make_writer<BlfWriter>},
+    {make_reader<TrcReader>, make_writer<TrcWriter>},
+    {make_reader<CsvLogReader>, make_writer<CsvLogWriter>},
+    {make_reader<GvretCsvReader>, make_writer<GvretCsvWriter>},
+    {make_reader<McapFrameReader>, make_writer<McapCaptureWriter>},
 };
 static_assert(std::size(kFactories) == static_cast<std::size_t>(CaptureFormat::serial));
 
@@ -729,7 +730,8 @@ std::unique_ptr<CaptureWriter> open_capture_writer_made(
   // "convert ... - >> all.log" keeps what was there. Not for BLF, which seeks back to its header at the end: in
   // append mode that header would be written at the end instead (a pipe cannot seek, and BLF then leaves it).
   const bool append = to_stdout && *format != CaptureFormat::blf;
-  file->open(to_stdout ? "/dev/stdout" : path.c_str(), std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc));
+  const auto mode = std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc);
+  file->open(to_stdout ? "/dev/stdout" : path.c_str(), mode);
   if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
   return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression, make);
 }
