@@ -9,6 +9,7 @@
 #include <cmath>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/signals.hpp"
@@ -133,13 +134,6 @@ std::string saul_comment(std::uint32_t id) {
   }
 }
 
-std::vector<Message> saul_messages() {
-  std::vector<Message> out;
-  for (const auto& m : signals::messages(signals::Protocol::saul_can))
-    out.push_back(message_of(m, m.id, m.name, m.sender, m.receiver, saul_comment(m.id)));
-  return out;
-}
-
 // The VESC frames the robot uses, per controller: SET_RPM (BALANCE drives the wheels with it) and the status
 // frames, with their comments ("{}" is the controller id). The other commands, PING and PONG are left out.
 struct VescEntry {
@@ -171,10 +165,13 @@ std::vector<Message> vesc_messages(std::uint8_t c) {
 
 }  // namespace
 
-std::string make_dbc(const DbcOptions& options) {
-  std::vector<Message> messages = saul_messages();
+std::string make_dbc() {
+  constexpr std::uint8_t kVescControllers[] = {vesc::kLeftId, vesc::kRightId};
+  std::vector<Message> messages;
+  for (const auto& m : signals::messages(signals::Protocol::saul_can))
+    messages.push_back(message_of(m, m.id, m.name, m.sender, m.receiver, saul_comment(m.id)));
   std::string nodes = "Orin BALANCE";
-  for (const auto c : options.vesc_controllers) {
+  for (const auto c : kVescControllers) {
     auto v = vesc_messages(c);
     messages.insert(messages.end(), v.begin(), v.end());
     nodes += fmt::format(" VESC_{}", c);
@@ -198,7 +195,7 @@ std::string make_dbc(const DbcOptions& options) {
       "multiplexed float32 signal (SIG_VALTYPE_ 1).") + ";\n";
   out += "CM_ BU_ Orin \"The robot's host computer (Jetson Orin).\";\n";
   out += "CM_ BU_ BALANCE \"The BALANCE board (ESP32-S3): balance loop, drives the VESCs.\";\n";
-  for (const auto c : options.vesc_controllers)
+  for (const auto c : kVescControllers)
     out += fmt::format("CM_ BU_ VESC_{} \"VESC motor controller id {}{}.\";\n", c, c,
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)

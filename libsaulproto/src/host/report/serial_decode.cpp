@@ -12,9 +12,8 @@
 namespace saul::host {
 namespace {
 
-/// feed(on_frame) runs the core's CRSF decoder, which is noexcept: an exception thrown through it ends the program
-/// (plot's usage error for a signal the message lacks did). on_frame hands each frame to deliver; an exception from
-/// deliver is held, the frames after it are not delivered, and it is thrown again once the core has returned.
+/// feed(on_frame) runs the core's noexcept CRSF decoder, each frame to deliver: an exception from deliver is held
+/// (the frames after it not delivered) and thrown again once the core has returned, not through it.
 template <class Feed, class Deliver>
 void crsf_frames(Feed&& feed, Deliver&& deliver) {
   std::exception_ptr error;
@@ -86,12 +85,10 @@ nlohmann::json to_json(const SerialMessage& message) {
                              },
                              [](const pride::Message& m) { return to_json(m); },
                              [&message](const CrsfUndecoded& u) {
-                               nlohmann::json j;
-                               j["type"] = name_of(message);
-                               j["error"] = to_string(u.reason);
-                               j["address"] = u.frame.address;
-                               j["payload"] = fmt::format("{:02X}", fmt::join(u.frame.payload(), ""));
-                               return j;
+                               return nlohmann::json{
+                                   {"type", name_of(message)}, {"error", to_string(u.reason)},
+                                   {"address", u.frame.address},
+                                   {"payload", fmt::format("{:02X}", fmt::join(u.frame.payload(), ""))}};
                              }},
                     message);
 }
@@ -258,20 +255,10 @@ std::string SerialStreamDecoder::counters_text() const {
 
 nlohmann::json SerialStreamDecoder::counters_json() const {
   const auto c = counters();
-  nlohmann::json j;
-  j["protocol"] = std::string(to_string(protocol_));
-  j["bytes"] = c.bytes;
-  j["frames"] = c.frames;
-  j["crc_errors"] = c.crc_errors;
-  j["length_errors"] = c.length_errors;
-  j["unknown_types"] = c.unknown_types;
-  j["out_of_range"] = c.out_of_range;
-  j["undecoded"] = c.undecoded;
-  j["bytes_skipped"] = c.bytes_skipped;
-  j["incomplete"] = c.incomplete;
-  j["uart_errors"] = c.uart_errors;
-  j["decode_errors"] = c.errors(protocol_);
-  return j;
+  return {{"protocol", std::string(to_string(protocol_))}, {"bytes", c.bytes}, {"frames", c.frames},
+          {"crc_errors", c.crc_errors}, {"length_errors", c.length_errors}, {"unknown_types", c.unknown_types},
+          {"out_of_range", c.out_of_range}, {"undecoded", c.undecoded}, {"bytes_skipped", c.bytes_skipped},
+          {"incomplete", c.incomplete}, {"uart_errors", c.uart_errors}, {"decode_errors", c.errors(protocol_)}};
 }
 
 std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t> bytes) {

@@ -36,13 +36,7 @@ namespace {
 void emit_frame(const CanFrame& f, const PlotSink& sink) {
   const auto r = decode_bus_frame(f);
   if (!r) return;
-  const BusMessage& m = r.value();
-  PlotMessage pm;
-  pm.timestamp_ns = f.timestamp_ns;
-  pm.can_id = f.id;
-  pm.name = saul::name_of(m);
-  pm.bus = &m;
-  sink(pm);
+  sink(PlotMessage{f.timestamp_ns, f.id, saul::name_of(r.value()), &r.value()});
 }
 
 }  // namespace
@@ -60,11 +54,7 @@ PlotSource capture_plot_source(std::string path, SerialReadOptions options, std:
     SerialCaptureDecoder decoder(fallback);
     const SerialCaptureDecoder::Callback on = [&](const SerialChunk& chunk, SerialProtocol, const SerialMessage& m) {
       const std::string name = name_of(m);
-      PlotMessage pm;
-      pm.timestamp_ns = chunk.timestamp_ns;
-      pm.name = name;
-      pm.serial = &m;
-      sink(pm);
+      sink(PlotMessage{chunk.timestamp_ns, std::nullopt, name, nullptr, &m});
     };
     for (;;) {
       const auto st = opened.chunks->next();
@@ -280,10 +270,6 @@ double TelemetryPlotter::position(const Position& p) const {
   return static_cast<double>(p.index - std::min(p.index, min_index_.value_or(0)));
 }
 
-double TelemetryPlotter::position_of(const StateChange& change) const {
-  return position(Position{change.timestamp_ns, change.index});
-}
-
 double TelemetryPlotter::points_span_s() const {
   if (!first_point_ns_ || !last_point_ns_) return 0;
   return static_cast<double>(*last_point_ns_ - *first_point_ns_) / 1e9;
@@ -391,14 +377,11 @@ PlotDocument TelemetryPlotter::document(std::size_t columns) const {
                           from);
   doc.time_label = timed() ? "time since the first plotted message [s]"
                            : "message number (the capture has no timestamps)";
-  doc.t0 = 0;
   doc.t1 = timed() ? static_cast<double>(*max_ns_ - *min_ns_) / 1e9
                    : static_cast<double>(max_index_.value_or(0) - min_index_.value_or(0));
   for (const auto& spec : panels_) {
-    PlotPanel panel;
-    panel.title = spec.title;
+    PlotPanel& panel = doc.panels.emplace_back(PlotPanel{spec.title, {}});
     for (const auto& s : spec.series) panel.series.push_back(PlotSeries{s.label, PlotBinner(doc.t0, doc.t1, columns)});
-    doc.panels.push_back(std::move(panel));
   }
   each([&](const PlotMessage& m, const Position& pos) {
     double t = -1;
@@ -409,15 +392,9 @@ PlotDocument TelemetryPlotter::document(std::size_t columns) const {
           doc.panels[p].series[s].binner.add(t, *v);
         }
   });
-  for (const auto& c : changes_.kept()) {
-    PlotMarker marker;
-    marker.t = position_of(c);
-    marker.kind = c.kind;
-    marker.label = change_label(c);
-    marker.detail = change_detail(c);
-    if (c.timestamp_ns) marker.when = format_timestamp(*c.timestamp_ns);
-    doc.markers.push_back(std::move(marker));
-  }
+  for (const auto& c : changes_.kept())
+    doc.markers.push_back({position(Position{c.timestamp_ns, c.index}), c.kind, change_label(c), change_detail(c),
+                           c.timestamp_ns ? format_timestamp(*c.timestamp_ns) : ""});
   doc.markers_total = changes_.total();
   doc.notes = left_out_;
   return doc;
