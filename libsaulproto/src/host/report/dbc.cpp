@@ -1,7 +1,5 @@
-// The DBC of the robot's bus (saulproto/host/report/dbc.hpp). Messages, signals (position, width, byte order,
-// scale, unit, multiplexing) and value tables are written out from the core's description (core/signals.hpp), so
-// the file names and scales things exactly as saulctl decode does; only the comments and the choice of VESC
-// frames are this file's own.
+// The DBC of the robot's bus: messages, signals and value tables written out from the core's description
+// (core/signals.hpp), so names and scales are decode's; only the comments and the choice of VESC frames are its own.
 #include "saulproto/host/report/dbc.hpp"
 
 #include <fmt/core.h>
@@ -90,9 +88,8 @@ std::string dbc_unit(const signals::MessageDesc& m, const signals::SignalDesc& s
   return s.unit;
 }
 
-// The DBC signals of one described signal: itself; a byte of named bits becomes one 1-bit signal per bit
-// ("fault_rc_loss"); a signal in the CAN id (the VESC controller) none, since every controller has its own
-// messages here.
+// The DBC signals of one described signal: itself; a byte of named bits one 1-bit signal per bit ("fault_rc_loss");
+// a signal in the CAN id (the VESC controller) none, since every controller has its own messages here.
 void add_signals(const signals::MessageDesc& m, const signals::SignalDesc& d, std::vector<Signal>& out) {
   if (d.place != signals::Place::payload) return;
   if (!d.value_bits) {

@@ -1,5 +1,3 @@
-// How saulctl plot draws (plot.hpp): column binning, then the interactive page (dygraphs, inlined) or a gnuplot
-// script for SVG, PNG and PDF. Nothing here draws a line itself.
 #include "saulproto/host/report/plot.hpp"
 
 #include "saulproto/host/report/format.hpp"  // json_line
@@ -253,8 +251,7 @@ std::string page_script() {
   return js;
 }
 
-// gnuplot strings: single-quoted ('' for a quote, nothing else special), double-quoted (c_literal) where a
-// line break is needed.
+// gnuplot strings: single-quoted ('' for a quote), double-quoted (c_literal) where a line break is needed.
 std::string gp_single(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);

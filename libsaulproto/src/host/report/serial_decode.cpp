@@ -28,16 +28,20 @@ void crsf_frames(Feed&& feed, Deliver&& deliver) {
   if (error) std::rethrow_exception(error);
 }
 
-/// Nominal baud rate of a protocol's link, for the time a chunk spends on the wire (10 bits a byte; Pride's 11
-/// are within the margin of the idle gap).
-std::uint64_t protocol_baud(SerialProtocol protocol) {
+/// A protocol's nominal baud rate, for a chunk's time on the wire (10 bits a byte; Pride's 11 are within the idle
+/// gap's margin), and its idle gap (idle_gap_ns()).
+struct Pace {
+  std::uint64_t baud;
+  std::uint64_t idle_gap_ns;
+};
+Pace pace_of(SerialProtocol protocol) {
   switch (protocol) {
-    case SerialProtocol::interboard: return 460'800;
-    case SerialProtocol::crsf: return 420'000;
-    case SerialProtocol::pride: return 38'400;
+    case SerialProtocol::interboard: return {460'800, 1'000'000};  // 9 bytes at 460800 take 0.2 ms
+    case SerialProtocol::crsf: return {420'000, 1'748'000};        // Betaflight's CRSF_TIME_NEEDED_PER_FRAME_US
+    case SerialProtocol::pride: return {38'400, 1'720'000};        // 6 bytes of 11 bits at 38400 baud
     case SerialProtocol::raw: break;
   }
-  return 115'200;
+  return {115'200, UINT64_MAX};
 }
 
 }  // namespace
@@ -180,15 +184,7 @@ void SerialStreamDecoder::abandon(const Callback& on_message) {
              decoder_);
 }
 
-std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept {
-  switch (protocol) {
-    case SerialProtocol::crsf: return 1'748'000;       // Betaflight's CRSF_TIME_NEEDED_PER_FRAME_US
-    case SerialProtocol::pride: return 1'720'000;      // 6 bytes of 11 bits at 38400 baud
-    case SerialProtocol::interboard: return 1'000'000;  // 9 bytes at 460800 take 0.2 ms
-    case SerialProtocol::raw: break;
-  }
-  return UINT64_MAX;
-}
+std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept { return pace_of(protocol).idle_gap_ns; }
 
 void SerialStreamDecoder::note_uart_errors(std::uint8_t errors) {
   if (errors != 0) ++extra_.uart_errors;
@@ -295,7 +291,7 @@ void SerialCaptureDecoder::feed(State& state, const SerialChunk& chunk, const Ca
   const SerialProtocol protocol = d.protocol();
   if (chunk.timestamp_ns && state.last_ns && d.pending() > 0 && *chunk.timestamp_ns > *state.last_ns) {
     // The chunk's bytes arrived back to back at the end of the gap; before them the line was quiet this long.
-    const std::uint64_t on_wire = chunk.bytes.size() * 10'000'000'000ULL / protocol_baud(protocol);
+    const std::uint64_t on_wire = chunk.bytes.size() * 10'000'000'000ULL / pace_of(protocol).baud;
     const std::uint64_t gap = *chunk.timestamp_ns - *state.last_ns;
     if (gap > on_wire && gap - on_wire > idle_gap_ns(protocol)) {
       SerialStreamDecoder trial = d;

@@ -38,14 +38,11 @@ struct DecodeCounts {
   /// One frame's decode counted: decoded (ok), unknown id, error frame, or rejected (any other reason).
   void count(Reason reason) noexcept {
     ++frames;
-    if (reason == Reason::ok) {
-      ++decoded;
-    } else if (reason == Reason::unknown_id) {
-      ++unknown;
-    } else if (reason == Reason::error_frame) {
-      ++errors;
-    } else {
-      ++rejected;
+    switch (reason) {
+      case Reason::ok: ++decoded; break;
+      case Reason::unknown_id: ++unknown; break;
+      case Reason::error_frame: ++errors; break;
+      default: ++rejected;
     }
   }
   void count(const Result<BusMessage>& result) noexcept { count(result ? Reason::ok : result.reason()); }
