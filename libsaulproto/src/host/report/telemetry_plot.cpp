@@ -159,15 +159,10 @@ std::vector<PlotPanelSpec> dashboard_panels() {
 // ---- state and fault changes ----------------------------------------------------------------------------------
 
 namespace {
-// The names of the robot state values (0x400 state) and of the fault bits (0x401 faults), from the description.
-const signals::SignalDesc& state_signal() {
-  return described(signals::Protocol::saul_can, saulcan::TelemetryA::kId, "state");
-}
-const signals::SignalDesc& fault_signal() {
-  return described(signals::Protocol::saul_can, saulcan::TelemetryB::kId, "faults");
-}
+// The names of the fault bits (0x401 faults), from the description.
 std::string bit_name(unsigned bit) {
-  const char* name = signals::value_name(fault_signal(), bit);
+  const auto& faults = described(signals::Protocol::saul_can, saulcan::TelemetryB::kId, "faults");
+  const char* name = signals::value_name(faults, bit);
   return name != nullptr ? name : fmt::format("bit{}", bit);
 }
 
@@ -199,8 +194,9 @@ std::string format_timestamp(std::uint64_t ns) {
 }
 }  // namespace
 
-std::string state_name(unsigned value) {
-  if (const char* name = signals::value_name(state_signal(), value)) return name;
+std::string state_name(unsigned value) {  // the name the description gives 0x400's state
+  const auto& state = described(signals::Protocol::saul_can, saulcan::TelemetryA::kId, "state");
+  if (const char* name = signals::value_name(state, value)) return name;
   return std::to_string(value);
 }
 
