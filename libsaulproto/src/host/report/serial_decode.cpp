@@ -262,8 +262,7 @@ std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t
   std::uint64_t best_frames = 1;  // at least 2 frames
   for (auto p : {SerialProtocol::interboard, SerialProtocol::crsf, SerialProtocol::pride}) {
     SerialStreamDecoder d(p);
-    const SerialStreamDecoder::Callback ignore = [](const SerialMessage&) {};
-    d.push(bytes, ignore);
+    d.push(bytes, [](const SerialMessage&) {});
     const auto c = d.counters();
     const std::uint64_t good = c.frames - c.undecoded;
     if (good > best_frames && good > c.errors(p)) {
