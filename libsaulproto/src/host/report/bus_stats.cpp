@@ -523,12 +523,10 @@ nlohmann::json BusStats::json(std::string_view name) const {
 
 namespace {
 
-// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text. The head, "IFACE
-// ID", is looked up in a small table of the heads seen, which keeps where its frames count (BusStats::Known); the
-// data, with the head, in a table of the contents seen, which keeps the frame's exact stuff bits and decode (first
-// compared with the head's last data, which most lines repeat; a head whose data seldom repeat skips the table for a
-// while). So a line costs its time, a lookup or two and a few additions. A line of any other shape is refused and
-// read the usual way.
+// stats' counter of candump lines of the usual shape, "(SEC.USEC) IFACE ID#DATA", by their text: the head, "IFACE
+// ID", in a table of the heads seen (where its frames count), the data in a table of the contents seen (stuff bits
+// and decode; first compared with the head's last data). A line costs its time, a lookup or two and a few
+// additions. A line of any other shape is refused and read the usual way.
 class LineMemo final : public CandumpLineTaker {
  public:
   LineMemo() : heads_(kHeads), contents_(kContents) {}
@@ -602,9 +600,8 @@ class LineMemo final : public CandumpLineTaker {
   };
   static constexpr std::uint16_t kProbesJudged = 256, kSkipped = 4096;
 
-  /// Counts the line (time `ns`; `words` from the text after the time, which ends at a newline or the line's end;
-  /// its first '#' at `hash`, 40 when none) from the tables, filling in what they lack; false for a line of another
-  /// shape, which then is read the usual way.
+  /// Counts the line (time `ns`; `words` from the text after the time; its first '#' at `hash`, 40 when none) from
+  /// the tables, filling in what they lack; false for a line of another shape.
   bool count(std::string_view line, const Words& words, std::size_t hash, std::uint64_t ns) {
     const std::size_t length = line.size() - kCandumpFixedTimeLength;
     if (hash > 8 * kHeadWords || hash >= length) return false;
@@ -673,10 +670,8 @@ class LineMemo final : public CandumpLineTaker {
     c.timeout_ns = head.timeout_ns;
     return c;
   }
-  /// A head not in the table, "IFACE ID" (`length` bytes, in `key`), from the whole line, which must be of the
-  /// usual shape: every line with this head and hex data then reads as this id on this interface. (An interface
-  /// with '#' in it gives a shorter head, but no line with it is taken: a space follows that '#', and the data
-  /// must be hex digits.)
+  /// A head not in the table, "IFACE ID" (`length` bytes, in `key`), from the whole line of the usual shape. (An
+  /// interface with '#' gives a shorter head, but no such line is taken: the data after it must be hex digits.)
   bool learn(Head& head, std::string_view line, const std::uint64_t (&key)[kHeadWords], std::size_t length) {
     CanFrame f;
     std::string_view interface;

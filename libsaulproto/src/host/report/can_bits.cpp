@@ -1,9 +1,7 @@
-// The exact stuff-bit count of a classic CAN frame, table-driven: the header (SOF to the DLC) padded at the front to
-// whole bytes so that the data bytes follow unshifted, the CRC-15 a byte at a time from a table, and the stuffing as
-// a state machine over (last bit, run length) stepped a byte at a time, then over the CRC's 8 + 7 bits. What the
-// header decides (CanStuffStart) is worked out once per id and DLC by stats' line tables. On x86-64 with SSSE3 the
-// data bytes' steps are composed with byte shuffles instead (can_stuff_bits_ssse3). tests/host/report/test_can_bits.cpp
-// holds both to the bit-by-bit rule.
+// The exact stuff-bit count of a classic CAN frame, table-driven: the header padded at the front to whole bytes, the
+// CRC-15 a byte at a time, and the stuffing as a state machine over (last bit, run length) stepped a byte at a time.
+// With SSSE3 the data bytes' steps are composed with byte shuffles (can_stuff_bits_ssse3). test_can_bits.cpp holds
+// both to the bit-by-bit rule.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -31,9 +29,8 @@ constexpr std::uint16_t crc_bit(std::uint16_t crc, unsigned bit) noexcept {
 constexpr std::array<std::uint16_t, 256> kCrcTable = [] {
   std::array<std::uint16_t, 256> t{};
   for (unsigned b = 0; b < 256; ++b) {
-    std::uint16_t crc = 0;
     // the register's top 8 bits are XORed with the byte: start from the byte as the register's top bits
-    crc = static_cast<std::uint16_t>(b << 7);
+    auto crc = static_cast<std::uint16_t>(b << 7);
     for (int i = 0; i < 8; ++i) crc = crc_bit(crc, 0);
     t[b] = crc;
   }

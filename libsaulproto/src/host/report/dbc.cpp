@@ -1,7 +1,5 @@
-// The DBC of the robot's bus (saulproto/host/report/dbc.hpp). Messages, signals (position, width, byte order,
-// scale, unit, multiplexing) and value tables are written out from the core's description (core/signals.hpp), so
-// the file names and scales things exactly as saulctl decode does; only the comments and the choice of VESC
-// frames are this file's own.
+// The DBC of the robot's bus: messages, signals and value tables written out from the core's description
+// (core/signals.hpp), so names and scales are decode's; only the comments and the choice of VESC frames are its own.
 #include "saulproto/host/report/dbc.hpp"
 
 #include <fmt/core.h>
@@ -9,6 +7,7 @@
 #include <cmath>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/signals.hpp"
@@ -89,9 +88,8 @@ std::string dbc_unit(const signals::MessageDesc& m, const signals::SignalDesc& s
   return s.unit;
 }
 
-// The DBC signals of one described signal: itself; a byte of named bits becomes one 1-bit signal per bit
-// ("fault_rc_loss"); a signal in the CAN id (the VESC controller) none, since every controller has its own
-// messages here.
+// The DBC signals of one described signal: itself; a byte of named bits one 1-bit signal per bit ("fault_rc_loss");
+// a signal in the CAN id (the VESC controller) none, since every controller has its own messages here.
 void add_signals(const signals::MessageDesc& m, const signals::SignalDesc& d, std::vector<Signal>& out) {
   if (d.place != signals::Place::payload) return;
   if (!d.value_bits) {
@@ -133,13 +131,6 @@ std::string saul_comment(std::uint32_t id) {
   }
 }
 
-std::vector<Message> saul_messages() {
-  std::vector<Message> out;
-  for (const auto& m : signals::messages(signals::Protocol::saul_can))
-    out.push_back(message_of(m, m.id, m.name, m.sender, m.receiver, saul_comment(m.id)));
-  return out;
-}
-
 // The VESC frames the robot uses, per controller: SET_RPM (BALANCE drives the wheels with it) and the status
 // frames, with their comments ("{}" is the controller id). The other commands, PING and PONG are left out.
 struct VescEntry {
@@ -171,10 +162,13 @@ std::vector<Message> vesc_messages(std::uint8_t c) {
 
 }  // namespace
 
-std::string make_dbc(const DbcOptions& options) {
-  std::vector<Message> messages = saul_messages();
+std::string make_dbc() {
+  constexpr std::uint8_t kVescControllers[] = {vesc::kLeftId, vesc::kRightId};
+  std::vector<Message> messages;
+  for (const auto& m : signals::messages(signals::Protocol::saul_can))
+    messages.push_back(message_of(m, m.id, m.name, m.sender, m.receiver, saul_comment(m.id)));
   std::string nodes = "Orin BALANCE";
-  for (const auto c : options.vesc_controllers) {
+  for (const auto c : kVescControllers) {
     auto v = vesc_messages(c);
     messages.insert(messages.end(), v.begin(), v.end());
     nodes += fmt::format(" VESC_{}", c);
@@ -198,7 +192,7 @@ std::string make_dbc(const DbcOptions& options) {
       "multiplexed float32 signal (SIG_VALTYPE_ 1).") + ";\n";
   out += "CM_ BU_ Orin \"The robot's host computer (Jetson Orin).\";\n";
   out += "CM_ BU_ BALANCE \"The BALANCE board (ESP32-S3): balance loop, drives the VESCs.\";\n";
-  for (const auto c : options.vesc_controllers)
+  for (const auto c : kVescControllers)
     out += fmt::format("CM_ BU_ VESC_{} \"VESC motor controller id {}{}.\";\n", c, c,
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)

@@ -65,10 +65,8 @@ char* put_physical_text(char* w, const signals::SignalDesc& s, std::int64_t raw)
   return put_chars(w, unit_symbol(s.unit));
 }
 
-/// fmt's "{:g}" (printf's %g: 6 significant digits) of raw / den, for den a power of ten up to 10^4, written as the
-/// exact decimal when it has at most 6 significant digits and lies in [1e-4, 1e6): the double nearest to such a
-/// decimal rounds back to it at 6 digits, and %g then prints it in fixed notation without trailing zeros. nullptr
-/// (nothing written) otherwise.
+/// fmt's "{:g}" of raw / den (den a power of ten up to 10^4) written as the exact decimal when it has at most 6
+/// significant digits and lies in [1e-4, 1e6), as %g then prints it; nullptr (nothing written) otherwise.
 char* put_decimal_g(char* w, std::int64_t raw, std::int32_t den) {
   int places = 0;
   for (std::int32_t d = den; d > 1; d /= 10) {
@@ -181,9 +179,8 @@ char* put_json_double(char* w, double x) {
   return nlohmann::detail::to_chars(w, w + 64, x);
 }
 
-/// A scaled wire integer's physical value as JSON holds it: the same number text prints, as the double nearest to
-/// that exact decimal (1234 x 1/100 -> 12.34), or as an integer where text shows whole units (the CRSF RC
-/// channels' microseconds, rounded down).
+/// A scaled wire integer's physical value as JSON holds it: the double nearest to the decimal text prints
+/// (1234 x 1/100 -> 12.34), or an integer where text shows whole units (rounded down).
 char* put_json_physical(char* w, const signals::SignalDesc& s, std::int64_t raw) {
   const int k = signals::text_decimals(s);
   if (k < 0) return put_int(w, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
@@ -217,8 +214,8 @@ constexpr std::size_t kMaxChars = 16384;
 /// The most signals a message has (the CRSF subset RC channels: 3 + 32); layout_of() holds every description to it.
 constexpr std::size_t kMaxSignals = 35;
 
-/// The value of each signal of a message (present: the frame carries it; a multiplexed one may be absent). Only
-/// the message's own signals are set (read_wire, read_fields): a CAN message's few, not all kMaxSignals.
+/// The value of each signal of a message (present: the frame carries it). Only the message's own signals are set,
+/// not all kMaxSignals.
 struct Reading {
   bool present;
   std::int64_t raw;
@@ -244,10 +241,8 @@ Readings read_wire(const MessageDesc& d, const signals::Wire& wire) {
   return r;
 }
 
-// A CRSF or Pride message reaches the formatter without its bytes (the serial decoders hand on the typed message),
-// so its fields() give the values, each under the signal whose struct field it is (in the description's order; a
-// CRSF subset frame's channels skip the ones it does not carry), turned back into the description's integers
-// (exactly: the physical values are the integers' own) and then shown exactly as the bytes would be.
+// A CRSF or Pride message comes without its bytes: its fields() give the values, each under the signal whose struct
+// field it is (in order; a CRSF subset frame skips channels), turned back exactly into the description's integers.
 template <class M>
 Readings read_fields(const MessageDesc& d, const M& m) {
   Readings r;

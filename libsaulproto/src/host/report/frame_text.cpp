@@ -6,6 +6,7 @@
 
 #include <charconv>
 #include <iterator>
+#include <utility>
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
@@ -22,15 +23,14 @@ std::string describe_error_frame(const CanFrame& f) {
   if (f.id & CAN_ERR_TX_TIMEOUT) add("tx timeout");
   if (f.id & CAN_ERR_LOSTARB) add(fmt::format("lost arbitration at bit {}", f.data[0]));
   if (f.id & CAN_ERR_CRTL) {
-    const std::uint8_t c = f.data[1];
+    constexpr std::pair<unsigned, const char*> kStatus[] = {
+        {CAN_ERR_CRTL_RX_OVERFLOW, " rx-overflow"}, {CAN_ERR_CRTL_TX_OVERFLOW, " tx-overflow"},
+        {CAN_ERR_CRTL_RX_WARNING, " rx-warning"},   {CAN_ERR_CRTL_TX_WARNING, " tx-warning"},
+        {CAN_ERR_CRTL_RX_PASSIVE, " rx-passive"},   {CAN_ERR_CRTL_TX_PASSIVE, " tx-passive"},
+        {CAN_ERR_CRTL_ACTIVE, " back-to-error-active"}};
     std::string d;
-    if (c & CAN_ERR_CRTL_RX_OVERFLOW) d += " rx-overflow";
-    if (c & CAN_ERR_CRTL_TX_OVERFLOW) d += " tx-overflow";
-    if (c & CAN_ERR_CRTL_RX_WARNING) d += " rx-warning";
-    if (c & CAN_ERR_CRTL_TX_WARNING) d += " tx-warning";
-    if (c & CAN_ERR_CRTL_RX_PASSIVE) d += " rx-passive";
-    if (c & CAN_ERR_CRTL_TX_PASSIVE) d += " tx-passive";
-    if (c & CAN_ERR_CRTL_ACTIVE) d += " back-to-error-active";
+    for (const auto& [bit, name] : kStatus)
+      if (f.data[1] & bit) d += name;
     add("controller:" + (d.empty() ? std::string(" problem") : d));
   }
   if (f.id & CAN_ERR_PROT) add(fmt::format("protocol violation type 0x{:02X} at 0x{:02X}", f.data[2], f.data[3]));

@@ -1,5 +1,3 @@
-// How saulctl plot draws (plot.hpp): column binning, then the interactive page (dygraphs, inlined) or a gnuplot
-// script for SVG, PNG and PDF. Nothing here draws a line itself.
 #include "saulproto/host/report/plot.hpp"
 
 #include "saulproto/host/report/format.hpp"  // json_line
@@ -83,7 +81,7 @@ std::string script_safe(std::string text, bool json = false) {
 // that time), in time order; the markers; time 0 in milliseconds since 1970 (null: an axis of numbers).
 nlohmann::json page_data(const PlotDocument& doc) {
   using nlohmann::json;
-  json data;
+  json data{{"start_date", nullptr}, {"start_tod_s", nullptr}};  // null: an axis of numbers
   const auto start = seconds_axis(doc) ? start_time_in_title(doc.title) : std::nullopt;
   // Time 0 as a date and seconds since that day's midnight (UTC): the axis stays in seconds since time 0, which
   // keeps microseconds (a JavaScript Date holds whole milliseconds), and is labelled with the time of day.
@@ -91,9 +89,6 @@ nlohmann::json page_data(const PlotDocument& doc) {
     const double day = std::floor(*start / 86400.0);
     data["start_date"] = human_time(day * 86400.0).substr(0, 10);
     data["start_tod_s"] = *start - day * 86400.0;
-  } else {
-    data["start_date"] = nullptr;
-    data["start_tod_s"] = nullptr;
   }
   data["time_label"] = time_axis_label(doc);
   data["panels"] = json::array();
@@ -253,8 +248,7 @@ std::string page_script() {
   return js;
 }
 
-// gnuplot strings: single-quoted ('' for a quote, nothing else special), double-quoted (c_literal) where a
-// line break is needed.
+// gnuplot strings: single-quoted ('' for a quote), double-quoted (c_literal) where a line break is needed.
 std::string gp_single(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);

@@ -12,9 +12,8 @@
 namespace saul::host {
 namespace {
 
-/// feed(on_frame) runs the core's CRSF decoder, which is noexcept: an exception thrown through it ends the program
-/// (plot's usage error for a signal the message lacks did). on_frame hands each frame to deliver; an exception from
-/// deliver is held, the frames after it are not delivered, and it is thrown again once the core has returned.
+/// feed(on_frame) runs the core's noexcept CRSF decoder, each frame to deliver: an exception from deliver is held
+/// (the frames after it not delivered) and thrown again once the core has returned, not through it.
 template <class Feed, class Deliver>
 void crsf_frames(Feed&& feed, Deliver&& deliver) {
   std::exception_ptr error;
@@ -29,16 +28,20 @@ void crsf_frames(Feed&& feed, Deliver&& deliver) {
   if (error) std::rethrow_exception(error);
 }
 
-/// Nominal baud rate of a protocol's link, for the time a chunk spends on the wire (10 bits a byte; Pride's 11
-/// are within the margin of the idle gap).
-std::uint64_t protocol_baud(SerialProtocol protocol) {
+/// A protocol's nominal baud rate, for a chunk's time on the wire (10 bits a byte; Pride's 11 are within the idle
+/// gap's margin), and its idle gap (idle_gap_ns()).
+struct Pace {
+  std::uint64_t baud;
+  std::uint64_t idle_gap_ns;
+};
+Pace pace_of(SerialProtocol protocol) {
   switch (protocol) {
-    case SerialProtocol::interboard: return 460'800;
-    case SerialProtocol::crsf: return 420'000;
-    case SerialProtocol::pride: return 38'400;
+    case SerialProtocol::interboard: return {460'800, 1'000'000};  // 9 bytes at 460800 take 0.2 ms
+    case SerialProtocol::crsf: return {420'000, 1'748'000};        // Betaflight's CRSF_TIME_NEEDED_PER_FRAME_US
+    case SerialProtocol::pride: return {38'400, 1'720'000};        // 6 bytes of 11 bits at 38400 baud
     case SerialProtocol::raw: break;
   }
-  return 115'200;
+  return {115'200, UINT64_MAX};
 }
 
 }  // namespace
@@ -86,12 +89,10 @@ nlohmann::json to_json(const SerialMessage& message) {
                              },
                              [](const pride::Message& m) { return to_json(m); },
                              [&message](const CrsfUndecoded& u) {
-                               nlohmann::json j;
-                               j["type"] = name_of(message);
-                               j["error"] = to_string(u.reason);
-                               j["address"] = u.frame.address;
-                               j["payload"] = fmt::format("{:02X}", fmt::join(u.frame.payload(), ""));
-                               return j;
+                               return nlohmann::json{
+                                   {"type", name_of(message)}, {"error", to_string(u.reason)},
+                                   {"address", u.frame.address},
+                                   {"payload", fmt::format("{:02X}", fmt::join(u.frame.payload(), ""))}};
                              }},
                     message);
 }
@@ -183,15 +184,7 @@ void SerialStreamDecoder::abandon(const Callback& on_message) {
              decoder_);
 }
 
-std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept {
-  switch (protocol) {
-    case SerialProtocol::crsf: return 1'748'000;       // Betaflight's CRSF_TIME_NEEDED_PER_FRAME_US
-    case SerialProtocol::pride: return 1'720'000;      // 6 bytes of 11 bits at 38400 baud
-    case SerialProtocol::interboard: return 1'000'000;  // 9 bytes at 460800 take 0.2 ms
-    case SerialProtocol::raw: break;
-  }
-  return UINT64_MAX;
-}
+std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept { return pace_of(protocol).idle_gap_ns; }
 
 void SerialStreamDecoder::note_uart_errors(std::uint8_t errors) {
   if (errors != 0) ++extra_.uart_errors;
@@ -258,20 +251,10 @@ std::string SerialStreamDecoder::counters_text() const {
 
 nlohmann::json SerialStreamDecoder::counters_json() const {
   const auto c = counters();
-  nlohmann::json j;
-  j["protocol"] = std::string(to_string(protocol_));
-  j["bytes"] = c.bytes;
-  j["frames"] = c.frames;
-  j["crc_errors"] = c.crc_errors;
-  j["length_errors"] = c.length_errors;
-  j["unknown_types"] = c.unknown_types;
-  j["out_of_range"] = c.out_of_range;
-  j["undecoded"] = c.undecoded;
-  j["bytes_skipped"] = c.bytes_skipped;
-  j["incomplete"] = c.incomplete;
-  j["uart_errors"] = c.uart_errors;
-  j["decode_errors"] = c.errors(protocol_);
-  return j;
+  return {{"protocol", std::string(to_string(protocol_))}, {"bytes", c.bytes}, {"frames", c.frames},
+          {"crc_errors", c.crc_errors}, {"length_errors", c.length_errors}, {"unknown_types", c.unknown_types},
+          {"out_of_range", c.out_of_range}, {"undecoded", c.undecoded}, {"bytes_skipped", c.bytes_skipped},
+          {"incomplete", c.incomplete}, {"uart_errors", c.uart_errors}, {"decode_errors", c.errors(protocol_)}};
 }
 
 std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t> bytes) {
@@ -279,8 +262,7 @@ std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t
   std::uint64_t best_frames = 1;  // at least 2 frames
   for (auto p : {SerialProtocol::interboard, SerialProtocol::crsf, SerialProtocol::pride}) {
     SerialStreamDecoder d(p);
-    const SerialStreamDecoder::Callback ignore = [](const SerialMessage&) {};
-    d.push(bytes, ignore);
+    d.push(bytes, [](const SerialMessage&) {});
     const auto c = d.counters();
     const std::uint64_t good = c.frames - c.undecoded;
     if (good > best_frames && good > c.errors(p)) {
@@ -308,7 +290,7 @@ void SerialCaptureDecoder::feed(State& state, const SerialChunk& chunk, const Ca
   const SerialProtocol protocol = d.protocol();
   if (chunk.timestamp_ns && state.last_ns && d.pending() > 0 && *chunk.timestamp_ns > *state.last_ns) {
     // The chunk's bytes arrived back to back at the end of the gap; before them the line was quiet this long.
-    const std::uint64_t on_wire = chunk.bytes.size() * 10'000'000'000ULL / protocol_baud(protocol);
+    const std::uint64_t on_wire = chunk.bytes.size() * 10'000'000'000ULL / pace_of(protocol).baud;
     const std::uint64_t gap = *chunk.timestamp_ns - *state.last_ns;
     if (gap > on_wire && gap - on_wire > idle_gap_ns(protocol)) {
       SerialStreamDecoder trial = d;

@@ -36,13 +36,7 @@ namespace {
 void emit_frame(const CanFrame& f, const PlotSink& sink) {
   const auto r = decode_bus_frame(f);
   if (!r) return;
-  const BusMessage& m = r.value();
-  PlotMessage pm;
-  pm.timestamp_ns = f.timestamp_ns;
-  pm.can_id = f.id;
-  pm.name = saul::name_of(m);
-  pm.bus = &m;
-  sink(pm);
+  sink(PlotMessage{f.timestamp_ns, f.id, saul::name_of(r.value()), &r.value()});
 }
 
 }  // namespace
@@ -60,11 +54,7 @@ PlotSource capture_plot_source(std::string path, SerialReadOptions options, std:
     SerialCaptureDecoder decoder(fallback);
     const SerialCaptureDecoder::Callback on = [&](const SerialChunk& chunk, SerialProtocol, const SerialMessage& m) {
       const std::string name = name_of(m);
-      PlotMessage pm;
-      pm.timestamp_ns = chunk.timestamp_ns;
-      pm.name = name;
-      pm.serial = &m;
-      sink(pm);
+      sink(PlotMessage{chunk.timestamp_ns, std::nullopt, name, nullptr, &m});
     };
     for (;;) {
       const auto st = opened.chunks->next();
@@ -169,15 +159,10 @@ std::vector<PlotPanelSpec> dashboard_panels() {
 // ---- state and fault changes ----------------------------------------------------------------------------------
 
 namespace {
-// The names of the robot state values (0x400 state) and of the fault bits (0x401 faults), from the description.
-const signals::SignalDesc& state_signal() {
-  return described(signals::Protocol::saul_can, saulcan::TelemetryA::kId, "state");
-}
-const signals::SignalDesc& fault_signal() {
-  return described(signals::Protocol::saul_can, saulcan::TelemetryB::kId, "faults");
-}
+// The names of the fault bits (0x401 faults), from the description.
 std::string bit_name(unsigned bit) {
-  const char* name = signals::value_name(fault_signal(), bit);
+  const auto& faults = described(signals::Protocol::saul_can, saulcan::TelemetryB::kId, "faults");
+  const char* name = signals::value_name(faults, bit);
   return name != nullptr ? name : fmt::format("bit{}", bit);
 }
 
@@ -209,8 +194,9 @@ std::string format_timestamp(std::uint64_t ns) {
 }
 }  // namespace
 
-std::string state_name(unsigned value) {
-  if (const char* name = signals::value_name(state_signal(), value)) return name;
+std::string state_name(unsigned value) {  // the name the description gives 0x400's state
+  const auto& state = described(signals::Protocol::saul_can, saulcan::TelemetryA::kId, "state");
+  if (const char* name = signals::value_name(state, value)) return name;
   return std::to_string(value);
 }
 
@@ -278,10 +264,6 @@ void TelemetryPlotter::each(const Visit& visit) const {
 double TelemetryPlotter::position(const Position& p) const {
   if (min_ns_) return p.ns ? static_cast<double>(*p.ns - std::min(*p.ns, *min_ns_)) / 1e9 : 0.0;
   return static_cast<double>(p.index - std::min(p.index, min_index_.value_or(0)));
-}
-
-double TelemetryPlotter::position_of(const StateChange& change) const {
-  return position(Position{change.timestamp_ns, change.index});
 }
 
 double TelemetryPlotter::points_span_s() const {
@@ -391,14 +373,11 @@ PlotDocument TelemetryPlotter::document(std::size_t columns) const {
                           from);
   doc.time_label = timed() ? "time since the first plotted message [s]"
                            : "message number (the capture has no timestamps)";
-  doc.t0 = 0;
   doc.t1 = timed() ? static_cast<double>(*max_ns_ - *min_ns_) / 1e9
                    : static_cast<double>(max_index_.value_or(0) - min_index_.value_or(0));
   for (const auto& spec : panels_) {
-    PlotPanel panel;
-    panel.title = spec.title;
+    PlotPanel& panel = doc.panels.emplace_back(PlotPanel{spec.title, {}});
     for (const auto& s : spec.series) panel.series.push_back(PlotSeries{s.label, PlotBinner(doc.t0, doc.t1, columns)});
-    doc.panels.push_back(std::move(panel));
   }
   each([&](const PlotMessage& m, const Position& pos) {
     double t = -1;
@@ -409,15 +388,9 @@ PlotDocument TelemetryPlotter::document(std::size_t columns) const {
           doc.panels[p].series[s].binner.add(t, *v);
         }
   });
-  for (const auto& c : changes_.kept()) {
-    PlotMarker marker;
-    marker.t = position_of(c);
-    marker.kind = c.kind;
-    marker.label = change_label(c);
-    marker.detail = change_detail(c);
-    if (c.timestamp_ns) marker.when = format_timestamp(*c.timestamp_ns);
-    doc.markers.push_back(std::move(marker));
-  }
+  for (const auto& c : changes_.kept())
+    doc.markers.push_back({position(Position{c.timestamp_ns, c.index}), c.kind, change_label(c), change_detail(c),
+                           c.timestamp_ns ? format_timestamp(*c.timestamp_ns) : ""});
   doc.markers_total = changes_.total();
   doc.notes = left_out_;
   return doc;

@@ -10,15 +10,7 @@
 namespace saul::host {
 namespace {
 
-using signals::ByteOrder;
-using signals::Check;
-using signals::Kind;
-using signals::MessageDesc;
-using signals::Mux;
-using signals::Place;
-using signals::Protocol;
-using signals::SignalDesc;
-using signals::Text;
+using namespace signals;
 
 /// The ProtoField type of a signal's field: what its JSON value is.
 const char* field_type(const SignalDesc& s) {

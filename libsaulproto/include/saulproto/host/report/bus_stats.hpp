@@ -1,10 +1,8 @@
-// What `saulctl stats` computes over a capture, in one pass; memory grows only with the number of distinct ids,
-// interfaces, error kinds and serial links.
-//  - CAN: per id the count, rate, mean and longest gap (and when), gap jitter, decode failures; error frames by
-//    kind; bus load from each frame's length on the wire with stuff bits worst case (canbusload's default), exact
-//    (canbusload -e) and none; the busiest window; 0x300 silences over the BALANCE board's 500 ms Orin timeout.
-//  - serial: per link the bytes, byte rate and line load, the decoder's counters, and per message type the
-//    count, rate and longest gap.
+// What `saulctl stats` computes over a capture in one pass (memory grows only with the distinct ids, interfaces,
+// error kinds and serial links). CAN: per id the count, rate, gaps, jitter, decode failures; error frames by kind;
+// bus load with stuff bits worst case (canbusload's default), exact (-e) and none; the busiest window; 0x300
+// silences over the Orin timeout. Serial: per link the bytes, line load, the decoder's counters, per message type
+// the count, rate and longest gap.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -40,8 +38,8 @@ enum class StuffBits : std::uint8_t {
 unsigned can_frame_bits(const CanFrame& frame, StuffBits stuffing) noexcept;
 /// The stuff bits the transmitter inserts in a data or remote frame, from SOF to the end of the CRC-15.
 unsigned can_stuff_bits(const CanFrame& frame) noexcept;
-/// What a frame's id, flags and DLC decide of its stuff bits: its header (SOF to the DLC) stuffed and put through
-/// the CRC. A caller that sees the same ids again (stats' line tables) keeps it per id and DLC.
+/// What a frame's id, flags and DLC decide of its stuff bits (the header stuffed and put through the CRC), kept per
+/// id and DLC by stats' line tables.
 struct CanStuffStart {
   std::uint16_t crc = 0;    ///< the CRC-15 register after the header and then `bytes` zero bytes
   std::uint8_t state = 0;   ///< the stuffing machine after the header: no bit yet (0), else run length and last bit
@@ -75,8 +73,7 @@ struct Cadence {
   std::uint64_t gaps_over_timeout = 0;  ///< gaps longer than the timeout given to add()
   Sum back_sum_ns = 0;               ///< how far the times went back, summed (such a step's gap counts as 0)
   Sum gap_square_sum = 0;            ///< sum of the gaps' squares (ns^2; held at its maximum rather than wrapping)
-  /// The sum of the gaps. Each gap is max(0, t[i] - t[i-1]) = (t[i] - t[i-1]) + max(0, t[i-1] - t[i]): the first
-  /// terms add up to last - first, so only the steps back are summed as they come.
+  /// The sum of the gaps max(0, t[i] - t[i-1]): last - first, plus the steps back (summed as they come).
   [[nodiscard]] Sum gap_sum_ns() const noexcept {
     return first_ns ? Sum{*last_ns} - Sum{*first_ns} + back_sum_ns : 0;  // >= 0: the wrap of Sum cancels
   }
@@ -87,7 +84,7 @@ struct Cadence {
     else
       ++count;
   }
-  /// The same for an event with a time (stats' per-frame path: inline, and no std::optional passed through memory).
+  /// The same for an event with a time (stats' per-frame path).
   void add_at(std::uint64_t ns, std::uint64_t timeout_ns = 0) {
     ++count;
     if (last_ns)
@@ -128,16 +125,14 @@ struct BusStatsOptions {
   std::uint64_t window_ns = 100'000'000;  ///< window of the peak load
 };
 
-/// What BusStats needs of a frame that depends on its content alone (id, flags, DLC, data): its exact stuff bits
-/// and its decode.
+/// What BusStats needs of a frame that depends on its content alone: its exact stuff bits and its decode.
 struct FrameFacts {
   unsigned stuff = 0;          ///< can_stuff_bits()
   Reason reason = Reason::ok;  ///< ok: it decoded, as `name`
   const char* name = nullptr;  ///< saul::name_of() of the decoded message
 };
 
-/// FrameFacts of frames, remembered in a direct-mapped table: a repeated frame (most of a robot bus) costs a
-/// lookup. One per thread.
+/// FrameFacts remembered in a direct-mapped table (a repeated frame costs a lookup). One per thread.
 class FrameFactsCache {
  public:
   const FrameFacts& get(const CanFrame& frame);
@@ -156,10 +151,8 @@ class FrameFactsCache {
 class BusStats {
  public:
   explicit BusStats(BusStatsOptions options = {}) : options_(options), serial_(next_serial()) {}
-  /// Statistics of one block of a file, to be append()ed to those of the blocks before it (several threads each
-  /// count their own blocks). The busiest window needs each interface's first time, which only the blocks before
-  /// may know: such a block keeps its timed frames' time and bits (16 bytes a frame, so memory grows with the
-  /// block, never with the file) and append() works the windows out from them in file order.
+  /// Statistics of one block of a file, to be append()ed to those of the blocks before it. Its timed frames' time
+  /// and bits are kept (16 bytes a frame: memory grows with the block) for append() to work the busiest window out.
   struct Block {};
   BusStats(BusStatsOptions options, Block) : options_(options), block_(true), serial_(next_serial()) {}
   BusStats(const BusStats&) = delete;  // it keeps pointers into its own maps
@@ -170,14 +163,12 @@ class BusStats {
   void add(const CanFrame& frame, std::string_view interface) { add(frame, interface, facts_.get(frame)); }
   /// The same with the frame's facts already known (e.g. worked out on another thread).
   void add(const CanFrame& frame, std::string_view interface, const FrameFacts& facts);
-  /// Block statistics only: starts again empty (with `options`) for the next block, keeping the memory of the timed
-  /// frames.
+  /// Block statistics only: starts again empty for the next block, keeping the timed frames' memory.
   void restart_block(BusStatsOptions options);
   /// One corrupt record of the file.
   void add_corrupt() { ++corrupt_; }
-  /// Adds the statistics of the frames that came right after these ones in the file, counted by a
-  /// BusStats(options, Block{}) with the same options: afterwards this holds what add() of each of those frames
-  /// in order would have made. Cost: the number of ids, interfaces and error kinds there, plus its timed frames.
+  /// Adds a BusStats(options, Block{}) of the frames right after these (same options): afterwards this holds what
+  /// add() of each of them in order would have made. Cost: its ids, interfaces, error kinds and timed frames.
   void append(const BusStats& later);
 
   struct Load {
@@ -209,16 +200,14 @@ class BusStats {
     std::uint8_t dlc = 0;     ///< of the last frame
   };
   using IdKey = std::pair<bool, std::uint32_t>;  ///< (extended, id): standard ids sort first
-  /// Where add() counts a frame of some interface and id, kept by a caller that sees them again and again (stats'
-  /// candump line memo) so that add_known() can skip the lookups. Good for this object until its restart_block();
-  /// looked up again by add_known() after that.
+  /// Where add() counts a frame of some interface and id, kept by stats' line memo so that add_known() skips the
+  /// lookups (until restart_block(); looked up again after that).
   struct Known {
     std::uint64_t owner = 0;  ///< serial of the BusStats it was looked up in (0: never)
     Load* load = nullptr;
     IdStats* id = nullptr;
   };
-  /// All that add() works out of a data or remote frame's content (its id, flags, DLC and data), kept by stats'
-  /// candump line memo with the line's text so that a line seen again costs a few additions.
+  /// All that add() works out of a data or remote frame's content, kept by stats' line memo with the line's text.
   struct Content {
     std::uint32_t id = 0;
     bool extended = false;
@@ -233,14 +222,12 @@ class BusStats {
   };
   /// The Content of a data or remote frame whose FrameFacts are `facts`.
   static Content content_of(const CanFrame& frame, const FrameFacts& facts);
-  /// add(frame, interface, facts) of a data or remote frame at time `ns` whose content_of() is `content`, through
-  /// `known`. Cost: a few additions, the lookups only when `known` is stale.
+  /// add() of a data or remote frame at `ns` whose content_of() is `content`, through `known` (looked up if stale).
   void add_known(const Content& content, std::string_view interface, std::uint64_t ns, Known& known);
 
-  /// A capture's report lists at most this many ids and interfaces, the first in file order (and 0x300 always), so
-  /// that a log whose id or interface column is noise (a wrong bit rate, a hostile file) cannot take memory without
-  /// end. The others' frames are counted in unlisted_ids() / unlisted_interfaces(), and everywhere else. Block
-  /// statistics list all theirs (bounded by the block); append() applies the limits.
+  /// A report lists at most this many ids and interfaces, the first in file order (and 0x300 always), so that a
+  /// column of noise takes no memory without end; the others' frames are counted in unlisted_ids() /
+  /// unlisted_interfaces(), and everywhere else. Blocks list all theirs; append() applies the limits.
   static constexpr std::size_t kMaxIds = 4096;
   static constexpr std::size_t kMaxInterfaces = 256;
   /// The frames of the ids, or interfaces, beyond the listed ones.
@@ -267,12 +254,12 @@ class BusStats {
   [[nodiscard]] std::optional<std::uint64_t> first_ns() const { return first_ns_; }
   [[nodiscard]] std::optional<std::uint64_t> last_ns() const { return last_ns_; }
 
-  /// The report, as text (for people) and JSON (for scripts). `name` is the file name shown.
+  /// The report, as text and JSON. `name` is the file name shown.
   [[nodiscard]] std::string text(std::string_view name) const;
   [[nodiscard]] nlohmann::json json(std::string_view name) const;
 
  private:
-  /// Puts a frame of `worst` bits (worst-case stuffing) at time `ns` into the load's span and busiest window.
+  /// Puts a frame of `worst` bits at time `ns` into the load's span and busiest window.
   void add_timed(Load& load, std::uint64_t ns, std::uint64_t worst) const;
   static void append_id(IdStats& to, const IdStats& later, std::uint64_t timeout_ns);
   /// The interface's load, made when new (the last one looked up is remembered).
@@ -283,10 +270,8 @@ class BusStats {
   IdStats& listed_or_not(const IdKey& id);
   [[nodiscard]] bool lists_new_id(const IdKey& id) const;
   static std::uint64_t next_serial();
-  /// The first and last times.
   void note_time(std::uint64_t ns);
-  /// What a data or remote frame (at `ns` when `timed`) adds to its interface's load and its id's statistics
-  /// (`where`), after add()/add_known() counted it and its time.
+  /// What a data or remote frame (at `ns` when `timed`) adds to its interface's load and its id's statistics.
   void count(const Content& content, bool timed, std::uint64_t ns, const Known& where);
   /// count()'s rarer half: a frame that did not decode.
   void count_failure(IdStats& id, Reason reason);
@@ -312,7 +297,7 @@ class BusStats {
   std::map<std::string, std::uint64_t> failures_;     // decode failure reason -> count
   std::map<std::string, std::uint64_t> error_kinds_;  // error frame description -> count
   FrameFactsCache facts_;
-  // the last interface and ids looked up (std::map nodes stay where they are)
+  // the last interface and ids looked up (map nodes stay put)
   std::string last_interface_;
   Load* last_load_ = nullptr;
   struct IdSlot {
@@ -322,12 +307,10 @@ class BusStats {
   std::array<IdSlot, 64> id_slots_{};
 };
 
-/// Adds every frame of `reader` (opened from `path` by open_capture; `compressed`: gzip or zstd) to `stats` through
-/// the one read path (capture/read_path.hpp): in blocks counted on options.threads threads and appended in file
-/// order (the figures are one thread's), or batch by batch. Corrupt records go to add_corrupt() and
-/// on_corrupt(error) in file order; on_progress(records, bytes) says how far it got. also(frame), when given, sees
-/// every frame in file order on this thread, after its stats.add() (no blocks then). `reader` may be given up for
-/// the file's text.
+/// Adds every frame of `reader` (opened from `path`; `compressed`: gzip or zstd) to `stats` through the one read
+/// path, in blocks on options.threads threads or batch by batch: the figures are one thread's. Corrupt records go
+/// to add_corrupt() and on_corrupt() in file order. also(frame), when given, sees every frame in file order after
+/// its stats.add() (no blocks then). `reader` may be given up for the file's text.
 void add_capture(BusStats& stats, const std::string& path, std::unique_ptr<CaptureReader>& reader, bool compressed,
                  const ReadOptions& options, const std::function<void(const CaptureError&)>& on_corrupt,
                  const std::function<void(std::uint64_t records, std::uint64_t bytes)>& on_progress,

@@ -1,8 +1,6 @@
-// saulctl decode of a CAN capture at memory speed: the file's frames through the one read path (in batches; large
-// candump, pcap and pcapng files in blocks on both cores, other large files with a reading thread ahead) into
-// FrameEmitter (lines written straight into big output buffers), flushed in big writes, in file order: the same
-// bytes, corrupt-record reports and counts however the file was read. Memory stays bounded by the blocks in flight
-// (2 per thread), whatever the file size.
+// saulctl decode of a CAN capture: the frames through the one read path (batches, or blocks on both cores) into
+// FrameEmitter, written in file order: the same bytes, reports and counts however the file was read. Memory is
+// bounded by the blocks in flight (2 per thread).
 #pragma once
 
 #include <cstdint>

@@ -1,9 +1,6 @@
-// saulctl decode's and sniff's lines for CAN frames (text, CSV, JSON Lines), written straight into one large output
-// buffer, each line written once in place: no JSON DOM, no std::string per frame. The message part is format.hpp's
-// write_message() (the one renderer, which append_message(), describe() and to_json() go through too); this file
-// adds the time, interface and frame columns.
-// Robot buses repeat payloads, so the rendered columns of a frame are kept in a small cache keyed by the frame's
-// id, flags and bytes. tests/host/report/test_render.cpp holds the lines to ones written out by hand.
+// saulctl decode's and sniff's lines for CAN frames (text, CSV, JSON Lines), each written once in place into a big
+// output buffer. The message part is format.hpp's write_message(); this adds the time, interface and frame
+// columns. Robot buses repeat payloads, so a frame's rendered columns are cached by its content.
 #pragma once
 
 #include <fmt/format.h>
@@ -41,21 +38,15 @@ struct DecodeCounts {
   /// One frame's decode counted: decoded (ok), unknown id, error frame, or rejected (any other reason).
   void count(Reason reason) noexcept {
     ++frames;
-    if (reason == Reason::ok) {
-      ++decoded;
-    } else if (reason == Reason::unknown_id) {
-      ++unknown;
-    } else if (reason == Reason::error_frame) {
-      ++errors;
-    } else {
-      ++rejected;
+    switch (reason) {
+      case Reason::ok: ++decoded; break;
+      case Reason::unknown_id: ++unknown; break;
+      case Reason::error_frame: ++errors; break;
+      default: ++rejected;
     }
   }
   void count(const Result<BusMessage>& result) noexcept { count(result ? Reason::ok : result.reason()); }
 };
-
-/// The CSV header line of DecodeFormat::csv (with newline).
-inline constexpr std::string_view kDecodeCsvHeader = "time,interface,id,extended,remote,dlc,data,message,fields\n";
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
@@ -81,8 +72,7 @@ class FrameEmitter {
     std::string text;
     std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
-  /// The line's text of the frame's content before the split (room for 2 * TimeColumn::kMaxChars + 6 * detail +
-  /// 256).
+  /// The line's text of the frame's content before the split (room for 2 * TimeColumn::kMaxChars + 6 * detail + 256).
   char* head_chars(char* w, const CanFrame& frame, Reason reason, const std::string& detail);
   /// The message of a frame that decoded, after the split (room for 2 * message_chars_max(message) + 16).
   char* message_chars(char* w, const signals::MessageDesc& message, const CanFrame& frame);

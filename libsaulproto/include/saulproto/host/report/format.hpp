@@ -1,9 +1,6 @@
-// Text and JSON renderings of decoded messages, for saulctl and for logs: one renderer, append_message().
-//
-// Every message (SAUL, VESC, CRSF, inter-board, Pride) prints from its description (core/signals.hpp), each signal
-// under its one name (docs/cli.md's table): its value as the wire integer, its value name or its physical value,
-// as the description says; a scaled wire integer (signals::text_in_unit) in its unit ("pitch=12.34°"; JSON
-// "pitch":12.34 and the integer as "pitch_raw":1234).
+// Text and JSON of decoded messages: one renderer, append_message(). Every message prints from its description
+// (core/signals.hpp), each signal under its one name (docs/cli.md) as the wire integer, its value name or its
+// physical value; a scaled wire integer in its unit ("pitch=12.34°"; JSON "pitch":12.34 and "pitch_raw":1234).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -41,22 +38,16 @@ SignalValues signal_values(const interboard::Message& message);
 SignalValues signal_values(const crsf::Message& message);
 SignalValues signal_values(const pride::Message& message);
 
-/// A signal's value as text shows it, written at `w` (room for 64 characters, or chars.size()); returns its end:
-/// the wire integer, its value name, its physical value (fmt's "{:g}", written directly when it is an exact short
-/// decimal) or, for a scaled wire integer (signals::text_in_unit), its physical value with its unit ("12.34°",
-/// "39.876V"). `chars` is a string signal's text.
+/// A signal's value as text shows it ("1", "BALANCE", "0.5", "12.34°"), written at `w` (room for 64 characters,
+/// or chars.size(): a string signal's text); returns its end.
 char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars);
 
-/// The JSON key of a scaled wire integer's integer (signals::text_in_unit), beside its physical value under the
-/// signal's name: "pitch_raw" (1234) beside "pitch" (12.34).
+/// The JSON key of a scaled wire integer's integer: "pitch_raw" (1234) beside "pitch" (12.34).
 std::string raw_key(const signals::SignalDesc& s);
 
-/// THE renderer, for a message's bytes, appended to `out`: text "velocity_cmd speed_mmps=1000 steer_mrad=-500", or
-/// its JSON object {"speed_mmps":1000,"steer_mrad":-500,"type":"velocity_cmd"} (keys sorted, as nlohmann writes
-/// objects). describe() and to_json() below (CRSF and Pride messages: their structs' values read into the same
-/// signals), decode's and sniff's lines (fast_emit.hpp) and MCAP's messages all come from here. O(message size),
-/// no allocation beyond out's growth. mcap_json: the JSON object without what an MCAP channel's topic already
-/// says (mcap_signals.hpp): no "type", no signal read from the CAN id (a VESC's "controller_id").
+/// THE renderer (describe(), to_json(), decode's lines and MCAP's messages all come from it), for a message's
+/// bytes, appended to `out`: text "velocity_cmd speed_mmps=1000 steer_mrad=-500", or JSON with keys sorted as
+/// nlohmann sorts them; mcap_json without what an MCAP topic says ("type", signals of the CAN id). O(message size).
 enum class MessageFormat : std::uint8_t { text, json, mcap_json };
 void append_message(std::string& out, MessageFormat format, const signals::MessageDesc& message,
                     const signals::Wire& wire);
@@ -64,7 +55,7 @@ void append_message(std::string& out, MessageFormat format, const signals::Messa
 char* write_message(char* w, MessageFormat format, const signals::MessageDesc& message, const signals::Wire& wire);
 std::size_t message_chars_max(const signals::MessageDesc& message);
 
-/// `s` copied to `w`; returns its end (the renderer writes its text at a pointer with room for it).
+/// `s` copied to `w`; returns its end.
 inline char* put_chars(char* w, std::string_view s) {
   std::memcpy(w, s.data(), s.size());
   return w + s.size();
@@ -90,9 +81,8 @@ nlohmann::json to_json(const interboard::Message& message);
 nlohmann::json to_json(const crsf::Message& message);
 nlohmann::json to_json(const pride::Message& message);
 
-/// `j` as one line of JSON. Text from files (a file name, an interface or link name) may hold bytes that are not
-/// UTF-8, which nlohmann's dump() refuses with an exception (a decode or stats --json then ended with no output at
-/// all): here each such byte becomes U+FFFD and the line stays valid JSON.
+/// `j` as one line of JSON, each byte that is not UTF-8 (a file or interface name from a file) as U+FFFD, where
+/// dump() would throw.
 inline std::string json_line(const nlohmann::json& j) {
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }

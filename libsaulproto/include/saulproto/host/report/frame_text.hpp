@@ -1,7 +1,6 @@
-// The pieces of the one greppable line per CAN frame that `saulctl decode`, `sniff` and logs write (the line itself
-// is fast_emit.hpp's FrameEmitter):
+// Pieces of the line per CAN frame that decode and sniff write (fast_emit.hpp writes the line):
 //   (1763800000.600000) can0 301#000100000000C03F     pid_gain gain=kp sequence=1 value=1.5
-// the time column, a frame's meaning, an error frame's meaning. The raw part is the candump compact syntax.
+// the time column, a frame's meaning, an error frame's meaning.
 #pragma once
 
 #include <optional>
@@ -14,9 +13,8 @@ namespace saul::host {
 
 enum class TimeMode { absolute, relative, delta };
 
-/// Turns frame timestamps into the "(sec.usec)" column for a TimeMode; remembers the first and previous stamp.
-/// Relative and delta times of a stamp before the first or the previous one (a log whose times went back) are
-/// negative: "(  -0.050000)".
+/// The "(sec.usec)" column for a TimeMode; remembers the first and previous stamp. A relative or delta time
+/// before its reference (times went back) is negative: "(  -0.050000)".
 class TimeColumn {
  public:
   explicit TimeColumn(TimeMode mode) : mode_(mode) {}
@@ -45,9 +43,7 @@ class TimeColumn {
 /// or the error frame's meaning for error frames.
 std::string describe_frame(const CanFrame& frame);
 
-/// One line naming what a SocketCAN error frame says (class bits in the id, details in the data, as
-/// linux/can/error.h lays them out: live links and capture files carry the same layout), e.g. "bus-off",
-/// "controller: tx-passive", "no ACK".
+/// What a SocketCAN error frame says (linux/can/error.h's layout), e.g. "BUS-OFF", "controller: tx-passive".
 std::string describe_error_frame(const CanFrame& error_frame);
 
 }  // namespace saul::host

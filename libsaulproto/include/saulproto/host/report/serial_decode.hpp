@@ -1,6 +1,5 @@
-// Decoding serial byte streams on the host: the core's streaming decoders (inter-board, CRSF, Pride) behind one
-// class, their messages behind one variant, a protocol guess for captures that do not name theirs, and the text,
-// JSON and numeric views of any message (CAN or serial) that saulctl's decode, stats and plot print.
+// Serial byte streams decoded on the host: the core's stream decoders (inter-board, CRSF, Pride) behind one class,
+// their messages in one variant with text and JSON views, and a protocol guess for captures that name none.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -32,9 +31,8 @@ struct CrsfUndecoded {
   Reason reason = Reason::unknown_type;
 };
 
-/// A decoded CRSF frame and the address byte it started with: 0xC8 (the flight controller, what a receiver
-/// sends), 0x00 (broadcast; Betaflight's captures), 0xEA/0xEC/0xEE on a handset <-> TX-module wire. Flight
-/// controllers act only on RC frames addressed 0xC8, so the address is part of what a frame means.
+/// A decoded CRSF frame and its address byte: 0xC8 (the flight controller), 0x00 (broadcast), 0xEA/0xEC/0xEE on a
+/// handset <-> TX-module wire. Flight controllers act only on RC frames addressed 0xC8.
 struct CrsfMessage {
   std::uint8_t address = crsf::kSyncByte;
   crsf::Message message;
@@ -46,15 +44,12 @@ using SerialMessage = std::variant<interboard::Message, CrsfMessage, pride::Mess
 std::string name_of(const SerialMessage& message);
 /// Its signals from its description; message nullptr for an undecoded CRSF frame.
 SignalValues signal_values(const SerialMessage& message);
-/// "state pitch_x100=-1234 pid_out=300 error_state=1"; a CRSF message with its address first
-/// ("rc_channels address=0xC8 ch1=…"); an undecoded CRSF frame as "!unknown_type crsf address=0xC8 type=0x3A
-/// payload=0102".
+/// "state pitch=-12.34° ..."; CRSF with its address after the name ("rc_channels address=0xC8 ch1=…"); an
+/// undecoded CRSF frame "!unknown_type crsf address=0xC8 type=0x3A payload=0102".
 std::string describe(const SerialMessage& message);
-/// {"type":"state","pitch_x100":-1234,...}; CRSF messages add "address" (a number, 200 = 0xC8);
-/// {"type":"crsf_0x3A","error":"unknown_type","address":200,"payload":"0102"}.
+/// {"type":"state",...}; CRSF adds "address" (200 = 0xC8); undecoded: {"type":"crsf_0x3A","error":..,"payload":..}.
 nlohmann::json to_json(const SerialMessage& message);
-/// Whether the message is a decode failure (an undecoded CRSF frame).
-bool is_decode_error(const SerialMessage& message);
+bool is_decode_error(const SerialMessage& message);  ///< an undecoded CRSF frame
 
 /// What a SerialStreamDecoder has seen. Fields a protocol does not have stay 0.
 struct SerialDecodeCounters {
@@ -79,22 +74,17 @@ class SerialStreamDecoder {
   explicit SerialStreamDecoder(SerialProtocol protocol);
 
   void push(std::span<const std::uint8_t> bytes, const Callback& on_message);
-  /// Counts a chunk's uart_error bits.
-  void note_uart_errors(std::uint8_t errors);
+  void note_uart_errors(std::uint8_t errors);  ///< counts a chunk's uart_error bits
   /// End of input: CRSF gives up its unfinished candidate (frames found behind it are still delivered),
   /// interboard and Pride drop theirs; all count it as incomplete.
   void finish(const Callback& on_message);
-  /// Bytes held in an unfinished frame.
-  [[nodiscard]] std::size_t pending() const;
-  /// Gives up the unfinished candidate as if it had been rejected: its first byte is skipped and the bytes after
-  /// it are scanned again, delivering the frames found, until nothing is pending; each candidate given up counts
-  /// as incomplete. For a line that went idle (docs/protocol.md): a receiver sends a frame's bytes back to back.
+  [[nodiscard]] std::size_t pending() const;  ///< bytes held in an unfinished frame
+  /// Gives up the unfinished candidate as if rejected (its first byte skipped, the rest scanned again, the frames
+  /// found delivered) until nothing is pending, each counted incomplete. For a line that went idle.
   void abandon(const Callback& on_message);
-  /// While a message is being delivered: the stream offset just past the last byte of its frame (bytes pushed
-  /// are numbered from 0), so that a caller can tell which chunk completed it. Exact for CRSF; for interboard and
-  /// Pride the byte whose push delivered it.
+  /// While a message is delivered: the stream offset just past its frame's last byte (exact for CRSF; for
+  /// interboard and Pride the byte whose push delivered it).
   [[nodiscard]] std::uint64_t frame_end() const { return frame_end_; }
-  /// Bytes pushed so far.
   [[nodiscard]] std::uint64_t bytes_pushed() const { return extra_.bytes; }
 
   [[nodiscard]] SerialProtocol protocol() const { return protocol_; }
@@ -114,20 +104,18 @@ class SerialStreamDecoder {
   std::uint64_t skip_adjust_ = 0;   // interboard, Pride: bytes abandon() made the core count as skipped twice
 };
 
-/// How long a link must stay quiet before SerialCaptureDecoder gives up a frame in progress: the longest frame's
-/// time on the wire at the protocol's baud rate, at least 1 ms (CRSF: 1748 us, Betaflight's figure).
+/// How long a link stays quiet before SerialCaptureDecoder gives up a frame in progress: the longest frame's time
+/// on the wire, at least 1 ms (CRSF: 1748 us, Betaflight's figure).
 std::uint64_t idle_gap_ns(SerialProtocol protocol) noexcept;
 
-/// The protocol of a byte stream: the decoder that finds the most frames, at least 2 of them and more than
-/// its decode errors; nullopt when none does. For captures that do not say (logic-analyser exports).
+/// The protocol of a byte stream: the decoder that finds the most frames, at least 2 and more than its decode
+/// errors; nullopt when none does.
 std::optional<SerialProtocol> guess_serial_protocol(std::span<const std::uint8_t> bytes);
 
-/// Decodes every link of a capture, one SerialStreamDecoder per link, created as links appear. A link whose chunks
-/// say raw gets `fallback` when given; else its protocol is guessed from its first guess_bytes bytes, held back
-/// until then (or until finish()). Every message comes with the chunk its frame's last byte came in, however late
-/// the frame is found. When a link was quiet for longer than idle_gap_ns() before a chunk (less the chunk's own
-/// time on the wire), an unfinished candidate that hides frames behind it is given up first (abandon()), so those
-/// frames come out at once; one that hides none is kept: a USB adapter may deliver a real frame in two reads.
+/// Decodes every link of a capture, a SerialStreamDecoder per link. A link whose chunks say raw gets `fallback`,
+/// else a protocol guessed from its first guess_bytes bytes (held back until then). Every message comes with the
+/// chunk its frame's last byte came in. After a quiet gap longer than idle_gap_ns(), an unfinished candidate that
+/// hides frames is given up (abandon()); one that hides none is kept (a USB adapter may split a frame in two reads).
 class SerialCaptureDecoder {
  public:
   /// A message, with the chunk that completed it (its time and link) and the link's protocol.
@@ -146,10 +134,9 @@ class SerialCaptureDecoder {
     std::string counters_text;
     nlohmann::json counters_json;
   };
-  /// Every link, in order of first appearance.
-  [[nodiscard]] std::vector<Link> links() const;
-  /// Links decoded at most: a bench has a few, and a capture whose link column is noise (a hostile file) must not
-  /// take a decoder's memory per name. The chunks of the links after the first kMaxLinks are counted in unlisted().
+  [[nodiscard]] std::vector<Link> links() const;  ///< in order of first appearance
+  /// Links decoded at most, so that a link column of noise takes no decoder per name; the chunks of the others
+  /// are counted in unlisted().
   static constexpr std::size_t kMaxLinks = 64;
   struct Unlisted {
     std::uint64_t chunks = 0;
@@ -166,11 +153,10 @@ class SerialCaptureDecoder {
     std::vector<SerialChunk> held;  // while guessing
     std::size_t held_bytes = 0;
     std::optional<std::uint64_t> last_ns;  // of the last chunk fed
-    /// The chunks that may still hold bytes of a frame: (stream offset just past the chunk, its time).
+    // the chunks that may still hold bytes of a frame: (stream offset just past the chunk, its time)
     std::deque<std::pair<std::uint64_t, std::optional<std::uint64_t>>> recent;
   };
-  /// The chunk that held byte `end - 1` of the link's stream (its time and the link's name).
-  SerialChunk chunk_of(const State& state, std::uint64_t end) const;
+  SerialChunk chunk_of(const State& state, std::uint64_t end) const;  // the chunk that held byte end - 1
   void decide(State& state, const Callback& on_message);
   void feed(State& state, const SerialChunk& chunk, const Callback& on_message);
   std::optional<SerialProtocol> fallback_;

@@ -23,9 +23,8 @@ std::vector<SignalRow> signal_rows(const SignalValues& values);
 
 // ---- a signal by its name: plot --field and the bench suites' conditions --------------------------------------
 
-/// A signal's value looked up by its one name (docs/cli.md "Signal names and units"), the names decode --json keys
-/// it by: "pitch" is the physical value (12.34, as in signal_rows), "pitch_raw" the wire integer (1234) of a scaled
-/// one (signals::text_in_unit), "state" a named value's number (1) with its name as text ("BALANCE").
+/// A signal's value by its one name (docs/cli.md), as decode --json keys it: "pitch" the physical value (12.34),
+/// "pitch_raw" a scaled one's wire integer (1234), "state" a named value's number (1) with its name as text.
 struct NamedValue {
   double number = 0;
   std::string text;  ///< the value's name, or the number as fmt writes it
@@ -40,7 +39,6 @@ std::vector<std::string> signal_names(const signals::MessageDesc& m);
 /// pitch_raw, pid_out, speed_mmps, state". m nullptr: what has no description (an undecoded CRSF frame), with none.
 std::string unknown_signal_error(std::string_view message_name, const signals::MessageDesc* m, std::string_view name);
 
-/// The header and the rows of a message in the long CSV form: "time,interface,id,message,signal,value,unit".
 inline constexpr const char* kLongCsvHeader = "time,interface,id,message,signal,value,unit";
 /// The CSV lines (each ending in '\n') of one message: id is "" for a serial message, its hex CAN id otherwise.
 std::string long_csv_rows(std::string_view time, std::string_view interface, std::string_view id,

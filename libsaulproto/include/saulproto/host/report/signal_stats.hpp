@@ -1,10 +1,6 @@
-// Per signal over a capture: how many values, their mean, least and greatest, in the signal's physical unit
-// (`saulctl stats --signals`). The values are exactly the long CSV's (signal_rows.hpp: a scaled integer in its
-// unit, a named value as its integer), so a query engine's aggregate over `decode --format long` equals this
-// (tests/cli/long_csv.py holds DuckDB to it).
-//
-// Memory grows with the number of distinct (message, signal) pairs only, a few hundred for the robot's
-// descriptions; each add() costs one decode of the message and a map lookup per signal.
+// Per signal over a capture (`saulctl stats --signals`): count, mean, min and max of the long CSV's values
+// (signal_rows.hpp), so an aggregate over `decode --format long` equals this. Memory grows with the distinct
+// (message, signal) pairs only.
 #pragma once
 
 #include <nlohmann/json.hpp>

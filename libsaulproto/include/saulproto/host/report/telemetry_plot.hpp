@@ -1,11 +1,6 @@
-// What `saulctl plot` draws from a capture: the default telemetry dashboard (pitch, pid_out, speed, wheel RPM,
-// VESC ERPM, battery), or the fields of one message named by id or name; and, on every panel, a marker at each
-// change of the robot state or of the fault bits. plot.hpp draws the result.
-//
-// Two streaming passes over the messages (a PlotSource, called twice): the first finds the time range, which
-// panels have data, the fields of a named message and the state/fault changes; the second bins the points. Memory
-// is constant in the length of the capture: the binners have one column per pixel, and at most max_markers
-// changes are kept (the rest are counted).
+// What `saulctl plot` draws from a capture (plot.hpp draws it): the telemetry dashboard, or the fields of one
+// message named by id or name, with a marker at each change of the robot state or fault bits. Two streaming passes
+// (range, panels and changes; then the points binned): memory is constant in the capture's length.
 #pragma once
 
 #include <cstdint>
@@ -33,8 +28,7 @@ struct PlotMessage {
   const SerialMessage* serial = nullptr;
   /// The message's signals as its description reads them (none for an undecoded CRSF frame).
   [[nodiscard]] SignalValues values() const;
-  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw", "state" as its number, "forward_back");
-  /// nullopt when the message does not carry it.
+  /// A signal by its one name (signal_value: "pitch" in deg, "pitch_raw"); nullopt when the message lacks it.
   [[nodiscard]] std::optional<double> field(std::string_view signal_name) const;
 };
 
@@ -42,9 +36,8 @@ using PlotSink = std::function<void(const PlotMessage&)>;
 /// Gives every message, in order, to the sink. Called once per pass, it must give the same messages each time.
 using PlotSource = std::function<void(const PlotSink&)>;
 
-/// Every message of a capture file of any format (CAN or serial), opened again on each call; corrupt records and
-/// frames that do not decode are skipped. Throws CaptureOpenError when the file cannot be read. `fallback` is the
-/// protocol of serial links whose capture names none (saulctl's --protocol).
+/// Every message of a capture file (CAN or serial), opened again on each call; corrupt records and frames that do
+/// not decode are skipped. Throws CaptureOpenError. `fallback`: the protocol of serial links that name none.
 PlotSource capture_plot_source(std::string path, SerialReadOptions options = {},
                                std::optional<SerialProtocol> fallback = std::nullopt);
 /// Every frame of a list that decodes (decode_bus_frame), for frames already in memory.
@@ -70,16 +63,14 @@ struct PlotPanelSpec {
   std::vector<PlotSeriesSpec> series;
 };
 
-/// The default dashboard, in drawing order: pitch [deg], pid_out [permille], speed [mm/s] (reported and
-/// commanded), wheel speed [rpm] (0x401), VESC ERPM (STATUS, left 68 and right 56), battery [V] (0x401 and VESC
-/// STATUS_5). Pitch and pid_out also come from the inter-board STATE message, so a UART capture draws them too.
+/// The default dashboard, in drawing order: pitch, pid_out (from 0x400 or the inter-board STATE), speed (reported
+/// and commanded), wheel speed (0x401), VESC ERPM (STATUS), battery (0x401 and VESC STATUS_5).
 std::vector<PlotPanelSpec> dashboard_panels();
 
 // ---- state and fault changes ----------------------------------------------------------------------------------
 
 /// A change of the robot state (0x400 state, UART STATE error_state) or of the fault bits (0x401 faults, UART
-/// FAULT flags). The first state seen is a change from nothing; fault bits start from none, so a first value of 0
-/// is no change.
+/// FAULT flags). The first state seen is a change from nothing; fault bits start from none.
 struct StateChange {
   MarkerKind kind = MarkerKind::state;
   std::optional<unsigned> from;  ///< nullopt: the first state seen
@@ -121,11 +112,8 @@ class ChangeTracker {
 // ---- the plot ---------------------------------------------------------------------------------------------------
 
 struct PlotRequest {
-  /// The message: a CAN id ("0x400", "1024") or a message name ("telemetry_a", "state", "vcu_command"). Empty:
-  /// the default dashboard.
-  std::string id;
-  /// With an id: signal names (docs/cli.md: "pitch", "pitch_raw", "state"), one panel each; empty: every number
-  /// signal of the message in its unit. Without an id: must be empty.
+  std::string id;  ///< a CAN id ("0x400", "1024") or a message name ("state"); empty: the default dashboard
+  /// With an id: signal names (docs/cli.md), one panel each; empty: every number signal. Without an id: empty.
   std::vector<std::string> fields;
   std::size_t max_markers = 40;  ///< changes drawn and listed at most (0: none); the rest are counted
   std::string source_name;       ///< the capture's name, for the title
@@ -160,15 +148,11 @@ class TelemetryPlotter {
   [[nodiscard]] double points_span_s() const;
   [[nodiscard]] bool timed() const { return min_ns_.has_value(); }
   [[nodiscard]] const ChangeTracker& changes() const { return changes_; }
-  /// The time axis position of a change (seconds, or message number).
-  [[nodiscard]] double position_of(const StateChange& change) const;
 
   /// Second pass: the picture, `columns` bins per series, for render_svg or render_html.
   [[nodiscard]] PlotDocument document(std::size_t columns = kPlotWidth) const;
-  /// Second pass: the numbers. With an id, "time_s,SIGNAL,..." and one row per message (signals by name);
-  /// the dashboard: "time_s", one column per series drawn, then "state" and "faults" when the
-  /// capture has them, one row per message giving any of them, empty cells for what it does not carry. Without
-  /// timestamps the first column is "message" (the message number).
+  /// Second pass: the numbers, "time_s" (untimed: "message") and one column per series drawn (the dashboard adds
+  /// "state" and "faults" when the capture has them); a row per message giving any, empty cells for the rest.
   void write_csv(std::ostream& out) const;
 
  private:
@@ -178,7 +162,7 @@ class TelemetryPlotter {
   };
   template <class Visit>
   void each(const Visit& visit) const;  // visit(const PlotMessage&, Position)
-  [[nodiscard]] double position(const Position& p) const;
+  [[nodiscard]] double position(const Position& p) const;  // seconds, or message number
   void select(const PlotMessage& m);  // --id: check the first match, resolve its fields into panels_
 
   PlotRequest request_;
