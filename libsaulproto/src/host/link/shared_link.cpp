@@ -314,8 +314,7 @@ class CanClient final : public CanLink {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return std::nullopt;
       In in(m);
-      const Msg type = in.type();
-      take(type, in);
+      take(in.type(), in);
     }
     const CanFrame f = queue_.front();
     queue_.pop_front();
@@ -420,10 +419,7 @@ class SharedCanLink final : public CanLink {
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
             },
             [spec, listen_only, paced, this]() -> std::unique_ptr<CanLink> {
-              SlcanOptions o;
-              o.bitrate = spec.bitrate;
-              o.listen_only = listen_only;
-              o.backend = spec.backend;
+              const SlcanOptions o{.bitrate = spec.bitrate, .listen_only = listen_only, .backend = spec.backend};
               return std::make_unique<CanOwner>(open_slcan(spec.device, o), spec, listen_only, filters_, paced);
             }) {}
 
@@ -575,8 +571,7 @@ class SerialClient final : public SerialPort {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return 0;
       In in(m);
-      const Msg type = in.type();
-      take(type, in);
+      take(in.type(), in);
     }
   }
   void write(std::span<const std::uint8_t> data, milliseconds timeout) override {

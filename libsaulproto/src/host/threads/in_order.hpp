@@ -22,11 +22,8 @@ inline constexpr std::size_t kBlocksUntilNone = static_cast<std::size_t>(-1);
 /// many Results, whatever the number of blocks. Results are slots that are reused, so work() starts by resetting
 /// what it fills. What work() or take() throws stops every thread (the blocks under way finish first) and is
 /// rethrown here. A work() that returns bool says with false that there is no block k (nor any after it: blocks may
-/// then be kBlocksUntilNone); take() then ends with block k - 1.
-///
-/// Why the caller works too, rather than waiting to take: with a thread per core and a third that wakes per block
-/// to take it, the kernel put both new threads on one core now and then and left the other idle for ~2 ms, and the
-/// taker woke in turn with the workers on their cores (a switch per block).
+/// then be kBlocksUntilNone); take() then ends with block k - 1. The caller works too: a third thread that only
+/// takes would cost a context switch per block.
 template <class Result, class MakeState, class Work, class Take>
 void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_state, Work&& work, Take&& take) {
   if (threads == 0) threads = 1;
