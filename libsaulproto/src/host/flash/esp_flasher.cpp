@@ -129,13 +129,9 @@ std::uint32_t parse_flash_size(const std::string& text) {
 FlashPlan load_build_dir(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  fs::path json_path = dir;
-  fs::path base = dir;
-  if (fs::is_regular_file(dir, ec)) {
-    base = dir.parent_path();
-  } else {
-    json_path = dir / "flasher_args.json";
-  }
+  const bool is_file = fs::is_regular_file(dir, ec);  // flasher_args.json itself
+  const fs::path json_path = is_file ? dir : dir / "flasher_args.json";
+  const fs::path base = is_file ? dir.parent_path() : dir;
   if (!fs::exists(json_path, ec))
     throw FlashError(FlashError::Kind::input,
                      fmt::format("{}: no flasher_args.json there (it is what 'idf.py build' leaves in the build "
@@ -231,14 +227,17 @@ bool names_one(const std::array<std::pair<std::uint8_t, const char*>, N>& table,
   return std::any_of(table.begin(), table.end(), [&](const auto& e) { return name == e.second; });
 }
 
+// The image header of the bootloader: the image at 0x0, first once the plan is sorted.
+Result<esp::ImageHeader> bootloader_header(const FlashPlan& plan) {
+  if (plan.images.empty() || plan.images.front().offset != 0) return Reason::truncated;
+  return esp::parse_image_header(plan.images.front().data);
+}
+
 // The bootloader's header against flasher_args.json: esptool (idf.py flash) rewrites the header to match the
 // settings, saulctl writes the file as it is, so a disagreement means the board boots with the header's.
 void check_settings(FlashPlan& plan) {
   if (plan.settings_mode.empty() && plan.settings_size.empty() && plan.settings_freq.empty()) return;
-  for (const auto& img : plan.images) {
-    if (img.offset != 0) continue;
-    const auto h = esp::parse_image_header(img.data);
-    if (!h) continue;
+  if (const auto h = bootloader_header(plan)) {
     std::vector<std::string> differ;
     const char* mode = name_of(kModes, h->flash_mode);
     const std::string want_mode = ascii_lower(plan.settings_mode);  // "keep" and the like: nothing to compare
@@ -252,11 +251,11 @@ void check_settings(FlashPlan& plan) {
     const std::string want_freq = ascii_lower(plan.settings_freq);
     if (freq && names_one(kFreqs, want_freq) && want_freq != freq)
       differ.push_back(fmt::format("flash frequency {} (flasher_args.json: {})", freq, plan.settings_freq));
-    if (differ.empty()) continue;
-    plan.warnings.push_back(fmt::format(
-        "{}: its header says {}; esptool would rewrite the header to the build's settings, saulctl writes the file "
-        "as it is, so the board boots with the header's: rebuild (idf.py build) so they agree",
-        img.name, fmt::join(differ, ", ")));
+    if (!differ.empty())
+      plan.warnings.push_back(fmt::format(
+          "{}: its header says {}; esptool would rewrite the header to the build's settings, saulctl writes the file "
+          "as it is, so the board boots with the header's: rebuild (idf.py build) so they agree",
+          plan.images.front().name, fmt::join(differ, ", ")));
   }
 }
 
@@ -296,14 +295,9 @@ void check_plan(FlashPlan& plan, bool force) {
                                    img.name, name ? name : "unknown chip", h->chip_id));
     }
   }
-  if (plan.flash_size == 0) {
-    for (const auto& img : plan.images) {
-      if (img.offset != 0) continue;
-      if (auto h = esp::parse_image_header(img.data)) {
-        plan.flash_size = esp::flash_size_from_code(h->flash_size_code);
-        if (plan.flash_size) plan.flash_size_source = "the bootloader's image header";
-      }
-    }
+  if (const auto h = bootloader_header(plan); plan.flash_size == 0 && h) {
+    plan.flash_size = esp::flash_size_from_code(h->flash_size_code);
+    if (plan.flash_size) plan.flash_size_source = "the bootloader's image header";
   }
   if (plan.flash_size == 0) {
     plan.flash_size = kDefaultFlashSize;
