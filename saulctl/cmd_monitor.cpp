@@ -280,7 +280,7 @@ std::string plain_line(Telemetry& tm, const saul::host::CanLink& link, steady_cl
 
 int run_monitor(const MonitorOptions& opt) {
   const auto spec = resolve_link(opt.link);
-  std::unique_ptr<saul::host::CanLink> link = saul::host::open_can_link(spec, opt.listen_only);
+  std::unique_ptr<saul::host::CanLink> link = saul::host::open_can_link(spec, {.listen_only = opt.listen_only});
   const bool limited = !opt.duration.empty();
   const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   const std::uint32_t bitrate = spec.kind == saul::host::LinkSpec::Kind::slcan ? spec.bitrate : 500'000;
@@ -326,7 +326,7 @@ int run_monitor(const MonitorOptions& opt) {
     } else if (screen && now >= next_reopen) {
       next_reopen = now + seconds(1);
       try {
-        link = saul::host::open_can_link(spec, opt.listen_only);
+        link = saul::host::open_can_link(spec, {.listen_only = opt.listen_only});
         keys->relink(*link);
         lost.clear();
         status = kOk;

@@ -9,6 +9,10 @@ namespace saul::host::detail {
 
 /// ASCII lower case, whatever the C locale says (capture formats are ASCII).
 constexpr char ascii_lower(char c) noexcept { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; }
+inline std::string ascii_lower(std::string s) {
+  for (char& c : s) c = ascii_lower(c);
+  return s;
+}
 
 /// Whether `s` starts with `prefix` (written in lower case) in any ASCII case.
 constexpr bool starts_with_nocase(std::string_view s, std::string_view prefix) noexcept {

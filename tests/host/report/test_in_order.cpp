@@ -94,6 +94,7 @@ TEST_CASE("blocks in order: what work() or take() throws comes out, after the bl
             if (!in_take && k == bad) throw std::runtime_error("work failed");
             r.block = k;
             r.value = busy(k % 7 == 0 ? 50000 : 500);
+            return true;
           },
           [&](std::size_t k, Result&) {
             if (in_take && k == bad) throw std::runtime_error("take failed");

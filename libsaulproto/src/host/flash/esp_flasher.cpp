@@ -13,9 +13,12 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "../util.hpp"
+
 namespace saul::host {
 
 using namespace std::chrono;
+using detail::ascii_lower;
 
 namespace {
 
@@ -32,11 +35,6 @@ std::string size_text(std::uint64_t bytes) {
   if (bytes >= 1024 * 1024 && bytes % (1024 * 1024) == 0) return fmt::format("{} MB", bytes / (1024 * 1024));
   if (bytes >= 10 * 1024) return fmt::format("{:.1f} KiB", static_cast<double>(bytes) / 1024.0);
   return fmt::format("{} bytes", bytes);
-}
-
-std::string lower(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
 }
 
 }  // namespace
@@ -59,7 +57,7 @@ std::string to_hex(const esp::Md5& md5) {
 
 std::vector<std::uint8_t> padded_for_flash(std::span<const std::uint8_t> data) {
   std::vector<std::uint8_t> out(data.begin(), data.end());
-  while (out.size() % 4 != 0) out.push_back(0xFF);
+  out.resize((out.size() + 3) / 4 * 4, 0xFF);
   return out;
 }
 
@@ -114,7 +112,7 @@ std::optional<std::uint32_t> parse_offset(const std::string& text) {
 }
 
 std::uint32_t parse_flash_size(const std::string& text) {
-  const std::string t = lower(text);
+  const std::string t = ascii_lower(text);
   std::size_t used = 0;
   unsigned long v = 0;
   try {
@@ -131,13 +129,9 @@ std::uint32_t parse_flash_size(const std::string& text) {
 FlashPlan load_build_dir(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  fs::path json_path = dir;
-  fs::path base = dir;
-  if (fs::is_regular_file(dir, ec)) {
-    base = dir.parent_path();
-  } else {
-    json_path = dir / "flasher_args.json";
-  }
+  const bool is_file = fs::is_regular_file(dir, ec);  // flasher_args.json itself
+  const fs::path json_path = is_file ? dir : dir / "flasher_args.json";
+  const fs::path base = is_file ? dir.parent_path() : dir;
   if (!fs::exists(json_path, ec))
     throw FlashError(FlashError::Kind::input,
                      fmt::format("{}: no flasher_args.json there (it is what 'idf.py build' leaves in the build "
@@ -156,7 +150,7 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
   if (j.contains("extra_esptool_args") && j["extra_esptool_args"].contains("chip") &&
       j["extra_esptool_args"]["chip"].is_string())
     plan.target_chip = j["extra_esptool_args"]["chip"].get<std::string>();
-  if (!plan.target_chip.empty() && lower(plan.target_chip) != "esp32s3")
+  if (!plan.target_chip.empty() && ascii_lower(plan.target_chip) != "esp32s3")
     throw FlashError(FlashError::Kind::wrong_chip,
                      fmt::format("{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py "
                                  "set-target esp32s3' and build again",
@@ -233,17 +227,20 @@ bool names_one(const std::array<std::pair<std::uint8_t, const char*>, N>& table,
   return std::any_of(table.begin(), table.end(), [&](const auto& e) { return name == e.second; });
 }
 
+// The image header of the bootloader: the image at 0x0, first once the plan is sorted.
+Result<esp::ImageHeader> bootloader_header(const FlashPlan& plan) {
+  if (plan.images.empty() || plan.images.front().offset != 0) return Reason::truncated;
+  return esp::parse_image_header(plan.images.front().data);
+}
+
 // The bootloader's header against flasher_args.json: esptool (idf.py flash) rewrites the header to match the
 // settings, saulctl writes the file as it is, so a disagreement means the board boots with the header's.
 void check_settings(FlashPlan& plan) {
   if (plan.settings_mode.empty() && plan.settings_size.empty() && plan.settings_freq.empty()) return;
-  for (const auto& img : plan.images) {
-    if (img.offset != 0) continue;
-    const auto h = esp::parse_image_header(img.data);
-    if (!h) continue;
+  if (const auto h = bootloader_header(plan)) {
     std::vector<std::string> differ;
     const char* mode = name_of(kModes, h->flash_mode);
-    const std::string want_mode = lower(plan.settings_mode);  // "keep" and the like: nothing to compare
+    const std::string want_mode = ascii_lower(plan.settings_mode);  // "keep" and the like: nothing to compare
     if (mode && names_one(kModes, want_mode) && want_mode != mode)
       differ.push_back(fmt::format("flash mode {} (flasher_args.json: {})", mode, plan.settings_mode));
     const std::uint32_t size = esp::flash_size_from_code(h->flash_size_code);
@@ -251,14 +248,14 @@ void check_settings(FlashPlan& plan) {
     if (size && want_size && size != want_size)
       differ.push_back(fmt::format("flash size {} (flasher_args.json: {})", size_text(size), plan.settings_size));
     const char* freq = name_of(kFreqs, h->flash_freq_code);
-    const std::string want_freq = lower(plan.settings_freq);
+    const std::string want_freq = ascii_lower(plan.settings_freq);
     if (freq && names_one(kFreqs, want_freq) && want_freq != freq)
       differ.push_back(fmt::format("flash frequency {} (flasher_args.json: {})", freq, plan.settings_freq));
-    if (differ.empty()) continue;
-    plan.warnings.push_back(fmt::format(
-        "{}: its header says {}; esptool would rewrite the header to the build's settings, saulctl writes the file "
-        "as it is, so the board boots with the header's: rebuild (idf.py build) so they agree",
-        img.name, fmt::join(differ, ", ")));
+    if (!differ.empty())
+      plan.warnings.push_back(fmt::format(
+          "{}: its header says {}; esptool would rewrite the header to the build's settings, saulctl writes the file "
+          "as it is, so the board boots with the header's: rebuild (idf.py build) so they agree",
+          plan.images.front().name, fmt::join(differ, ", ")));
   }
 }
 
@@ -268,7 +265,7 @@ void check_plan(FlashPlan& plan, bool force) {
   using K = FlashError::Kind;
   if (plan.images.empty())
     throw FlashError(K::input, "nothing to flash: give FILE [--offset], OFFSET FILE pairs or --build-dir");
-  if (!plan.target_chip.empty() && lower(plan.target_chip) != "esp32s3")
+  if (!plan.target_chip.empty() && ascii_lower(plan.target_chip) != "esp32s3")
     throw FlashError(
         K::wrong_chip,
         fmt::format("the build folder was made for {} (flasher_args.json), not esp32s3: wrong build folder, "
@@ -298,14 +295,9 @@ void check_plan(FlashPlan& plan, bool force) {
                                    img.name, name ? name : "unknown chip", h->chip_id));
     }
   }
-  if (plan.flash_size == 0) {
-    for (const auto& img : plan.images) {
-      if (img.offset != 0) continue;
-      if (auto h = esp::parse_image_header(img.data)) {
-        plan.flash_size = esp::flash_size_from_code(h->flash_size_code);
-        if (plan.flash_size) plan.flash_size_source = "the bootloader's image header";
-      }
-    }
+  if (const auto h = bootloader_header(plan); plan.flash_size == 0 && h) {
+    plan.flash_size = esp::flash_size_from_code(h->flash_size_code);
+    if (plan.flash_size) plan.flash_size_source = "the bootloader's image header";
   }
   if (plan.flash_size == 0) {
     plan.flash_size = kDefaultFlashSize;
@@ -408,16 +400,10 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
     }
     out.wire_bytes = bytes_sent_ - sent0;
     if (progress_) {
-      FlashProgress p;
-      p.stage = FlashProgress::Stage::writing;
-      p.index = index;
-      p.image = &image;
       const std::uint64_t consumed = std::min<std::uint64_t>(payload_size, static_cast<std::uint64_t>(from) + len);
-      p.bytes_done = payload_size ? consumed * size / payload_size : size;
-      p.bytes_total = size;
-      p.wire_bytes = out.wire_bytes;
-      p.seconds = duration<double>(steady_clock::now() - t0).count();
-      progress_(p);
+      progress_({.stage = FlashProgress::Stage::writing, .index = index, .image = &image,
+                 .bytes_done = payload_size ? consumed * size / payload_size : size, .bytes_total = size,
+                 .wire_bytes = out.wire_bytes, .seconds = duration<double>(steady_clock::now() - t0).count()});
     }
   }
   if (loader == esp::Loader::stub) {
@@ -430,27 +416,16 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
 
 RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
   if (!connected_) throw FlashError(FlashError::Kind::protocol, "internal: write() before connect()");
-  RegionOutcome out;
-  out.offset = image.offset;
-  out.name = image.name;
   const std::vector<std::uint8_t> data = padded_for_flash(image.data);
   const auto size = static_cast<std::uint32_t>(data.size());
-  out.size = size;
   const esp::Md5 expected = md5_of(data);
-  out.md5 = to_hex(expected);
-  outcomes_.push_back(out);
-  auto& slot = outcomes_.back();
+  auto& slot = outcomes_.emplace_back(
+      RegionOutcome{.offset = image.offset, .name = image.name, .size = size, .md5 = to_hex(expected)});
   const auto t0 = steady_clock::now();
   auto report = [&](FlashProgress::Stage stage, std::uint64_t done) {
-    if (!progress_) return;
-    FlashProgress p;
-    p.stage = stage;
-    p.index = index;
-    p.image = &image;
-    p.bytes_done = done;
-    p.bytes_total = size;
-    p.seconds = duration<double>(steady_clock::now() - t0).count();
-    progress_(p);
+    if (progress_)
+      progress_({.stage = stage, .index = index, .image = &image, .bytes_done = done, .bytes_total = size,
+                 .seconds = duration<double>(steady_clock::now() - t0).count()});
   };
   try {
     if (skip_unchanged_) {
@@ -463,12 +438,7 @@ RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
     }
     slot.compressed = compress_;
     slot.state = RegionOutcome::State::unverified;  // from the first erased byte until the MD5 says otherwise
-    if (compress_) {
-      const auto z = deflate(data);
-      write_blocks(image, size, z, true, index, slot);
-    } else {
-      write_blocks(image, size, data, false, index, slot);
-    }
+    write_blocks(image, size, compress_ ? deflate(data) : data, compress_, index, slot);
     report(FlashProgress::Stage::verifying, size);
     const esp::Md5 got = flash_md5(image.offset, size);
     slot.seconds = duration<double>(steady_clock::now() - t0).count();

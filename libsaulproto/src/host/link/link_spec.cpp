@@ -23,14 +23,23 @@ std::uint32_t parse_rate(const std::string& text, const std::string& whole) {
 
 }  // namespace
 
+// The kinds both errors have; any other converts to io.
+constexpr std::pair<SerialError::Kind, LinkError::Kind> kSameKinds[] = {
+    {SerialError::Kind::not_found, LinkError::Kind::not_found},
+    {SerialError::Kind::permission, LinkError::Kind::permission},
+    {SerialError::Kind::busy, LinkError::Kind::busy},
+    {SerialError::Kind::gone, LinkError::Kind::gone}};
+
 LinkError to_link_error(const SerialError& e) {
-  switch (e.kind()) {
-    case SerialError::Kind::not_found: return {LinkError::Kind::not_found, e.what()};
-    case SerialError::Kind::permission: return {LinkError::Kind::permission, e.what()};
-    case SerialError::Kind::busy: return {LinkError::Kind::busy, e.what()};
-    case SerialError::Kind::gone: return {LinkError::Kind::gone, e.what()};
-    default: return {LinkError::Kind::io, e.what()};
-  }
+  for (const auto& [serial, link] : kSameKinds)
+    if (serial == e.kind()) return {link, e.what()};
+  return {LinkError::Kind::io, e.what()};
+}
+
+SerialError to_serial_error(const LinkError& e) {
+  for (const auto& [serial, link] : kSameKinds)
+    if (link == e.kind()) return {serial, e.what()};
+  return {SerialError::Kind::io, e.what()};
 }
 
 std::string LinkSpec::text() const {
@@ -83,30 +92,17 @@ LinkSpec parse_link_spec(const std::string& text) {
 
 std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options) {
   switch (spec.kind) {
-    case LinkSpec::Kind::socketcan: {
-      SocketCanOptions o;
-      o.filters = options.filters;
-      return open_socketcan(spec.device, o);
-    }
+    case LinkSpec::Kind::socketcan: return open_socketcan(spec.device, {.filters = options.filters});
     case LinkSpec::Kind::slcan: {
       if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters, options.paced);
-      SlcanOptions o;
-      o.bitrate = spec.bitrate;
-      o.listen_only = options.listen_only;
-      o.backend = spec.backend;
-      auto link = open_slcan(spec.device, o);
+      auto link = open_slcan(spec.device,
+                             {.bitrate = spec.bitrate, .listen_only = options.listen_only, .backend = spec.backend});
       link->set_filters(options.filters);
       return link;
     }
     case LinkSpec::Kind::serial: break;
   }
   throw std::invalid_argument(fmt::format("'{}' is a serial byte link, not a CAN bus", spec.text()));
-}
-
-std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, bool listen_only) {
-  LinkOpenOptions o;
-  o.listen_only = listen_only;
-  return open_can_link(spec, o);
 }
 
 std::unique_ptr<SerialPort> open_serial_link(const LinkSpec& spec) {

@@ -123,21 +123,13 @@ class DeviceClaim {
 };
 
 speed_t standard_speed(std::uint32_t baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 500000: return B500000;
-    case 921600: return B921600;
-    case 1000000: return B1000000;
-    case 1500000: return B1500000;
-    case 2000000: return B2000000;
-    default: return 0;
-  }
+  static constexpr std::pair<std::uint32_t, speed_t> kSpeeds[] = {
+      {9600, B9600},     {19200, B19200},     {38400, B38400},     {57600, B57600},
+      {115200, B115200}, {230400, B230400},   {460800, B460800},   {500000, B500000},
+      {921600, B921600}, {1000000, B1000000}, {1500000, B1500000}, {2000000, B2000000}};
+  for (const auto& [rate, speed] : kSpeeds)
+    if (rate == baud) return speed;
+  return 0;
 }
 
 // Waits until fd is readable/writable or the deadline passes; throws when the device is gone.

@@ -40,7 +40,7 @@ enum class Msg : std::uint8_t { hello = 1, welcome, refuse, frame, sent, bytes, 
 enum class Kind : std::uint8_t { can = 0, serial = 1 };
 enum class ByeReason : std::uint8_t { exit = 0, gone = 1 };
 
-/// Thrown inside a client when its owner has left without the device going away: the handle takes over.
+/// A client's owner left without the device going away: the handle takes over.
 struct OwnerLeft : std::runtime_error {
   explicit OwnerLeft(const std::string& who) : std::runtime_error(who) {}
 };
@@ -92,18 +92,15 @@ class In {
 /// 0x302 with mode 3: what always goes first.
 bool is_estop(const CanFrame& f);
 
-/// The steady clock in ns (CLOCK_MONOTONIC: the same clock in every process of this machine).
+/// CLOCK_MONOTONIC in ns: the same clock in every process of this machine.
 std::uint64_t steady_ns();
-
-/// "saulctl monitor" for this process (from /proc/self/cmdline).
+/// "saulctl monitor" for this process (from /proc/self/cmdline), and "saulctl monitor (pid 77)".
 std::string self_command();
-/// "saulctl monitor (pid 77)" for this process.
 std::string self_text();
-
 /// The notice sink (shared_link.hpp).
 void notice(const std::string& text);
 
-/// Sends one message without blocking. sent / full (try later) / closed (the peer is gone).
+/// Sends one message without blocking: sent, full (try later) or closed (the peer is gone).
 enum class SendResult { sent, full, closed };
 SendResult send_message(int fd, const std::vector<std::uint8_t>& m);
 /// Receives one message without blocking: true with `m` filled; false when none is waiting; `closed` set on EOF.
@@ -111,8 +108,7 @@ bool receive_message(int fd, std::vector<std::uint8_t>& m, bool& closed);
 /// Waits up to `timeout` for fd to poll `events`; false on timeout or a signal.
 bool wait_fd_event(int fd, short events, std::chrono::milliseconds timeout);
 
-/// An eventfd that wakes a thread (signal() from any thread): it waits in wait(), or polls fd() with others and
-/// take()s it.
+/// An eventfd that wakes a thread: signal() from any thread; the thread waits in wait(), or polls fd() and take()s.
 class EventFd {
  public:
   EventFd();
@@ -165,17 +161,15 @@ class OwnerCore {
   OwnerCore(std::string device, Kind kind, std::string link_text, bool listen_only);
   virtual ~OwnerCore();
 
-  /// Creates the socket (a notice instead when the directory is not private: then nothing is shared) and starts
-  /// the serving thread, which polls `device_fd`.
+  /// Creates the socket (when the directory is not private: a notice, and nothing is shared) and starts the serving
+  /// thread, which polls `device_fd`.
   void start_serving(int device_fd);
-  /// What a derived destructor calls first: stops serving, closes the device (close_device()), then tells the
-  /// clients why (the owner stopped, or the device's error), so that one of them can take the device over.
+  /// What a derived destructor calls first: stops serving, closes the device, then tells the clients why (the owner
+  /// stopped, or the device's error), so that one of them can take the device over.
   void shutdown();
   virtual void close_device() = 0;
-  /// The device went away (the serving thread's pump saw it): remembered for the owner's own calls, told to the
-  /// clients, and the socket goes.
+  /// The device went away: remembered for the owner's own calls (gone()), told to the clients; the socket goes.
   void set_gone(LinkError::Kind kind, const std::string& text);
-  /// The device's error once it has gone.
   [[nodiscard]] std::optional<LinkError> gone() const;
   /// Stops the thread and removes the socket; clients stay connected until release_clients().
   void stop_serving();
@@ -185,9 +179,8 @@ class OwnerCore {
   /// Hooks, on the serving thread.
   /// The device polled readable (or hung up): read it; true when there may be more already read and waiting.
   virtual bool pump_device() = 0;
-  /// True while the device should stay unread: the owner's own reader is behind and nobody else is attached, so the
-  /// frames wait in the device (the kernel's buffer, then the adapter) instead of being read only to be dropped from
-  /// a full queue. While it holds, the thread looks again every few milliseconds and on wake_serving().
+  /// True while the device should stay unread (the owner's own reader is behind and nobody else is attached): the
+  /// frames wait in the device instead of being read only to be dropped. Asked again every 5 ms and on wake_serving().
   virtual bool device_held() { return false; }
   virtual void on_message(Client& from, Msg type, In& in) = 0;
   virtual std::vector<std::uint8_t> stats_for(const Client& c) = 0;

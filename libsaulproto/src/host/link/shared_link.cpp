@@ -20,16 +20,6 @@ constexpr std::size_t kMaxQueuedFrames = 8192;
 constexpr std::size_t kHoldFrames = 2048;
 constexpr std::size_t kMaxQueuedBytes = 1 << 16;
 
-SerialError serial_error_of(const LinkError& e) {
-  switch (e.kind()) {
-    case LinkError::Kind::not_found: return {SerialError::Kind::not_found, e.what()};
-    case LinkError::Kind::permission: return {SerialError::Kind::permission, e.what()};
-    case LinkError::Kind::busy: return {SerialError::Kind::busy, e.what()};
-    case LinkError::Kind::gone: return {SerialError::Kind::gone, e.what()};
-    default: return {SerialError::Kind::io, e.what()};
-  }
-}
-
 // The queues of what was read for a process; when one is full its oldest goes (frames counted).
 void push_frame(std::deque<CanFrame>& q, const CanFrame& f, std::uint64_t& dropped) {
   if (q.size() >= kMaxQueuedFrames) {
@@ -314,8 +304,7 @@ class CanClient final : public CanLink {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return std::nullopt;
       In in(m);
-      const Msg type = in.type();
-      take(type, in);
+      take(in.type(), in);
     }
     const CanFrame f = queue_.front();
     queue_.pop_front();
@@ -420,10 +409,7 @@ class SharedCanLink final : public CanLink {
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
             },
             [spec, listen_only, paced, this]() -> std::unique_ptr<CanLink> {
-              SlcanOptions o;
-              o.bitrate = spec.bitrate;
-              o.listen_only = listen_only;
-              o.backend = spec.backend;
+              const SlcanOptions o{.bitrate = spec.bitrate, .listen_only = listen_only, .backend = spec.backend};
               return std::make_unique<CanOwner>(open_slcan(spec.device, o), spec, listen_only, filters_, paced);
             }) {}
 
@@ -575,8 +561,7 @@ class SerialClient final : public SerialPort {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0 || !sock_->next(m, left)) return 0;
       In in(m);
-      const Msg type = in.type();
-      take(type, in);
+      take(in.type(), in);
     }
   }
   void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
@@ -587,7 +572,7 @@ class SerialClient final : public SerialPort {
       const auto other = [this](Msg type, In& in) { take(type, in); };
       await_sent(*sock_, token, t0 + timeout + milliseconds(1000), other);
     } catch (const LinkError& e) {  // the owner's error, or a timeout
-      throw serial_error_of(e);
+      throw to_serial_error(e);
     }
   }
   void set_modem_lines(bool, bool) override {
@@ -630,7 +615,7 @@ class SharedSerialPort final : public SerialPort {
               try {
                 sock = ClientSocket::connect(path, h);
               } catch (const LinkError& e) {
-                throw serial_error_of(e);
+                throw to_serial_error(e);
               }
               if (!sock) return nullptr;
               return std::make_unique<SerialClient>(std::move(sock), path, settings);

@@ -149,9 +149,7 @@ class SocketCanLink final : public CanLink {
         continue;
       }
       if (e == EINTR) continue;
-      if (e == ENETDOWN) throw LinkError(LinkError::Kind::down, fmt::format("{}: interface went down", name_));
-      if (e == ENODEV || e == ENXIO) throw LinkError(LinkError::Kind::gone, fmt::format("{}: adapter disappeared (unplugged?)", name_));
-      throw LinkError(LinkError::Kind::io, fmt::format("{}: send failed: {}", name_, std::strerror(e)));
+      throw failure(e, "send");
     }
   }
 
@@ -186,9 +184,7 @@ class SocketCanLink final : public CanLink {
     if (n < 0) {
       const int e = errno;
       if (e == EAGAIN || e == EINTR) return std::nullopt;
-      if (e == ENETDOWN) throw LinkError(LinkError::Kind::down, fmt::format("{}: interface went down", name_));
-      if (e == ENODEV || e == ENXIO) throw LinkError(LinkError::Kind::gone, fmt::format("{}: adapter disappeared (unplugged?)", name_));
-      throw LinkError(LinkError::Kind::io, fmt::format("{}: receive failed: {}", name_, std::strerror(e)));
+      throw failure(e, "receive");
     }
     if (n != static_cast<ssize_t>(sizeof cf)) return std::nullopt;  // CAN FD frames are not enabled; ignore
     CanFrame f;
@@ -251,6 +247,14 @@ class SocketCanLink final : public CanLink {
   [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
+  // A send or receive that failed with errno `e`: the interface went down, the adapter went away, or another error.
+  [[nodiscard]] LinkError failure(int e, const char* what) const {
+    if (e == ENETDOWN) return {LinkError::Kind::down, fmt::format("{}: interface went down", name_)};
+    if (e == ENODEV || e == ENXIO)
+      return {LinkError::Kind::gone, fmt::format("{}: adapter disappeared (unplugged?)", name_)};
+    return {LinkError::Kind::io, fmt::format("{}: {} failed: {}", name_, what, std::strerror(e))};
+  }
+
   std::string name_;
   int fd_ = -1;
   LinkStats stats_;

@@ -49,9 +49,9 @@ ReplayVerdict plan_frame(const CanFrame& in, const ReplayOptions& options, CanFr
   return ReplayVerdict::send;
 }
 
-// ---- schedule -----------------------------------------------------------------------------------------------------
+// ---- pacing -------------------------------------------------------------------------------------------------------
 
-std::uint64_t ReplaySchedule::deadline(std::optional<std::uint64_t> timestamp_ns) {
+bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
   if (!started_) {
     started_ = true;
     t_ = 0;
@@ -66,23 +66,31 @@ std::uint64_t ReplaySchedule::deadline(std::optional<std::uint64_t> timestamp_ns
   }
   new_pass_ = false;
   if (timestamp_ns) last_stamp_ = timestamp_ns;
-  ++pass_frames_;
-  if (pending_anchor_) {
-    anchor_clock_ = *pending_anchor_;
+  ++pass_items_;
+  if (stepping_ || !anchored_) {
+    anchor_clock_ = clock_.now_ns();
     anchor_t_ = t_;
-    pending_anchor_.reset();
+    anchored_ = true;
   }
-  if (speed_ <= 0) return anchor_clock_;
-  const std::uint64_t file_elapsed = t_ - anchor_t_;
-  if (speed_ == 1.0) return anchor_clock_ + file_elapsed;
-  return anchor_clock_ + static_cast<std::uint64_t>(std::llround(static_cast<double>(file_elapsed) / speed_));
+  std::uint64_t due = anchor_clock_;
+  if (speed_ == 1.0) due += t_ - anchor_t_;
+  else if (speed_ > 0) due += static_cast<std::uint64_t>(std::llround(static_cast<double>(t_ - anchor_t_) / speed_));
+  if (!first_deadline_) first_deadline_ = due;
+  if (stepping_ || speed_ <= 0) return true;
+  if (!clock_.sleep_until(due)) return false;
+  lateness_.add(static_cast<std::int64_t>(clock_.now_ns() - due));
+  return true;
 }
 
-void ReplaySchedule::next_pass() {
-  pass_gap_ = pass_frames_ > 1 ? (t_ - pass_start_t_) / (pass_frames_ - 1) : 0;
+void ReplayPacer::next_pass() {
+  pass_gap_ = pass_items_ > 1 ? (t_ - pass_start_t_) / (pass_items_ - 1) : 0;
   new_pass_ = started_;
-  pass_frames_ = 0;
+  pass_items_ = 0;
   last_stamp_.reset();
+}
+
+std::uint64_t ReplayPacer::elapsed_ns() const {
+  return first_deadline_ && last_sent_ > *first_deadline_ ? last_sent_ - *first_deadline_ : 0;
 }
 
 // ---- lateness ---------------------------------------------------------------------------------------------------
@@ -147,23 +155,6 @@ bool MonotonicReplayClock::sleep_until(std::uint64_t deadline_ns) {
 }
 
 // ---- engine -------------------------------------------------------------------------------------------------------
-
-bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
-  if (stepping_ || !anchored_) {
-    schedule_.anchor(clock_.now_ns());
-    anchored_ = true;
-  }
-  const std::uint64_t due = schedule_.deadline(timestamp_ns);
-  if (!first_deadline_) first_deadline_ = due;
-  if (stepping_ || speed_ <= 0) return true;
-  if (!clock_.sleep_until(due)) return false;
-  lateness_.add(static_cast<std::int64_t>(clock_.now_ns() - due));
-  return true;
-}
-
-std::uint64_t ReplayPacer::elapsed_ns() const {
-  return first_deadline_ && last_sent_ > *first_deadline_ ? last_sent_ - *first_deadline_ : 0;
-}
 
 ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
                     ReplayClock& clock, const ReplayHooks& hooks) {

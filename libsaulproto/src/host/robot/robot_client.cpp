@@ -19,25 +19,36 @@ const char* to_string(CommandOutcome::Status s) {
 
 void RobotClient::send_estop() { link_.send(saulcan::encode(saulcan::ModeCmd{saulcan::Mode::estop}), milliseconds(100)); }
 
-CommandOutcome RobotClient::wait_for_ack(std::uint8_t command, std::optional<std::uint8_t> sequence,
-                                         steady_clock::time_point sent_at, milliseconds timeout) {
-  const auto deadline = sent_at + timeout;
-  CommandOutcome out;
+namespace {
+
+// Hands every frame received before `deadline` to the observer, then to `done`, until `done` says true.
+template <class Done>
+void watch(CanLink& link, const RobotClient::Observer& observer, steady_clock::time_point deadline, Done&& done) {
   for (;;) {
     const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-    if (left.count() < 0) return out;
-    const auto frame = link_.receive(left);
+    if (left.count() < 0) return;
+    const auto frame = link.receive(left);
     if (!frame) continue;
-    if (observer_) observer_(*frame);
-    const auto ack = saulcan::decode_command_ack(*frame);
-    if (!ack || ack->command != command) continue;
-    if (sequence && ack->sequence != *sequence) continue;
+    if (observer) observer(*frame);
+    if (done(*frame)) return;
+  }
+}
+
+}  // namespace
+
+CommandOutcome RobotClient::wait_for_ack(std::uint8_t command, std::optional<std::uint8_t> sequence,
+                                         steady_clock::time_point sent_at, milliseconds timeout) {
+  CommandOutcome out;
+  watch(link_, observer_, sent_at + timeout, [&](const CanFrame& frame) {
+    const auto ack = saulcan::decode_command_ack(frame);
+    if (!ack || ack->command != command || (sequence && ack->sequence != *sequence)) return false;
     out.result = ack->result;
     out.status = ack->result == saulcan::AckResult::applied ? CommandOutcome::Status::applied
                                                            : CommandOutcome::Status::rejected;
     out.latency = duration_cast<microseconds>(steady_clock::now() - sent_at);
-    return out;
-  }
+    return true;
+  });
+  return out;
 }
 
 saulcan::RobotState state_for(saulcan::Mode mode) { return static_cast<saulcan::RobotState>(mode); }
@@ -80,23 +91,14 @@ StateCheck RobotClient::confirm_state(saulcan::RobotState expected, milliseconds
   StateCheck out;
   out.expected = expected;
   const auto start = steady_clock::now();
-  const auto deadline = start + timeout;
-  for (;;) {
-    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-    if (left.count() < 0) break;
-    const auto frame = link_.receive(left);
-    if (!frame) continue;
-    if (observer_) observer_(*frame);
-    const auto a = saulcan::decode_telemetry_a(*frame);
-    if (!a) continue;
+  watch(link_, observer_, start + timeout, [&](const CanFrame& frame) {
+    const auto a = saulcan::decode_telemetry_a(frame);
+    if (!a) return false;
     out.seen = a->state;
     out.after = duration_cast<microseconds>(steady_clock::now() - start);
-    if (a->state == expected) {
-      out.result = StateCheck::Result::confirmed;
-      return out;
-    }
-  }
-  if (out.seen) out.result = StateCheck::Result::differs;
+    return a->state == expected;
+  });
+  if (out.seen) out.result = out.seen == expected ? StateCheck::Result::confirmed : StateCheck::Result::differs;
   return out;
 }
 

@@ -16,11 +16,13 @@
 #include "saulproto/host/suite/tune_expect.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/signal_rows.hpp"
+#include "../util.hpp"
 
 namespace saul::host::suite {
 namespace {
 
 namespace sc = saul::saulcan;
+using detail::ascii_lower;
 
 std::vector<std::string> words(const std::string& s) {
   std::istringstream in(s);
@@ -28,11 +30,6 @@ std::vector<std::string> words(const std::string& s) {
   std::string t;
   while (in >> t) w.push_back(t);
   return w;
-}
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
 }
 
 std::optional<double> number(const std::string& s) {
@@ -102,9 +99,9 @@ std::vector<CanFrame> build_frames(const std::vector<std::string>& w, std::size_
     static const std::map<std::string, sc::Mode> kModes = {
         {"off", sc::Mode::off}, {"balance", sc::Mode::balance}, {"manual", sc::Mode::manual}, {"estop", sc::Mode::estop}};
     const auto it = a.find("mode");
-    if (it == a.end() || !kModes.count(lower(it->second)))
+    if (it == a.end() || !kModes.count(ascii_lower(it->second)))
       throw ParseError(path, line, "mode_cmd needs mode=off|balance|manual|estop");
-    out.push_back(sc::encode(sc::ModeCmd{kModes.at(lower(it->second))}));
+    out.push_back(sc::encode(sc::ModeCmd{kModes.at(ascii_lower(it->second))}));
     a.erase("mode");
   } else if (name == "config_cmd") {
     // The signal names decode --json prints (docs/cli.md): tilt_limit in degrees, or tilt_limit_raw, its wire
@@ -130,8 +127,9 @@ std::vector<CanFrame> build_frames(const std::vector<std::string>& w, std::size_
   } else if (name == "pid_gain") {
     static const std::map<std::string, sc::Gain> kGains = {{"kp", sc::Gain::kp}, {"ki", sc::Gain::ki}, {"kd", sc::Gain::kd}};
     const auto it = a.find("gain");
-    if (it == a.end() || !kGains.count(lower(it->second))) throw ParseError(path, line, "pid_gain needs gain=kp|ki|kd");
-    const auto g = kGains.at(lower(it->second));
+    if (it == a.end() || !kGains.count(ascii_lower(it->second)))
+      throw ParseError(path, line, "pid_gain needs gain=kp|ki|kd");
+    const auto g = kGains.at(ascii_lower(it->second));
     a.erase("gain");
     const auto seq = checked<std::uint8_t>(need_number(a, "sequence", 1.0, path, line), "sequence", path, line);
     const double v = need_number(a, "value", std::nullopt, path, line);
@@ -209,7 +207,7 @@ bool holds(const Condition& c, const FieldValue& v) {
       case Condition::Op::ge: return x >= y;
     }
   }
-  const bool same = lower(v.text) == lower(c.text);
+  const bool same = ascii_lower(v.text) == ascii_lower(c.text);
   return c.op == Condition::Op::eq ? same : c.op == Condition::Op::ne ? !same : false;
 }
 
@@ -242,7 +240,7 @@ Condition parse_tune_condition(const std::string& word, const std::string& path,
   if (c.number) {
     c.number = *c.number / divisor;
     c.text = fmt::format("{}", *c.number);
-  } else if (c.field != "oscillation" || lower(c.text) != "none") {
+  } else if (c.field != "oscillation" || ascii_lower(c.text) != "none") {
     throw ParseError(path, line, "'" + word + "': the value must be a number (oscillation also takes none)");
   }
   return c;

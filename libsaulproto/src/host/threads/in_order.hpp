@@ -7,7 +7,6 @@
 #include <exception>
 #include <mutex>
 #include <thread>
-#include <type_traits>
 #include <vector>
 
 namespace saul::host::detail {
@@ -21,24 +20,12 @@ inline constexpr std::size_t kBlocksUntilNone = static_cast<std::size_t>(-1);
 /// not be movable), kept from block to block. At most 2 x threads blocks are worked ahead of take(): memory is that
 /// many Results, whatever the number of blocks. Results are slots that are reused, so work() starts by resetting
 /// what it fills. What work() or take() throws stops every thread (the blocks under way finish first) and is
-/// rethrown here. A work() that returns bool says with false that there is no block k (nor any after it: blocks may
-/// then be kBlocksUntilNone); take() then ends with block k - 1.
-///
-/// Why the caller works too, rather than waiting to take: with a thread per core and a third that wakes per block
-/// to take it, the kernel put both new threads on one core now and then and left the other idle for ~2 ms, and the
-/// taker woke in turn with the workers on their cores (a switch per block).
+/// rethrown here. work() returns false when there is no block k (nor any after it: blocks may then be
+/// kBlocksUntilNone); take() then ends with block k - 1. The caller works too: a third thread that only takes would
+/// cost a context switch per block.
 template <class Result, class MakeState, class Work, class Take>
 void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_state, Work&& work, Take&& take) {
   if (threads == 0) threads = 1;
-  // work(k, state, result), false when there is no block k
-  auto work_on = [&work](std::size_t k, auto& state, Result& result) {
-    if constexpr (std::is_same_v<decltype(work(k, state, result)), bool>) {
-      return work(k, state, result);
-    } else {
-      work(k, state, result);
-      return true;
-    }
-  };
   const std::size_t ring = 2 * std::size_t{threads};
   struct Slot {
     Result result;
@@ -94,7 +81,7 @@ void run_blocks_in_order(std::size_t blocks, unsigned threads, MakeState&& make_
       Slot& slot = slots[k % ring];
       bool there = false;
       try {
-        there = work_on(k, state, slot.result);
+        there = work(k, state, slot.result);
       } catch (...) {
         std::lock_guard lock(mutex);
         fail_locked();

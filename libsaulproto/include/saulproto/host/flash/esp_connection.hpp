@@ -1,20 +1,8 @@
-// Reaching an ESP32-S3's ROM serial bootloader (core/esp_loader.hpp) over a SerialPort, and leaving it again:
-// the DTR/RTS reset sequences, the SLIP request/answer exchange, SYNC, the chip check, register access, the
-// baud-rate switch, the reset into the application, and finding the IO board's port after that reset. What is
-// written to the flash once connected is esp_flasher.hpp's business; it builds on EspConnection.
-//
-// The two boards reach the chip differently (docs/flashing.md):
-//  - BALANCE: a WCH CH343 USB-UART bridge whose DTR/RTS drive GPIO0/EN through the usual two transistors, so
-//    the classic DTR/RTS dance resets it into the bootloader and an RTS pulse resets it out;
-//  - IO: the S3's own USB-Serial/JTAG (VID 0x303A, PID 0x1001), which interprets virtual DTR/RTS itself. Its
-//    reset is a core reset that does not re-sample the strapping pins, so leaving download mode takes an RTC
-//    watchdog (system) reset, and the port drops off the bus and comes back, maybe under a new name.
-//
-// Only the ROM loader is driven (no stub upload). A stub already running (SYNC answered with value 0) is
-// recognised and used with its 2-byte status.
-//
-// Every failure is a FlashError with one line that says what happened and what to do about it. Time goes
-// through an injectable sleeper, so tests check the reset sequences without waiting.
+// Reaching an ESP32-S3's ROM serial bootloader (core/esp_loader.hpp) over a SerialPort and leaving it again:
+// resets, SLIP exchange, SYNC, chip check, registers, baud switch, and finding the IO board's port after its reset
+// (docs/flashing.md: BALANCE resets through a CH343 bridge's DTR/RTS, IO through the S3's own USB-Serial/JTAG).
+// Only the ROM loader is driven (no stub upload); a stub already running (SYNC value 0) is used as it is.
+// Every failure is a FlashError whose one line says what to do. Time goes through an injectable sleeper.
 #pragma once
 
 #include <chrono>
@@ -52,12 +40,8 @@ class FlashError : public std::runtime_error {
   Kind kind_;
 };
 
-/// A loader's failure status as one phrase that ends with what to do: "invalid checksum in message (error 0x07):
-/// a noisy line: run again with a lower --baud ...".
+/// A loader's failure status as one phrase that ends with what to do ("... (error 0x07): a noisy line: ...").
 std::string refusal_text(std::uint8_t error);
-
-// ---------------------------------------------------------------------------------------------------------------
-// Reset sequences
 
 /// How the board's USB port reaches the chip's EN and GPIO0 (BOOT) pins.
 enum class ResetStyle : std::uint8_t {
@@ -87,9 +71,6 @@ using Sleeper = std::function<void(std::chrono::milliseconds)>;
 void sleep_real(std::chrono::milliseconds d);
 /// Sets each step's lines with one set_modem_lines call, then sleeps its hold time.
 void run_line_sequence(SerialPort& port, std::span<const LineStep> steps, const Sleeper& sleep);
-
-// ---------------------------------------------------------------------------------------------------------------
-// The connection
 
 struct ChipInfo {
   std::uint32_t chip_id = 0;
@@ -169,9 +150,6 @@ class EspConnection {
   std::string noise_;                ///< last bytes seen outside frames (boot messages), for diagnosis
   std::uint32_t echoes_ = 0;         ///< our own requests read back (a loopback, not a chip)
 };
-
-// ---------------------------------------------------------------------------------------------------------------
-// Finding the boards
 
 /// USB identity of a board's port: IO = 303A:1001, BALANCE = 1A86:55D3 or 55D4.
 bool is_board_port(const PortInfo& port, ResetStyle style);

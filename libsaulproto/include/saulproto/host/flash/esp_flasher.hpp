@@ -1,11 +1,6 @@
-// Writing the robot's ESP32-S3 boards' flash once esp_connection.hpp has reached the ROM loader: what to write
-// (files at offsets, or an ESP-IDF build folder's flasher_args.json), the checks made before the board is touched
-// (sector alignment, overlaps, the image header's chip id, the flash size), and the region writer itself: compare
-// the flash MD5 first and skip a region that already matches, else compressed (or plain) block writes with
-// retries, then verify the MD5. Resetting into and out of download mode, SYNC and the chip check are in
-// esp_connection.hpp; EspFlasher is an EspConnection that can also write.
-//
-// The ROM loader takes 1 KiB blocks and inflates with its own deflate; a stub already running takes 16 KiB.
+// Writing the boards' flash once esp_connection.hpp has reached the loader: what to write (files at offsets, or a
+// build folder's flasher_args.json), the checks before the board is touched, and the region writer (skip a region
+// whose flash MD5 matches, else compressed or plain blocks with retries, then verify the MD5).
 #pragma once
 
 #include <cstdint>
@@ -21,9 +16,6 @@
 #include "saulproto/host/link/serial_port.hpp"
 
 namespace saul::host {
-
-// ---------------------------------------------------------------------------------------------------------------
-// What to write
 
 struct FlashImage {
   std::uint32_t offset = 0;
@@ -60,9 +52,6 @@ std::optional<std::uint32_t> parse_offset(const std::string& text);
 /// `force` (then they are warnings). Adds a warning when the bootloader header's flash mode, size or frequency
 /// disagree with flasher_args.json's flash_settings.
 void check_plan(FlashPlan& plan, bool force = false);
-
-// ---------------------------------------------------------------------------------------------------------------
-// The flasher
 
 struct FlashProgress {
   enum class Stage : std::uint8_t { checking, writing, verifying };

@@ -1,8 +1,5 @@
-// A live CAN bus, whatever the adapter: SocketCAN (the CANable2 with candleLight firmware, vcan, any Linux
-// CAN driver) or slcan over a serial port (the CANable2 with its slcan firmware, the simulated robot).
-//
-// One small interface so that commands, the simulator and tests do not care which. Errors are LinkError
-// exceptions with a one-line message naming the device and the likely fix.
+// A live CAN bus, whatever the adapter (SocketCAN, or slcan over a serial port), behind one small interface.
+// Errors are LinkError exceptions with a one-line message naming the device and the likely fix.
 #pragma once
 
 #include <chrono>
@@ -87,12 +84,10 @@ class CanLink {
   [[nodiscard]] virtual std::string sharing() const { return {}; }
 };
 
-// CAN id filters, one home (can_filter.cpp): `--id` of sniff, record and replay, the kernel's and the software check.
+// CAN id filters (can_filter.cpp): `--id` of sniff, record and replay, the kernel's and the software check.
 
-/// Parses a CAN id as saulctl spells them: hex digits (either case, "0x" allowed), 1 to 8 of them; more than 3
-/// digits or a value above 0x7FF means 29-bit (`extended` set). `whole` is what an error message quotes (the
-/// option's whole value). Throws std::invalid_argument for no digits, more than 8, a non-hex one or a value above
-/// 0x1FFFFFFF.
+/// Parses a CAN id: 1 to 8 hex digits ("0x" allowed); more than 3 digits or a value above 0x7FF means 29-bit
+/// (`extended` set). `whole` is what an error message quotes. Throws std::invalid_argument.
 std::uint32_t parse_can_id(std::string_view text, std::string_view whole, bool& extended);
 /// Parses "300" or "300:7F0" (ID[:MASK], hex, like `saulctl sniff --id`): without a mask, every id bit of the
 /// id's format. Throws std::invalid_argument.

@@ -26,15 +26,16 @@ struct LinkSpec {
   [[nodiscard]] std::string text() const;
 };
 
-/// The LinkError for a serial port's error (same kind, same message).
+/// A serial port's error as a link's, and back (same kind, or io; same message).
 LinkError to_link_error(const SerialError& e);
+SerialError to_serial_error(const LinkError& e);
 
 /// Parses a link name; throws std::invalid_argument with a message that shows the accepted forms.
 LinkSpec parse_link_spec(const std::string& text);
 
 struct LinkOpenOptions {
   bool listen_only = false;        ///< slcan: open the adapter silent
-  std::vector<CanFilter> filters;  ///< in force before the first frame is received (SocketCAN: set before bind)
+  std::vector<CanFilter> filters{};  ///< in force before the first frame is received (SocketCAN: set before bind)
   /// slcan: share the adapter with other saulctl processes (shared_link.hpp): join its owner or become it.
   /// Off: hold it alone (a second saulctl gets "busy", naming this one).
   bool share = true;
@@ -45,8 +46,7 @@ struct LinkOpenOptions {
 };
 
 /// Opens a CAN link (SocketCAN or slcan). Throws LinkError; std::invalid_argument for a serial spec.
-std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options);
-std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, bool listen_only = false);
+std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options = {});
 
 /// Opens a serial byte link (LinkSpec::Kind::serial), shared with other saulctl processes (shared_link.hpp).
 /// Throws SerialError; std::invalid_argument for a CAN spec.

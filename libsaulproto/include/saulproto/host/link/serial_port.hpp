@@ -1,12 +1,8 @@
 // Serial ports: the boards' USB consoles, the inter-board UART tap, CRSF, the Pride link, slcan adapters.
 //
-// Two implementations behind one interface:
-//  - libserialport, for real devices (what users plug in): USB identity, modem lines;
-//  - POSIX termios, which is what works on a pseudo-terminal (libserialport looks ports up in sysfs, which ptys
-//    lack, and needs modem-line ioctls that ptys refuse). Tests and the simulated robot use ptys.
-// SerialBackend::automatic picks termios for /dev/pts/* (and anything libserialport cannot find), libserialport
-// otherwise.
-//
+// Two implementations behind one interface: libserialport for real devices (USB identity, modem lines), POSIX
+// termios for pseudo-terminals (which lack the sysfs entries and modem-line ioctls libserialport needs).
+// SerialBackend::automatic picks termios for /dev/pts/* and anything libserialport cannot find.
 // Errors are SerialError exceptions whose message is one line naming the device and the likely fix.
 #pragma once
 

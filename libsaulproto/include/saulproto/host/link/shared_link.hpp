@@ -1,27 +1,21 @@
 // One adapter, many saulctl processes.
 //
 // A serial adapter (an slcan CANable, a board's USB console, a UART tap) has one owner: the first saulctl process
-// that opens it holds it exclusively (serial_port.hpp: flock + TIOCEXCL) and serves it to later saulctl processes
-// of the same user over a local socket named after the device, in a private directory:
-//   $SAUL_RUNTIME_DIR, else $XDG_RUNTIME_DIR/saulctl, else /tmp/saulctl-UID   (mode 0700, owned by the user)
-//   /dev/ttyACM0 -> ttyACM0.sock, /dev/pts/3 -> pts-3.sock
-// A later `estop`, `mode`, `sniff`, `record`, `console`... on that device goes through the owner as if it had opened
-// the device itself:
-//  - CAN: every client sees every frame of the bus, and the frames any client (or the owner) sends, as SocketCAN's
-//    loopback does (never its own). An ESTOP (0x302 mode 3) from a client is written before anything else waiting,
-//    and even through an owner opened listen-only (which then leaves listen-only, and says so).
+// that opens it holds it exclusively (serial_port.hpp) and serves it to later saulctl processes of the same user
+// over a local socket in a private directory (mode 0700: $SAUL_RUNTIME_DIR, else $XDG_RUNTIME_DIR/saulctl, else
+// /tmp/saulctl-UID; /dev/ttyACM0 -> ttyACM0.sock, /dev/pts/3 -> pts-3.sock). A later verb on that device goes
+// through the owner as if it had opened the device itself:
+//  - CAN: every client sees every frame of the bus and the frames any other client (or the owner) sends. An ESTOP
+//    (0x302 mode 3) from a client goes before anything else waiting, even through an owner opened listen-only
+//    (which then leaves listen-only, and says so).
 //  - serial: every client reads every byte the device sends; what a client writes goes to the device.
-// Both ends check the other's user with SO_PEERCRED: a connection from another account is refused and told why, and
-// a socket served by another account is not used. Confirmation of motion stays with the command (saulctl asks
-// before it opens anything), so a shared link needs the same confirmation as a direct one.
-// The owner reads the device on a thread of its own and hands what one read brought to its own process in one go
-// (one wake-up per burst, not per frame: sniff of a saturated bus costs ~2 us of CPU a frame). A paced owner
-// (LinkOpenOptions::paced: sniff, record) with no client attached stops reading the device while 2048 frames wait
-// for it, so a burst waits in the adapter instead of being read only to be dropped; with a client attached, or when
-// not paced, the device is always read and an owner that falls 8192 frames behind loses its oldest, counted.
-// When the owner exits, its clients are told; one of them takes the device over and the others reconnect to it
-// (each prints one line saying so). When the device disappears, every client ends with the owner's "disappeared"
-// error. A device held by a program that is not saulctl is refused with its name and pid (device_holders.hpp).
+// Both ends check the other's user (SO_PEERCRED). Confirmation of motion stays with the command, as on a direct link.
+// The owner reads the device on a thread of its own and hands each read to its process in one go. A paced owner
+// (LinkOpenOptions::paced) with no client stops reading while 2048 frames wait for it, so a burst waits in the
+// adapter; otherwise an owner 8192 frames behind loses its oldest, counted.
+// When the owner exits, one client takes the device over and the others reconnect to it (each says so in one line);
+// when the device disappears, every client ends with the owner's error. A device held by a program that is not
+// saulctl is refused with its name and pid (device_holders.hpp).
 #pragma once
 
 #include <functional>
@@ -35,8 +29,8 @@
 
 namespace saul::host {
 
-/// The private directory of the sharing sockets (see above), created 0700 when missing. Throws LinkError(permission)
-/// when it exists but another user owns it or can open it.
+/// The private directory of the sharing sockets, created 0700 when missing. Throws LinkError(permission) when
+/// another user owns it or can enter it.
 std::string share_directory();
 /// The directory's path without creating or checking it.
 std::string share_directory_path();
@@ -60,9 +54,7 @@ struct ShareInfo {
 /// LinkError(permission) when the socket is served by another user.
 std::optional<ShareInfo> query_share(const std::string& device);
 
-/// Opens an slcan link shared as described above: joins the owner, or becomes it. `command` names this process
-/// in the owner's and the others' messages ("saulctl estop"); empty: taken from /proc/self/cmdline. `paced`: as
-/// LinkOpenOptions::paced (link_spec.hpp).
+/// Opens an slcan link shared as described above: joins the owner, or becomes it. `paced`: as LinkOpenOptions::paced.
 std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_only,
                                            const std::vector<CanFilter>& filters, bool paced = false);
 

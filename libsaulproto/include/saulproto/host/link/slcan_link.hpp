@@ -1,10 +1,6 @@
-// A CAN link through an slcan adapter on a serial port (CANable2 with the slcan firmware, or the simulated
-// robot's virtual CANable on a pseudo-terminal).
-//
-// Opening sends "C\r" (close whatever was open), "S<n>\r" (bitrate), then "O\r" (or the listen-only sequence);
-// closing sends "C\r". The stock CANable firmwares never answer a command, so nothing here waits for an answer;
-// replies from Lawicel-complete firmwares (CR, BEL, z/Z) are recognised and counted. Input is read in bulk and
-// parsed incrementally (never a syscall per byte).
+// A CAN link through an slcan adapter on a serial port (CANable2 with the slcan firmware, or the simulator's).
+// Opening sends "C\r", "S<n>\r", then "O\r" (or the listen-only sequence); closing sends "C\r". The stock
+// CANable firmwares never answer a command, so nothing waits for an answer; input is parsed in bulk.
 #pragma once
 
 #include <memory>

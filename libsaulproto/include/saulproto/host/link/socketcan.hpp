@@ -1,10 +1,8 @@
 // SocketCAN raw socket: can0 (CANable2 with candleLight firmware), vcan0, any Linux CAN netdev.
 //
-// Receives with kernel timestamps (SO_TIMESTAMPNS), counts kernel drops (SO_RXQ_OVFL), subscribes to all error
-// frames and tracks the controller state from them; filters run in the kernel (CAN_RAW_FILTER), installed before
-// bind when given at open (a filter set after bind lets the frames queued in between through).
-// This machine's kernel may have no CAN at all: opening then fails with a clear message (the QEMU harness in
-// tests/vm runs these paths against vcan in a real kernel).
+// Kernel timestamps (SO_TIMESTAMPNS), kernel drops counted (SO_RXQ_OVFL), every error frame, the controller state
+// tracked from them, filters in the kernel (CAN_RAW_FILTER). A kernel without CAN fails to open with a clear
+// message (tests/vm runs these paths against vcan in a real kernel).
 #pragma once
 
 #include <memory>

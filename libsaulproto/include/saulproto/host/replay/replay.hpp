@@ -56,36 +56,6 @@ enum class ReplayVerdict : std::uint8_t { send, filtered, motion_dropped, error_
 /// send, without timestamp.
 ReplayVerdict plan_frame(const CanFrame& in, const ReplayOptions& options, CanFrame& out);
 
-/// Deadlines of one replay. Virtual file time T starts at 0 with the first frame and advances by each
-/// timestamp gap (negative gaps count as 0, gaps above max_gap as max_gap); a new pass continues one mean frame
-/// interval of the previous pass after its last frame. A frame is due at anchor_clock + (T - anchor_T) / speed.
-class ReplaySchedule {
- public:
-  explicit ReplaySchedule(double speed, std::optional<std::uint64_t> max_gap_ns = std::nullopt)
-      : speed_(speed), max_gap_ns_(max_gap_ns) {}
-  /// The next frame asked for is due at `now_ns` and later ones follow from it. Called at the start and, in
-  /// single-step mode, before every frame.
-  void anchor(std::uint64_t now_ns) { pending_anchor_ = now_ns; }
-  /// Deadline of the next frame of the current pass, logged at timestamp_ns (nullopt: same time as the one before).
-  std::uint64_t deadline(std::optional<std::uint64_t> timestamp_ns);
-  /// Starts the next pass over the file.
-  void next_pass();
-
- private:
-  double speed_;
-  std::optional<std::uint64_t> max_gap_ns_;
-  std::optional<std::uint64_t> pending_anchor_;
-  std::uint64_t anchor_clock_ = 0;
-  std::uint64_t anchor_t_ = 0;
-  std::uint64_t t_ = 0;                       // virtual file time of the last frame
-  std::optional<std::uint64_t> last_stamp_;  // timestamp of the last frame of this pass
-  std::uint64_t pass_start_t_ = 0;
-  std::uint64_t pass_frames_ = 0;
-  bool started_ = false;
-  bool new_pass_ = false;
-  std::uint64_t pass_gap_ = 0;  // gap before the first frame of a new pass
-};
-
 /// Lateness distribution in constant memory: 1 us bins below 1 ms, 100 us bins to 100 ms, 10 ms bins to 10 s,
 /// then one bin. Percentiles are the upper edge of the bin holding them (never above the exact maximum).
 class LatenessStats {
@@ -129,15 +99,18 @@ class MonotonicReplayClock final : public ReplayClock {
   std::uint64_t spin_ns_;
 };
 
-/// The timing of one replay, shared by CAN frames and serial chunks: anchors the schedule at the first item (and,
-/// single-stepping, at every item), waits for each item's absolute deadline and records how late it left.
+/// The timing of one replay, shared by CAN frames and serial chunks. Virtual file time T starts at 0 with the first
+/// item and advances by each timestamp gap (negative gaps count as 0, gaps above max_gap as max_gap); a new pass
+/// continues one mean item interval of the previous pass after its last item. An item is due at
+/// anchor_clock + (T - anchor_T) / speed, anchored at the first item (and, single-stepping, at every item).
 class ReplayPacer {
  public:
   ReplayPacer(ReplayClock& clock, double speed, std::optional<std::uint64_t> max_gap_ns, bool stepping)
-      : clock_(clock), schedule_(speed, max_gap_ns), speed_(speed), stepping_(stepping) {}
-  void next_pass() { schedule_.next_pass(); }
-  /// Waits until the item logged at timestamp_ns is due (single-stepping or at speed 0: returns at once, after
-  /// re-anchoring); false when the wait was interrupted.
+      : clock_(clock), speed_(speed), max_gap_ns_(max_gap_ns), stepping_(stepping) {}
+  /// Starts the next pass over the file.
+  void next_pass();
+  /// Waits until the item logged at timestamp_ns (nullopt: the time of the one before) is due, and records how late
+  /// it is (single-stepping or at speed 0: returns at once); false when the wait was interrupted.
   bool wait(std::optional<std::uint64_t> timestamp_ns);
   /// The item went out now.
   void sent() { last_sent_ = clock_.now_ns(); }
@@ -147,10 +120,19 @@ class ReplayPacer {
 
  private:
   ReplayClock& clock_;
-  ReplaySchedule schedule_;
   double speed_;
+  std::optional<std::uint64_t> max_gap_ns_;
   bool stepping_;
   bool anchored_ = false;
+  std::uint64_t anchor_clock_ = 0;
+  std::uint64_t anchor_t_ = 0;
+  std::uint64_t t_ = 0;                      // virtual file time of the last item
+  std::optional<std::uint64_t> last_stamp_;  // timestamp of the last item of this pass
+  std::uint64_t pass_start_t_ = 0;
+  std::uint64_t pass_items_ = 0;
+  bool started_ = false;
+  bool new_pass_ = false;
+  std::uint64_t pass_gap_ = 0;  // gap before the first item of a new pass
   std::optional<std::uint64_t> first_deadline_;
   std::uint64_t last_sent_ = 0;
   LatenessStats lateness_;

@@ -1,15 +1,10 @@
-// Replaying a serial byte capture (the serial log of the inter-board, CRSF or Pride UART, or a sigrok/PulseView
-// export) onto a serial port, faithfully: each chunk of bytes is written at its own timestamp, on the absolute
-// deadlines, speed and loops of CAN replay (replay.hpp: ReplaySchedule, LatenessStats, ReplayClock), and the
-// messages that can move motors are left out unless motion is allowed. Apart from any real clock or port, so that
-// tests drive it with a fake clock and a fake sink.
+// Replaying a serial byte capture onto a serial port: each chunk at its own timestamp, on CAN replay's deadlines,
+// speed and loops (replay.hpp), without the messages that can move motors unless motion is allowed. Apart from any
+// real clock or port, so tests drive it with a fake clock and sink.
 //
-// Leaving messages out means cutting the byte stream into frames. SerialFrameSplitter does that with the rules of
-// the core's streaming decoders (interboard::, crsf::, pride::StreamDecoder): a byte starts a frame exactly when the
-// decoder, fed the stream from that byte on, delivers a frame without skipping that byte; otherwise the byte belongs
-// to no frame and the search goes on at the next byte (the decoders' own resynchronisation rule). The frames found
-// are therefore exactly the frames the decoders find in the stream. A motion frame's bytes are left out; every other
-// byte, in a frame or not (noise, a bad CRC, an unfinished frame), is written as captured.
+// SerialFrameSplitter cuts the bytes into frames by the core's streaming decoders' own rule: a byte starts a frame
+// exactly when the decoder, fed the stream from that byte on, delivers a frame without skipping it; so the frames
+// are exactly those the decoders find. A motion frame's bytes are left out, every other byte is written as captured.
 #pragma once
 
 #include <cstdint>
@@ -48,11 +43,9 @@ struct SerialPiece {
   bool motion = false;                   ///< can_move_motors(*message)
 };
 
-/// Cuts one link's byte stream into pieces, in stream order, as the bytes come (see the top of this file).
-/// A piece is known once the bytes after it decide it: at most one frame (64 bytes for CRSF, 9 inter-board,
-/// 6 Pride) is held back. Bytes in no frame are handed out as soon as they are known (one piece per run within a
-/// push), so a stretch of noise is never held. raw: every byte is in no frame.
-/// Memory: the held bytes only. Work: O(frame size) per byte at worst, O(1) per byte on clean frames.
+/// Cuts one link's byte stream into pieces, in stream order, as the bytes come (see the top of this file). At most
+/// one frame is held back (64 bytes for CRSF); noise is handed out as soon as it is known. raw: every byte is in no
+/// frame. Memory: the held bytes. Work: O(frame size) per byte at worst, O(1) on clean frames.
 class SerialFrameSplitter {
  public:
   using Callback = std::function<void(const SerialPiece&)>;
@@ -65,7 +58,6 @@ class SerialFrameSplitter {
   void finish(const Callback& on_piece);
   /// Bytes pushed that are in no piece yet.
   [[nodiscard]] std::size_t pending() const { return held_.size() + noise_; }
-  [[nodiscard]] SerialProtocol protocol() const { return protocol_; }
 
  private:
   void resolve(bool at_end, const Callback& on_piece);
