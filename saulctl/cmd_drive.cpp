@@ -77,8 +77,7 @@ int run_drive(const DriveOptions& opt) {
     link->send(stop, milliseconds(200));
     stopped = true;
   } catch (const std::exception& e) {
-    say("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
-        "timeout", e.what());
+    say("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin timeout", e.what());
     status = kFailure;
   }
   if (opt.json) {

@@ -46,7 +46,6 @@ class Stream {
     while (!times_.empty() && now - times_.front() > seconds(1)) times_.pop_front();
     return static_cast<double>(times_.size());
   }
-  [[nodiscard]] bool ever() const { return last_.has_value(); }
   [[nodiscard]] bool stale(steady_clock::time_point now) const { return last_ && now - *last_ > 3 * period(); }
   [[nodiscard]] std::string age(steady_clock::time_point now) const {
     if (!last_) return "never";
@@ -81,11 +80,6 @@ Style state_style(sc::RobotState s) {
   using S = sc::RobotState;
   if (s == S::balance || s == S::manual) return Style::good;
   return s == S::estop || s == S::tilt_cutoff || s == S::fault ? Style::bad : Style::normal;
-}
-
-Style bus_style(saul::host::ControllerState s) {
-  using CS = saul::host::ControllerState;
-  return s == CS::bus_off || s == CS::passive ? Style::bad : s == CS::warning ? Style::warn : Style::normal;
 }
 
 /// One VESC's status frames (STATUS_1, _4, _5).
