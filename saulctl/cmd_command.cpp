@@ -18,8 +18,7 @@ using namespace std::chrono;
 struct CommandOptions {
   std::string link;
   std::string timeout = "1s";
-  bool json = false;
-  bool yes = false;
+  bool json = false, yes = false;
   std::string mode;
   std::vector<double> gains;
   double tilt_limit = -1;

@@ -26,8 +26,7 @@ namespace saulctl {
 namespace {
 
 struct ConvertOptions {
-  std::string in;
-  std::string out;
+  std::string in, out;
   std::string format;  // output format; empty = from OUT's extension
   SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks

@@ -21,11 +21,9 @@ namespace saulctl {
 namespace {
 
 struct PlotOptions {
-  std::string file;
-  std::string id;
+  std::string file, id;
   std::vector<std::string> fields;
-  std::string output;
-  std::string format;
+  std::string output, format;
   std::size_t max_markers = saul::host::PlotRequest{}.max_markers;
   SerialCliOptions serial;
 };
