@@ -14,11 +14,6 @@
 
 namespace saulctl {
 
-std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format) {
-  if (input_format.empty()) return std::nullopt;
-  return saul::host::capture_format_from_name(input_format);
-}
-
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
   cmd->add_option("--input-format", options.input_format,
                   "read the file as this format instead of the one its content says (a .gz/.zst file is still "
@@ -72,7 +67,7 @@ saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& option
   saul::host::SerialReadOptions r;
   r.protocol = fallback_protocol(options);
   if (!options.samplerate.empty()) r.samplerate_hz = parse_rate_hz(options.samplerate);
-  r.format = input_format(options.input_format);
+  if (!options.input_format.empty()) r.format = saul::host::capture_format_from_name(options.input_format);
   return r;
 }
 
@@ -115,16 +110,23 @@ void Progress::finish() {
   drawn_ = false;
 }
 
+std::function<void(const saul::host::CaptureError&)> corrupt_reporter(const std::string& path, Progress* progress) {
+  return [path, progress](const saul::host::CaptureError& e) {
+    if (progress) progress->finish();
+    say("{}", saul::host::format_capture_error(path, e));
+  };
+}
+
 void read_serial_chunks(const std::string& path, saul::host::SerialCaptureReader& reader,
                         ::saulctl::Progress& progress, std::uint64_t& corrupt,
                         const std::function<void(const saul::host::SerialChunk&)>& on_chunk) {
   using Status = saul::host::SerialCaptureReader::Status;
+  const auto report = corrupt_reporter(path, &progress);
   for (Status st; (st = reader.next()) != Status::end;) {
-    progress.update(reader.bytes_read(), reader.bytes_total());
+    progress.update_many(1, reader.bytes_read(), reader.bytes_total());
     if (st == Status::corrupt) {
       ++corrupt;
-      progress.finish();  // the message gets its own line; the progress line comes back at the next draw
-      say("{}", saul::host::format_capture_error(path, reader.error()));
+      report(reader.error());
       continue;
     }
     on_chunk(reader.chunk());

@@ -22,9 +22,6 @@ struct SerialCliOptions {
   std::string input_format;  ///< "", or a capture format name (--input-format)
 };
 
-/// The format --input-format names, or nullopt when it was not given.
-std::optional<saul::host::CaptureFormat> input_format(const std::string& input_format);
-
 /// Adds --protocol, --samplerate and --input-format to a verb.
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options);
 /// The reader options they give (the forced format included); throws CLI::ValidationError for a bad sample rate.
@@ -59,12 +56,7 @@ class Progress {
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
   ~Progress() { finish(); }
-  /// One record read. Cheap: looks at the clock once every 4096 calls.
-  void update(std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
-    ++records_;
-    if (enabled_ && (records_ & 0xFFF) == 0) draw(bytes_read, bytes_total);
-  }
-  /// `records` read at once (batch readers).
+  /// `records` more read. Cheap: looks at the clock once every 4096 records.
   void update_many(std::uint64_t records, std::uint64_t bytes_read, std::optional<std::uint64_t> bytes_total) {
     const std::uint64_t before = records_;
     records_ += records;
@@ -86,6 +78,10 @@ class Progress {
   std::uint64_t records_ = 0;
   std::chrono::steady_clock::time_point start_, last_;
 };
+
+/// Reports a corrupt record of `path` on stderr ("saulctl VERB: FILE:LINE:COL: what"), clearing `progress`'s line
+/// first so that the message gets a line of its own (the progress line comes back at its next draw).
+std::function<void(const saul::host::CaptureError&)> corrupt_reporter(const std::string& path, Progress* progress);
 
 /// Reads every chunk of a serial capture, drawing `progress`: a corrupt line is reported on stderr ("saulctl VERB:
 /// FILE:LINE:COL: what (line skipped)") and counted in `corrupt`, every other chunk handed to `on_chunk` (decode

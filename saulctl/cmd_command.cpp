@@ -18,8 +18,7 @@ using namespace std::chrono;
 struct CommandOptions {
   std::string link;
   std::string timeout = "1s";
-  bool json = false;
-  bool yes = false;
+  bool json = false, yes = false;
   std::string mode;
   std::vector<double> gains;
   double tilt_limit = -1;
@@ -46,9 +45,7 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
   const double ms = static_cast<double>(out.latency.count()) / 1000.0;
   const bool differs = state && state->result == StateCheck::Result::differs;
   if (opt.json) {
-    nlohmann::json j;
-    j["command"] = what;
-    j["link"] = link.name();
+    nlohmann::json j{{"command", what}, {"link", link.name()}};
     if (const auto how = link.sharing(); !how.empty()) j["shared"] = how;
     if (written_ms >= 0) j["written_ms"] = written_ms;
     j["status"] = saul::host::to_string(out.status);
@@ -67,11 +64,9 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
     }
     fmt::print("{}\n", j.dump());
   } else if (out.status == CommandOutcome::Status::applied) {
-    if (state && state->result == StateCheck::Result::confirmed)
-      fmt::print("{}: applied ({:.1f} ms); {}\n", what, ms, state->text());
-    else
-      fmt::print("{}: applied ({:.1f} ms)\n", what, ms);
-    if (state && state->result != StateCheck::Result::confirmed) say("{}: {}", what, state->text());
+    const bool confirmed = state && state->result == StateCheck::Result::confirmed;
+    fmt::print("{}: applied ({:.1f} ms){}\n", what, ms, confirmed ? "; " + state->text() : "");
+    if (state && !confirmed) say("{}: {}", what, state->text());
   } else if (out.status == CommandOutcome::Status::rejected) {
     say("{}: {} - {}", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
   } else {

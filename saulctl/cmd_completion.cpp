@@ -1,16 +1,11 @@
-// saulctl completion bash|zsh: shell completion scripts generated from the CLI11 app itself, so they never fall
-// behind the verbs. Besides verbs and option names they complete values: an option's or positional's set of
-// choices (modes, formats, boards), links (SocketCAN interfaces from /sys/class/net, serial ports from
-// 'saulctl ports'), capture files by extension, plain files and folders.
-//
-// Both scripts share the same generated tables (POSIX case statements that bash and zsh read alike); only the
-// front end that reads the command line and offers the candidates differs.
+// saulctl completion bash|zsh: shell completion generated from the CLI11 app itself, so it never falls behind the
+// verbs: verbs, options and their values (choices, links, serial ports, capture files by extension, files, folders).
+// Both scripts share the generated tables (POSIX case statements); only the front end reading the line differs.
 #include <fmt/core.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cctype>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -300,23 +295,22 @@ fi
 }  // namespace
 
 void add_completion_command(CLI::App& app, Runner& run) {
-  auto shell = std::make_shared<std::string>();
-  auto* cmd = app.add_subcommand("completion", "Print a shell completion script (bash or zsh)");
+  const CLI::App* root = &app;
+  auto [cmd, shell] = add_verb<std::string>(
+      app, run, "completion", "Print a shell completion script (bash or zsh)",
+      [root](const std::string& shell_name) {
+        std::vector<Level> levels;
+        walk(*root, "saulctl", levels);
+        fmt::print("{}", shell_name == "zsh" ? zsh_script(levels) : bash_script(levels));
+        return kOk;
+      },
+      false);
   cmd->add_option("shell", *shell, "bash | zsh")->required()->check(CLI::IsMember({"bash", "zsh"}));
   cmd->footer("\nVerbs, options and their values: modes, formats, boards, links (SocketCAN interfaces and the serial\n"
               "ports 'saulctl ports' finds), capture files by extension.\n"
               "\nExamples:\n  source <(saulctl completion bash)\n"
               "  saulctl completion bash > ~/.local/share/bash-completion/completions/saulctl\n"
               "  source <(saulctl completion zsh)          # in ~/.zshrc, after compinit\n");
-  CLI::App* root = &app;
-  cmd->callback([root, shell, &run] {
-    run = [root, shell]() -> int {
-      std::vector<Level> levels;
-      walk(*root, "saulctl", levels);
-      fmt::print("{}", *shell == "zsh" ? zsh_script(levels) : bash_script(levels));
-      return kOk;
-    };
-  });
 }
 
 }  // namespace saulctl

@@ -63,7 +63,7 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
                 milliseconds timeout, std::string& pending) {
   port.write(line + "\r\n", milliseconds(1000));
   const Reply reply =
-      saul::host::read_console_reply(port, line, timeout, pending, [] { return g_interrupted.load(); });
+      saul::host::read_console_reply(port, line, timeout, pending, interrupted);
   const auto parsed = saul::console::parse(line);
   if (opt.json) {
     nlohmann::json j{{"command", line}, {"port", port.path()}};

@@ -26,8 +26,7 @@ namespace saulctl {
 namespace {
 
 struct ConvertOptions {
-  std::string in;
-  std::string out;
+  std::string in, out;
   std::string format;  // output format; empty = from OUT's extension
   SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks
@@ -39,16 +38,14 @@ struct ConvertOptions {
 };
 
 /// The MCAP writer's options from the command line.
+/// Chunks by size only: a file is no live recording, and chunks closed every second of a slow bus's log time would
+/// be many small ones, each with a chunk index for the summary to keep.
 saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
-  saul::host::McapWriterOptions mcap;
-  mcap.compression = *saul::host::mcap_compression_from_name(opt.compression);
-  mcap.zstd_level = opt.zstd_level;
-  // Chunks by size only: a file is no live recording, and chunks closed every second of a slow bus's log time would
-  // be many small ones, each with a chunk index for the summary to keep.
-  mcap.chunk_ns = std::numeric_limits<std::uint64_t>::max();
-  mcap.chunk_bytes = opt.chunk_bytes;
-  mcap.library = "saulctl " SAULCTL_VERSION;
-  return mcap;
+  return {.compression = *saul::host::mcap_compression_from_name(opt.compression),
+          .zstd_level = opt.zstd_level,
+          .chunk_bytes = opt.chunk_bytes,
+          .chunk_ns = std::numeric_limits<std::uint64_t>::max(),
+          .library = "saulctl " SAULCTL_VERSION};
 }
 
 /// A serial byte capture to MCAP: each link's decoded messages on channels of their own, the bytes on
@@ -85,8 +82,7 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
   }
   progress.finish();
   if (messages && chunks == 0 && corrupt > 0) {
-    say("nothing could be read from {} ({} corrupt lines); {} not written", opt.in,
-        corrupt, opt.out);
+    say("nothing could be read from {} ({} corrupt lines); {} not written", opt.in, corrupt, opt.out);
     messages.reset();
   }
   if (!messages) {
@@ -97,8 +93,7 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
     return kFailure;
   }
   if (untimed > 0)
-    say("{}: {} chunks carry no time, written at log time 0 (sample numbers need "
-        "--samplerate)", opt.in, untimed);
+    say("{}: {} chunks carry no time, written at log time 0 (sample numbers need --samplerate)", opt.in, untimed);
   for (const auto& link : links)
     say("{}: {} ({}{}): {}", opt.in, link.name, to_string(link.protocol),
         link.guessed ? ", guessed from the bytes" : "", link.counters_text);
@@ -138,17 +133,13 @@ int run_convert(const ConvertOptions& opt) {
   Progress progress("convert", false);
   const auto total = reader->bytes_total();
   const CaptureFormat in_format = reader->format();  // the read path may take the reader (a compressed candump log)
-  ReadOptions read;
-  read.parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
-  read.block = parse_size_option("--block-size", opt.block_size);
+  const ReadOptions read{.parallel_from = parse_size_option("--parallel-from", opt.parallel_from),
+                         .block = parse_size_option("--block-size", opt.block_size)};
   CopyStats stats;
   try {
     stats = copy_frames(
         reader, *writer,
-        [&opt, &progress](const CaptureError& error) {
-          progress.finish();  // the message gets its own line
-          say("{}", format_capture_error(opt.in, error));
-        },
+        corrupt_reporter(opt.in, &progress),
         [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); }, opt.in,
         compressed, read);
     writer->close();
@@ -164,8 +155,7 @@ int run_convert(const ConvertOptions& opt) {
   progress.finish();
   if (stats.frames == 0 && stats.corrupt > 0) {  // as decode: nothing could be read is a failure, not an empty file
     if (opt.out != "-") std::remove(opt.out.c_str());
-    say("nothing could be read from {} ({} corrupt records); {} not written", opt.in,
-        stats.corrupt, opt.out);
+    say("nothing could be read from {} ({} corrupt records); {} not written", opt.in, stats.corrupt, opt.out);
     return kFailure;
   }
   for (const auto& note : conversion_losses(stats, writer->format()))

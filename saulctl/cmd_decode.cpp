@@ -30,13 +30,10 @@ struct DecodeOptions {
   std::string format = "text";
   std::string time = "abs";
   std::vector<std::string> ids;
-  bool json = false;
-  bool strict = false;
+  bool json = false, strict = false;
   std::string parallel_from;  // --parallel-from
   SerialCliOptions serial;
 };
-
-using saul::host::csv_quote;
 
 /// Decodes the chunks of one serial capture file; returns the number of messages printed.
 std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format, const std::string& path,
@@ -44,24 +41,16 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
                             std::uint64_t& records, Progress& progress) {
   using namespace saul::host;
   TimeColumn time_column(time_mode(opt.time));
-  std::uint64_t messages = 0;
-  std::uint64_t untimed = 0;
+  std::uint64_t messages = 0, untimed = 0;
   SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
   const SerialCaptureDecoder::Callback print = [&](const SerialChunk& chunk, SerialProtocol protocol,
                                                    const SerialMessage& m) {
     ++messages;
     const std::string stamp = time_column(chunk.timestamp_ns.value_or(0));
-    const std::string bare = stamp.substr(1, stamp.size() - 2);
+    const std::string bare = TimeColumn::bare(stamp);
     if (format == "jsonl") {
-      nlohmann::json j;
-      j["time"] = bare;
-      j["link"] = chunk.link;
-      j["protocol"] = std::string(to_string(protocol));
-      if (is_decode_error(m)) {
-        j["error"] = to_json(m);
-      } else {
-        j["message"] = to_json(m);
-      }
+      const nlohmann::json j{{"time", bare}, {"link", chunk.link}, {"protocol", std::string(to_string(protocol))},
+                             {is_decode_error(m) ? "error" : "message", to_json(m)}};
       fmt::print("{}\n", saul::host::json_line(j));
     } else if (format == "long") {
       fmt::print("{}", long_csv_rows(bare, chunk.link, "", signal_values(m)));
@@ -69,7 +58,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
       const std::string name = name_of(m);
       std::string fields = describe(m);
       fields = fields.starts_with(name) ? fields.substr(std::min(fields.size(), name.size() + 1)) : fields;
-      fmt::print("{},{},,,,,,{},{}\n", bare, chunk.link, name, csv_quote(fields));
+      fmt::print("{},{},,,,,,{},{}\n", bare, chunk.link, name, saul::host::csv_quote(fields));
     } else {
       fmt::print("{} {} {}\n", stamp, chunk.link, describe(m));
     }
@@ -102,8 +91,7 @@ int run_decode(const DecodeOptions& opt) {
   saul::host::DecodeCounts can;  // CAN frames of every file
   std::uint64_t messages = 0, corrupt = 0;
   std::uint64_t records = 0;  // frames and chunks read, before --id
-  bool any_can = false;
-  bool any_serial = false;
+  bool any_can = false, any_serial = false;
   int status = kOk;
   if (format == "csv") fmt::print("time,interface,id,extended,remote,dlc,data,message,fields\n");
   if (format == "long") fmt::print("{}\n", saul::host::kLongCsvHeader);
@@ -123,10 +111,7 @@ int run_decode(const DecodeOptions& opt) {
     std::optional<std::uint64_t> total;
     saul::host::FrameDecodeSinks sinks;
     sinks.write = write_out;
-    sinks.corrupt = [&](const saul::host::CaptureError& e) {
-      progress.finish();
-      say("{}", saul::host::format_capture_error(path, e));
-    };
+    sinks.corrupt = corrupt_reporter(path, &progress);
     sinks.progress = [&](std::uint64_t n, std::uint64_t bytes) {
       progress.update_many(n - progress_records, bytes, total);
       progress_records = n;
@@ -138,9 +123,8 @@ int run_decode(const DecodeOptions& opt) {
                            saul::host::DecodeCounts& counts) {
         const auto result = saul::decode_bus_frame(f);
         counts.count(result);
-        const std::string stamp = time_column(f.timestamp_ns.value_or(0));
         const std::string rows = saul::host::long_csv_rows(
-            stamp.substr(1, stamp.size() - 2), interface,
+            saul::host::TimeColumn::bare(time_column(f.timestamp_ns.value_or(0))), interface,
             f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),
             result ? saul::host::signal_values(result.value()) : saul::host::SignalValues{});
         out.append(rows.data(), rows.data() + rows.size());

@@ -349,8 +349,7 @@ int run_doctor(const DoctorOptions& opt) {
   } catch (const CLI::ValidationError&) {
     if (!opt.link.empty()) throw;
   }
-  Checks c;
-  c.json = opt.json;
+  Checks c{.json = opt.json};
   check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
   check_modemmanager(c, opt.sysroot.empty() ? "/" : opt.sysroot);
   if (!spec) spec = find_adapter(c);

@@ -15,12 +15,10 @@ using namespace std::chrono;
 
 struct DriveOptions {
   std::string link;
-  int speed = 0;
-  int steer = 0;
+  int speed = 0, steer = 0;
   std::string duration;
   int speed_cap = 500;
-  bool yes = false;
-  bool json = false;
+  bool yes = false, json = false;
 };
 
 constexpr milliseconds kPeriod{50};  // 20 Hz, the rate the system reference gives for 0x300
@@ -77,8 +75,7 @@ int run_drive(const DriveOptions& opt) {
     link->send(stop, milliseconds(200));
     stopped = true;
   } catch (const std::exception& e) {
-    say("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin "
-        "timeout", e.what());
+    say("could not send the zero-speed command: {}; the robot stops by its 500 ms Orin timeout", e.what());
     status = kFailure;
   }
   if (opt.json) {

@@ -25,14 +25,9 @@ using saul::host::ResetStyle;
 struct FlashOptions {
   std::vector<std::string> inputs;
   std::string offset = "0x10000";
-  std::string build_dir;
-  std::string port;
-  std::string board;
-  std::string flash_size;
+  std::string build_dir, port, board, flash_size;
   std::uint32_t baud = 460800;
-  bool no_compress = false;
-  bool force = false;
-  bool no_reset = false;
+  bool no_compress = false, force = false, no_reset = false;
   std::string reset;  ///< "bootloader" | "app": only reset the board, write nothing
   int connect_attempts = 4;
   std::string link;
@@ -272,20 +267,20 @@ int run_reset(const FlashOptions& opt) {
   if (const int rc = check_robot(opt); rc != kOk) return rc;
   warn_holders(path);
   auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
-  using saul::host::run_line_sequence;
+  // Runs the sequence on the port's DTR and RTS lines; says what they were.
+  const auto run_lines = [&port](const std::vector<saul::host::LineStep>& seq) {
+    saul::host::run_line_sequence(*port, seq, saul::host::sleep_real);
+    return line_steps(seq);
+  };
   if (opt.reset == "bootloader") {
-    const auto seq = saul::host::bootloader_reset_sequence(style, 0);
-    run_line_sequence(*port, seq, saul::host::sleep_real);
     fmt::print("reset the {} on {} into download mode: (DTR,RTS) {}; nothing written, the bootloader's answer not "
                "checked (flash with --no-reset now)\n",
-               board_name(style), path, line_steps(seq));
+               board_name(style), path, run_lines(saul::host::bootloader_reset_sequence(style, 0)));
     return kOk;
   }
   if (style == ResetStyle::usb_uart_bridge) {
-    const auto seq = saul::host::hard_reset_sequence(style);
-    run_line_sequence(*port, seq, saul::host::sleep_real);
     fmt::print("reset the {} on {} into its application: EN pulse, (DTR,RTS) {}\n", board_name(style), path,
-               line_steps(seq));
+               run_lines(saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   // IO board: a USB-Serial/JTAG RTS reset is a core reset that leaves a chip in download mode there. When a
@@ -295,17 +290,15 @@ int run_reset(const FlashOptions& opt) {
   fo.reset = style;
   fo.reset_before = false;
   fo.connect_attempts = 1;
-  fo.cancelled = [] { return g_interrupted.load(); };
+  fo.cancelled = interrupted;
   saul::host::EspFlasher flasher(*port, fo);
   try {
     flasher.connect();
   } catch (const FlashError& e) {
     if (e.kind() != FlashError::Kind::no_answer) throw;
-    const auto seq = saul::host::hard_reset_sequence(style);
-    run_line_sequence(*port, seq, saul::host::sleep_real);
     fmt::print("no bootloader answered on {}: restarted the {}'s application by the USB-Serial/JTAG reset, "
                "(DTR,RTS) {}\n",
-               path, board_name(style), line_steps(seq));
+               path, board_name(style), run_lines(saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   flasher.reset_to_app();
@@ -336,7 +329,7 @@ int run_flash(const FlashOptions& opt) {
   fo.compress = !opt.no_compress;
   fo.skip_unchanged = !opt.force;
   fo.progress = [&bar](const saul::host::FlashProgress& p) { bar(p); };
-  fo.cancelled = [] { return g_interrupted.load(); };
+  fo.cancelled = interrupted;
   fo.note = [&bar](const std::string& s) {
     bar.clear();
     fmt::print("{}\n", s);

@@ -26,10 +26,8 @@ namespace sc = saul::saulcan;
 using tui::Style;
 
 struct MonitorOptions {
-  std::string link;
-  std::string duration;
-  bool json = false;
-  bool listen_only = false;
+  std::string link, duration;
+  bool json = false, listen_only = false;
 };
 
 /// One periodic frame kind: when it came, how often (over the last second), and whether it is stale (older than
@@ -46,7 +44,6 @@ class Stream {
     while (!times_.empty() && now - times_.front() > seconds(1)) times_.pop_front();
     return static_cast<double>(times_.size());
   }
-  [[nodiscard]] bool ever() const { return last_.has_value(); }
   [[nodiscard]] bool stale(steady_clock::time_point now) const { return last_ && now - *last_ > 3 * period(); }
   [[nodiscard]] std::string age(steady_clock::time_point now) const {
     if (!last_) return "never";
@@ -81,11 +78,6 @@ Style state_style(sc::RobotState s) {
   using S = sc::RobotState;
   if (s == S::balance || s == S::manual) return Style::good;
   return s == S::estop || s == S::tilt_cutoff || s == S::fault ? Style::bad : Style::normal;
-}
-
-Style bus_style(saul::host::ControllerState s) {
-  using CS = saul::host::ControllerState;
-  return s == CS::bus_off || s == CS::passive ? Style::bad : s == CS::warning ? Style::warn : Style::normal;
 }
 
 /// One VESC's status frames (STATUS_1, _4, _5).
@@ -177,8 +169,7 @@ constexpr int kRateColumn = 50;  ///< where the streams' rate and age go, right 
 void draw(tui::Screen& s, Telemetry& tm, const saul::host::CanLink& link, const ViewCommands& keys,
           const std::string& lost, std::uint32_t bitrate, steady_clock::time_point now) {
   s.begin();
-  const int w = s.width();
-  const int h = s.height();
+  const int w = s.width(), h = s.height();
   const auto st = link.stats();
   int c = s.put(0, 0, "SAUL-TEE monitor  ", Style::title);
   c = s.put(0, c, link.name());
@@ -290,9 +281,7 @@ int run_monitor(const MonitorOptions& opt) {
   Telemetry tm;
   std::string lost;
   const auto start = steady_clock::now();
-  auto next_draw = start;
-  auto next_plain = start;
-  auto next_reopen = start;
+  auto next_draw = start, next_plain = start, next_reopen = start;
   std::optional<sc::RobotState> printed_state;
   int status = kOk;
   while (!g_interrupted) {
@@ -350,9 +339,8 @@ int run_monitor(const MonitorOptions& opt) {
       }
     }
   }
-  const bool had_screen = screen != nullptr;
   screen.reset();  // back to the normal terminal before the summary
-  if (had_screen) {
+  if (keys) {  // there was a view
     const auto st = link->stats();
     const double secs = duration<double>(steady_clock::now() - start).count();
     fmt::print("monitor: {:.1f} s on {}, {} frames, last state {}\n", secs, link->name(), tm.frames,

@@ -1,8 +1,6 @@
-// saulctl plot: the telemetry of a capture over time, with the robot's state and fault changes marked, as one
-// self-contained interactive HTML page, an SVG/PNG/PDF report drawn by gnuplot, or CSV. What is drawn (the default
-// dashboard, or the fields of one message) and the two streaming passes are the host library's
-// (saulproto/host/report/telemetry_plot.hpp, plot.hpp); this file parses the arguments, picks the output format
-// and writes the file.
+// saulctl plot: a capture's telemetry over time, state and fault changes marked, as an interactive HTML page, an
+// SVG/PNG/PDF drawn by gnuplot, or CSV. What is drawn, and how, is the host library's (report/telemetry_plot.hpp,
+// plot.hpp); this file picks the output format and writes the file.
 #include <fmt/core.h>
 #include <fmt/format.h>
 
@@ -23,11 +21,9 @@ namespace saulctl {
 namespace {
 
 struct PlotOptions {
-  std::string file;
-  std::string id;
+  std::string file, id;
   std::vector<std::string> fields;
-  std::string output;
-  std::string format;
+  std::string output, format;
   std::size_t max_markers = saul::host::PlotRequest{}.max_markers;
   SerialCliOptions serial;
 };

@@ -25,19 +25,17 @@ namespace {
 using namespace std::chrono;
 
 struct RecordOptions {
-  std::string link;
-  std::string output;
-  std::string format;
-  std::string rotate_size;
-  std::string rotate_time;
+  std::string link, output, format, rotate_size, rotate_time;
   std::string compress;  // "", gz, zst
   std::string duration;
   std::uint64_t count = 0;
-  std::string interface;
-  std::string protocol;
-  bool listen_only = false;
-  bool quiet = false;
+  std::string interface, protocol;
+  bool listen_only = false, quiet = false;
 };
+
+/// MCAP as recorded: chunks closed at every flush and every second (crash-safe), and written on the recording
+/// thread, which reads the file's position between writes (mcap.hpp).
+const saul::host::McapWriterOptions kRecordMcap{.library = "saulctl " SAULCTL_VERSION, .chunk_thread = false};
 
 /// Progress on stderr: a line rewritten in place on a terminal, nothing in between otherwise.
 class Progress {
@@ -83,10 +81,9 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
   return r;
 }
 
-/// The receive loop of both kinds of link, with its progress line: take(wait) reads and writes what came within
-/// `wait` (false when nothing did; the writer is flushed then) until Ctrl-C, --duration from `start` or --count (of what `taken` counts, in
-/// `unit`); after Ctrl-C what is on its way is drained. The writer is closed, complete and readable, whatever
-/// happened (a link's error is said). Returns the exit code.
+/// receive_until() with a progress line (`taken` counts `unit`s) and the writer flushed when take(wait) got nothing;
+/// after Ctrl-C what is on its way is drained. The writer is closed, complete and readable, whatever happened (a
+/// link's error is said). Returns the exit code.
 template <class Writer, class Take>
 int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Writer& writer, Take&& take,
                  const std::uint64_t& taken, const char* unit) {
@@ -135,20 +132,15 @@ int record_can(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   const std::string iface =
       !opt.interface.empty() ? opt.interface : spec.kind == LinkSpec::Kind::socketcan ? spec.device : "can0";
 
-  LinkOpenOptions open;
-  open.listen_only = opt.listen_only;
-  open.paced = true;  // every frame is written: a burst waits in the adapter rather than being dropped here
-  auto link = open_can_link(spec, open);
+  // Paced: every frame is written, so a burst waits in the adapter rather than being dropped here.
+  auto link = open_can_link(spec, {.listen_only = opt.listen_only, .filters = {}, .paced = true});
   RotatingCaptureWriter::MakeWriter make;
   if (*format == CaptureFormat::mcap) {  // with the decoded signals' channels and what is known of the link
-    McapWriterOptions mcap;
-    mcap.library = "saulctl " SAULCTL_VERSION;
-    mcap.chunk_thread = false;  // the recorder reads the file's position between writes (mcap.hpp)
     McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()}};
     if (spec.kind == LinkSpec::Kind::slcan) metadata.emplace_back("bitrate", std::to_string(spec.bitrate));
-    make = [mcap, metadata](std::ostream& out) {
+    make = [metadata](std::ostream& out) {
       return std::make_unique<McapCaptureWriter>(
-          out, mcap, [] { return std::make_unique<McapSignalChannels>(); }, metadata);
+          out, kRecordMcap, [] { return std::make_unique<McapSignalChannels>(); }, metadata);
     };
   }
   RotatingCaptureWriter writer(
@@ -192,12 +184,9 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   auto port = open_serial_link(spec);  // shared with other saulctl processes (shared_link.hpp)
   RotatingSerialWriter::MakeWriter make;
   if (mcap) {  // the decoded messages on channels of their own, as convert writes a serial capture
-    McapWriterOptions options;  // chunks closed at every flush below and every second: crash-safe
-    options.library = "saulctl " SAULCTL_VERSION;
-    options.chunk_thread = false;  // the recorder reads the file's position between writes (mcap.hpp)
     const McapMap metadata = {{"saulctl", SAULCTL_VERSION}, {"link", spec.text()},
                               {"protocol", std::string(to_string(chunk.protocol))}};
-    make = [options, metadata](std::ostream& out) { return std::make_unique<McapSerialWriter>(out, options, metadata); };
+    make = [metadata](std::ostream& out) { return std::make_unique<McapSerialWriter>(out, kRecordMcap, metadata); };
   }
   RotatingSerialWriter writer(
       opt.output, rotation_of(opt),
@@ -208,8 +197,7 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!opt.quiet)
     fmt::print(stderr, "record: {} bytes on {} ({} {}); Ctrl-C to stop\n", to_string(chunk.protocol), port->path(),
                spec.serial.baud, to_string(spec.serial));
-  std::uint64_t bytes = 0;
-  std::uint64_t chunks = 0;
+  std::uint64_t bytes = 0, chunks = 0;
   const auto start = steady_clock::now();
   std::array<std::uint8_t, 4096> buf{};
   auto take = [&](milliseconds wait) {

@@ -21,19 +21,15 @@
 namespace saulctl {
 namespace {
 
+using namespace std::chrono_literals;
+
 struct ReplayCliOptions {
-  std::string file;
-  std::string link;
+  std::string file, link;
   std::string speed = "1";
   unsigned loops = 1;
-  std::vector<std::string> ids;
-  std::vector<std::string> exclude;
-  std::vector<std::string> maps;
+  std::vector<std::string> ids, exclude, maps;
   std::string max_gap;
-  bool step = false;
-  bool yes = false;
-  bool no_motion = false;
-  bool json = false;
+  bool step = false, yes = false, no_motion = false, json = false;
   std::string from;           ///< serial captures: the captured link to replay
   SerialCliOptions serial;    ///< serial captures: --protocol, --samplerate
 };
@@ -76,23 +72,15 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
     fmt::print(stderr, "replay: {} holds no serial bytes; nothing to send\n", opt.file);
     return kOk;
   }
-  const SerialLinkPreview* link = nullptr;
-  auto names = [&preview] {
-    std::string all;
-    for (const auto& l : preview.links) all += (all.empty() ? "" : ", ") + l.name;
-    return all;
-  };
-  if (!opt.from.empty()) {
-    link = preview.find(opt.from);
-    if (link == nullptr)
-      throw CLI::ValidationError("--from",
-                                 fmt::format("{} has no link '{}'; its links: {}", opt.file, opt.from, names()));
-  } else if (preview.links.size() > 1) {
+  std::vector<std::string> names;
+  for (const auto& l : preview.links) names.push_back(l.name);
+  if (opt.from.empty() && preview.links.size() > 1)
     throw CLI::ValidationError("--from", fmt::format("{} holds {} links ({}); pick the one to replay with --from LINK",
-                                                     opt.file, preview.links.size(), names()));
-  } else {
-    link = &preview.links.front();
-  }
+                                                     opt.file, preview.links.size(), fmt::join(names, ", ")));
+  const SerialLinkPreview* link = opt.from.empty() ? &preview.links.front() : preview.find(opt.from);
+  if (link == nullptr)
+    throw CLI::ValidationError("--from", fmt::format("{} has no link '{}'; its links: {}", opt.file, opt.from,
+                                                     fmt::join(names, ", ")));
   if (link->protocol == SerialProtocol::raw && !opt.yes)
     throw CLI::ValidationError(
         "--protocol", fmt::format("cannot tell which bytes of {} can move motors: the capture names no protocol and "
@@ -100,13 +88,9 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
                                   "send every byte as captured",
                                   link->name));
 
-  SerialReplayOptions options;
-  options.speed = can_options.speed;
-  options.loops = can_options.loops;
-  options.max_gap_ns = can_options.max_gap_ns;
-  options.link = link->name;
-  options.protocol = link->protocol;
-  options.allow_motion = opt.yes;
+  const SerialReplayOptions options{.speed = can_options.speed, .loops = can_options.loops,
+                                    .max_gap_ns = can_options.max_gap_ns, .allow_motion = opt.yes,
+                                    .link = link->name, .protocol = link->protocol};
 
   LinkSpec spec;
   try {
@@ -129,9 +113,9 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
 
   MonotonicReplayClock clock(&g_interrupted);
   SerialReplayHooks hooks;
-  hooks.write = [&port](std::span<const std::uint8_t> bytes) { port->write(bytes, std::chrono::milliseconds(1000)); };
-  hooks.stop = [] { return g_interrupted.load(); };
-  hooks.on_corrupt = [&opt](const CaptureError& e) { say("{}", format_capture_error(opt.file, e)); };
+  hooks.write = [&port](std::span<const std::uint8_t> bytes) { port->write(bytes, 1000ms); };
+  hooks.on_corrupt = corrupt_reporter(opt.file, nullptr);
+  hooks.stop = interrupted;
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const SerialChunk& chunk, std::span<const std::uint8_t> bytes) {
@@ -246,7 +230,7 @@ int run_replay(const ReplayCliOptions& opt) {
     throw CLI::ValidationError("--from", opt.file + " holds CAN frames: --from picks a link of a serial capture "
                                                     "(select CAN ids with --id)");
 
-  auto open_pass = [&opt]() { return open_capture_reader(opt.file, input_format(opt.serial.input_format)); };
+  auto open_pass = [&opt]() { return open_capture_reader(opt.file, serial_read_options(opt.serial).format); };
   ReplayPreview preview = preview_replay(opened.frames, options);
   opened.frames.reset();
   // The rule, the same as for serial captures: motion frames are left out unless --allow-motion, and the
@@ -266,9 +250,9 @@ int run_replay(const ReplayCliOptions& opt) {
 
   MonotonicReplayClock clock(&g_interrupted);
   ReplayHooks hooks;
-  hooks.send = [&link](const saul::CanFrame& f) { link->send(f, std::chrono::milliseconds(1000)); };
-  hooks.stop = [] { return g_interrupted.load(); };
-  hooks.on_corrupt = [&opt](const CaptureError& e) { say("{}", format_capture_error(opt.file, e)); };
+  hooks.send = [&link](const saul::CanFrame& f) { link->send(f, 1000ms); };
+  hooks.on_corrupt = corrupt_reporter(opt.file, nullptr);
+  hooks.stop = interrupted;
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const saul::CanFrame& f) {

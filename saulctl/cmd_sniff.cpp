@@ -31,19 +31,15 @@ struct SniffOptions {
   std::string duration;
   std::string time = "abs";
   std::string protocol = "interboard";
-  bool json = false;
-  bool listen_only = false;
-  bool top = false;
+  bool json = false, listen_only = false, top = false;
 };
 
 // The filters go in at open: in the kernel before the socket is bound (SocketCAN), before the first frame is
-// queued (slcan, shared links), so not one frame of another id is printed.
+// queued (slcan, shared links), so not one frame of another id is printed. Paced: every frame is printed, so a
+// burst waits in the adapter rather than being dropped here.
 std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
-  saul::host::LinkOpenOptions o;
-  o.listen_only = opt.listen_only;
-  o.filters = id_filters(opt.filters);
-  o.paced = true;  // every frame is printed: a burst waits in the adapter rather than being dropped here
-  return saul::host::open_can_link(spec, o);
+  return saul::host::open_can_link(
+      spec, {.listen_only = opt.listen_only, .filters = id_filters(opt.filters), .paced = true});
 }
 
 int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
@@ -117,9 +113,8 @@ struct TopRow {
   std::array<std::uint8_t, 8> data{};
   std::array<std::uint8_t, 8> previous{};
   std::uint8_t dlc = 0;
-  bool seen_before = false;  ///< a frame before the last one (so changes can be marked)
-  bool has = false;
-  [[nodiscard]] bool changed(std::size_t i) const { return seen_before && data[i] != previous[i]; }
+  std::uint64_t frames = 0;  ///< changes are marked from the second frame on
+  [[nodiscard]] bool changed(std::size_t i) const { return frames > 1 && data[i] != previous[i]; }
 };
 
 double whole_run_load(const saul::host::BusStats& stats) {
@@ -162,8 +157,7 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
               double recent_load, const ViewCommands& keys, const std::string& lost) {
   using tui::Style;
   s.begin();
-  const int w = s.width();
-  const int h = s.height();
+  const int w = s.width(), h = s.height();
   const bool wide = w >= 100;
   const auto st = link.stats();
   int c = s.put(0, 0, "sniff --top  ", Style::title);
@@ -172,10 +166,7 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
   c = s.put(1, 0, fmt::format("{} frames  ", stats.frames()));
   c = s.put(1, c, fmt::format("{} error frames", stats.error_frames()), stats.error_frames() ? Style::bad : Style::normal);
   c = s.put(1, c, fmt::format("  load {:.1f} % now, {:.1f} % whole run  bus ", recent_load, whole_run_load(stats)));
-  using CS = saul::host::ControllerState;
-  s.put(1, c, saul::host::to_string(st.state),
-        st.state == CS::bus_off || st.state == CS::passive ? Style::bad : st.state == CS::warning ? Style::warn
-                                                                                                   : Style::normal);
+  s.put(1, c, saul::host::to_string(st.state), bus_style(st.state));
   if (!lost.empty()) s.put(2, 0, "LINK LOST: " + lost, Style::bad);
   const int type_w = wide ? 18 : 14;
   s.put(3, 0, wide ? fmt::format("{:>8} {:<18} {:>8} {:>8} {:>9} {:>9}  {}", "ID", "TYPE", "COUNT", "RATE/Hz",
@@ -227,8 +218,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   saul::host::BusStats stats(bo);
   std::map<saul::host::BusStats::IdKey, TopRow> rows;
   const auto start = steady_clock::now();
-  auto interval_start = start;
-  auto next_draw = start;
+  auto interval_start = start, next_draw = start;
   std::uint64_t interval_bits = 0;
   double recent_load = 0;
   std::uint64_t shown = 0;
@@ -265,8 +255,7 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
         if (!f->error) {
           interval_bits += saul::host::can_frame_bits(*f, saul::host::StuffBits::worst_case);
           TopRow& r = rows[{f->extended, f->id}];
-          r.seen_before = r.has;
-          r.has = true;
+          ++r.frames;
           r.previous = r.data;
           r.data = f->data;
           r.dlc = f->remote ? 0 : f->dlc;
@@ -279,9 +268,8 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       lost = e.what();  // the view stays, says so; q leaves
     }
   }
-  const bool had_screen = screen != nullptr;
   screen.reset();
-  if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
+  if (keys && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());  // there was a view
   keys.reset();
   if (!lost.empty()) say("link lost: {}", lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.

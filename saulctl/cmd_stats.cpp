@@ -23,8 +23,7 @@ constexpr const char* kStatsBlock = "1MiB";
 
 struct StatsOptions {
   std::string file;
-  bool json = false;
-  bool signals = false;
+  bool json = false, signals = false;
   std::string bitrate = "500k";
   std::string window = "100ms";
   std::string parallel_from;  // --parallel-from
@@ -35,23 +34,18 @@ struct StatsOptions {
 int run_stats(const StatsOptions& opt) {
   using namespace saul::host;
   if (is_trace(opt.file)) return stats_trace(opt.file, opt.json);  // a loop trace (saulctl tune record)
-  BusStatsOptions bus;
   const std::uint64_t bitrate = parse_rate_hz(opt.bitrate);
   if (bitrate > 1'000'000) throw CLI::ValidationError("--bitrate", "classic CAN runs at 1 Mbit/s at most");
-  bus.bitrate = static_cast<std::uint32_t>(bitrate);
   const auto window = parse_duration(opt.window);
   if (window.count() <= 0) throw CLI::ValidationError("--window", "the window must be at least 1 ms");
-  bus.window_ns = static_cast<std::uint64_t>(window.count()) * 1'000'000ULL;
-  const std::uint64_t parallel_from = parse_size_option("--parallel-from", opt.parallel_from);
-  const std::uint64_t block = parse_size_option("--block-size", opt.block_size);
+  const BusStatsOptions bus{.bitrate = static_cast<std::uint32_t>(bitrate),
+                            .window_ns = static_cast<std::uint64_t>(window.count()) * 1'000'000ULL};
+  const ReadOptions read{.parallel_from = parse_size_option("--parallel-from", opt.parallel_from),
+                         .block = parse_size_option("--block-size", opt.block_size)};
 
   OpenedCapture opened = open_capture(opt.file, serial_read_options(opt.serial));  // CaptureOpenError: main says it
 
   Progress progress("stats", false);
-  auto report_corrupt = [&](const CaptureError& error) {
-    progress.finish();  // the message gets its own line
-    say("{}", format_capture_error(opt.file, error));
-  };
   SignalStats signal_stats;  // --signals: per signal count, mean, min, max in its unit
   // Both reports, text or JSON: the bus's, then the signals' when asked for.
   auto print = [&](const auto& stats) {
@@ -68,14 +62,11 @@ int run_stats(const StatsOptions& opt) {
     BusStats stats(bus);
     // The one read path: large files on both cores (blocks of --block-size from --parallel-from bytes on; not with
     // --signals, which needs the frames in order on one thread: a reading thread ahead then).
-    ReadOptions read;
-    read.parallel_from = parallel_from;
-    read.block = block;
     const auto total = opened.frames->bytes_total();
     std::function<void(const saul::CanFrame&)> also;
     if (opt.signals) also = [&](const saul::CanFrame& f) { signal_stats.add(f); };
     add_capture(
-        stats, opt.file, opened.frames, opened.compressed, read, report_corrupt,
+        stats, opt.file, opened.frames, opened.compressed, read, corrupt_reporter(opt.file, &progress),
         [&](std::uint64_t records, std::uint64_t bytes) { progress.read_so_far(records, bytes, total); }, also);
     progress.finish();
     print(stats);

@@ -21,10 +21,9 @@ void add_link_option(CLI::App* cmd, std::string& link, bool serial_too = false);
 /// and different is a usage error; either ends in `link`. These verbs take serial byte links too.
 void add_link_option_and_positional(CLI::App* cmd, std::string& link);
 
-/// Adds --id: CAN ids in hex as candump writes them (400 = 0x400, 0x accepted), ID:MASK, FIRST-LAST (400-40F),
-/// comma separated or repeated; more than 3 digits or a value above 7FF means a 29-bit id. One value per --id, so "--id 400 can0"
-/// leaves can0 to the verb. Checked while parsing (a bad id is a usage error).
-/// `name` is "--id" but for an option that excludes ids (replay --exclude-id).
+/// Adds --id (or `name`: replay --exclude-id): ids in hex (400 = 0x400; more than 3 digits or above 7FF: 29-bit),
+/// ID:MASK, FIRST-LAST, comma separated or repeated; one value per --id, so "--id 400 can0" leaves can0 to the verb.
+/// Checked while parsing (a bad id is a usage error).
 CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what,
                            const char* name = "--id");
 /// The filters the --id values name (already checked: never throws for values add_id_option accepted).

@@ -85,6 +85,12 @@ int report_error(const std::exception& e) {
   return kFailure;
 }
 
+tui::Style bus_style(saul::host::ControllerState s) {
+  using CS = saul::host::ControllerState;
+  using tui::Style;
+  return s == CS::bus_off || s == CS::passive ? Style::bad : s == CS::warning ? Style::warn : Style::normal;
+}
+
 namespace {
 // The shared link's notices while a view is up (they may come from the owner's serving thread).
 std::mutex g_view_notice_mu;

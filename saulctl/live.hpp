@@ -21,6 +21,8 @@ namespace saulctl {
 
 /// Set by SIGINT/SIGTERM. Blocking waits return early (the handler does not restart system calls).
 extern std::atomic<bool> g_interrupted;
+/// g_interrupted as a function, for the library's cancel and stop hooks.
+inline bool interrupted() { return g_interrupted.load(); }
 
 /// Resolves the link text (option, environment, config file) or throws CLI::ValidationError-like usage errors.
 saul::host::LinkSpec resolve_link(const std::string& link);
@@ -52,6 +54,9 @@ void receive_until(const std::string& duration, std::chrono::steady_clock::time_
     take(wait);
   }
 }
+
+/// How a view shows the CAN controller's state: bus-off and error-passive red, error-warning yellow.
+tui::Style bus_style(saul::host::ControllerState state);
 
 /// The keys every full-screen view takes, and what became of them: e or space = ESTOP (always, at once: the frame
 /// is written before the key is even shown), o = mode off, q = quit. The acknowledgements (0x402) come in through

@@ -1,9 +1,6 @@
-// saulctl's full-screen terminal views (monitor, sniff --top) on ncurses, behind a small interface so that no
-// command file includes <curses.h> (its macros - timeout, clear, OK, ERR - would leak into the unity batches).
-//
-// A view draws a whole screen each time: put() clips every string at the right edge, so nothing ever wraps,
-// whatever the terminal's width. Views exist only when stdout and stdin are terminals; otherwise the commands
-// print plain lines.
+// saulctl's full-screen views (monitor, sniff --top) on ncurses, behind a small interface so that no command file
+// includes <curses.h> (its macros - timeout, clear, OK, ERR - would leak into the unity batches). A view draws a
+// whole screen each time; put() clips at the right edge, so nothing ever wraps.
 #pragma once
 
 #include <memory>

@@ -59,13 +59,8 @@ std::vector<const CLI::App*> parsed_chain(const CLI::App& app) {
   return chain;
 }
 
-std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates, const char* quote) {
-  const std::string near = nearest_word(word, candidates);
-  return near.empty() ? std::string() : fmt::format("; did you mean {}{}{}?", quote, near, quote);
-}
-
-}  // namespace
-
+// The candidate nearest to word: within a small edit distance (at most 1 for up to 4 letters, 2 up to 8, else 3),
+// or the only candidate word is a prefix of. "" when none is near enough or two are equally near.
 std::string nearest_word(const std::string& word, const std::vector<std::string>& candidates) {
   const std::string bare = without_dashes(word);
   if (bare.empty()) return "";
@@ -92,6 +87,13 @@ std::string nearest_word(const std::string& word, const std::vector<std::string>
   prefixed.erase(std::unique(prefixed.begin(), prefixed.end()), prefixed.end());
   return prefixed.size() == 1 ? prefixed[0] : "";
 }
+
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates, const char* quote) {
+  const std::string near = nearest_word(word, candidates);
+  return near.empty() ? std::string() : fmt::format("; did you mean {}{}{}?", quote, near, quote);
+}
+
+}  // namespace
 
 std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** argv) {
   std::vector<std::string> args(argv, argv + argc);

@@ -9,11 +9,6 @@
 
 namespace saulctl {
 
-/// The candidate nearest to word: within a small edit distance (insertions, deletions, substitutions and swaps of
-/// two neighbours, at most 1 for up to 4 letters, 2 up to 8, else 3), or the only candidate word is a prefix of.
-/// "" when none is near enough or two are equally near.
-std::string nearest_word(const std::string& word, const std::vector<std::string>& candidates);
-
 /// argv with "help [VERB...]" turned into "[VERB...] --help" when those verbs exist (else without --help, for the
 /// parser to report); argv unchanged when its first word is not "help".
 std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** argv);
