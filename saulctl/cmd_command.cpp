@@ -18,7 +18,8 @@ using namespace std::chrono;
 struct CommandOptions {
   std::string link;
   std::string timeout = "1s";
-  bool json = false, yes = false;
+  bool json = false;
+  bool yes = false;
   std::string mode;
   std::vector<double> gains;
   double tilt_limit = -1;

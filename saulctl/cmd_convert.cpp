@@ -26,7 +26,8 @@ namespace saulctl {
 namespace {
 
 struct ConvertOptions {
-  std::string in, out;
+  std::string in;
+  std::string out;
   std::string format;  // output format; empty = from OUT's extension
   SerialCliOptions serial;  // --input-format (empty = from IN's content), --protocol, --samplerate
   std::string compression = "zstd";  // MCAP chunks

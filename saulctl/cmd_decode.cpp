@@ -30,7 +30,8 @@ struct DecodeOptions {
   std::string format = "text";
   std::string time = "abs";
   std::vector<std::string> ids;
-  bool json = false, strict = false;
+  bool json = false;
+  bool strict = false;
   std::string parallel_from;  // --parallel-from
   SerialCliOptions serial;
 };
@@ -41,7 +42,8 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
                             std::uint64_t& records, Progress& progress) {
   using namespace saul::host;
   TimeColumn time_column(time_mode(opt.time));
-  std::uint64_t messages = 0, untimed = 0;
+  std::uint64_t messages = 0;
+  std::uint64_t untimed = 0;
   SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
   const SerialCaptureDecoder::Callback print = [&](const SerialChunk& chunk, SerialProtocol protocol,
                                                    const SerialMessage& m) {

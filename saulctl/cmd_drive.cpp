@@ -15,10 +15,12 @@ using namespace std::chrono;
 
 struct DriveOptions {
   std::string link;
-  int speed = 0, steer = 0;
+  int speed = 0;
+  int steer = 0;
   std::string duration;
   int speed_cap = 500;
-  bool yes = false, json = false;
+  bool yes = false;
+  bool json = false;
 };
 
 constexpr milliseconds kPeriod{50};  // 20 Hz, the rate the system reference gives for 0x300

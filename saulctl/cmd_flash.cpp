@@ -25,9 +25,14 @@ using saul::host::ResetStyle;
 struct FlashOptions {
   std::vector<std::string> inputs;
   std::string offset = "0x10000";
-  std::string build_dir, port, board, flash_size;
+  std::string build_dir;
+  std::string port;
+  std::string board;
+  std::string flash_size;
   std::uint32_t baud = 460800;
-  bool no_compress = false, force = false, no_reset = false;
+  bool no_compress = false;
+  bool force = false;
+  bool no_reset = false;
   std::string reset;  ///< "bootloader" | "app": only reset the board, write nothing
   int connect_attempts = 4;
   std::string link;

@@ -26,8 +26,10 @@ namespace sc = saul::saulcan;
 using tui::Style;
 
 struct MonitorOptions {
-  std::string link, duration;
-  bool json = false, listen_only = false;
+  std::string link;
+  std::string duration;
+  bool json = false;
+  bool listen_only = false;
 };
 
 /// One periodic frame kind: when it came, how often (over the last second), and whether it is stale (older than
@@ -169,7 +171,8 @@ constexpr int kRateColumn = 50;  ///< where the streams' rate and age go, right 
 void draw(tui::Screen& s, Telemetry& tm, const saul::host::CanLink& link, const ViewCommands& keys,
           const std::string& lost, std::uint32_t bitrate, steady_clock::time_point now) {
   s.begin();
-  const int w = s.width(), h = s.height();
+  const int w = s.width();
+  const int h = s.height();
   const auto st = link.stats();
   int c = s.put(0, 0, "SAUL-TEE monitor  ", Style::title);
   c = s.put(0, c, link.name());
@@ -281,7 +284,9 @@ int run_monitor(const MonitorOptions& opt) {
   Telemetry tm;
   std::string lost;
   const auto start = steady_clock::now();
-  auto next_draw = start, next_plain = start, next_reopen = start;
+  auto next_draw = start;
+  auto next_plain = start;
+  auto next_reopen = start;
   std::optional<sc::RobotState> printed_state;
   int status = kOk;
   while (!g_interrupted) {
@@ -339,8 +344,9 @@ int run_monitor(const MonitorOptions& opt) {
       }
     }
   }
+  const bool had_screen = screen != nullptr;
   screen.reset();  // back to the normal terminal before the summary
-  if (keys) {  // there was a view
+  if (had_screen) {
     const auto st = link->stats();
     const double secs = duration<double>(steady_clock::now() - start).count();
     fmt::print("monitor: {:.1f} s on {}, {} frames, last state {}\n", secs, link->name(), tm.frames,

@@ -21,9 +21,11 @@ namespace saulctl {
 namespace {
 
 struct PlotOptions {
-  std::string file, id;
+  std::string file;
+  std::string id;
   std::vector<std::string> fields;
-  std::string output, format;
+  std::string output;
+  std::string format;
   std::size_t max_markers = saul::host::PlotRequest{}.max_markers;
   SerialCliOptions serial;
 };

@@ -14,9 +14,12 @@ using namespace std::chrono;
 
 struct PrideOptions {
   std::string port;
-  int fb = 0, lr = 0, speed_level = 0;
+  int fb = 0;
+  int lr = 0;
+  int speed_level = 0;
   std::string duration;
-  bool yes = false, json = false;
+  bool yes = false;
+  bool json = false;
 };
 
 std::string status_text(const saul::pride::ControllerStatus& s) {

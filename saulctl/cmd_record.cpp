@@ -25,12 +25,18 @@ namespace {
 using namespace std::chrono;
 
 struct RecordOptions {
-  std::string link, output, format, rotate_size, rotate_time;
+  std::string link;
+  std::string output;
+  std::string format;
+  std::string rotate_size;
+  std::string rotate_time;
   std::string compress;  // "", gz, zst
   std::string duration;
   std::uint64_t count = 0;
-  std::string interface, protocol;
-  bool listen_only = false, quiet = false;
+  std::string interface;
+  std::string protocol;
+  bool listen_only = false;
+  bool quiet = false;
 };
 
 /// MCAP as recorded: chunks closed at every flush and every second (crash-safe), and written on the recording
@@ -197,7 +203,8 @@ int record_serial(const RecordOptions& opt, const saul::host::LinkSpec& spec) {
   if (!opt.quiet)
     fmt::print(stderr, "record: {} bytes on {} ({} {}); Ctrl-C to stop\n", to_string(chunk.protocol), port->path(),
                spec.serial.baud, to_string(spec.serial));
-  std::uint64_t bytes = 0, chunks = 0;
+  std::uint64_t bytes = 0;
+  std::uint64_t chunks = 0;
   const auto start = steady_clock::now();
   std::array<std::uint8_t, 4096> buf{};
   auto take = [&](milliseconds wait) {

@@ -24,12 +24,18 @@ namespace {
 using namespace std::chrono_literals;
 
 struct ReplayCliOptions {
-  std::string file, link;
+  std::string file;
+  std::string link;
   std::string speed = "1";
   unsigned loops = 1;
-  std::vector<std::string> ids, exclude, maps;
+  std::vector<std::string> ids;
+  std::vector<std::string> exclude;
+  std::vector<std::string> maps;
   std::string max_gap;
-  bool step = false, yes = false, no_motion = false, json = false;
+  bool step = false;
+  bool yes = false;
+  bool no_motion = false;
+  bool json = false;
   std::string from;           ///< serial captures: the captured link to replay
   SerialCliOptions serial;    ///< serial captures: --protocol, --samplerate
 };

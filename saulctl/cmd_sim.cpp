@@ -18,7 +18,8 @@ struct SimOptions {
   std::string duration;
   std::string paths_file = "sim.paths";
   std::uint32_t seed = 1;
-  bool quiet = false, no_imu = false;
+  bool quiet = false;
+  bool no_imu = false;
 };
 
 int run_sim(const SimOptions& opt) {

@@ -31,7 +31,9 @@ struct SniffOptions {
   std::string duration;
   std::string time = "abs";
   std::string protocol = "interboard";
-  bool json = false, listen_only = false, top = false;
+  bool json = false;
+  bool listen_only = false;
+  bool top = false;
 };
 
 // The filters go in at open: in the kernel before the socket is bound (SocketCAN), before the first frame is
@@ -157,7 +159,8 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
               double recent_load, const ViewCommands& keys, const std::string& lost) {
   using tui::Style;
   s.begin();
-  const int w = s.width(), h = s.height();
+  const int w = s.width();
+  const int h = s.height();
   const bool wide = w >= 100;
   const auto st = link.stats();
   int c = s.put(0, 0, "sniff --top  ", Style::title);
@@ -218,7 +221,8 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   saul::host::BusStats stats(bo);
   std::map<saul::host::BusStats::IdKey, TopRow> rows;
   const auto start = steady_clock::now();
-  auto interval_start = start, next_draw = start;
+  auto interval_start = start;
+  auto next_draw = start;
   std::uint64_t interval_bits = 0;
   double recent_load = 0;
   std::uint64_t shown = 0;
@@ -268,8 +272,9 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       lost = e.what();  // the view stays, says so; q leaves
     }
   }
+  const bool had_screen = screen != nullptr;
   screen.reset();
-  if (keys && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());  // there was a view
+  if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
   keys.reset();
   if (!lost.empty()) say("link lost: {}", lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.

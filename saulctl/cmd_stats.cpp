@@ -23,7 +23,8 @@ constexpr const char* kStatsBlock = "1MiB";
 
 struct StatsOptions {
   std::string file;
-  bool json = false, signals = false;
+  bool json = false;
+  bool signals = false;
   std::string bitrate = "500k";
   std::string window = "100ms";
   std::string parallel_from;  // --parallel-from

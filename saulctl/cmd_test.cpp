@@ -16,7 +16,11 @@ namespace bt = saul::host::suite;
 
 struct TestOptions {
   std::vector<std::string> suites;
-  std::string link, console_balance, console_io, sim_control, junit;
+  std::string link;
+  std::string console_balance;
+  std::string console_io;
+  std::string sim_control;
+  std::string junit;
   bool sim = false;
   std::uint32_t seed = 1;
 };
