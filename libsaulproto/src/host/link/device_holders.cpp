@@ -50,19 +50,21 @@ DeviceHolder holder_of(int pid) {
   h.pid = pid;
   h.name = detail::first_line(fmt::format("/proc/{}/comm", pid));
   if (h.name.empty()) h.name = "?";
-  h.command = h.name;
-  if (h.is_saulctl()) {
-    // argv[1] is the verb: "saulctl monitor".
-    std::ifstream f(fmt::format("/proc/{}/cmdline", pid), std::ios::binary);
-    std::string arg0, arg1;
-    std::getline(f, arg0, '\0');
-    std::getline(f, arg1, '\0');
-    if (!arg1.empty() && arg1[0] != '-') h.command += " " + arg1;
-  }
+  h.command = h.is_saulctl() ? process_command(std::to_string(pid)) : h.name;
   return h;
 }
 
 }  // namespace holders
+
+std::string process_command(const std::string& pid) {
+  std::ifstream f("/proc/" + pid + "/cmdline", std::ios::binary);
+  std::string arg0, arg1;
+  std::getline(f, arg0, '\0');
+  std::getline(f, arg1, '\0');
+  std::string s = arg0.substr(arg0.find_last_of('/') + 1);
+  if (!arg1.empty() && arg1[0] != '-') s += " " + arg1;
+  return s.empty() ? "?" : s;
+}
 
 std::string DeviceHolder::text() const { return fmt::format("{} (pid {})", command, pid); }
 

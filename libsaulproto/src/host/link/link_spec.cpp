@@ -64,15 +64,13 @@ LinkSpec parse_link_spec(const std::string& text) {
     spec.device = rest;
     return spec;
   }
+  const auto at = rest.find('@');
+  spec.device = rest.substr(0, at);
   if (scheme == "slcan") {
     spec.kind = LinkSpec::Kind::slcan;
-    const auto at = rest.find('@');
-    spec.device = rest.substr(0, at);
     if (at != std::string::npos) spec.bitrate = parse_rate(rest.substr(at + 1), text);
   } else if (scheme == "serial") {
     spec.kind = LinkSpec::Kind::serial;
-    const auto at = rest.find('@');
-    spec.device = rest.substr(0, at);
     if (at == std::string::npos)
       throw std::invalid_argument(fmt::format("serial link '{}' needs a baud rate, e.g. serial:{}@460800", text, rest));
     std::string rate = rest.substr(at + 1);

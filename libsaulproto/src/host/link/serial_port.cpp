@@ -85,7 +85,7 @@ SerialError held_error(const std::string& path) {
 // so a port in use is never reconfigured under its holder.
 class DeviceClaim {
  public:
-  explicit DeviceClaim(const std::string& path) : path_(path) {
+  explicit DeviceClaim(const std::string& path) {
     fd_ = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd_ < 0) {
       const int e = errno;
@@ -117,7 +117,6 @@ class DeviceClaim {
   void make_exclusive() { exclusive_ = fd_ >= 0 && ::ioctl(fd_, TIOCEXCL) == 0; }
 
  private:
-  std::string path_;
   int fd_ = -1;
   bool exclusive_ = false;
 };
@@ -352,6 +351,16 @@ bool is_pty(const std::string& path) {
   return std::strncmp(p, "/dev/pts/", 9) == 0 || std::strcmp(p, "/dev/ptmx") == 0;
 }
 
+// What a USB vendor/product pair is on this bench, or "" when unknown.
+std::string recognise_usb_device(int vid, int pid) {
+  if (vid == 0x16D0 && pid == 0x117E) return "CANable2 (slcan firmware): use slcan:PATH";
+  if (vid == 0xAD50 && pid == 0x60C4) return "CANable 1.x (slcan firmware): use slcan:PATH";
+  if (vid == 0x1D50 && pid == 0x606F) return "CANable (candleLight/gs_usb): a SocketCAN interface, not a serial port";
+  if (vid == 0x303A && pid == 0x1001) return "ESP32-S3 USB-Serial/JTAG (IO board console)";
+  if (vid == 0x1A86 && (pid == 0x55D3 || pid == 0x55D4)) return "WCH CH343 USB-serial (BALANCE board console)";
+  return "";
+}
+
 }  // namespace
 
 std::string to_string(const SerialSettings& s) {
@@ -384,15 +393,6 @@ std::unique_ptr<SerialPort> open_serial(const std::string& path, const SerialSet
       return std::make_unique<TermiosPort>(path, settings);
     throw;
   }
-}
-
-std::string recognise_usb_device(int vid, int pid) {
-  if (vid == 0x16D0 && pid == 0x117E) return "CANable2 (slcan firmware): use slcan:PATH";
-  if (vid == 0xAD50 && pid == 0x60C4) return "CANable 1.x (slcan firmware): use slcan:PATH";
-  if (vid == 0x1D50 && pid == 0x606F) return "CANable (candleLight/gs_usb): a SocketCAN interface, not a serial port";
-  if (vid == 0x303A && pid == 0x1001) return "ESP32-S3 USB-Serial/JTAG (IO board console)";
-  if (vid == 0x1A86 && (pid == 0x55D3 || pid == 0x55D4)) return "WCH CH343 USB-serial (BALANCE board console)";
-  return "";
 }
 
 std::vector<PortInfo> list_serial_ports() {

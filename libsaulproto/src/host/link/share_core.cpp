@@ -14,7 +14,6 @@
 #include <climits>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/link/device_holders.hpp"
@@ -130,16 +129,7 @@ bool is_estop(const CanFrame& f) {
   return m && m->mode == saulcan::Mode::estop;
 }
 
-std::string self_command() {
-  std::ifstream f("/proc/self/cmdline", std::ios::binary);
-  std::string arg0, arg1;
-  std::getline(f, arg0, '\0');
-  std::getline(f, arg1, '\0');
-  std::string s = arg0.substr(arg0.find_last_of('/') + 1);
-  if (!arg1.empty() && arg1[0] != '-') s += " " + arg1;
-  return s.empty() ? "?" : s;
-}
-
+std::string self_command() { return process_command("self"); }
 std::string self_text() { return fmt::format("{} (pid {})", self_command(), ::getpid()); }
 
 namespace {
@@ -203,11 +193,6 @@ bool EventFd::wait(steady_clock::time_point deadline) const {
   return true;
 }
 
-bool saulctl_holds(const std::string& device) {
-  const auto holders = device_holders(device);
-  return std::any_of(holders.begin(), holders.end(), [](const DeviceHolder& h) { return h.is_saulctl(); });
-}
-
 std::uint64_t steady_ns() {
   return static_cast<std::uint64_t>(duration_cast<nanoseconds>(steady_clock::now().time_since_epoch()).count());
 }
@@ -231,8 +216,8 @@ bool priority(const std::vector<std::uint8_t>& m) {
 
 std::string OwnerCore::Client::text() const { return fmt::format("{} (pid {})", command.empty() ? "?" : command, pid); }
 
-OwnerCore::OwnerCore(std::string device, Kind kind, std::string link_text, bool listen_only)
-    : device_(canonical_device(device)), kind_(kind), link_text_(std::move(link_text)), listen_only_(listen_only) {}
+OwnerCore::OwnerCore(std::string device, std::string link_text, bool listen_only)
+    : listen_only_(listen_only), device_(canonical_device(device)), link_text_(std::move(link_text)) {}
 
 OwnerCore::~OwnerCore() {
   stop_serving();
@@ -285,7 +270,14 @@ void OwnerCore::set_gone(LinkError::Kind kind, const std::string& text) {
     std::lock_guard lock(gone_mu_);
     gone_.emplace(kind, text);
   }
-  device_gone(text);
+  inbox_.signal();
+  for (auto& c : clients_) {
+    send_control(*c, Out(Msg::bye).u8(static_cast<std::uint8_t>(ByeReason::gone)).str(text).take());
+    flush(*c);
+    c->dead = true;
+  }
+  device_fd_ = -1;
+  close_listener();  // nothing left to share: new commands find the device missing themselves
 }
 
 std::optional<LinkError> OwnerCore::gone() const {
@@ -357,16 +349,6 @@ void OwnerCore::post_broadcast(std::vector<std::uint8_t> m) {
     posted_.push_back(std::move(m));
   }
   wake_serving();
-}
-
-void OwnerCore::device_gone(const std::string& text) {
-  for (auto& c : clients_) {
-    send_control(*c, Out(Msg::bye).u8(static_cast<std::uint8_t>(ByeReason::gone)).str(text).take());
-    flush(*c);
-    c->dead = true;
-  }
-  device_fd_ = -1;
-  close_listener();  // nothing left to share: new commands find the device missing themselves
 }
 
 void OwnerCore::close_listener() {

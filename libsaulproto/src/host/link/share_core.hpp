@@ -20,7 +20,6 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
-#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -158,7 +157,7 @@ class OwnerCore {
     [[nodiscard]] std::string text() const;
   };
 
-  OwnerCore(std::string device, Kind kind, std::string link_text, bool listen_only);
+  OwnerCore(std::string device, std::string link_text, bool listen_only);
   virtual ~OwnerCore();
 
   /// Creates the socket (when the directory is not private: a notice, and nothing is shared) and starts the serving
@@ -168,7 +167,8 @@ class OwnerCore {
   /// stopped, or the device's error), so that one of them can take the device over.
   void shutdown();
   virtual void close_device() = 0;
-  /// The device went away: remembered for the owner's own calls (gone()), told to the clients; the socket goes.
+  /// On the serving thread, the device went away: remembered for the owner's own calls (gone()) and its reader
+  /// woken; the clients are told, the socket goes and the device is no longer polled.
   void set_gone(LinkError::Kind kind, const std::string& text);
   [[nodiscard]] std::optional<LinkError> gone() const;
   /// Stops the thread and removes the socket; clients stay connected until release_clients().
@@ -183,7 +183,8 @@ class OwnerCore {
   /// frames wait in the device instead of being read only to be dropped. Asked again every 5 ms and on wake_serving().
   virtual bool device_held() { return false; }
   virtual void on_message(Client& from, Msg type, In& in) = 0;
-  virtual std::vector<std::uint8_t> stats_for(const Client& c) = 0;
+  /// The Msg::stats for `c`, every 250 ms; none when empty.
+  virtual std::vector<std::uint8_t> stats_for(const Client&) { return {}; }
   /// "" to accept a hello, else why not.
   virtual std::string refuse_reason(const Hello& h) = 0;
 
@@ -194,8 +195,6 @@ class OwnerCore {
   void broadcast(const std::vector<std::uint8_t>& m, const Client* except);
   /// From any thread: broadcast `m` from the serving thread (the owner's own sends, looped back to clients).
   void post_broadcast(std::vector<std::uint8_t> m);
-  /// The device is gone: clients get `text`, the socket goes, the device is no longer polled.
-  void device_gone(const std::string& text);
   /// From any thread: the serving thread looks at the device again now (device_held() may have changed).
   void wake_serving() { wake_.signal(); }
   /// On the serving thread: whether any client is attached (greeted or not), without a lock.
@@ -204,8 +203,10 @@ class OwnerCore {
   /// What a shared owner's sharing() says: "shared with 2 other saulctl"; "" when not serving.
   [[nodiscard]] std::string sharing_text() const;
   [[nodiscard]] const std::string& link_text() const { return link_text_; }
-  [[nodiscard]] bool owner_listen_only() const { return listen_only_; }
-  void set_owner_listen_only(bool v) { listen_only_ = v; }
+
+  mutable std::mutex io_;  ///< the device: the serving thread's reads, every write
+  EventFd inbox_;          ///< wakes this process's reader
+  std::atomic<bool> listen_only_;  ///< CAN: opened listen-only and no ESTOP sent yet
 
  private:
   void run();
@@ -217,9 +218,7 @@ class OwnerCore {
   void close_listener();
 
   std::string device_;
-  Kind kind_;
   std::string link_text_;
-  bool listen_only_;
   std::string socket_path_;
   int listen_fd_ = -1;
   EventFd wake_;
@@ -259,29 +258,5 @@ class ClientSocket {
   int fd_ = -1;
   ShareInfo info_;
 };
-
-/// True when a saulctl process (of this user, or any for root) has `device` open.
-bool saulctl_holds(const std::string& device);
-
-/// The open procedure both shares use: join an owner, or become one; while another saulctl holds the device but
-/// is not serving yet (starting, or handing over), retry for up to two seconds.
-template <class Handle>
-std::unique_ptr<Handle> join_or_own(const std::string& device, const std::function<std::unique_ptr<Handle>()>& join,
-                                    const std::function<std::unique_ptr<Handle>()>& own) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-  for (;;) {
-    if (auto h = join()) return h;
-    try {
-      return own();
-    } catch (const LinkError& e) {
-      if (e.kind() != LinkError::Kind::busy || !saulctl_holds(device) || std::chrono::steady_clock::now() > deadline)
-        throw;
-    } catch (const SerialError& e) {
-      if (e.kind() != SerialError::Kind::busy || !saulctl_holds(device) || std::chrono::steady_clock::now() > deadline)
-        throw;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the holder is about to serve, or just left
-  }
-}
 
 }  // namespace saul::host::share

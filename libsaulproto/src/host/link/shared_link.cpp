@@ -3,8 +3,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <span>
 
+#include "saulproto/host/link/device_holders.hpp"
 #include "saulproto/host/link/slcan_link.hpp"
 #include "share_core.hpp"
 
@@ -97,7 +99,7 @@ class CanOwner final : public CanLink, private OwnerCore {
  public:
   CanOwner(std::unique_ptr<CanLink> real, const LinkSpec& spec, bool listen_only, std::vector<CanFilter> filters,
            bool paced)
-      : OwnerCore(spec.device, Kind::can, spec.text(), listen_only),
+      : OwnerCore(spec.device, spec.text(), listen_only),
         real_(std::move(real)),
         bitrate_(spec.bitrate),
         paced_(paced),
@@ -110,7 +112,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     const auto t0 = steady_clock::now();
     {
       std::lock_guard lock(io_);
-      if (owner_listen_only() && is_estop(frame)) leave_listen_only("this process");
+      if (listen_only_ && is_estop(frame)) leave_listen_only("this process");
       real_->send(frame, timeout);
     }
     last_send_ns_ = static_cast<std::uint64_t>(duration_cast<nanoseconds>(steady_clock::now() - t0).count());
@@ -190,7 +192,7 @@ class CanOwner final : public CanLink, private OwnerCore {
   void leave_listen_only(const std::string& who) {
     std::string hint;
     real_->recover(hint);  // slcan: "C\rO\r", the channel reopened in normal mode
-    set_owner_listen_only(false);
+    listen_only_ = false;
     notice(fmt::format("{}: left listen-only to put an ESTOP from {} on the bus", real_->name(), who));
   }
 
@@ -213,10 +215,7 @@ class CanOwner final : public CanLink, private OwnerCore {
     deliver(got);
     if (has_clients())
       for (const auto& f : got) broadcast(frame_message(f), nullptr);
-    if (error) {
-      set_gone(error->kind(), error->what());
-      inbox_.signal();
-    }
+    if (error) set_gone(error->kind(), error->what());
     return got.size() >= 512;
   }
 
@@ -227,15 +226,14 @@ class CanOwner final : public CanLink, private OwnerCore {
     const std::uint64_t client_ns = in.u64();
     std::string error;
     auto kind = LinkError::Kind::io;
-    const bool estop = is_estop(f);
-    if (owner_listen_only() && !estop) {
+    if (listen_only_ && !is_estop(f)) {
       error = fmt::format("{} holds {} listen-only: it sends nothing but an ESTOP (stop it, or run without "
                           "--listen-only)", self_text(), real_->name());
       kind = LinkError::Kind::unsupported;
     } else {
       std::lock_guard lock(io_);
       try {
-        if (owner_listen_only()) leave_listen_only(from.text());
+        if (listen_only_) leave_listen_only(from.text());
         real_->send(f, milliseconds(200));
       } catch (const LinkError& e) {
         error = e.what();
@@ -268,11 +266,9 @@ class CanOwner final : public CanLink, private OwnerCore {
     return "";
   }
 
-  mutable std::mutex io_;  ///< the device: the serving thread's reads, every write
   std::unique_ptr<CanLink> real_;
   std::uint32_t bitrate_;
-  bool paced_;                ///< LinkOpenOptions::paced
-  EventFd inbox_;                ///< wakes this process's reader
+  bool paced_;                   ///< LinkOpenOptions::paced
   mutable std::mutex inbox_mu_;  ///< guards what follows
   std::vector<CanFilter> filters_;
   std::deque<CanFrame> queue_;
@@ -363,9 +359,7 @@ class Attachment {
  public:
   using Opener = std::function<std::unique_ptr<T>()>;
   Attachment(std::string device, Opener join, Opener own)
-      : device_(std::move(device)), join_(std::move(join)), own_(std::move(own)) {
-    impl_ = join_or_own<T>(device_, join_, own_);
-  }
+      : device_(std::move(device)), join_(std::move(join)), own_(std::move(own)), impl_(open()) {}
   template <class F>
   auto call(F&& f) {
     for (int attempt = 0;; ++attempt) {
@@ -380,9 +374,31 @@ class Attachment {
   T& impl() const { return *impl_; }
 
  private:
+  // Joins an owner, or becomes one; while another saulctl holds the device but is not serving yet (starting, or
+  // handing over), tries again for up to two seconds.
+  std::unique_ptr<T> open() const {
+    const auto deadline = steady_clock::now() + seconds(2);
+    const auto retry = [&](bool busy) {
+      if (!busy || steady_clock::now() > deadline) return false;
+      const auto holders = device_holders(device_);
+      return std::any_of(holders.begin(), holders.end(), [](const DeviceHolder& h) { return h.is_saulctl(); });
+    };
+    for (;;) {
+      if (auto h = join_()) return h;
+      try {
+        return own_();
+      } catch (const LinkError& e) {
+        if (!retry(e.kind() == LinkError::Kind::busy)) throw;
+      } catch (const SerialError& e) {
+        if (!retry(e.kind() == SerialError::Kind::busy)) throw;
+      }
+      std::this_thread::sleep_for(milliseconds(5));  // the holder is about to serve, or just left
+    }
+  }
+
   void take_over(const std::string& why) {
     impl_.reset();
-    impl_ = join_or_own<T>(device_, join_, own_);
+    impl_ = open();
     const std::string how = impl_->sharing();
     notice(fmt::format("{}; {}", why,
                        how.rfind("through ", 0) == 0
@@ -444,7 +460,7 @@ std::string serial_text(const std::string& device, const SerialSettings& s) {
 class SerialOwner final : public SerialPort, private OwnerCore {
  public:
   explicit SerialOwner(std::unique_ptr<SerialPort> real)
-      : OwnerCore(real->path(), Kind::serial, serial_text(real->path(), real->settings()), false), real_(std::move(real)) {
+      : OwnerCore(real->path(), serial_text(real->path(), real->settings()), false), real_(std::move(real)) {
     start_serving(real_->poll_handle());
   }
   ~SerialOwner() override { shutdown(); }
@@ -501,10 +517,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
       inbox_.signal();
       broadcast(Out(Msg::bytes).u32(0).bytes(std::span<const std::uint8_t>(buf.data(), n)).take(), nullptr);
     }
-    if (!error.empty()) {
-      set_gone(LinkError::Kind::gone, error);
-      inbox_.signal();
-    }
+    if (!error.empty()) set_gone(LinkError::Kind::gone, error);
     return n == buf.size();
   }
 
@@ -527,10 +540,6 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     send_control(from, sent_message(token, client_ns, error, static_cast<std::uint8_t>(kind)));
   }
 
-  std::vector<std::uint8_t> stats_for(const Client& c) override {
-    return Out(Msg::stats).stats(LinkStats{}).u64(c.dropped).take();
-  }
-
   std::string refuse_reason(const Hello& h) override {
     if (h.kind != Kind::serial)
       return fmt::format("{} is held by {} as {}, a serial byte link, not as a CAN adapter", real_->path(),
@@ -541,9 +550,7 @@ class SerialOwner final : public SerialPort, private OwnerCore {
     return "";
   }
 
-  mutable std::mutex io_;
   std::unique_ptr<SerialPort> real_;
-  EventFd inbox_;
   mutable std::mutex inbox_mu_;
   std::deque<std::uint8_t> bytes_;
 };

@@ -33,10 +33,7 @@ class SlcanLink final : public CanLink {
     if (!preset)
       throw LinkError(LinkError::Kind::unsupported,
                       fmt::format("{}: no slcan preset for {} bit/s (use 10k..500k or 1M)", name_, options.bitrate));
-    std::string open = "C\r";
-    open += 'S';
-    open += *preset;
-    open += '\r';
+    std::string open = fmt::format("C\rS{}\r", *preset);
     if (options.listen_only) {
       as_link([&] { port_->write(open + "V\r", milliseconds(200)); });
       open = wait_for_version(milliseconds(200)) ? "L\r" : "M1\rO\r";  // Lawicel's listen-only, else the CANable's
@@ -65,16 +62,13 @@ class SlcanLink final : public CanLink {
 
   std::optional<CanFrame> receive(milliseconds timeout) override {
     const auto deadline = steady_clock::now() + timeout;
-    for (;;) {
-      if (!queue_.empty()) {
-        CanFrame f = queue_.front();
-        queue_.pop_front();
-        return f;
-      }
+    while (queue_.empty()) {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-      if (left.count() < 0) return std::nullopt;
-      if (!fill(left)) return std::nullopt;
+      if (left.count() < 0 || !fill(left)) return std::nullopt;
     }
+    const CanFrame f = queue_.front();
+    queue_.pop_front();
+    return f;
   }
 
   void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }

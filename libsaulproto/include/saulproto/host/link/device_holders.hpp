@@ -31,6 +31,10 @@ std::optional<DeviceHolder> uucp_lock_holder(const std::string& device);
 /// "minicom (pid 4121)", "cat (pid 80) and saulctl sniff (pid 81)"; "" for none.
 std::string describe_holders(const std::vector<DeviceHolder>& holders);
 
+/// A process's program and its first argument unless that is an option (a saulctl's verb), from /proc/PID/cmdline
+/// ("self": this process): "saulctl monitor"; "?" when it cannot be read.
+std::string process_command(const std::string& pid);
+
 /// The device's canonical path (symlinks resolved), or the path itself when it does not exist.
 std::string canonical_device(const std::string& device);
 

@@ -95,9 +95,6 @@ struct PortInfo {
   std::string role;  ///< e.g. "CANable2 (slcan firmware)", "ESP32-S3 USB-Serial/JTAG (IO board)", or empty
 };
 
-/// What a USB vendor/product pair is on this bench, or "" when unknown.
-std::string recognise_usb_device(int vid, int pid);
-
 /// Lists serial ports via libserialport (real devices only; ptys are not listed).
 std::vector<PortInfo> list_serial_ports();
 
