@@ -80,14 +80,15 @@ class SocketCanLink final : public CanLink {
                                     name_));
       throw LinkError(LinkError::Kind::io, fmt::format("{}: cannot create a CAN socket: {}", name_, std::strerror(e)));
     }
-    const unsigned index = ::if_nametoindex(name_.c_str());
-    if (index == 0) {
+    const auto fail = [this](LinkError::Kind kind, const std::string& text) {
       ::close(fd_);
-      throw LinkError(LinkError::Kind::not_found,
-                      fmt::format("{}: no such CAN interface: plug the CANable2 (candleLight) in, then "
-                                  "sudo ip link set {} up type can bitrate 500000",
-                                  name_, name_));
-    }
+      return LinkError(kind, text);
+    };
+    const unsigned index = ::if_nametoindex(name_.c_str());
+    if (index == 0)
+      throw fail(LinkError::Kind::not_found, fmt::format("{}: no such CAN interface: plug the CANable2 (candleLight) "
+                                                         "in, then sudo ip link set {} up type can bitrate 500000",
+                                                         name_, name_));
     const can_err_mask_t err_mask = CAN_ERR_MASK;
     ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask);
     const int one = 1;
@@ -100,18 +101,13 @@ class SocketCanLink final : public CanLink {
     sockaddr_can addr{};
     addr.can_family = AF_CAN;
     addr.can_ifindex = static_cast<int>(index);
-    if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-      const int e = errno;
-      ::close(fd_);
-      throw LinkError(LinkError::Kind::io, fmt::format("{}: cannot bind: {}", name_, std::strerror(e)));
-    }
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0)
+      throw fail(LinkError::Kind::io, fmt::format("{}: cannot bind: {}", name_, std::strerror(errno)));
     ifreq ifr{};
     std::snprintf(ifr.ifr_name, IFNAMSIZ, "%s", name_.c_str());
-    if (::ioctl(fd_, SIOCGIFFLAGS, &ifr) == 0 && !(ifr.ifr_flags & IFF_UP)) {
-      ::close(fd_);
-      throw LinkError(LinkError::Kind::down,
-                      fmt::format("{}: interface is down: sudo ip link set {} up type can bitrate 500000", name_, name_));
-    }
+    if (::ioctl(fd_, SIOCGIFFLAGS, &ifr) == 0 && !(ifr.ifr_flags & IFF_UP))
+      throw fail(LinkError::Kind::down,
+                 fmt::format("{}: interface is down: sudo ip link set {} up type can bitrate 500000", name_, name_));
   }
   ~SocketCanLink() override { ::close(fd_); }
 
@@ -307,15 +303,12 @@ void parse_linkinfo(const rtattr* nest, CanInterfaceInfo& info) {
           std::memcpy(&bt, RTA_DATA(d), sizeof bt);
           if (bt.bitrate != 0) info.bitrate = bt.bitrate;
         } else if (d->rta_type == IFLA_CAN_STATE && RTA_PAYLOAD(d) >= sizeof(std::uint32_t)) {
+          // Indexed by CAN_STATE_ERROR_ACTIVE .. CAN_STATE_BUS_OFF; stopped (interface down) and sleeping stay unknown.
+          constexpr ControllerState kStates[] = {ControllerState::active, ControllerState::warning,
+                                                 ControllerState::passive, ControllerState::bus_off};
           std::uint32_t st = 0;
           std::memcpy(&st, RTA_DATA(d), sizeof st);
-          switch (st) {
-            case CAN_STATE_ERROR_ACTIVE: info.state = ControllerState::active; break;
-            case CAN_STATE_ERROR_WARNING: info.state = ControllerState::warning; break;
-            case CAN_STATE_ERROR_PASSIVE: info.state = ControllerState::passive; break;
-            case CAN_STATE_BUS_OFF: info.state = ControllerState::bus_off; break;
-            default: break;  // stopped (interface down), sleeping
-          }
+          if (st <= CAN_STATE_BUS_OFF) info.state = kStates[st];
         }
       }
     }
