@@ -88,9 +88,7 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
 
 int run_console(const ConsoleOptions& opt) {
   const auto timeout = parse_duration(opt.timeout);
-  saul::host::SerialSettings settings;
-  settings.baud = opt.baud;
-  auto port = saul::host::open_shared_serial(opt.port, settings);
+  auto port = saul::host::open_shared_serial(opt.port, {.baud = opt.baud});
   std::string pending;
   if (!opt.command.empty())
     return one_command(opt, *port, fmt::format("{}", fmt::join(opt.command, " ")), timeout, pending);

@@ -344,9 +344,8 @@ int run_monitor(const MonitorOptions& opt) {
       }
     }
   }
-  const bool had_screen = screen != nullptr;
   screen.reset();  // back to the normal terminal before the summary
-  if (had_screen) {
+  if (keys) {  // there was a view
     const auto st = link->stats();
     const double secs = duration<double>(steady_clock::now() - start).count();
     fmt::print("monitor: {:.1f} s on {}, {} frames, last state {}\n", secs, link->name(), tm.frames,

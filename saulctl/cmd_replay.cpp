@@ -42,15 +42,20 @@ struct ReplayCliOptions {
 
 std::string micros(std::uint64_t ns) { return fmt::format("{:.0f} us", static_cast<double>(ns) / 1e3); }
 
-nlohmann::json lateness_json(const saul::host::LatenessStats& l, const char* unit) {
-  return {{unit, l.count()},
-          {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
-          {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
-          {"max_us", static_cast<double>(l.max_ns()) / 1e3},
-          {"later_than_1ms", l.over_1ms()}};
-}
-
-void print_lateness(const saul::host::LatenessStats& l, const char* unit) {
+/// The final report with how late the `unit`s left: `j` on stdout for --json, else `line` on stderr.
+void print_report(bool json, nlohmann::json j, const std::string& line, const saul::host::LatenessStats& l,
+                  const char* unit) {
+  if (json) {
+    if (l.count() > 0)
+      j["lateness"] = {{unit, l.count()},
+                       {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
+                       {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
+                       {"max_us", static_cast<double>(l.max_ns()) / 1e3},
+                       {"later_than_1ms", l.over_1ms()}};
+    fmt::print("{}\n", saul::host::json_line(j));
+    return;
+  }
+  fmt::print(stderr, "{}", line);
   if (l.count() > 0)
     fmt::print(stderr, "replay: lateness p50 {}, p99 {}, max {}; {} of {} {} later than 1 ms\n",
                micros(l.percentile_ns(50)), micros(l.percentile_ns(99)), micros(l.max_ns()), l.over_1ms(), l.count(),
@@ -141,45 +146,40 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   } catch (const SerialError& e) {
     status = report_error(e);
   }
-  const auto& l = report.lateness;
-  if (opt.json) {
-    nlohmann::json j{{"file", opt.file},
-                     {"link", spec.text()},
-                     {"captured_link", report.link},
-                     {"protocol", std::string(to_string(report.protocol))},
-                     {"protocol_guessed", link->guessed},
-                     {"passes", report.passes},
-                     {"chunks", report.chunks},
-                     {"bytes", report.bytes},
-                     {"writes", report.writes},
-                     {"bytes_sent", report.bytes_sent},
-                     {"frames", report.frames},
-                     {"motion_dropped", report.motion_dropped},
-                     {"motion_dropped_bytes", report.motion_bytes},
-                     {"motion_dropped_by_type", report.motion_by_type},
-                     {"motion_sent", report.motion_sent},
-                     {"other_links", report.other_links},
-                     {"corrupt", report.corrupt},
-                     {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                     {"stopped", report.stopped}};
-    if (l.count() > 0) j["lateness"] = lateness_json(l, "chunks");
-    fmt::print("{}\n", saul::host::json_line(j));
-  } else {
-    const std::string motion =
-        options.allow_motion
-            ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
-            : fmt::format("not sent: {} message(s) that can move motors{}", report.motion_dropped,
-                          report.motion_dropped
-                              ? fmt::format(" ({}; {} bytes)", format_motion_by_type(report.motion_by_type),
-                                            report.motion_bytes)
-                              : std::string());
-    fmt::print(stderr, "replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
-                       "chunks of other links, {} corrupt records\n",
-               report.writes, report.chunks, report.bytes_sent, report.bytes,
-               static_cast<double>(report.elapsed_ns) / 1e9, report.passes, report.stopped ? ", stopped early" : "",
-               motion, report.other_links, report.corrupt);
-    print_lateness(l, "chunks");
-  }
+  const std::string motion =
+      options.allow_motion
+          ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
+          : fmt::format("not sent: {} message(s) that can move motors{}", report.motion_dropped,
+                        report.motion_dropped
+                            ? fmt::format(" ({}; {} bytes)", format_motion_by_type(report.motion_by_type),
+                                          report.motion_bytes)
+                            : std::string());
+  print_report(opt.json,
+               {{"file", opt.file},
+                {"link", spec.text()},
+                {"captured_link", report.link},
+                {"protocol", std::string(to_string(report.protocol))},
+                {"protocol_guessed", link->guessed},
+                {"passes", report.passes},
+                {"chunks", report.chunks},
+                {"bytes", report.bytes},
+                {"writes", report.writes},
+                {"bytes_sent", report.bytes_sent},
+                {"frames", report.frames},
+                {"motion_dropped", report.motion_dropped},
+                {"motion_dropped_bytes", report.motion_bytes},
+                {"motion_dropped_by_type", report.motion_by_type},
+                {"motion_sent", report.motion_sent},
+                {"other_links", report.other_links},
+                {"corrupt", report.corrupt},
+                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
+                {"stopped", report.stopped}},
+               fmt::format("replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
+                           "chunks of other links, {} corrupt records\n",
+                           report.writes, report.chunks, report.bytes_sent, report.bytes,
+                           static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
+                           report.stopped ? ", stopped early" : "", motion, report.other_links, report.corrupt),
+               report.lateness, "chunks");
   return status;
 }
 
@@ -272,29 +272,25 @@ int run_replay(const ReplayCliOptions& opt) {
   } catch (const LinkError& e) {
     status = report_error(e);
   }
-  const auto& l = report.lateness;
-  if (opt.json) {
-    nlohmann::json j{{"file", opt.file},
-                     {"link", link->name()},
-                     {"passes", report.passes},
-                     {"frames", report.frames},
-                     {"sent", report.sent},
-                     {"filtered", report.filtered},
-                     {"motion_dropped", report.motion_dropped},
-                     {"error_frames", report.error_frames},
-                     {"corrupt", report.corrupt},
-                     {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                     {"stopped", report.stopped}};
-    if (l.count() > 0) j["lateness"] = lateness_json(l, "frames");
-    fmt::print("{}\n", saul::host::json_line(j));
-  } else {
-    fmt::print(stderr, "replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} that "
-                       "can move motors{}, {} error frames, {} corrupt records\n",
-               report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
-               report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
-               report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames, report.corrupt);
-    print_lateness(l, "frames");
-  }
+  print_report(opt.json,
+               {{"file", opt.file},
+                {"link", link->name()},
+                {"passes", report.passes},
+                {"frames", report.frames},
+                {"sent", report.sent},
+                {"filtered", report.filtered},
+                {"motion_dropped", report.motion_dropped},
+                {"error_frames", report.error_frames},
+                {"corrupt", report.corrupt},
+                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
+                {"stopped", report.stopped}},
+               fmt::format("replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} "
+                           "that can move motors{}, {} error frames, {} corrupt records\n",
+                           report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
+                           report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
+                           report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames,
+                           report.corrupt),
+               report.lateness, "frames");
   return status;
 }
 
