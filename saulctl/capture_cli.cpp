@@ -3,10 +3,8 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
-#include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <vector>
 
 #include "commands.hpp"
 #include "saulproto/core/quantity.hpp"
@@ -36,8 +34,7 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
     return false;
   fmt::print(stderr,
              "saulctl {}: {}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; "
-             "save it to a file first (... > run.log)\n",
-             verb, file, verb, reads);
+             "save it to a file first (... > run.log)\n", verb, file, verb, reads);
   return true;
 }
 
@@ -65,15 +62,10 @@ std::uint64_t parse_size_option(const std::string& option, const std::string& te
 
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options) {
   saul::host::SerialReadOptions r;
-  r.protocol = fallback_protocol(options);
+  if (!options.protocol.empty()) r.protocol = saul::host::serial_protocol_from_name(options.protocol);
   if (!options.samplerate.empty()) r.samplerate_hz = parse_rate_hz(options.samplerate);
   if (!options.input_format.empty()) r.format = saul::host::capture_format_from_name(options.input_format);
   return r;
-}
-
-std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options) {
-  if (options.protocol.empty()) return std::nullopt;
-  return saul::host::serial_protocol_from_name(options.protocol);
 }
 
 Progress::Progress(std::string verb, bool stdout_carries_records)

@@ -24,32 +24,26 @@ struct SerialCliOptions {
 
 /// Adds --protocol, --samplerate and --input-format to a verb.
 void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options);
-/// The reader options they give (the forced format included); throws CLI::ValidationError for a bad sample rate.
+/// The reader options they give (the forced format, and .protocol for links whose capture names none); throws
+/// CLI::ValidationError for a bad sample rate.
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options);
-/// The protocol for links whose capture names none, when --protocol was given.
-std::optional<saul::host::SerialProtocol> fallback_protocol(const SerialCliOptions& options);
-/// For a verb that reads its capture more than once (replay: what it will send, then each pass; plot: the time
-/// range and panels, then the points): prints why a file that can be read only once (a pipe, a process
-/// substitution, "-" on a pipe) will not do and returns true. A file that does not exist or a directory is left to
-/// open_capture() to name.
+/// For a verb that reads its capture more than once (replay, plot): prints why a file that can be read only once (a
+/// pipe, "-" on a pipe) will not do and returns true. A missing file or a directory is left to open_capture().
 bool refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads);
 /// "10M", "10MHz", "200k", "1000000", "1e6" -> Hz. Throws CLI::ValidationError.
 std::uint64_t parse_rate_hz(const std::string& text);
 
-/// From what size decode and stats put the second core to work on a file: a candump, pcap or pcapng file of this
-/// size and more is cut into blocks worked on both cores, another format is read on a thread of its own. Below
-/// 4 MiB (~20 ms of work) a thread costs more than it saves; tests give 1 to check both cores give the same bytes.
+/// From what size decode and stats put the second core to work on a file (blocks on both cores, or a reading
+/// thread): below 4 MiB (~20 ms of work) a thread costs more than it saves; tests give 1.
 inline constexpr const char* kParallelFrom = "4MiB";
 /// Adds --parallel-from SIZE (default kParallelFrom) to a verb.
 void add_parallel_from_option(CLI::App* cmd, std::string& size);
 /// Bytes of a size option ("4MiB", "64k", "1"); throws CLI::ValidationError naming `option`.
 std::uint64_t parse_size_option(const std::string& option, const std::string& text);
 
-/// A progress line on stderr for long passes over a capture file, redrawn in place at most 4 times a second:
-///   decode: 42% of 2.8 GB, 12 345 678 records, 3.1 s
-/// Only when stderr is a terminal and, for a verb that prints records to stdout, stdout is not (output redirected
-/// to a file, as for a 10 GB log); nothing for the first half second, so short runs stay quiet. $SAUL_PROGRESS=0
-/// turns it off, =1 forces it on (redrawn at every check: for tests).
+/// A progress line on stderr ("decode: 42% of 2.8 GB, 12 345 678 records, 3.1 s"), redrawn at most 4 times a
+/// second after the first half second; only when stderr is a terminal and, for a verb that prints records to
+/// stdout, stdout is not. $SAUL_PROGRESS=0 turns it off, =1 forces it on (redrawn at every check: for tests).
 class Progress {
  public:
   Progress(std::string verb, bool stdout_carries_records);
@@ -83,9 +77,8 @@ class Progress {
 /// first so that the message gets a line of its own (the progress line comes back at its next draw).
 std::function<void(const saul::host::CaptureError&)> corrupt_reporter(const std::string& path, Progress* progress);
 
-/// Reads every chunk of a serial capture, drawing `progress`: a corrupt line is reported on stderr ("saulctl VERB:
-/// FILE:LINE:COL: what (line skipped)") and counted in `corrupt`, every other chunk handed to `on_chunk` (decode
-/// and convert alike).
+/// Reads every chunk of a serial capture, drawing `progress`: a corrupt line is reported (corrupt_reporter) and
+/// counted in `corrupt`, every other chunk handed to `on_chunk`.
 void read_serial_chunks(const std::string& path, saul::host::SerialCaptureReader& reader,
                         ::saulctl::Progress& progress, std::uint64_t& corrupt,
                         const std::function<void(const saul::host::SerialChunk&)>& on_chunk);

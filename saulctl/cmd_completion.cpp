@@ -29,12 +29,7 @@ std::string value_kind(const CLI::Option& opt) {
   std::string pname = opt.get_positional() ? opt.get_name(true) : "";
   for (auto& c : pname) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));  // "LINK", "IN"
   auto named = [&](std::initializer_list<const char*> names) {
-    for (const char* n : names) {
-      if (pname == n) return true;
-      for (const auto& l : opt.get_lnames())
-        if (l == n) return true;
-    }
-    return false;
+    return std::any_of(names.begin(), names.end(), [&](const char* n) { return pname == n || opt.check_lname(n); });
   };
   const std::string& what = opt.get_description();
   if (named({"link", "to"})) return what.find("serial:") != std::string::npos ? "link" : "canlink";

@@ -79,8 +79,7 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
     else if (reply.end == Reply::End::error) say("{}: {}", port.path(), reply.final_line);
     else
       say("{}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
-          "and is the board running? try 'saulctl ports')",
-          port.path(), line, timeout.count());
+          "and is the board running? try 'saulctl ports')", port.path(), line, timeout.count());
   }
   std::fflush(stdout);
   return reply.end == Reply::End::ok ? kOk : reply.end == Reply::End::error ? kFailure : kTimeout;
@@ -88,9 +87,7 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
 
 int run_console(const ConsoleOptions& opt) {
   const auto timeout = parse_duration(opt.timeout);
-  saul::host::SerialSettings settings;
-  settings.baud = opt.baud;
-  auto port = saul::host::open_shared_serial(opt.port, settings);
+  auto port = saul::host::open_shared_serial(opt.port, {.baud = opt.baud});
   std::string pending;
   if (!opt.command.empty())
     return one_command(opt, *port, fmt::format("{}", fmt::join(opt.command, " ")), timeout, pending);

@@ -38,9 +38,8 @@ struct ConvertOptions {
   std::string block_size = "512K";  // --block-size
 };
 
-/// The MCAP writer's options from the command line.
-/// Chunks by size only: a file is no live recording, and chunks closed every second of a slow bus's log time would
-/// be many small ones, each with a chunk index for the summary to keep.
+/// The MCAP writer's options from the command line. Chunks by size only: closed every second of a slow bus's log
+/// time they would be many small ones, each with a chunk index for the summary to keep.
 saul::host::McapWriterOptions mcap_options(const ConvertOptions& opt) {
   return {.compression = *saul::host::mcap_compression_from_name(opt.compression),
           .zstd_level = opt.zstd_level,
@@ -68,7 +67,7 @@ int run_convert_serial(const ConvertOptions& opt, saul::host::SerialCaptureReade
     McapSerialWriter mcap(stream, mcap_options(opt),
                           {{"saulctl", SAULCTL_VERSION}, {"source", opt.in},
                            {"source_format", std::string(to_string(reader.format()))}},
-                          fallback_protocol(opt.serial));
+                          serial_read_options(opt.serial).protocol);
     read_serial_chunks(opt.in, reader, progress, corrupt, [&](const SerialChunk& chunk) {
       ++chunks;
       if (!chunk.timestamp_ns) ++untimed;
@@ -148,8 +147,7 @@ int run_convert(const ConvertOptions& opt) {
     progress.finish();
     writer.reset();
     if (opt.out != "-") std::remove(opt.out.c_str());  // half a file is no capture
-    say("cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds "
-        "any number)",
+    say("cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds any number)",
         opt.in, opt.out, e.what(), opt.out);
     return kFailure;
   }
@@ -159,8 +157,7 @@ int run_convert(const ConvertOptions& opt) {
     say("nothing could be read from {} ({} corrupt records); {} not written", opt.in, stats.corrupt, opt.out);
     return kFailure;
   }
-  for (const auto& note : conversion_losses(stats, writer->format()))
-    say("note: {}", note);
+  for (const auto& note : conversion_losses(stats, writer->format())) say("note: {}", note);
   say("{} frames from {} ({}) to {} ({}); {} corrupt records skipped", stats.frames,
       opt.in, to_string(in_format), opt.out, to_string(writer->format()), stats.corrupt);
   return kOk;

@@ -44,7 +44,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
   TimeColumn time_column(time_mode(opt.time));
   std::uint64_t messages = 0;
   std::uint64_t untimed = 0;
-  SerialCaptureDecoder decoder(fallback_protocol(opt.serial));
+  SerialCaptureDecoder decoder(serial_read_options(opt.serial).protocol);
   const SerialCaptureDecoder::Callback print = [&](const SerialChunk& chunk, SerialProtocol protocol,
                                                    const SerialMessage& m) {
     ++messages;
@@ -78,8 +78,7 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
     say("{}: {} ({}{}): {}", path, link.name, to_string(link.protocol),
         link.guessed ? ", guessed from the bytes" : "", link.counters_text);
   if (const auto& other = decoder.unlisted(); other.chunks > 0)
-    say("{}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the "
-        "capture's link column noise?)",
+    say("{}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the capture's link column noise?)",
         path, other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
   return messages;
 }
@@ -111,13 +110,12 @@ int run_decode(const DecodeOptions& opt) {
   for (const auto& path : opt.files) {
     std::uint64_t progress_records = 0;
     std::optional<std::uint64_t> total;
-    saul::host::FrameDecodeSinks sinks;
-    sinks.write = write_out;
-    sinks.corrupt = corrupt_reporter(path, &progress);
-    sinks.progress = [&](std::uint64_t n, std::uint64_t bytes) {
-      progress.update_many(n - progress_records, bytes, total);
-      progress_records = n;
-    };
+    saul::host::FrameDecodeSinks sinks{.write = write_out,
+                                       .corrupt = corrupt_reporter(path, &progress),
+                                       .progress = [&](std::uint64_t n, std::uint64_t bytes) {
+                                         progress.update_many(n - progress_records, bytes, total);
+                                         progress_records = n;
+                                       }};
     saul::host::TimeColumn time_column(fast.time);  // the long CSV's times
     saul::host::FrameDecodeOptions options = fast;
     if (format == "long")

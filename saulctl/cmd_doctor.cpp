@@ -294,10 +294,8 @@ void check_socketcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds w
   }
 }
 
-// ModemManager probes every new ttyACM with AT commands, which a CANable2 on slcan firmware (USB 16d0:117e) takes
-// for slcan commands. The saulctl package's udev rule (packaging/60-saulctl-canable.rules) sets
-// ID_MM_DEVICE_IGNORE on it; any rules file naming 16d0, 117e and ID_MM_DEVICE_IGNORE counts. --sysroot (for
-// tests) reads /proc and the rule folders under another root.
+// ModemManager's AT-command probe of every new ttyACM garbles a CANable2 on slcan firmware (USB 16d0:117e). Any
+// udev rules file naming 16d0, 117e and ID_MM_DEVICE_IGNORE (packaging/60-saulctl-canable.rules does) keeps it off.
 bool modemmanager_running(const std::filesystem::path& root) {
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(root / "proc", ec)) {

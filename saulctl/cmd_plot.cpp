@@ -60,21 +60,17 @@ int run_plot(const PlotOptions& opt) {
   }
   if (is_trace(opt.file)) return plot_trace(opt.file, format, output);  // a loop trace (saulctl tune record)
 
-  PlotRequest request;
-  request.id = opt.id;
+  PlotRequest request{
+      .id = opt.id, .fields = opt.fields, .max_markers = opt.max_markers, .source_name = base_name(opt.file)};
   if (!opt.id.empty() && opt.id[0] >= '0' && opt.id[0] <= '9') {
     // Ids are hex here as in every verb (docs/cli.md): 400 = 0x400.
     if (opt.id.find_first_of(":-") != std::string::npos)
       throw CLI::ValidationError("--id", "plot takes one id, not ID:MASK or a range");
     request.id = fmt::format("0x{:X}", id_filters({opt.id}).front().id);
   }
-  request.fields = opt.fields;
-  request.max_markers = opt.max_markers;
-  request.source_name = base_name(opt.file);
   // Pass 1 (time range, panels, state and fault changes) before anything is written.
-  const TelemetryPlotter plotter(request,
-                                 capture_plot_source(opt.file, serial_read_options(opt.serial),
-                                                     fallback_protocol(opt.serial)));
+  const SerialReadOptions read = serial_read_options(opt.serial);
+  const TelemetryPlotter plotter(request, capture_plot_source(opt.file, read, read.protocol));
   for (const auto& note : plotter.left_out()) say("{}", note);
 
   if (format == "svg" || format == "png" || format == "pdf") {

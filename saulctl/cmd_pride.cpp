@@ -59,23 +59,19 @@ void print_report(const PrideOptions& opt, const saul::host::PrideVcu& vcu, bool
 }
 
 int run_pride_vcu(const PrideOptions& opt) {
-  saul::pride::VcuCommand cmd;
   if (opt.speed_level < 0 || opt.speed_level > saul::pride::VcuCommand::kMaxSpeedLevel || opt.fb < -100 ||
       opt.fb > 100 || opt.lr < -100 || opt.lr > 100)
     throw CLI::ValidationError("pride", "--speed-level must be 0..14 and --fb, --lr -100..100");
-  cmd.speed_level = static_cast<std::uint8_t>(opt.speed_level);
-  cmd.forward_back = static_cast<std::int8_t>(opt.fb);
-  cmd.left_right = static_cast<std::int8_t>(opt.lr);
+  const saul::pride::VcuCommand cmd{.speed_level = static_cast<std::uint8_t>(opt.speed_level),
+                                    .forward_back = static_cast<std::int8_t>(opt.fb),
+                                    .left_right = static_cast<std::int8_t>(opt.lr)};
   const bool limited = !opt.duration.empty();
   const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
   if ((opt.fb != 0 || opt.lr != 0) &&
       !confirm_motion(opt.yes, fmt::format("drive the Pride controller on {} (FB {}, LR {})", opt.port, opt.fb, opt.lr)))
     return kUsage;
 
-  saul::host::SerialSettings settings;
-  settings.baud = saul::pride::kBaudRate;
-  settings.parity = saul::host::Parity::even;
-  auto port = saul::host::open_serial(opt.port, settings);
+  auto port = saul::host::open_serial(opt.port, {.baud = saul::pride::kBaudRate, .parity = saul::host::Parity::even});
   saul::host::SteadyVcuClock clock;
   saul::host::PrideVcu vcu(*port, clock, cmd);
   if (!opt.json)

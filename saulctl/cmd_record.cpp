@@ -87,9 +87,8 @@ saul::host::RotationOptions rotation_of(const RecordOptions& opt) {
   return r;
 }
 
-/// receive_until() with a progress line (`taken` counts `unit`s) and the writer flushed when take(wait) got nothing;
-/// after Ctrl-C what is on its way is drained. The writer is closed, complete and readable, whatever happened (a
-/// link's error is said). Returns the exit code.
+/// receive_until() with a progress line (`taken` counts `unit`s), the writer flushed, what is on its way drained
+/// after Ctrl-C, and the writer closed whatever happened (a link's error is said). Returns the exit code.
 template <class Writer, class Take>
 int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Writer& writer, Take&& take,
                  const std::uint64_t& taken, const char* unit) {
@@ -110,8 +109,7 @@ int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Write
       take_and_flush(wait);
       progress.update(taken, unit, writer.current_path(), writer.bytes_in_file());
     });
-    // After Ctrl-C what the adapter already delivered is still read and written, until it is quiet for 200 ms (at
-    // most one second; 50 ms lost bytes on a loaded machine), so frames that were on their way are not lost.
+    // After Ctrl-C what the adapter already delivered is still written, until it is quiet for 200 ms (at most 1 s).
     const auto until = steady_clock::now() + seconds(1);
     while (g_interrupted && steady_clock::now() < until && (opt.count == 0 || taken < opt.count) &&
            take_and_flush(milliseconds(200))) {

@@ -42,15 +42,20 @@ struct ReplayCliOptions {
 
 std::string micros(std::uint64_t ns) { return fmt::format("{:.0f} us", static_cast<double>(ns) / 1e3); }
 
-nlohmann::json lateness_json(const saul::host::LatenessStats& l, const char* unit) {
-  return {{unit, l.count()},
-          {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
-          {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
-          {"max_us", static_cast<double>(l.max_ns()) / 1e3},
-          {"later_than_1ms", l.over_1ms()}};
-}
-
-void print_lateness(const saul::host::LatenessStats& l, const char* unit) {
+/// The final report with how late the `unit`s left: `j` on stdout for --json, else `line` on stderr.
+void print_report(bool json, nlohmann::json j, const std::string& line, const saul::host::LatenessStats& l,
+                  const char* unit) {
+  if (json) {
+    if (l.count() > 0)
+      j["lateness"] = {{unit, l.count()},
+                       {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
+                       {"p99_us", static_cast<double>(l.percentile_ns(99)) / 1e3},
+                       {"max_us", static_cast<double>(l.max_ns()) / 1e3},
+                       {"later_than_1ms", l.over_1ms()}};
+    fmt::print("{}\n", saul::host::json_line(j));
+    return;
+  }
+  fmt::print(stderr, "{}", line);
   if (l.count() > 0)
     fmt::print(stderr, "replay: lateness p50 {}, p99 {}, max {}; {} of {} {} later than 1 ms\n",
                micros(l.percentile_ns(50)), micros(l.percentile_ns(99)), micros(l.max_ns()), l.over_1ms(), l.count(),
@@ -91,8 +96,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
     throw CLI::ValidationError(
         "--protocol", fmt::format("cannot tell which bytes of {} can move motors: the capture names no protocol and "
                                   "none could be guessed; give --protocol interboard|crsf|pride, or --allow-motion to "
-                                  "send every byte as captured",
-                                  link->name));
+                                  "send every byte as captured", link->name));
 
   const SerialReplayOptions options{.speed = can_options.speed, .loops = can_options.loops,
                                     .max_gap_ns = can_options.max_gap_ns, .allow_motion = opt.yes,
@@ -106,8 +110,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   }
   if (link->motion > 0 && !options.allow_motion && !opt.json)
     fmt::print(stderr, "replay: dropping {} message(s) that can move motors ({} per pass: {}); --allow-motion sends "
-                       "them\n",
-               link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
+                       "them\n", link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
   auto port = open_serial(spec.device, spec.serial, spec.backend);
   const std::string protocol_text =
       fmt::format("{}{}", to_string(link->protocol), link->guessed ? ", guessed from the bytes" : "");
@@ -141,63 +144,53 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   } catch (const SerialError& e) {
     status = report_error(e);
   }
-  const auto& l = report.lateness;
-  if (opt.json) {
-    nlohmann::json j{{"file", opt.file},
-                     {"link", spec.text()},
-                     {"captured_link", report.link},
-                     {"protocol", std::string(to_string(report.protocol))},
-                     {"protocol_guessed", link->guessed},
-                     {"passes", report.passes},
-                     {"chunks", report.chunks},
-                     {"bytes", report.bytes},
-                     {"writes", report.writes},
-                     {"bytes_sent", report.bytes_sent},
-                     {"frames", report.frames},
-                     {"motion_dropped", report.motion_dropped},
-                     {"motion_dropped_bytes", report.motion_bytes},
-                     {"motion_dropped_by_type", report.motion_by_type},
-                     {"motion_sent", report.motion_sent},
-                     {"other_links", report.other_links},
-                     {"corrupt", report.corrupt},
-                     {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                     {"stopped", report.stopped}};
-    if (l.count() > 0) j["lateness"] = lateness_json(l, "chunks");
-    fmt::print("{}\n", saul::host::json_line(j));
-  } else {
-    const std::string motion =
-        options.allow_motion
-            ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
-            : fmt::format("not sent: {} message(s) that can move motors{}", report.motion_dropped,
-                          report.motion_dropped
-                              ? fmt::format(" ({}; {} bytes)", format_motion_by_type(report.motion_by_type),
-                                            report.motion_bytes)
-                              : std::string());
-    fmt::print(stderr, "replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
-                       "chunks of other links, {} corrupt records\n",
-               report.writes, report.chunks, report.bytes_sent, report.bytes,
-               static_cast<double>(report.elapsed_ns) / 1e9, report.passes, report.stopped ? ", stopped early" : "",
-               motion, report.other_links, report.corrupt);
-    print_lateness(l, "chunks");
-  }
+  const std::string motion =
+      options.allow_motion
+          ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
+          : fmt::format("not sent: {} message(s) that can move motors{}", report.motion_dropped,
+                        report.motion_dropped
+                            ? fmt::format(" ({}; {} bytes)", format_motion_by_type(report.motion_by_type),
+                                          report.motion_bytes)
+                            : std::string());
+  print_report(opt.json,
+               {{"file", opt.file},
+                {"link", spec.text()},
+                {"captured_link", report.link},
+                {"protocol", std::string(to_string(report.protocol))},
+                {"protocol_guessed", link->guessed},
+                {"passes", report.passes},
+                {"chunks", report.chunks},
+                {"bytes", report.bytes},
+                {"writes", report.writes},
+                {"bytes_sent", report.bytes_sent},
+                {"frames", report.frames},
+                {"motion_dropped", report.motion_dropped},
+                {"motion_dropped_bytes", report.motion_bytes},
+                {"motion_dropped_by_type", report.motion_by_type},
+                {"motion_sent", report.motion_sent},
+                {"other_links", report.other_links},
+                {"corrupt", report.corrupt},
+                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
+                {"stopped", report.stopped}},
+               fmt::format("replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
+                           "chunks of other links, {} corrupt records\n",
+                           report.writes, report.chunks, report.bytes_sent, report.bytes,
+                           static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
+                           report.stopped ? ", stopped early" : "", motion, report.other_links, report.corrupt),
+               report.lateness, "chunks");
   return status;
 }
 
 int run_replay(const ReplayCliOptions& opt) {
   using namespace saul::host;
   ReplayOptions options;
-  if (opt.speed == "max") {
-    options.speed = 0;
-  } else {
-    std::size_t used = 0;
-    try {
-      options.speed = std::stod(opt.speed, &used);
-    } catch (...) {
-      used = 0;
-    }
-    if (used == 0 || used != opt.speed.size() || !(options.speed > 0) || options.speed > 1000)
-      throw CLI::ValidationError("--speed", "bad speed '" + opt.speed + "' (a factor such as 0.5 or 2, or max)");
+  std::size_t used = 0;  // characters std::stod took: none when it threw
+  try {
+    options.speed = opt.speed == "max" ? 0 : std::stod(opt.speed, &used);
+  } catch (const std::logic_error&) {  // not a number, or beyond a double
   }
+  if (opt.speed != "max" && (used == 0 || used != opt.speed.size() || !(options.speed > 0) || options.speed > 1000))
+    throw CLI::ValidationError("--speed", "bad speed '" + opt.speed + "' (a factor such as 0.5 or 2, or max)");
   options.loops = opt.loops;
   if (options.loops == 0) throw CLI::ValidationError("--loop", "give at least 1 pass");
   try {
@@ -224,8 +217,7 @@ int run_replay(const ReplayCliOptions& opt) {
     if (!to_serial)
       throw CLI::ValidationError("--link", fmt::format("{} holds serial bytes and {} is a CAN link: replay it onto a "
                                                      "serial port, --link serial:/dev/ttyUSB0 (the baud rate follows "
-                                                     "the capture)",
-                                                     opt.file, link_text));
+                                                     "the capture)", opt.file, link_text));
     return run_serial_replay(opt, options, std::move(opened.chunks), link_text);
   }
   if (to_serial)
@@ -244,8 +236,7 @@ int run_replay(const ReplayCliOptions& opt) {
   options.allow_motion = opt.yes;
   if (preview.motion > 0 && !opt.yes && !opt.json)
     fmt::print(stderr, "replay: dropping {} frame(s) that can move motors ({} per pass: 0x300, 0x302 balance/manual, "
-                       "VESC set commands); --allow-motion sends them\n",
-               preview.motion * opt.loops, preview.motion);
+                       "VESC set commands); --allow-motion sends them\n", preview.motion * opt.loops, preview.motion);
   const LinkSpec& spec = *resolved;
   auto link = open_can_link(spec);
   if (!opt.json)
@@ -272,29 +263,25 @@ int run_replay(const ReplayCliOptions& opt) {
   } catch (const LinkError& e) {
     status = report_error(e);
   }
-  const auto& l = report.lateness;
-  if (opt.json) {
-    nlohmann::json j{{"file", opt.file},
-                     {"link", link->name()},
-                     {"passes", report.passes},
-                     {"frames", report.frames},
-                     {"sent", report.sent},
-                     {"filtered", report.filtered},
-                     {"motion_dropped", report.motion_dropped},
-                     {"error_frames", report.error_frames},
-                     {"corrupt", report.corrupt},
-                     {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                     {"stopped", report.stopped}};
-    if (l.count() > 0) j["lateness"] = lateness_json(l, "frames");
-    fmt::print("{}\n", saul::host::json_line(j));
-  } else {
-    fmt::print(stderr, "replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} that "
-                       "can move motors{}, {} error frames, {} corrupt records\n",
-               report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
-               report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
-               report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames, report.corrupt);
-    print_lateness(l, "frames");
-  }
+  print_report(opt.json,
+               {{"file", opt.file},
+                {"link", link->name()},
+                {"passes", report.passes},
+                {"frames", report.frames},
+                {"sent", report.sent},
+                {"filtered", report.filtered},
+                {"motion_dropped", report.motion_dropped},
+                {"error_frames", report.error_frames},
+                {"corrupt", report.corrupt},
+                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
+                {"stopped", report.stopped}},
+               fmt::format("replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} "
+                           "that can move motors{}, {} error frames, {} corrupt records\n",
+                           report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
+                           report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
+                           report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames,
+                           report.corrupt),
+               report.lateness, "frames");
   return status;
 }
 

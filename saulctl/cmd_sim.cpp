@@ -29,10 +29,8 @@ int run_sim(const SimOptions& opt) {
   if (opt.no_imu) (void)world.command("imu off");  // pulled before power-on: BALANCE latches FAULT and says why
   saul::sim::PtyServer server(world);
   const auto& p = server.paths();
-  {
-    std::ofstream f(opt.paths_file);
-    f << "can=" << p.can << "\nbalance=" << p.balance << "\nio=" << p.io << "\ncontrol=" << p.control << "\n";
-  }
+  std::ofstream(opt.paths_file) << "can=" << p.can << "\nbalance=" << p.balance << "\nio=" << p.io << "\ncontrol="
+                                << p.control << "\n";
   fmt::print("saulctl sim: the simulated SAUL-TEE is running ({})\n",
              opt.speed > 0 ? fmt::format("{}x real time", opt.speed) : std::string("as fast as possible"));
   fmt::print("  CAN bus (virtual CANable2, slcan)  {}   e.g. saulctl monitor --link slcan:{}\n", p.can, p.can);

@@ -36,9 +36,8 @@ struct SniffOptions {
   bool top = false;
 };
 
-// The filters go in at open: in the kernel before the socket is bound (SocketCAN), before the first frame is
-// queued (slcan, shared links), so not one frame of another id is printed. Paced: every frame is printed, so a
-// burst waits in the adapter rather than being dropped here.
+// The filters go in at open (SocketCAN: in the kernel), so not one frame of another id is printed. Paced: every
+// frame is printed, so a burst waits in the adapter rather than being dropped here.
 std::unique_ptr<saul::host::CanLink> open_filtered(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   return saul::host::open_can_link(
       spec, {.listen_only = opt.listen_only, .filters = id_filters(opt.filters), .paced = true});
@@ -56,9 +55,8 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
                saul::host::to_string(link->timestamp_source()), shared.empty() ? "" : "; " + shared);
   }
   int status = kOk;
-  // Lines go into one buffer, written once the link has nothing more queued (or the buffer is large), not after
-  // every line: a burst of frames costs one write, a lone frame still shows at once. They are decode's lines
-  // (FrameEmitter), error frames with what they report.
+  // decode's lines (FrameEmitter), error frames with what they report, written once the link has nothing more
+  // queued (or the buffer is large): a burst of frames costs one write, a lone frame still shows at once.
   saul::host::FrameEmitter emit(opt.json ? saul::host::DecodeFormat::jsonl : saul::host::DecodeFormat::text,
                                 time_mode(opt.time));
   emit.show_error_detail();
@@ -272,9 +270,8 @@ int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       lost = e.what();  // the view stays, says so; q leaves
     }
   }
-  const bool had_screen = screen != nullptr;
   screen.reset();
-  if (had_screen && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());
+  if (keys && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());  // there was a view
   keys.reset();
   if (!lost.empty()) say("link lost: {}", lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.

@@ -16,9 +16,8 @@
 namespace saulctl {
 namespace {
 
-/// stats counts candump, pcap and pcapng files of --parallel-from bytes and more on both cores, in blocks of
-/// --block-size bytes (kStatsBlock, 1 MiB: as fast as larger ones, and a pcapng block is held whole while it is
-/// counted; tests give 64k to have many blocks from a small file).
+/// --block-size: 1 MiB is as fast as larger blocks, and a pcapng block is held whole while it is counted (tests
+/// give 64k to have many blocks from a small file).
 constexpr const char* kStatsBlock = "1MiB";
 
 struct StatsOptions {
@@ -44,7 +43,8 @@ int run_stats(const StatsOptions& opt) {
   const ReadOptions read{.parallel_from = parse_size_option("--parallel-from", opt.parallel_from),
                          .block = parse_size_option("--block-size", opt.block_size)};
 
-  OpenedCapture opened = open_capture(opt.file, serial_read_options(opt.serial));  // CaptureOpenError: main says it
+  const SerialReadOptions serial = serial_read_options(opt.serial);
+  OpenedCapture opened = open_capture(opt.file, serial);  // CaptureOpenError: main says it
 
   Progress progress("stats", false);
   SignalStats signal_stats;  // --signals: per signal count, mean, min, max in its unit
@@ -73,8 +73,8 @@ int run_stats(const StatsOptions& opt) {
     print(stats);
     return kOk;
   }
-  SerialStats stats(fallback_protocol(opt.serial));
-  SerialCaptureDecoder signal_decoder(fallback_protocol(opt.serial));  // only with --signals
+  SerialStats stats(serial.protocol);
+  SerialCaptureDecoder signal_decoder(serial.protocol);  // only with --signals
   const SerialCaptureDecoder::Callback count_signals = [&](const SerialChunk&, SerialProtocol, const SerialMessage& m) {
     signal_stats.add(signal_values(m));
   };

@@ -28,9 +28,8 @@ enum ExitCode : int {
 
 using Runner = std::function<int()>;
 
-/// The one error style of every verb: says `e` as one line (say) and gives its exit code. A check failing after
-/// parsing (CLI::ValidationError) is a usage error (2); a link's timeout, or a flash chip that never answered, is 3;
-/// anything else (a capture that cannot be opened, a link or port error, a flash error) is 1. main() calls it for
+/// The one error style of every verb: says `e` (say) and gives its exit code: 2 for a check failing after parsing
+/// (CLI::ValidationError), 3 for a link's timeout or a flash chip that never answered, else 1. main() calls it for
 /// whatever a verb throws; verbs call it for an error they carry on after.
 int report_error(const std::exception& e);
 
@@ -58,9 +57,8 @@ std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::stri
   return {cmd, options.get()};
 }
 
-/// The one way every verb tells the user something on stderr (an error, a refusal, a warning, a note): one line
-/// "saulctl VERB: message" (VERB as typed: "saulctl tune report: ..."; "saulctl: ..." before a verb is known).
-/// main() names the verb once the command line is parsed.
+/// The one way every verb tells the user something on stderr: one line "saulctl VERB: message" (VERB as typed:
+/// "saulctl tune report: ..."; "saulctl: ..." until main() names the verb once the command line is parsed).
 void set_say_verb(std::string verb_path);
 void say_line(std::string_view message);
 template <class... Args>
@@ -85,7 +83,7 @@ void add_flash_command(CLI::App& app, Runner& run);
 void add_console_command(CLI::App& app, Runner& run);
 void add_pride_command(CLI::App& app, Runner& run);
 void add_doctor_command(CLI::App& app, Runner& run);
-void add_completion_command(CLI::App& app, Runner& run);  // keep last in main(): it walks the others
+void add_completion_command(CLI::App& app, Runner& run);
 void add_dbc_command(CLI::App& app, Runner& run);
 void add_wireshark_command(CLI::App& app, Runner& run);
 void add_tune_command(CLI::App& app, Runner& run);  // tune: its subcommands below

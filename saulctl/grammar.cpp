@@ -13,25 +13,7 @@ std::string link_forms(bool serial_too) {
          (serial_too ? " | serial:/dev/ttyUSB0@460800" : "") +
          " (default: $SAUL_LINK, else ~/.config/saulctl/link)";
 }
-}  // namespace
 
-void add_link_option(CLI::App* cmd, std::string& link, bool serial_too) {
-  cmd->add_option("-l,--link", link, (serial_too ? "the link: " : "the CAN link: ") + link_forms(serial_too));
-}
-
-void add_link_option_and_positional(CLI::App* cmd, std::string& link) {
-  add_link_option(cmd, link, true);
-  auto positional = std::make_shared<std::string>();
-  cmd->add_option("LINK", *positional, "the link as a plain word, the same as --link LINK: " + link_forms(true));
-  cmd->parse_complete_callback([positional, &link] {
-    if (positional->empty()) return;
-    if (!link.empty() && link != *positional)
-      throw CLI::ValidationError("LINK", "two links given: --link " + link + " and " + *positional + "; give one");
-    link = *positional;
-  });
-}
-
-namespace {
 // "400-40F": the ids from A to B as the fewest ID:MASK blocks (each a power-of-two run aligned to its size, as a
 // CAN controller's filters match), in the width the ends are written in; "400" and "400:7F0" as parse_id_filter.
 std::vector<saul::host::CanFilter> parse_id_selection(const std::string& text) {
@@ -53,7 +35,27 @@ std::vector<saul::host::CanFilter> parse_id_selection(const std::string& text) {
   }
   return out;
 }
+
+std::string bad_duration(const std::string& text) {
+  return "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)";
+}
 }  // namespace
+
+void add_link_option(CLI::App* cmd, std::string& link, bool serial_too) {
+  cmd->add_option("-l,--link", link, (serial_too ? "the link: " : "the CAN link: ") + link_forms(serial_too));
+}
+
+void add_link_option_and_positional(CLI::App* cmd, std::string& link) {
+  add_link_option(cmd, link, true);
+  auto positional = std::make_shared<std::string>();
+  cmd->add_option("LINK", *positional, "the link as a plain word, the same as --link LINK: " + link_forms(true));
+  cmd->parse_complete_callback([positional, &link] {
+    if (positional->empty()) return;
+    if (!link.empty() && link != *positional)
+      throw CLI::ValidationError("LINK", "two links given: --link " + link + " and " + *positional + "; give one");
+    link = *positional;
+  });
+}
 
 CLI::Option* add_id_option(CLI::App* cmd, std::vector<std::string>& ids, const std::string& what, const char* name) {
   return cmd
@@ -86,12 +88,6 @@ std::vector<saul::host::CanFilter> id_filters(const std::vector<std::string>& id
   }
   return out;
 }
-
-namespace {
-std::string bad_duration(const std::string& text) {
-  return "bad duration '" + text + "' (use e.g. 500ms, 2s, 1.5 = seconds, 2m)";
-}
-}  // namespace
 
 std::chrono::milliseconds parse_duration(const std::string& text) {
   const auto us = saul::quantity::parse_duration_us(text);  // as bench suites read "500ms", "2s", "1m"

@@ -22,13 +22,15 @@ std::atomic<bool> g_interrupted{false};
 
 namespace {
 void on_signal(int) { g_interrupted = true; }
+// The shared link's notices while a view is up (they may come from the owner's serving thread).
+std::mutex g_view_notice_mu;
+std::string g_view_notice;
 }  // namespace
 
 void install_signal_handlers() {
-  struct sigaction sa {};
+  struct sigaction sa {};  // sa_flags 0, no SA_RESTART: a blocking poll returns EINTR so loops notice at once
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = 0;  // no SA_RESTART: a blocking poll returns EINTR so loops notice at once
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
@@ -56,8 +58,7 @@ std::string raise_cap_hint(const std::string& port) {
   std::string steps;
   for (int pct = 30; pct <= saul::trace::kExciteMinCapPct; pct += 10) steps += fmt::format(", {}", pct);
   return fmt::format("disarm, then 'saulctl console {} speed_limit 20'{} (one 10 % step per command, only while "
-                     "disarmed), and arm again",
-                     port, steps);
+                     "disarmed), and arm again", port, steps);
 }
 
 bool confirm_motion(bool yes, const std::string& what) {
@@ -90,12 +91,6 @@ tui::Style bus_style(saul::host::ControllerState s) {
   using tui::Style;
   return s == CS::bus_off || s == CS::passive ? Style::bad : s == CS::warning ? Style::warn : Style::normal;
 }
-
-namespace {
-// The shared link's notices while a view is up (they may come from the owner's serving thread).
-std::mutex g_view_notice_mu;
-std::string g_view_notice;
-}  // namespace
 
 ViewCommands::ViewCommands(saul::host::CanLink& link) : link_(&link) {
   saul::host::set_share_notice([](const std::string& text) {

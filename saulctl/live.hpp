@@ -6,11 +6,8 @@
 
 #include <atomic>
 #include <chrono>
-#include <functional>
-#include <memory>
 #include <optional>
 #include <string>
-#include <utility>
 
 #include "commands.hpp"
 #include "grammar.hpp"

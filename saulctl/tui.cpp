@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <utility>
 
 namespace saulctl::tui {
 
@@ -53,19 +54,12 @@ int Screen::put(int row, int col, std::string_view text, Style style) {
   if (row < 0 || row >= LINES || col >= COLS) return col;
   const int room = COLS - col;
   const int n = static_cast<int>(text.size()) < room ? static_cast<int>(text.size()) : room;
-  attr_t a = A_NORMAL;
-  short pair = 0;
-  switch (style) {
-    case Style::normal: break;
-    case Style::title: a = A_BOLD; pair = 4; break;
-    case Style::good: pair = 1; break;
-    case Style::warn: a = A_BOLD; pair = 2; break;
-    case Style::bad: a = A_BOLD; pair = 3; break;
-    case Style::dim: a = A_DIM; break;
-    case Style::inverse: a = A_REVERSE; break;
-  }
-  if (!term_->colour) pair = 0;
-  attr_set(a, pair, nullptr);
+  // Each Style's attributes and colour pair (open()), in the enum's order: normal, title (cyan), good (green),
+  // warn (yellow), bad (red), dim, inverse.
+  static const std::pair<attr_t, short> kLooks[] = {{A_NORMAL, 0}, {A_BOLD, 4}, {A_NORMAL, 1}, {A_BOLD, 2},
+                                                    {A_BOLD, 3},   {A_DIM, 0},  {A_REVERSE, 0}};
+  const auto [a, pair] = kLooks[static_cast<int>(style)];
+  attr_set(a, term_->colour ? pair : 0, nullptr);
   // The last cell of the last line cannot be written without scrolling: leave it out.
   const int len = row == LINES - 1 && col + n >= COLS ? n - 1 : n;
   if (len > 0) mvaddnstr(row, col, text.data(), len);

@@ -12,6 +12,8 @@
 namespace saulctl {
 namespace {
 
+std::string g_say_prefix = "saulctl";  // say()'s "saulctl VERB"
+
 // Optimal string alignment distance: Levenshtein plus the swap of two neighbouring letters ("jsno" -> "json").
 std::size_t typo_distance(const std::string& a, const std::string& b) {
   const std::size_t n = a.size(), m = b.size();
@@ -110,10 +112,6 @@ std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** 
   return args;
 }
 
-namespace {
-std::string g_say_prefix = "saulctl";
-}  // namespace
-
 void set_say_verb(std::string verb_path) { g_say_prefix = std::move(verb_path); }
 
 void say_line(std::string_view message) { fmt::print(stderr, "{}: {}\n", g_say_prefix, message); }
@@ -143,8 +141,7 @@ int report_usage_error(const CLI::App& app, const CLI::ParseError& e) {
     const std::string name = extra.substr(0, extra.find('='));
     message = fmt::format("unknown option {}{}", name, did_you_mean(name, option_names(*owner), ""));
   } else if (owner && !verb_names(*owner).empty()) {
-    message = fmt::format("unknown verb '{}'{}", extra,
-                          did_you_mean(extra, verb_names(*owner), "'"));
+    message = fmt::format("unknown verb '{}'{}", extra, did_you_mean(extra, verb_names(*owner), "'"));
   } else if (owner) {
     message = fmt::format("unexpected argument '{}'", extra);
   } else if (dynamic_cast<const CLI::RequiredError*>(&e) && chain.back()->get_require_subcommand_min() > 0 &&
