@@ -34,7 +34,8 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
     return false;
   fmt::print(stderr,
              "saulctl {}: {}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; "
-             "save it to a file first (... > run.log)\n", verb, file, verb, reads);
+             "save it to a file first (... > run.log)\n",
+             verb, file, verb, reads);
   return true;
 }
 

@@ -72,7 +72,8 @@ int report(const CommandOptions& opt, const std::string& what, const saul::host:
     say("{}: {} - {}", what, saul::saulcan::to_string(out.result), hint_for(out.result, command));
   } else {
     say("{}: no acknowledgement within {} ms on {} (is the BALANCE board powered and on the bus? "
-        "'saulctl sniff' shows the traffic)", what, timeout.count(), link.name());
+        "'saulctl sniff' shows the traffic)",
+        what, timeout.count(), link.name());
   }
   if (out.status == CommandOutcome::Status::applied) return differs ? kFailure : kOk;
   return out.status == CommandOutcome::Status::rejected ? kFailure : kTimeout;
@@ -100,8 +101,9 @@ int run_mode(const CommandOptions& opt) {
 }
 
 int run_estop(const CommandOptions& opt) {
-  // No confirmation, no delay: open (or join the saulctl holding the adapter), send, then report BALANCE's answer.
-  // Timed: command start -> the write to the adapter (measured by the owner when the link is shared).
+  // No confirmation, no delay: open (or join the saulctl that holds the adapter), send, then report whether
+  // BALANCE acknowledged. The frame's way out is timed: command start -> the write to the adapter (measured by the
+  // owner when the link is shared).
   const auto started = steady_clock::now();
   const auto timeout = parse_duration(opt.timeout);
   auto link = saul::host::open_can_link(resolve_link(opt.link));
@@ -113,7 +115,8 @@ int run_estop(const CommandOptions& opt) {
   if (!opt.json) {
     const auto how = link->sharing();
     fmt::print(stderr, "estop: written to the adapter {:.2f} ms after the command started ({:.2f} ms opening, "
-                       "{:.2f} ms sending{})\n", open_ms + send_ms, open_ms, send_ms, how.empty() ? "" : "; " + how);
+                       "{:.2f} ms sending{})\n",
+               open_ms + send_ms, open_ms, send_ms, how.empty() ? "" : "; " + how);
   }
   const auto out = client.wait_for_ack(0x02, std::nullopt, t0, timeout);
   std::optional<saul::host::StateCheck> state;

@@ -79,7 +79,8 @@ int one_command(const ConsoleOptions& opt, saul::host::SerialPort& port, const s
     else if (reply.end == Reply::End::error) say("{}: {}", port.path(), reply.final_line);
     else
       say("{}: no 'ok' or 'error:' reply to '{}' within {} ms (is this the board's USB console, "
-          "and is the board running? try 'saulctl ports')", port.path(), line, timeout.count());
+          "and is the board running? try 'saulctl ports')",
+          port.path(), line, timeout.count());
   }
   std::fflush(stdout);
   return reply.end == Reply::End::ok ? kOk : reply.end == Reply::End::error ? kFailure : kTimeout;

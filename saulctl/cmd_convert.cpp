@@ -147,7 +147,8 @@ int run_convert(const ConvertOptions& opt) {
     progress.finish();
     writer.reset();
     if (opt.out != "-") std::remove(opt.out.c_str());  // half a file is no capture
-    say("cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds any number)",
+    say("cannot write {} as {}: {}; {} not written (a candump log or python-can CSV holds "
+        "any number)",
         opt.in, opt.out, e.what(), opt.out);
     return kFailure;
   }

@@ -78,7 +78,8 @@ std::uint64_t decode_serial(const DecodeOptions& opt, const std::string& format,
     say("{}: {} ({}{}): {}", path, link.name, to_string(link.protocol),
         link.guessed ? ", guessed from the bytes" : "", link.counters_text);
   if (const auto& other = decoder.unlisted(); other.chunks > 0)
-    say("{}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the capture's link column noise?)",
+    say("{}: {} chunks ({} bytes) on links beyond the first {}: not decoded (is the "
+        "capture's link column noise?)",
         path, other.chunks, other.bytes, SerialCaptureDecoder::kMaxLinks);
   return messages;
 }

@@ -158,7 +158,8 @@ int check_robot(const FlashOptions& opt) {
   }
   if (ack.status == saul::host::CommandOutcome::Status::rejected) {
     say("robot check: the robot refused mode off ({}): not flashing; see why with 'saulctl monitor "
-        "--link {}', or hold the robot and use --skip-robot-check", saul::saulcan::to_string(ack.result), link->name());
+        "--link {}', or hold the robot and use --skip-robot-check",
+        saul::saulcan::to_string(ack.result), link->name());
     return kFailure;
   }
   // The acknowledgement says the command was taken; the telemetry says what the robot is doing now.
@@ -173,12 +174,14 @@ int check_robot(const FlashOptions& opt) {
   }
   if (!state) {
     say("robot check: mode off was acknowledged but no 0x400 telemetry came within {} ms on {}: "
-        "cannot confirm the robot is OFF (use --skip-robot-check to flash anyway)", timeout.count(), link->name());
+        "cannot confirm the robot is OFF (use --skip-robot-check to flash anyway)",
+        timeout.count(), link->name());
     return kTimeout;
   }
   if (*state != saul::saulcan::RobotState::off && *state != saul::saulcan::RobotState::estop) {
     say("robot check: the robot still reports state {} after mode off: not flashing; bring it to rest "
-        "and disarm it (saulctl mode off, or its RC kill switch), then run again", saul::saulcan::to_string(*state));
+        "and disarm it (saulctl mode off, or its RC kill switch), then run again",
+        saul::saulcan::to_string(*state));
     return kFailure;
   }
   fmt::print("robot check: state {} on {} (0x400 telemetry)\n", saul::saulcan::to_string(*state), link->name());
@@ -299,7 +302,8 @@ int run_reset(const FlashOptions& opt) {
   } catch (const FlashError& e) {
     if (e.kind() != FlashError::Kind::no_answer) throw;
     fmt::print("no bootloader answered on {}: restarted the {}'s application by the USB-Serial/JTAG reset, "
-               "(DTR,RTS) {}\n", path, board_name(style), run_lines(saul::host::hard_reset_sequence(style)));
+               "(DTR,RTS) {}\n",
+               path, board_name(style), run_lines(saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   flasher.reset_to_app();
@@ -374,7 +378,8 @@ int run_flash(const FlashOptions& opt) {
         saul::host::wait_for_usb_port(info->serial_number, info->usb_vid, path, seconds(10), saul::host::sleep_real);
     if (back.empty())
       say("warning: the IO board (serial {}) did not come back on USB within 10 s: unplug "
-          "and replug it; the flash itself is verified", info->serial_number);
+          "and replug it; the flash itself is verified",
+          info->serial_number);
     else
       fmt::print("the IO board is back on {}{}\n", back, back == path ? "" : " (a new name)");
   }

@@ -188,7 +188,8 @@ void draw(tui::Screen& s, Telemetry& tm, const saul::host::CanLink& link, const 
     s.put(2, 0, "LINK LOST: " + lost, Style::bad);
   } else if (tm.last_frame && now - *tm.last_frame > seconds(1)) {
     s.put(2, 0, fmt::format("no frame for {} s: is the robot powered and on the bus?",
-                            duration_cast<seconds>(now - *tm.last_frame).count()), Style::warn);
+                            duration_cast<seconds>(now - *tm.last_frame).count()),
+          Style::warn);
   } else if (!tm.last_frame) {
     s.put(2, 0, "no frame yet", Style::warn);
   }
@@ -201,14 +202,16 @@ void draw(tui::Screen& s, Telemetry& tm, const saul::host::CanLink& link, const 
     s.put(4, kRateColumn, fmt::format("0x400 {:3.0f} Hz {}{}", tm.sa.rate(now), tm.sa.age(now), a_stale ? " STALE" : ""),
           a_stale ? Style::warn : Style::dim);
     s.put(5, 0, fmt::format("pitch {:+7.2f} deg   pid_out {:+5}   speed {:+6} mm/s", tm.a->pitch_x100 / 100.0,
-                            tm.a->pid_out, tm.a->speed_mmps), a_stale ? Style::dim : Style::normal);
+                            tm.a->pid_out, tm.a->speed_mmps),
+          a_stale ? Style::dim : Style::normal);
   } else {
     s.put(4, c, "no telemetry A (0x400) yet", Style::warn);
   }
   const bool b_stale = tm.sb.stale(now);
   if (tm.b) {
     s.put(6, 0, fmt::format("wheels L {:+6} R {:+6} rpm   battery {:5.2f} V", tm.b->vesc_l_rpm, tm.b->vesc_r_rpm,
-                            tm.b->battery_mv / 1000.0), b_stale ? Style::dim : Style::normal);
+                            tm.b->battery_mv / 1000.0),
+          b_stale ? Style::dim : Style::normal);
     s.put(6, kRateColumn, fmt::format("0x401 {:3.0f} Hz {}{}", tm.sb.rate(now), tm.sb.age(now), b_stale ? " STALE" : ""),
           b_stale ? Style::warn : Style::dim);
     c = s.put(7, 0, "faults ", Style::dim);

@@ -96,7 +96,8 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
     throw CLI::ValidationError(
         "--protocol", fmt::format("cannot tell which bytes of {} can move motors: the capture names no protocol and "
                                   "none could be guessed; give --protocol interboard|crsf|pride, or --allow-motion to "
-                                  "send every byte as captured", link->name));
+                                  "send every byte as captured",
+                                  link->name));
 
   const SerialReplayOptions options{.speed = can_options.speed, .loops = can_options.loops,
                                     .max_gap_ns = can_options.max_gap_ns, .allow_motion = opt.yes,
@@ -110,7 +111,8 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   }
   if (link->motion > 0 && !options.allow_motion && !opt.json)
     fmt::print(stderr, "replay: dropping {} message(s) that can move motors ({} per pass: {}); --allow-motion sends "
-                       "them\n", link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
+                       "them\n",
+               link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
   auto port = open_serial(spec.device, spec.serial, spec.backend);
   const std::string protocol_text =
       fmt::format("{}{}", to_string(link->protocol), link->guessed ? ", guessed from the bytes" : "");
@@ -184,13 +186,18 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
 int run_replay(const ReplayCliOptions& opt) {
   using namespace saul::host;
   ReplayOptions options;
-  std::size_t used = 0;  // characters std::stod took: none when it threw
-  try {
-    options.speed = opt.speed == "max" ? 0 : std::stod(opt.speed, &used);
-  } catch (const std::logic_error&) {  // not a number, or beyond a double
+  if (opt.speed == "max") {
+    options.speed = 0;
+  } else {
+    std::size_t used = 0;
+    try {
+      options.speed = std::stod(opt.speed, &used);
+    } catch (...) {
+      used = 0;
+    }
+    if (used == 0 || used != opt.speed.size() || !(options.speed > 0) || options.speed > 1000)
+      throw CLI::ValidationError("--speed", "bad speed '" + opt.speed + "' (a factor such as 0.5 or 2, or max)");
   }
-  if (opt.speed != "max" && (used == 0 || used != opt.speed.size() || !(options.speed > 0) || options.speed > 1000))
-    throw CLI::ValidationError("--speed", "bad speed '" + opt.speed + "' (a factor such as 0.5 or 2, or max)");
   options.loops = opt.loops;
   if (options.loops == 0) throw CLI::ValidationError("--loop", "give at least 1 pass");
   try {
@@ -217,7 +224,8 @@ int run_replay(const ReplayCliOptions& opt) {
     if (!to_serial)
       throw CLI::ValidationError("--link", fmt::format("{} holds serial bytes and {} is a CAN link: replay it onto a "
                                                      "serial port, --link serial:/dev/ttyUSB0 (the baud rate follows "
-                                                     "the capture)", opt.file, link_text));
+                                                     "the capture)",
+                                                     opt.file, link_text));
     return run_serial_replay(opt, options, std::move(opened.chunks), link_text);
   }
   if (to_serial)
@@ -236,7 +244,8 @@ int run_replay(const ReplayCliOptions& opt) {
   options.allow_motion = opt.yes;
   if (preview.motion > 0 && !opt.yes && !opt.json)
     fmt::print(stderr, "replay: dropping {} frame(s) that can move motors ({} per pass: 0x300, 0x302 balance/manual, "
-                       "VESC set commands); --allow-motion sends them\n", preview.motion * opt.loops, preview.motion);
+                       "VESC set commands); --allow-motion sends them\n",
+               preview.motion * opt.loops, preview.motion);
   const LinkSpec& spec = *resolved;
   auto link = open_can_link(spec);
   if (!opt.json)

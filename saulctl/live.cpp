@@ -58,7 +58,8 @@ std::string raise_cap_hint(const std::string& port) {
   std::string steps;
   for (int pct = 30; pct <= saul::trace::kExciteMinCapPct; pct += 10) steps += fmt::format(", {}", pct);
   return fmt::format("disarm, then 'saulctl console {} speed_limit 20'{} (one 10 % step per command, only while "
-                     "disarmed), and arm again", port, steps);
+                     "disarmed), and arm again",
+                     port, steps);
 }
 
 bool confirm_motion(bool yes, const std::string& what) {
