@@ -113,11 +113,11 @@ int run_plot(const PlotOptions& opt) {
         plotter.points_span_s(), where);
   }
   const auto& changes = plotter.changes();
-  if (format != "csv" && changes.total() > 0) {
-    if (changes.kept().size() == changes.total())
-      say("{} marked", plural(changes.total(), "state/fault change"));
+  if (format != "csv" && changes.total > 0) {
+    if (changes.kept.size() == changes.total)
+      say("{} marked", plural(changes.total, "state/fault change"));
     else
-      say("{} state/fault changes, the first {} marked (--max-markers)", changes.total(), changes.kept().size());
+      say("{} state/fault changes, the first {} marked (--max-markers)", changes.total, changes.kept.size());
   }
   return kOk;
 }

@@ -46,6 +46,16 @@ std::string cadence_cells(const Cadence& c) {
                      duration_text(static_cast<double>(c.max_gap_ns)));
 }
 
+/// A stream's count and rate, and its gaps' mean and longest when it has gaps.
+nlohmann::json cadence_json(const Cadence& c) {
+  nlohmann::json j{{"count", c.count}, {"rate_hz", c.rate_hz()}};
+  if (c.gaps > 0) {
+    j["mean_gap_s"] = c.mean_gap_ns() / 1e9;
+    j["max_gap_s"] = seconds(c.max_gap_ns);
+  }
+  return j;
+}
+
 std::string stamp_text(std::uint64_t ns) {
   return fmt::format("{:010}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
 }
@@ -164,18 +174,12 @@ inline void BusStats::note_time(std::uint64_t ns) {
 }
 
 BusStats::Content BusStats::content_of(const CanFrame& f, const FrameFacts& facts) {
-  Content c;
-  c.id = f.id;
-  c.extended = f.extended;
-  c.remote = f.remote;
-  c.dlc = f.dlc;
-  c.reason = facts.reason;
-  c.name = facts.name;
-  c.bits_none = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::none));
-  c.bits_worst = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::worst_case));
-  c.bits_exact = static_cast<std::uint16_t>(c.bits_none + facts.stuff);  // can_frame_bits(f, StuffBits::exact)
-  c.timeout_ns = timeout_of({f.extended, f.id});
-  return c;
+  const auto none = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::none));
+  return {.id = f.id, .extended = f.extended, .remote = f.remote, .dlc = f.dlc, .reason = facts.reason,
+          .bits_none = none,
+          .bits_worst = static_cast<std::uint16_t>(can_frame_bits(f, StuffBits::worst_case)),
+          .bits_exact = static_cast<std::uint16_t>(none + facts.stuff),  // can_frame_bits(f, StuffBits::exact)
+          .name = facts.name, .timeout_ns = timeout_of({f.extended, f.id})};
 }
 
 // Inline: the per-frame path of add() and add_known() (stats counts every line through one of them).
@@ -457,24 +461,17 @@ std::string BusStats::text(std::string_view name) const {
 }
 
 nlohmann::json BusStats::json(std::string_view name) const {
-  nlohmann::json j;
-  j["file"] = name;
-  j["kind"] = "can";
-  j["frames"] = frames_;
-  j["corrupt"] = corrupt_;
-  j["bitrate"] = options_.bitrate;
+  nlohmann::json j{{"file", name}, {"kind", "can"}, {"frames", frames_}, {"corrupt", corrupt_},
+                   {"bitrate", options_.bitrate}, {"error_frames", error_frames_}, {"error_kinds", error_kinds_},
+                   {"decode_errors", decode_errors()}, {"decode_failures", failures_},
+                   {"load", nlohmann::json::object()}};
   if (first_ns_) {
     j["first_ns"] = *first_ns_;
     j["last_ns"] = *last_ns_;
     j["duration_s"] = seconds(*last_ns_ - *first_ns_);
   }
-  j["error_frames"] = error_frames_;
-  j["error_kinds"] = error_kinds_;
-  j["decode_errors"] = decode_errors();
-  j["decode_failures"] = failures_;
-  nlohmann::json loads = nlohmann::json::object();
   for (const auto& [iface, load] : interfaces_) {
-    loads[iface] = {{"frames", load.frames},
+    j["load"][iface] = {{"frames", load.frames},
                     {"bits_worst_case", load.bits_worst},
                     {"bits_exact", load.bits_exact},
                     {"bits_no_stuffing", load.bits_none},
@@ -485,24 +482,20 @@ nlohmann::json BusStats::json(std::string_view name) const {
                     {"peak_percent_worst_case", peak_percent(load)},
                     {"peak_at_s", seconds(load.peak_index * options_.window_ns)}};
   }
-  j["load"] = loads;
   if (const Unlisted other = unlisted_interfaces(); other.frames > 0)
     j["interfaces_not_listed"] = {{"frames", other.frames}, {"listed_at_most", kMaxInterfaces}};
   nlohmann::json ids = nlohmann::json::array();
   for (const auto& [key, s] : ids_) {
     const Cadence& c = s.cadence;
-    nlohmann::json e{{"id", key.second},
-                     {"id_hex", id_text(key.first, key.second)},
-                     {"extended", key.first},
-                     {"type", s.type},
-                     {"count", c.count},
-                     {"remote", s.remote},
-                     {"rate_hz", c.rate_hz()},
-                     {"decode_errors", s.decode_errors},
-                     {"bits_worst_case", s.bits_worst}};
+    nlohmann::json e = cadence_json(c);
+    e.update({{"id", key.second},
+              {"id_hex", id_text(key.first, key.second)},
+              {"extended", key.first},
+              {"type", s.type},
+              {"remote", s.remote},
+              {"decode_errors", s.decode_errors},
+              {"bits_worst_case", s.bits_worst}});
     if (c.gaps > 0) {
-      e["mean_gap_s"] = c.mean_gap_ns() / 1e9;
-      e["max_gap_s"] = seconds(c.max_gap_ns);
       e["max_gap_from_s"] = first_ns_ ? seconds(c.max_gap_start_ns - *first_ns_) : 0.0;
       e["jitter_s"] = c.jitter_ns() / 1e9;
     }
@@ -658,17 +651,10 @@ class LineMemo final : public CandumpLineTaker {
 
   /// What BusStats counts of a frame of `content` (with `dlc` data bytes) under `head`.
   BusStats::Content content_of(const Head& head, const Content& content, std::uint8_t dlc) const {
-    BusStats::Content c;
-    c.id = head.id;
-    c.extended = head.extended;
-    c.dlc = dlc;
-    c.reason = content.reason;
-    c.name = names_[content.name];
-    c.bits_none = head.bits_none[dlc];
-    c.bits_worst = head.bits_worst[dlc];
-    c.bits_exact = static_cast<std::uint16_t>(c.bits_none + content.stuff);
-    c.timeout_ns = head.timeout_ns;
-    return c;
+    return {.id = head.id, .extended = head.extended, .dlc = dlc, .reason = content.reason,
+            .bits_none = head.bits_none[dlc], .bits_worst = head.bits_worst[dlc],
+            .bits_exact = static_cast<std::uint16_t>(head.bits_none[dlc] + content.stuff),
+            .name = names_[content.name], .timeout_ns = head.timeout_ns};
   }
   /// A head not in the table, "IFACE ID" (`length` bytes, in `key`), from the whole line of the usual shape. (An
   /// interface with '#' gives a shorter head, but no such line is taken: the data after it must be hex digits.)
@@ -866,37 +852,19 @@ std::string SerialStats::text(std::string_view name) const {
 }
 
 nlohmann::json SerialStats::json(std::string_view name) const {
-  nlohmann::json j;
-  j["file"] = name;
-  j["kind"] = "serial";
-  j["corrupt"] = corrupt_;
-  j["decode_errors"] = decode_errors();
-  nlohmann::json links = nlohmann::json::array();
+  nlohmann::json j{{"file", name}, {"kind", "serial"}, {"corrupt", corrupt_}, {"decode_errors", decode_errors()},
+                   {"links", nlohmann::json::array()}};
   for (const auto& d : decoder_.links()) {
     const auto found = links_.find(d.name);
     if (found == links_.end()) continue;
     const Link& link = found->second;
-    nlohmann::json l;
-    l["link"] = d.name;
-    l["protocol"] = std::string(to_string(d.protocol));
-    l["protocol_guessed"] = d.guessed;
-    l["bytes"] = link.bytes;
-    l["chunks"] = link.chunks.count;
+    nlohmann::json l{{"link", d.name}, {"protocol", std::string(to_string(d.protocol))},
+                     {"protocol_guessed", d.guessed}, {"bytes", link.bytes}, {"chunks", link.chunks.count},
+                     {"decoder", d.counters_json}, {"messages", nlohmann::json::object()}};
     if (link.baud) l["baud"] = link.baud;
-    l["decoder"] = d.counters_json;
-    nlohmann::json messages = nlohmann::json::object();
-    for (const auto& [type, m] : link.messages) {
-      nlohmann::json e{{"count", m.count}, {"rate_hz", m.rate_hz()}};
-      if (m.gaps) {
-        e["mean_gap_s"] = m.mean_gap_ns() / 1e9;
-        e["max_gap_s"] = seconds(m.max_gap_ns);
-      }
-      messages[type] = e;
-    }
-    l["messages"] = messages;
-    links.push_back(std::move(l));
+    for (const auto& [type, m] : link.messages) l["messages"][type] = cadence_json(m);
+    j["links"].push_back(std::move(l));
   }
-  j["links"] = std::move(links);
   if (const auto& other = decoder_.unlisted(); other.chunks > 0)
     j["links_not_listed"] = {
         {"chunks", other.chunks}, {"bytes", other.bytes}, {"listed_at_most", SerialCaptureDecoder::kMaxLinks}};

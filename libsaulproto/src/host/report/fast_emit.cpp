@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "saulproto/core/dispatch.hpp"
+#include "saulproto/core/hex.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/report/frame_key.hpp"
@@ -12,8 +13,7 @@
 namespace saul::host {
 namespace {
 
-constexpr char kHex[] = "0123456789ABCDEF";
-
+constexpr const char* kHex = hex::kUpperDigits;
 
 /// v's last `digits` hex digits, upper case.
 char* put_hex(char* w, std::uint32_t v, int digits) {

@@ -139,12 +139,11 @@ std::string csv_quote(std::string_view s) {
 std::string c_literal(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {
-    if (c == '\n') {
-      out += "\\n";
-      continue;
-    }
     if (c == '"' || c == '\\') out += '\\';
-    out += c;
+    if (c == '\n')
+      out += "\\n";
+    else
+      out += c;
   }
   return out + '"';
 }

@@ -46,54 +46,51 @@ Pace pace_of(SerialProtocol protocol) {
 
 }  // namespace
 
+// (interboard and Pride messages through their own overloads, found by argument-dependent lookup)
 std::string name_of(const SerialMessage& message) {
-  return std::visit(detail::Overload{[](const interboard::Message& m) -> std::string { return interboard::name_of(m); },
-                             [](const CrsfMessage& m) -> std::string { return crsf::name_of(m.message); },
-                             [](const pride::Message& m) -> std::string { return pride::name_of(m); },
-                             [](const CrsfUndecoded& u) { return fmt::format("crsf_0x{:02X}", u.frame.type); }},
+  return std::visit(detail::Overload{[](const CrsfMessage& m) -> std::string { return crsf::name_of(m.message); },
+                                     [](const CrsfUndecoded& u) { return fmt::format("crsf_0x{:02X}", u.frame.type); },
+                                     [](const auto& m) -> std::string { return name_of(m); }},
                     message);
 }
 
 SignalValues signal_values(const SerialMessage& message) {
-  return std::visit(detail::Overload{[](const interboard::Message& m) { return signal_values(m); },
-                                     [](const CrsfMessage& m) { return signal_values(m.message); },
-                                     [](const pride::Message& m) { return signal_values(m); },
-                                     [](const CrsfUndecoded&) { return SignalValues{}; }},
+  return std::visit(detail::Overload{[](const CrsfMessage& m) { return signal_values(m.message); },
+                                     [](const CrsfUndecoded&) { return SignalValues{}; },
+                                     [](const auto& m) { return signal_values(m); }},
                     message);
 }
 
 std::string describe(const SerialMessage& message) {
-  return std::visit(detail::Overload{[](const interboard::Message& m) { return describe(m); },
-                             [](const CrsfMessage& m) {
-                               // The address after the name, as in the undecoded form below.
-                               std::string text = describe(m.message);
-                               const auto name_end = std::min(text.find(' '), text.size());
-                               text.insert(name_end, fmt::format(" address=0x{:02X}", m.address));
-                               return text;
-                             },
-                             [](const pride::Message& m) { return describe(m); },
-                             [](const CrsfUndecoded& u) {
-                               return fmt::format("!{} crsf address=0x{:02X} type=0x{:02X} payload={:02X}",
-                                                  to_string(u.reason), u.frame.address, u.frame.type,
-                                                  fmt::join(u.frame.payload(), ""));
-                             }},
+  return std::visit(detail::Overload{[](const CrsfMessage& m) {
+                                       // The address after the name, as in the undecoded form below.
+                                       std::string text = describe(m.message);
+                                       const auto name_end = std::min(text.find(' '), text.size());
+                                       text.insert(name_end, fmt::format(" address=0x{:02X}", m.address));
+                                       return text;
+                                     },
+                                     [](const CrsfUndecoded& u) {
+                                       return fmt::format("!{} crsf address=0x{:02X} type=0x{:02X} payload={:02X}",
+                                                          to_string(u.reason), u.frame.address, u.frame.type,
+                                                          fmt::join(u.frame.payload(), ""));
+                                     },
+                                     [](const auto& m) { return describe(m); }},
                     message);
 }
 
 nlohmann::json to_json(const SerialMessage& message) {
-  return std::visit(detail::Overload{[](const interboard::Message& m) { return to_json(m); },
-                             [](const CrsfMessage& m) {
-                               nlohmann::json j = to_json(m.message);
-                               j["address"] = m.address;
-                               return j;
-                             },
-                             [](const pride::Message& m) { return to_json(m); },
-                             [&message](const CrsfUndecoded& u) {
-                               return nlohmann::json{
-                                   {"type", name_of(message)}, {"error", to_string(u.reason)},
-                                   {"address", u.frame.address},
-                                   {"payload", fmt::format("{:02X}", fmt::join(u.frame.payload(), ""))}};
-                             }},
+  return std::visit(detail::Overload{[](const CrsfMessage& m) {
+                                       nlohmann::json j = to_json(m.message);
+                                       j["address"] = m.address;
+                                       return j;
+                                     },
+                                     [&message](const CrsfUndecoded& u) {
+                                       return nlohmann::json{
+                                           {"type", name_of(message)}, {"error", to_string(u.reason)},
+                                           {"address", u.frame.address},
+                                           {"payload", fmt::format("{:02X}", fmt::join(u.frame.payload(), ""))}};
+                                     },
+                                     [](const auto& m) { return to_json(m); }},
                     message);
 }
 
@@ -340,15 +337,11 @@ void SerialCaptureDecoder::add(const SerialChunk& chunk, const Callback& on_mess
     return;
   }
   if (!state) {
-    states_.push_back(State{});
-    state = &states_.back();
+    state = &states_.emplace_back();
     state->name = chunk.link;
-    const SerialProtocol p = chunk.protocol != SerialProtocol::raw ? chunk.protocol
-                                                                   : fallback_.value_or(SerialProtocol::raw);
-    if (chunk.protocol != SerialProtocol::raw || fallback_) {
-      state->decoder.emplace(p);
-      state->decided = true;
-    }
+    state->decided = chunk.protocol != SerialProtocol::raw || fallback_;
+    if (state->decided)
+      state->decoder.emplace(chunk.protocol != SerialProtocol::raw ? chunk.protocol : *fallback_);
   }
   if (state->decided) {
     feed(*state, chunk, on_message);

@@ -91,13 +91,14 @@ const signals::SignalDesc& described(signals::Protocol protocol, std::uint32_t i
 }
 
 // A series of one described signal, by its name: its physical value (pitch in deg), in the signal's unit.
-PlotSeriesSpec series_of(const signals::SignalDesc& signal, std::string label, std::string column,
-                         std::string message, std::optional<std::uint8_t> controller = std::nullopt) {
-  return {std::move(label), std::move(column), std::move(message), std::nullopt, signal.name, controller};
+PlotSeriesSpec series_of(const char* signal, std::string label, std::string column, std::string message,
+                         std::optional<std::uint8_t> controller = std::nullopt) {
+  return {std::move(label), std::move(column), std::move(message), std::nullopt, signal, controller};
 }
 
-std::string with_unit(std::string_view what, const signals::SignalDesc& signal) {
-  return fmt::format("{} [{}]", what, signal.unit);
+// "pitch [deg]": `what` and the unit of a SAUL frame's signal.
+std::string with_unit(std::string_view what, std::uint32_t id, std::string_view signal) {
+  return fmt::format("{} [{}]", what, described(signals::Protocol::saul_can, id, signal).unit);
 }
 
 }  // namespace
@@ -106,20 +107,6 @@ std::vector<PlotPanelSpec> dashboard_panels() {
   using saulcan::TelemetryA;
   using saulcan::TelemetryB;
   using saulcan::VelocityCmd;
-  using signals::Protocol;
-  const auto& pitch = described(Protocol::saul_can, TelemetryA::kId, "pitch");
-  const auto& pid_out = described(Protocol::saul_can, TelemetryA::kId, "pid_out");
-  const auto& speed = described(Protocol::saul_can, TelemetryA::kId, "speed_mmps");
-  const auto& speed_cmd = described(Protocol::saul_can, VelocityCmd::kId, "speed_mmps");
-  const auto& wheel_l = described(Protocol::saul_can, TelemetryB::kId, "vesc_l_rpm");
-  const auto& wheel_r = described(Protocol::saul_can, TelemetryB::kId, "vesc_r_rpm");
-  const auto& battery = described(Protocol::saul_can, TelemetryB::kId, "battery");
-  const auto ib_state = static_cast<std::uint32_t>(interboard::State::kType);
-  const auto& uart_pitch = described(Protocol::interboard, ib_state, "pitch");
-  const auto& uart_pid_out = described(Protocol::interboard, ib_state, "pid_out");
-  const auto& erpm = described(Protocol::vesc_can, static_cast<std::uint32_t>(vesc::Status1::kCommand), "erpm");
-  const auto& voltage_in =
-      described(Protocol::vesc_can, static_cast<std::uint32_t>(vesc::Status5::kCommand), "voltage_in");
   const std::string uart_state = interboard::State::kName;
   const std::string status1 = vesc::Status1::kName;
   const std::string status5 = vesc::Status5::kName;
@@ -127,32 +114,32 @@ std::vector<PlotPanelSpec> dashboard_panels() {
   const auto right = vesc::kRightId;
   // Titles name the quantity and the description's unit. The VESC ERPM panel shows no unit (ERPM is one).
   return {
-      {with_unit(pitch.name, pitch),
+      {with_unit("pitch", TelemetryA::kId, "pitch"),
        "no 0x400 telemetry_a or inter-board state messages",
-       {series_of(pitch, "0x400", "pitch", TelemetryA::kName),
-        series_of(uart_pitch, "UART state", "uart_pitch", uart_state)}},
-      {with_unit(pid_out.name, pid_out),
+       {series_of("pitch", "0x400", "pitch", TelemetryA::kName),
+        series_of("pitch", "UART state", "uart_pitch", uart_state)}},
+      {with_unit("pid_out", TelemetryA::kId, "pid_out"),
        "no 0x400 telemetry_a or inter-board state messages",
-       {series_of(pid_out, "0x400", "pid_out", TelemetryA::kName),
-        series_of(uart_pid_out, "UART state", "uart_pid_out", uart_state)}},
-      {with_unit("speed", speed),
+       {series_of("pid_out", "0x400", "pid_out", TelemetryA::kName),
+        series_of("pid_out", "UART state", "uart_pid_out", uart_state)}},
+      {with_unit("speed", TelemetryA::kId, "speed_mmps"),
        "no 0x400 telemetry_a or 0x300 velocity_cmd frames",
-       {series_of(speed, "reported (0x400)", "speed_mmps", TelemetryA::kName),
-        series_of(speed_cmd, "commanded (0x300)", "speed_cmd_mmps", VelocityCmd::kName)}},
-      {with_unit("wheel speed", wheel_l) + " (0x401)",
+       {series_of("speed_mmps", "reported (0x400)", "speed_mmps", TelemetryA::kName),
+        series_of("speed_mmps", "commanded (0x300)", "speed_cmd_mmps", VelocityCmd::kName)}},
+      {with_unit("wheel speed", TelemetryB::kId, "vesc_l_rpm") + " (0x401)",
        "no 0x401 telemetry_b frames",
-       {series_of(wheel_l, "left", "wheel_l_rpm", TelemetryB::kName),
-        series_of(wheel_r, "right", "wheel_r_rpm", TelemetryB::kName)}},
+       {series_of("vesc_l_rpm", "left", "wheel_l_rpm", TelemetryB::kName),
+        series_of("vesc_r_rpm", "right", "wheel_r_rpm", TelemetryB::kName)}},
       {"VESC ERPM (STATUS)",
        fmt::format("no VESC STATUS (vesc_status_1) frames from controllers {} and {}", left, right),
-       {series_of(erpm, fmt::format("left ({})", left), "vesc_l_erpm", status1, left),
-        series_of(erpm, fmt::format("right ({})", right), "vesc_r_erpm", status1, right)}},
-      {with_unit(battery.name, battery),
+       {series_of("erpm", fmt::format("left ({})", left), "vesc_l_erpm", status1, left),
+        series_of("erpm", fmt::format("right ({})", right), "vesc_r_erpm", status1, right)}},
+      {with_unit("battery", TelemetryB::kId, "battery"),
        fmt::format("no 0x401 telemetry_b or VESC STATUS_5 (vesc_status_5) frames from controllers {} and {}", left,
                    right),
-       {series_of(battery, "0x401", "battery", TelemetryB::kName),
-        series_of(voltage_in, fmt::format("VESC {}", left), "vesc_l_v", status5, left),
-        series_of(voltage_in, fmt::format("VESC {}", right), "vesc_r_v", status5, right)}},
+       {series_of("battery", "0x401", "battery", TelemetryB::kName),
+        series_of("voltage_in", fmt::format("VESC {}", left), "vesc_l_v", status5, left),
+        series_of("voltage_in", fmt::format("VESC {}", right), "vesc_r_v", status5, right)}},
   };
 }
 
@@ -186,6 +173,12 @@ std::optional<unsigned> fault_bits_of(const PlotMessage& m) {
       if (const auto* f = std::get_if<interboard::Fault>(ib)) return f->flags;
   }
   return std::nullopt;
+}
+
+/// [lo, hi] widened to hold v.
+void widen(std::optional<std::uint64_t>& lo, std::optional<std::uint64_t>& hi, std::uint64_t v) {
+  lo = std::min(lo.value_or(v), v);
+  hi = std::max(hi.value_or(v), v);
 }
 
 /// "1763800000.500900": a capture timestamp as candump writes it.
@@ -225,28 +218,18 @@ std::string change_detail(const StateChange& c) {
   return fault_names(c.from.value_or(0)) + " -> " + fault_names(c.to);
 }
 
-void ChangeTracker::note(const StateChange& change) {
-  ++total_;
-  if (kept_.size() < keep_) kept_.push_back(change);
-}
-
 bool ChangeTracker::observe(const PlotMessage& m, std::uint64_t index, std::optional<std::uint64_t> timestamp_ns) {
-  bool reports = false;
-  if (const auto s = robot_state_of(m)) {
-    reports = true;
-    if (state_ != s) note(StateChange{MarkerKind::state, state_, *s, timestamp_ns, index});
-    state_ = s;
-  }
-  if (const auto f = fault_bits_of(m)) {
-    reports = true;
-    if (*f != faults_) {
-      const std::optional<unsigned> from = saw_faults_ ? std::optional<unsigned>(faults_) : std::nullopt;
-      note(StateChange{MarkerKind::faults, from, *f, timestamp_ns, index});
-    }
-    faults_ = *f;
-    saw_faults_ = true;
-  }
-  return reports;
+  auto note = [&](MarkerKind kind, std::optional<unsigned> from, unsigned to) {
+    ++total;
+    if (kept.size() < keep) kept.push_back(StateChange{kind, from, to, timestamp_ns, index});
+  };
+  const auto s = robot_state_of(m);
+  if (s && state != s) note(MarkerKind::state, state, *s);
+  const auto f = fault_bits_of(m);
+  if (f && *f != faults.value_or(0)) note(MarkerKind::faults, faults, *f);
+  if (s) state = s;
+  if (f) faults = f;
+  return s || f;
 }
 
 // ---- the plot ---------------------------------------------------------------------------------------------------
@@ -289,7 +272,7 @@ void TelemetryPlotter::select(const PlotMessage& m) {
 }
 
 TelemetryPlotter::TelemetryPlotter(PlotRequest request, PlotSource source)
-    : request_(std::move(request)), source_(std::move(source)), changes_(request_.max_markers) {
+    : request_(std::move(request)), source_(std::move(source)), changes_{request_.max_markers} {
   const std::string& id = request_.id;
   if (id.empty() && !request_.fields.empty())
     throw PlotUsageError("--field needs --id: the fields of which message?");
@@ -329,19 +312,10 @@ TelemetryPlotter::TelemetryPlotter(PlotRequest request, PlotSource source)
     }
     const bool reports = changes_.observe(m, pos.index, pos.ns);
     if (!point && !reports) return;
-    if (point) {
-      ++messages_;
-      if (pos.ns) {
-        first_point_ns_ = std::min(first_point_ns_.value_or(*pos.ns), *pos.ns);
-        last_point_ns_ = std::max(last_point_ns_.value_or(*pos.ns), *pos.ns);
-      }
-    }
-    if (pos.ns) {
-      min_ns_ = std::min(min_ns_.value_or(*pos.ns), *pos.ns);
-      max_ns_ = std::max(max_ns_.value_or(*pos.ns), *pos.ns);
-    }
-    min_index_ = std::min(min_index_.value_or(pos.index), pos.index);
-    max_index_ = std::max(max_index_.value_or(pos.index), pos.index);
+    if (point) ++messages_;
+    if (point && pos.ns) widen(first_point_ns_, last_point_ns_, *pos.ns);
+    if (pos.ns) widen(min_ns_, max_ns_, *pos.ns);
+    widen(min_index_, max_index_, pos.index);
   });
 
   if (!this->dashboard()) {
@@ -388,10 +362,10 @@ PlotDocument TelemetryPlotter::document(std::size_t columns) const {
           doc.panels[p].series[s].binner.add(t, *v);
         }
   });
-  for (const auto& c : changes_.kept())
+  for (const auto& c : changes_.kept)
     doc.markers.push_back({position(Position{c.timestamp_ns, c.index}), c.kind, change_label(c), change_detail(c),
                            c.timestamp_ns ? format_timestamp(*c.timestamp_ns) : ""});
-  doc.markers_total = changes_.total();
+  doc.markers_total = changes_.total;
   doc.notes = left_out_;
   return doc;
 }
@@ -400,8 +374,8 @@ void TelemetryPlotter::write_csv(std::ostream& out) const {
   out << (timed() ? "time_s" : "message");
   for (const auto& panel : panels_)
     for (const auto& s : panel.series) out << ',' << s.column;
-  const bool states = dashboard() && changes_.saw_state();
-  const bool faults = dashboard() && changes_.saw_faults();
+  const bool states = dashboard() && changes_.state.has_value();
+  const bool faults = dashboard() && changes_.faults.has_value();
   if (states) out << ",state";
   if (faults) out << ",faults";
   out << '\n';

@@ -19,9 +19,10 @@ const char* field_type(const SignalDesc& s) {
   return s.kind == Kind::signed_int || s.offset != 0 ? "int32" : "uint32";  // the robot's signals: 32 bits at most
 }
 
-const char* text_mode(const SignalDesc& s) {
-  constexpr const char* kModes[] = {"raw", "name", "physical", "physical_int"};  // in Text's order
-  return kModes[static_cast<std::size_t>(s.text)];
+/// An enum's value as the script names it: names[] in the enum's order.
+template <class Enum, std::size_t N>
+const char* name_in(const char* const (&names)[N], Enum e) {
+  return names[static_cast<std::size_t>(e)];
 }
 
 /// The key of the value shown() gives: the signal's name, or for a scaled wire integer (whose physical value is
@@ -51,14 +52,10 @@ std::string signal_table(const SignalDesc& s) {
       c_literal(s.name), c_literal(shown_key(s)), c_literal(signals::text_in_unit(s) ? s.name : ""),
       signals::text_decimals(s) < 0 ? "true" : "false", c_literal(s.unit),
       s.place == Place::can_id ? "can_id" : "payload", s.start_bit, s.length,
-      s.kind == Kind::string        ? "string"
-      : s.kind == Kind::float32     ? "float32"
-      : s.kind == Kind::signed_int  ? "signed"
-                                    : "unsigned",
-      s.order == ByteOrder::little_endian ? "le" : "be", s.scale_num, s.scale_den, s.offset, s.min, s.max,
-      s.check == Check::decoder ? "true" : "false", text_mode(s),
-      s.mux == Mux::multiplexer ? "multiplexer" : s.mux == Mux::multiplexed ? "multiplexed" : "none", s.mux_value,
-      values, s.value_bits ? "true" : "false");
+      name_in({"unsigned", "signed", "float32", "string"}, s.kind), s.order == ByteOrder::little_endian ? "le" : "be",
+      s.scale_num, s.scale_den, s.offset, s.min, s.max, s.check == Check::decoder ? "true" : "false",
+      name_in({"raw", "name", "physical", "physical_int"}, s.text),
+      name_in({"none", "multiplexer", "multiplexed"}, s.mux), s.mux_value, values, s.value_bits ? "true" : "false");
 }
 
 // The part of the script that does not depend on the descriptions: reading bits, values, the tree.

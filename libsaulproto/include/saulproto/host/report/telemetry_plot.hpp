@@ -89,24 +89,14 @@ std::string change_label(const StateChange& change);
 std::string change_detail(const StateChange& change);
 
 /// Follows state and fault values through a capture and keeps the first `keep` changes; counts all of them.
-class ChangeTracker {
- public:
-  explicit ChangeTracker(std::size_t keep) : keep_(keep) {}
+struct ChangeTracker {
+  std::size_t keep = 0;
+  std::vector<StateChange> kept{};
+  std::uint64_t total = 0;
+  std::optional<unsigned> state{};   ///< the last one seen
+  std::optional<unsigned> faults{};  ///< the last bits seen (before any, none are set)
   /// Looks at one message; true when it reports a state or fault value (whether or not it changed).
   bool observe(const PlotMessage& m, std::uint64_t index, std::optional<std::uint64_t> timestamp_ns);
-  [[nodiscard]] const std::vector<StateChange>& kept() const { return kept_; }
-  [[nodiscard]] std::uint64_t total() const { return total_; }
-  [[nodiscard]] bool saw_state() const { return state_.has_value(); }
-  [[nodiscard]] bool saw_faults() const { return saw_faults_; }
-
- private:
-  void note(const StateChange& change);
-  std::size_t keep_;
-  std::vector<StateChange> kept_;
-  std::uint64_t total_ = 0;
-  std::optional<unsigned> state_;
-  unsigned faults_ = 0;
-  bool saw_faults_ = false;
 };
 
 // ---- the plot ---------------------------------------------------------------------------------------------------
