@@ -76,8 +76,7 @@ int run_pride_vcu(const PrideOptions& opt) {
   settings.baud = saul::pride::kBaudRate;
   settings.parity = saul::host::Parity::even;
   auto port = saul::host::open_serial(opt.port, settings);
-  saul::host::SteadyVcuClock clock;
-  saul::host::PrideVcu vcu(*port, clock, cmd);
+  saul::host::PrideVcu vcu(*port, [] { return steady_clock::now(); }, cmd);
   if (!opt.json)
     fmt::print(stderr, "pride: VCU on {} (38400 8E1), FB {} LR {} speed level {}; Ctrl-C stops (neutral first)\n",
                port->path(), opt.fb, opt.lr, opt.speed_level);
