@@ -72,8 +72,7 @@ int run_pride_vcu(const PrideOptions& opt) {
     return kUsage;
 
   auto port = saul::host::open_serial(opt.port, {.baud = saul::pride::kBaudRate, .parity = saul::host::Parity::even});
-  saul::host::SteadyVcuClock clock;
-  saul::host::PrideVcu vcu(*port, clock, cmd);
+  saul::host::PrideVcu vcu(*port, [] { return steady_clock::now(); }, cmd);
   if (!opt.json)
     fmt::print(stderr, "pride: VCU on {} (38400 8E1), FB {} LR {} speed level {}; Ctrl-C stops (neutral first)\n",
                port->path(), opt.fb, opt.lr, opt.speed_level);

@@ -12,7 +12,7 @@
 #include "commands.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/core/trace.hpp"
-#include "saulproto/host/flash/esp_connection.hpp"
+#include "saulproto/host/flash/esp_flasher.hpp"
 #include "saulproto/host/link/can_link.hpp"
 #include "saulproto/host/link/shared_link.hpp"
 

@@ -446,8 +446,6 @@ TEST_CASE("serial replay preview: links, protocols named or guessed, what would 
   CHECK(ib->frames == 2);
   CHECK(ib->motion == 1);
   CHECK(ib->writes == 1);
-  CHECK(ib->first_ns == 100'000);
-  CHECK(ib->last_ns == 1'100'000);
   CHECK(u->protocol == SerialProtocol::pride);
   CHECK(u->guessed);
   CHECK(u->frames == 8);

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <deque>
+#include <functional>
 #include <vector>
 
 #include "saulproto/host/robot/pride_vcu.hpp"
@@ -15,9 +16,10 @@ using Bytes = std::vector<std::uint8_t>;
 
 namespace {
 
-struct FakeClock final : saul::host::VcuClock {
+struct FakeClock {
+  using TimePoint = steady_clock::time_point;
   TimePoint t{};
-  TimePoint now() override { return t; }
+  TimePoint operator()() const { return t; }
   void advance(microseconds d) { t += d; }
 };
 
@@ -79,7 +81,7 @@ const Bytes kController{0x4A, 0x01, 0x02, 0x5A, 0x00, 0x58};
 TEST_CASE("pride vcu: a frame every 5 ms on absolute deadlines, exact bytes") {
   FakeClock clock;
   FakePort port(clock);
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   for (int i = 0; i < 10; ++i) vcu.step();
   REQUIRE(port.writes.size() == 10);
   for (std::size_t i = 0; i < port.writes.size(); ++i) {
@@ -93,7 +95,7 @@ TEST_CASE("pride vcu: a late step keeps the grid and skips whole missed slots") 
   FakeClock clock;
   FakePort port(clock);
   port.echo = false;
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   vcu.step();  // t = 0, then waits to 5 ms
   clock.advance(milliseconds(2));  // the process was late: 7 ms
   vcu.step();  // sends at 7 ms, next deadline 10 ms (not 12)
@@ -110,7 +112,7 @@ TEST_CASE("pride vcu: a late step keeps the grid and skips whole missed slots") 
 TEST_CASE("pride vcu: own echo dropped, controller frames decoded") {
   FakeClock clock;
   FakePort port(clock);
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   std::vector<saul::pride::ControllerStatus> seen;
   port.answer = kController;
   port.answers_left = 4;
@@ -130,7 +132,7 @@ TEST_CASE("pride vcu: a late echo is still recognised as ours") {
   FakeClock clock;
   FakePort port(clock);
   port.echo = false;
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   vcu.step();
   vcu.step();  // two frames out, no echo yet
   port.queue(kDrive);
@@ -144,7 +146,7 @@ TEST_CASE("pride vcu: hardware without an echo: the missing echo is forgotten, t
   FakeClock clock;
   FakePort port(clock);
   port.echo = false;
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   for (int i = 0; i < 4; ++i) vcu.step();  // 0..15 ms: four echoes still expected (a late echo may yet come)
   CHECK(vcu.echo_counters().lost == 0);
   CHECK(vcu.echo_counters().overflows == 0);
@@ -162,7 +164,7 @@ TEST_CASE("pride vcu: hardware without an echo: the missing echo is forgotten, t
 TEST_CASE("pride vcu: neutral for 100 ms before finishing, then nothing more") {
   FakeClock clock;
   FakePort port(clock);
-  PrideVcu vcu(port, clock, drive());
+  PrideVcu vcu(port, std::ref(clock), drive());
   for (int i = 0; i < 3; ++i) vcu.step();
   vcu.begin_neutral();
   int steps = 0;
@@ -185,9 +187,9 @@ TEST_CASE("pride vcu: commands outside the manual's ranges are refused") {
   FakePort port(clock);
   auto bad = drive();
   bad.forward_back = 101;
-  CHECK_THROWS_AS(PrideVcu(port, clock, bad), std::invalid_argument);
+  CHECK_THROWS_AS(PrideVcu(port, std::ref(clock), bad), std::invalid_argument);
   bad = drive();
   bad.speed_level = 15;
-  CHECK_THROWS_AS(PrideVcu(port, clock, bad), std::invalid_argument);
+  CHECK_THROWS_AS(PrideVcu(port, std::ref(clock), bad), std::invalid_argument);
   CHECK(port.writes.empty());
 }

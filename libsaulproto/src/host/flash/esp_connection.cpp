@@ -1,6 +1,6 @@
-// EspConnection: the DTR/RTS resets, the SLIP exchange with the ROM loader, SYNC, the chip check, register
-// access and the reset into the application (see esp_connection.hpp). Writing the flash is in esp_flasher.cpp.
-#include "saulproto/host/flash/esp_connection.hpp"
+// EspFlasher's connection: the DTR/RTS resets, the SLIP exchange with the ROM loader, SYNC, the chip check, register
+// access and the reset into the application (see esp_flasher.hpp). Writing the flash is in esp_flasher.cpp.
+#include "saulproto/host/flash/esp_flasher.hpp"
 
 #include <fmt/format.h>
 
@@ -102,7 +102,7 @@ void run_line_sequence(SerialPort& port, std::span<const LineStep> steps, const 
 
 // --- the connection ---------------------------------------------------------------------------------------------
 
-EspConnection::EspConnection(SerialPort& port, ConnectOptions options)
+EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
     : port_(port),
       options_(std::move(options)),
       packet_(esp::kMaxRequest),
@@ -113,7 +113,7 @@ EspConnection::EspConnection(SerialPort& port, ConnectOptions options)
   if (options_.connect_attempts < 1) options_.connect_attempts = 1;
 }
 
-void EspConnection::send(std::span<const std::uint8_t> packet) {
+void EspFlasher::send(std::span<const std::uint8_t> packet) {
   auto n = esp::slip_encode(packet, frame_);
   if (!n) throw FlashError(FlashError::Kind::protocol, "internal: request does not fit its frame buffer");
   // Long enough for the frame at the current rate, twice over, plus a second of slack.
@@ -123,7 +123,7 @@ void EspConnection::send(std::span<const std::uint8_t> packet) {
   bytes_sent_ += *n;
 }
 
-std::optional<std::span<const std::uint8_t>> EspConnection::take(std::uint8_t byte) {
+std::optional<std::span<const std::uint8_t>> EspFlasher::take(std::uint8_t byte) {
   if (!decoder_.in_frame() && byte != esp::kSlipEnd) {
     if (noise_.size() < kNoiseKept) noise_ += static_cast<char>(byte);  // the start of a boot log says the most
   }
@@ -132,7 +132,7 @@ std::optional<std::span<const std::uint8_t>> EspConnection::take(std::uint8_t by
   return frame;
 }
 
-std::optional<esp::Response> EspConnection::await(esp::Op op, milliseconds timeout, esp::Loader loader) {
+std::optional<esp::Response> EspFlasher::await(esp::Op op, milliseconds timeout, esp::Loader loader) {
   const auto deadline = steady_clock::now() + timeout;
   for (;;) {
     while (rx_pos_ < rx_.size()) {
@@ -150,7 +150,7 @@ std::optional<esp::Response> EspConnection::await(esp::Op op, milliseconds timeo
   }
 }
 
-void EspConnection::drain(milliseconds quiet) {
+void EspFlasher::drain(milliseconds quiet) {
   std::array<std::uint8_t, 1024> buf{};
   for (;;) {
     while (rx_pos_ < rx_.size()) (void)take(rx_[rx_pos_++]);
@@ -161,13 +161,13 @@ void EspConnection::drain(milliseconds quiet) {
   decoder_.reset();
 }
 
-std::optional<esp::Response> EspConnection::transact(esp::Op op, const Result<std::size_t>& built,
+std::optional<esp::Response> EspFlasher::transact(esp::Op op, const Result<std::size_t>& built,
                                                      milliseconds timeout) {
   send(std::span<const std::uint8_t>(packet_.data(), *built));
   return await(op, timeout, chip_.loader);
 }
 
-esp::Response EspConnection::command(esp::Op op, const Result<std::size_t>& built, milliseconds timeout) {
+esp::Response EspFlasher::command(esp::Op op, const Result<std::size_t>& built, milliseconds timeout) {
   auto r = transact(op, built, timeout);
   if (!r)
     throw FlashError(FlashError::Kind::no_answer,
@@ -182,7 +182,7 @@ esp::Response EspConnection::command(esp::Op op, const Result<std::size_t>& buil
   return *r;
 }
 
-bool EspConnection::try_sync() {
+bool EspFlasher::try_sync() {
   auto n = esp::build_sync(packet_);
   send(std::span<const std::uint8_t>(packet_.data(), *n));
   // Read with the 2-byte status layout: it fits both the ROM's answer (4 status bytes) and a stub's.
@@ -192,7 +192,7 @@ bool EspConnection::try_sync() {
   return true;
 }
 
-std::string EspConnection::diagnose_silence() const {
+std::string EspFlasher::diagnose_silence() const {
   const bool usj = options_.reset == ResetStyle::usb_serial_jtag;
   const std::string by_hand =
       usj ? "Hold BOOT on the IO board and tap RESET (or plug USB in while holding BOOT), release BOOT, then run "
@@ -222,7 +222,7 @@ std::string EspConnection::diagnose_silence() const {
       port_.path(), by_hand);
 }
 
-const ChipInfo& EspConnection::connect() {
+const ChipInfo& EspFlasher::connect() {
   bool synced = false;
   for (int attempt = 0; attempt < options_.connect_attempts && !synced; ++attempt) {
     if (options_.reset_before) {
@@ -241,14 +241,13 @@ const ChipInfo& EspConnection::connect() {
   return chip_;
 }
 
-void EspConnection::detect_chip() {
+void EspFlasher::detect_chip() {
   auto r = transact(esp::Op::get_security_info, esp::build_get_security_info(packet_), kSecurityInfoTimeout);
   bool identified = false;
   if (r && r->ok()) {
     if (auto si = esp::parse_security_info(r->data)) {
       chip_.security_flags = si->flags;
       if (si->has_chip_id) {
-        chip_.chip_id = si->chip_id;
         const char* name = esp::chip_name(si->chip_id);
         chip_.name = name ? name : fmt::format("unknown chip (id {})", si->chip_id);
         chip_.detected_by = "GET_SECURITY_INFO";
@@ -260,7 +259,6 @@ void EspConnection::detect_chip() {
     const std::uint32_t magic = read_reg(esp::kChipDetectMagicAddress);
     const char* name = esp::chip_name_from_magic(magic);
     chip_.name = name ? name : fmt::format("unknown chip (magic 0x{:08X})", magic);
-    chip_.chip_id = magic == esp::kMagicEsp32s3 ? esp::kChipIdEsp32s3 : 0xFFFFFFFF;
     chip_.detected_by = fmt::format("READ_REG 0x{:08X}", esp::kChipDetectMagicAddress);
   }
   if (chip_.name != "ESP32-S3")
@@ -274,9 +272,6 @@ void EspConnection::detect_chip() {
                                  "saulctl verifies every write with; flash it with esptool's secure-download options",
                                  port_.path()));
   chip_.usb_serial_jtag = (read_reg(esp::s3::kUartDevBufNo) & 0xFF) == esp::s3::kBufNoUsbSerialJtag;
-  const std::uint32_t strap = read_reg(esp::s3::kGpioStrapReg);
-  const std::uint32_t forced = read_reg(esp::s3::kRtcCntlOption1Reg);
-  chip_.boot_pin_held = (strap & esp::s3::kStrapSpiBootMask) == 0 && (forced & esp::s3::kForceDownloadBootMask) == 0;
   if (chip_.usb_serial_jtag) {
     // A reset over USB-Serial/JTAG leaves the RTC domain running: a watchdog armed by the application would
     // fire mid-write. Disable the RTC watchdog, let the super watchdog feed itself.
@@ -298,15 +293,15 @@ void EspConnection::detect_chip() {
   }
 }
 
-std::uint32_t EspConnection::read_reg(std::uint32_t address) {
+std::uint32_t EspFlasher::read_reg(std::uint32_t address) {
   return command(esp::Op::read_reg, esp::build_read_reg(address, packet_), kCommandTimeout).value;
 }
 
-void EspConnection::write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask) {
+void EspFlasher::write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask) {
   (void)command(esp::Op::write_reg, esp::build_write_reg(address, value, mask, 0, packet_), kCommandTimeout);
 }
 
-void EspConnection::change_baud(std::uint32_t baud) {
+void EspFlasher::change_baud(std::uint32_t baud) {
   const std::uint32_t current = port_.settings().baud;
   if (baud == 0 || baud == current) return;
   const auto n = esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_);
@@ -316,7 +311,7 @@ void EspConnection::change_baud(std::uint32_t baud) {
   if (options_.note) options_.note(fmt::format("baud rate {} -> {}", current, baud));
 }
 
-void EspConnection::reset_to_app() {
+void EspFlasher::reset_to_app() {
   if (!chip_.usb_serial_jtag) {
     const auto seq = hard_reset_sequence(options_.reset);
     run_line_sequence(port_, seq, options_.sleep);

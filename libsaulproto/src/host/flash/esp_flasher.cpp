@@ -8,7 +8,7 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <array>
+#include <string_view>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
@@ -28,7 +28,7 @@ constexpr int kBlockAttempts = 3;
 // Timeouts that grow with the flash involved (esptool: erase 40 s/MB, MD5 8 s/MB), never below a command's.
 milliseconds per_mb(double seconds_per_mb, std::uint64_t bytes) {
   const double s = seconds_per_mb * static_cast<double>(bytes) / 1e6;
-  return std::max(EspConnection::kCommandTimeout, milliseconds(static_cast<long long>(s * 1000)));
+  return std::max(EspFlasher::kCommandTimeout, milliseconds(static_cast<long long>(s * 1000)));
 }
 
 std::string size_text(std::uint64_t bytes) {
@@ -213,18 +213,16 @@ void check_kind(const FlashImage& img, bool force, std::vector<std::string>& war
 
 // esptool's names of the header's codes for the ESP32-S3 (targets/esp32s3.py): mode in byte 2, frequency in the
 // low nibble of byte 3.
-constexpr std::array<std::pair<std::uint8_t, const char*>, 4> kModes{{{0, "qio"}, {1, "qout"}, {2, "dio"}, {3, "dout"}}};
-constexpr std::array<std::pair<std::uint8_t, const char*>, 3> kFreqs{{{0xF, "80m"}, {0x0, "40m"}, {0x2, "20m"}}};
+using CodeNames = std::span<const std::pair<std::uint8_t, std::string_view>>;
+constexpr std::pair<std::uint8_t, std::string_view> kModes[]{{0, "qio"}, {1, "qout"}, {2, "dio"}, {3, "dout"}};
+constexpr std::pair<std::uint8_t, std::string_view> kFreqs[]{{0xF, "80m"}, {0x0, "40m"}, {0x2, "20m"}};
 
-template <std::size_t N>
-const char* name_of(const std::array<std::pair<std::uint8_t, const char*>, N>& table, std::uint8_t code) {
-  for (const auto& [c, n] : table)
-    if (c == code) return n;
-  return nullptr;
-}
-template <std::size_t N>
-bool names_one(const std::array<std::pair<std::uint8_t, const char*>, N>& table, const std::string& name) {
-  return std::any_of(table.begin(), table.end(), [&](const auto& e) { return name == e.second; });
+// The header's name for `code` when it and flasher_args.json's `wanted` are names of the table that differ, else
+// empty ("keep" and the like: nothing to compare).
+std::string_view differing(CodeNames names, std::uint8_t code, const std::string& wanted) {
+  const auto it = std::find_if(names.begin(), names.end(), [&](const auto& e) { return e.first == code; });
+  const bool known = std::any_of(names.begin(), names.end(), [&](const auto& e) { return e.second == wanted; });
+  return it != names.end() && known && it->second != wanted ? it->second : std::string_view();
 }
 
 // The image header of the bootloader: the image at 0x0, first once the plan is sorted.
@@ -239,17 +237,13 @@ void check_settings(FlashPlan& plan) {
   if (plan.settings_mode.empty() && plan.settings_size.empty() && plan.settings_freq.empty()) return;
   if (const auto h = bootloader_header(plan)) {
     std::vector<std::string> differ;
-    const char* mode = name_of(kModes, h->flash_mode);
-    const std::string want_mode = ascii_lower(plan.settings_mode);  // "keep" and the like: nothing to compare
-    if (mode && names_one(kModes, want_mode) && want_mode != mode)
+    if (const auto mode = differing(kModes, h->flash_mode, ascii_lower(plan.settings_mode)); !mode.empty())
       differ.push_back(fmt::format("flash mode {} (flasher_args.json: {})", mode, plan.settings_mode));
     const std::uint32_t size = esp::flash_size_from_code(h->flash_size_code);
     const std::uint32_t want_size = parse_flash_size(plan.settings_size);  // 0 for "detect", "keep"
     if (size && want_size && size != want_size)
       differ.push_back(fmt::format("flash size {} (flasher_args.json: {})", size_text(size), plan.settings_size));
-    const char* freq = name_of(kFreqs, h->flash_freq_code);
-    const std::string want_freq = ascii_lower(plan.settings_freq);
-    if (freq && names_one(kFreqs, want_freq) && want_freq != freq)
+    if (const auto freq = differing(kFreqs, h->flash_freq_code, ascii_lower(plan.settings_freq)); !freq.empty())
       differ.push_back(fmt::format("flash frequency {} (flasher_args.json: {})", freq, plan.settings_freq));
     if (!differ.empty())
       plan.warnings.push_back(fmt::format(
@@ -317,22 +311,11 @@ void check_plan(FlashPlan& plan, bool force) {
 }
 
 const char* to_string(RegionOutcome::State s) {
-  switch (s) {
-    case RegionOutcome::State::pending: return "pending";
-    case RegionOutcome::State::unchanged: return "unchanged";
-    case RegionOutcome::State::written: return "written";
-    case RegionOutcome::State::unverified: return "UNVERIFIED";
-  }
-  return "?";
+  constexpr const char* kNames[] = {"pending", "unchanged", "written", "UNVERIFIED"};  // in the enum's order
+  return kNames[static_cast<std::size_t>(s)];
 }
 
 // --- the region writer ----------------------------------------------------------------------------------------
-
-EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
-    : EspConnection(port, options),
-      compress_(options.compress),
-      skip_unchanged_(options.skip_unchanged),
-      progress_(std::move(options.progress)) {}
 
 esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
   auto r = command(esp::Op::spi_flash_md5, esp::build_spi_flash_md5(offset, size, packet_), per_mb(8, size));
@@ -399,9 +382,9 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
       ++out.retries;
     }
     out.wire_bytes = bytes_sent_ - sent0;
-    if (progress_) {
+    if (options_.progress) {
       const std::uint64_t consumed = std::min<std::uint64_t>(payload_size, static_cast<std::uint64_t>(from) + len);
-      progress_({.stage = FlashProgress::Stage::writing, .index = index, .image = &image,
+      options_.progress({.stage = FlashProgress::Stage::writing, .index = index, .image = &image,
                  .bytes_done = payload_size ? consumed * size / payload_size : size, .bytes_total = size,
                  .wire_bytes = out.wire_bytes, .seconds = duration<double>(steady_clock::now() - t0).count()});
     }
@@ -423,12 +406,12 @@ RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
       RegionOutcome{.offset = image.offset, .name = image.name, .size = size, .md5 = to_hex(expected)});
   const auto t0 = steady_clock::now();
   auto report = [&](FlashProgress::Stage stage, std::uint64_t done) {
-    if (progress_)
-      progress_({.stage = stage, .index = index, .image = &image, .bytes_done = done, .bytes_total = size,
+    if (options_.progress)
+      options_.progress({.stage = stage, .index = index, .image = &image, .bytes_done = done, .bytes_total = size,
                  .seconds = duration<double>(steady_clock::now() - t0).count()});
   };
   try {
-    if (skip_unchanged_) {
+    if (options_.skip_unchanged) {
       report(FlashProgress::Stage::checking, 0);
       if (flash_md5(image.offset, size) == expected) {
         slot.state = RegionOutcome::State::unchanged;
@@ -436,9 +419,9 @@ RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
         return slot;
       }
     }
-    slot.compressed = compress_;
+    slot.compressed = options_.compress;
     slot.state = RegionOutcome::State::unverified;  // from the first erased byte until the MD5 says otherwise
-    write_blocks(image, size, compress_ ? deflate(data) : data, compress_, index, slot);
+    write_blocks(image, size, options_.compress ? deflate(data) : data, options_.compress, index, slot);
     report(FlashProgress::Stage::verifying, size);
     const esp::Md5 got = flash_md5(image.offset, size);
     slot.seconds = duration<double>(steady_clock::now() - t0).count();

@@ -52,25 +52,16 @@ ReplayVerdict plan_frame(const CanFrame& in, const ReplayOptions& options, CanFr
 // ---- pacing -------------------------------------------------------------------------------------------------------
 
 bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
-  if (!started_) {
-    started_ = true;
-    t_ = 0;
-    pass_start_t_ = 0;
-  } else if (new_pass_) {
-    t_ += pass_gap_;
-    pass_start_t_ = t_;
-  } else if (timestamp_ns && last_stamp_) {
+  if (timestamp_ns && last_stamp_) {
     std::uint64_t gap = *timestamp_ns > *last_stamp_ ? *timestamp_ns - *last_stamp_ : 0;
     if (max_gap_ns_ && gap > *max_gap_ns_) gap = *max_gap_ns_;
     t_ += gap;
   }
-  new_pass_ = false;
   if (timestamp_ns) last_stamp_ = timestamp_ns;
   ++pass_items_;
-  if (stepping_ || !anchored_) {
+  if (stepping_ || !first_deadline_) {
     anchor_clock_ = clock_.now_ns();
     anchor_t_ = t_;
-    anchored_ = true;
   }
   std::uint64_t due = anchor_clock_;
   if (speed_ == 1.0) due += t_ - anchor_t_;
@@ -83,8 +74,8 @@ bool ReplayPacer::wait(std::optional<std::uint64_t> timestamp_ns) {
 }
 
 void ReplayPacer::next_pass() {
-  pass_gap_ = pass_items_ > 1 ? (t_ - pass_start_t_) / (pass_items_ - 1) : 0;
-  new_pass_ = started_;
+  if (pass_items_ > 1) t_ += (t_ - pass_start_t_) / (pass_items_ - 1);  // one mean interval after the last item
+  pass_start_t_ = t_;
   pass_items_ = 0;
   last_stamp_.reset();
 }
@@ -203,27 +194,15 @@ ReplayPreview preview_replay(std::unique_ptr<CaptureReader>& reader, const Repla
   ReplayOptions all = options;
   all.allow_motion = true;
   ReplayPreview p;
-  const ReadCounts read = read_in_order(reader, {}, [&](const FrameBatch& batch) {
+  read_in_order(reader, {}, [&](const FrameBatch& batch) {
     for (const CanFrame& f : batch.frames) {
-      if (f.timestamp_ns) {
-        if (!p.first_ns) p.first_ns = f.timestamp_ns;
-        p.last_ns = f.timestamp_ns;
-      }
       CanFrame out;
-      switch (plan_frame(f, all, out)) {
-        case ReplayVerdict::filtered: ++p.filtered; break;
-        case ReplayVerdict::error_frame: ++p.error_frames; break;
-        case ReplayVerdict::motion_dropped: break;  // cannot happen with motion allowed
-        case ReplayVerdict::send:
-          ++p.to_send;
-          if (can_move_motors(out)) ++p.motion;
-          break;
-      }
+      if (plan_frame(f, all, out) != ReplayVerdict::send) continue;
+      ++p.to_send;
+      if (can_move_motors(out)) ++p.motion;
     }
     return true;
   });
-  p.frames = read.frames;
-  p.corrupt = read.corrupt;
   return p;
 }
 

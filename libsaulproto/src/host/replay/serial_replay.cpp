@@ -140,13 +140,7 @@ void SerialFrameSplitter::push(std::span<const std::uint8_t> bytes, const Callba
   resolve(false, on_piece);
 }
 
-void SerialFrameSplitter::finish(const Callback& on_piece) {
-  resolve(true, on_piece);
-  emit_noise(on_piece);
-  probe_.reset();
-  fed_ = 0;
-  found_.reset();
-}
+void SerialFrameSplitter::finish(const Callback& on_piece) { resolve(true, on_piece); }
 
 // Does a frame start at held_[0]? A fresh decoder of the protocol is fed the held bytes from there on, one at a
 // time (and kept across pushes, so no byte is fed twice while the answer is open). The decoders settle every byte
@@ -162,37 +156,29 @@ void SerialFrameSplitter::resolve(bool at_end, const Callback& on_piece) {
       fed_ = 0;
       found_.reset();
     }
-    bool settled = false;
-    while (fed_ < held_.size()) {
+    bool skipped = false;  // held_[0] is in no frame
+    while (!skipped && !found_ && fed_ < held_.size()) {
       const std::uint8_t b = held_[fed_++];
       probe_->push({&b, 1}, on_message);
-      const auto c = probe_->counters();
-      if (c.bytes_skipped > 0) {  // held_[0] is in no frame; the search goes on at the next byte
-        held_.pop_front();
-        ++noise_;
-        probe_.reset();
-        settled = true;
-        break;
-      }
-      if (found_) {  // a frame from held_[0] to the byte just fed
-        emit_noise(on_piece);
-        SerialPiece piece;
-        piece.size = fed_;
-        piece.message = std::move(found_);
-        piece.motion = can_move_motors(*piece.message);
-        held_.erase(held_.begin(), held_.begin() + static_cast<std::ptrdiff_t>(fed_));
-        probe_.reset();
-        found_.reset();
-        on_piece(piece);
-        settled = true;
-        break;
-      }
+      skipped = probe_->counters().bytes_skipped > 0;
     }
-    if (settled) continue;
-    if (!at_end) break;  // held_[0] waits for more bytes
-    held_.pop_front();   // end of the stream inside a frame: its first byte is in no frame, rescan the rest
-    ++noise_;
-    probe_.reset();
+    if (skipped || (!found_ && at_end)) {  // (the stream ends inside a frame: its first byte is in no frame either)
+      held_.pop_front();                   // the search goes on at the next byte
+      ++noise_;
+      probe_.reset();
+    } else if (found_) {  // a frame from held_[0] to the byte just fed
+      emit_noise(on_piece);
+      SerialPiece piece;
+      piece.size = fed_;
+      piece.message = std::move(found_);
+      piece.motion = can_move_motors(*piece.message);
+      held_.erase(held_.begin(), held_.begin() + static_cast<std::ptrdiff_t>(fed_));
+      probe_.reset();
+      found_.reset();
+      on_piece(piece);
+    } else {
+      break;  // held_[0] waits for more bytes
+    }
   }
   emit_noise(on_piece);
 }
@@ -372,15 +358,9 @@ SerialReplayPreview preview_serial_replay(SerialCaptureReader& reader, std::opti
     State& s = *it;
     ++s.p.chunks;
     s.p.bytes += chunk.bytes.size();
-    if (chunk.timestamp_ns) {
-      if (!s.p.first_ns) s.p.first_ns = chunk.timestamp_ns;
-      s.p.last_ns = chunk.timestamp_ns;
-    }
     if (!s.decided) {
-      if (chunk.protocol != SerialProtocol::raw) {
-        decide(s, chunk.protocol, false);
-      } else if (fallback) {
-        decide(s, *fallback, false);
+      if (chunk.protocol != SerialProtocol::raw || fallback) {
+        decide(s, chunk.protocol != SerialProtocol::raw ? chunk.protocol : *fallback, false);
       } else {
         s.held.push_back(chunk);
         s.held_bytes += chunk.bytes.size();

@@ -7,12 +7,12 @@ namespace saul::host {
 
 using namespace std::chrono;
 
-PrideVcu::PrideVcu(SerialPort& port, VcuClock& clock, pride::VcuCommand command, PrideVcuOptions options)
-    : port_(port), clock_(clock), command_(command), previous_command_(command), options_(options) {
+PrideVcu::PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command, PrideVcuOptions options)
+    : port_(port), clock_(std::move(clock)), command_(command), previous_command_(command), options_(options) {
   if (!command.in_range())
     throw std::invalid_argument("pride: speed level must be 0..14 and FB, LR -100..+100");
   if (options_.period.count() <= 0) throw std::invalid_argument("pride: the frame period must be positive");
-  next_ = clock_.now();  // the first frame goes out at once
+  next_ = clock_();  // the first frame goes out at once
 }
 
 void PrideVcu::begin_neutral() {
@@ -77,17 +77,17 @@ void PrideVcu::take(std::span<const std::uint8_t> bytes, TimePoint now, const St
 }
 
 void PrideVcu::step(const StatusHandler& on_status) {
-  auto now = clock_.now();
+  auto now = clock_();
   if (now >= next_ && !finished()) send_frame(now);
   std::array<std::uint8_t, 256> buf{};
   while (true) {
-    now = clock_.now();
+    now = clock_();
     if (now >= next_) return;
     // Rounded up: a frame leaves at most 1 ms after its deadline, and we never spin.
     const auto left = ceil<milliseconds>(next_ - now);
     const std::size_t n = port_.read(buf, left);
     if (n == 0) return;  // timeout (the deadline) or a signal
-    take(std::span<const std::uint8_t>(buf.data(), n), clock_.now(), on_status);
+    take(std::span<const std::uint8_t>(buf.data(), n), clock_(), on_status);
   }
 }
 

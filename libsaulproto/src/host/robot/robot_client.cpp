@@ -9,12 +9,8 @@ namespace saul::host {
 using namespace std::chrono;
 
 const char* to_string(CommandOutcome::Status s) {
-  switch (s) {
-    case CommandOutcome::Status::applied: return "applied";
-    case CommandOutcome::Status::rejected: return "rejected";
-    case CommandOutcome::Status::no_answer: return "no_answer";
-  }
-  return "?";
+  constexpr const char* kNames[] = {"applied", "rejected", "no_answer"};  // in the enum's order
+  return kNames[static_cast<std::size_t>(s)];
 }
 
 void RobotClient::send_estop() { link_.send(saulcan::encode(saulcan::ModeCmd{saulcan::Mode::estop}), milliseconds(100)); }
@@ -109,11 +105,6 @@ CommandOutcome RobotClient::set_mode(saulcan::Mode mode, milliseconds timeout) {
 }
 
 CommandOutcome RobotClient::set_pid(float kp, float ki, float kd, milliseconds timeout) {
-  if (!sequence_seeded_) {
-    // A fresh start value per run: the receiver treats a repeated sequence number as the same set.
-    sequence_ = static_cast<std::uint8_t>(duration_cast<milliseconds>(system_clock::now().time_since_epoch()).count());
-    sequence_seeded_ = true;
-  }
   const std::uint8_t seq = ++sequence_;
   const auto t0 = steady_clock::now();
   link_.send(saulcan::encode(saulcan::PidGain{saulcan::Gain::kp, seq, kp}), timeout);

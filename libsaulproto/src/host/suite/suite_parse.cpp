@@ -246,18 +246,6 @@ Condition parse_tune_condition(const std::string& word, const std::string& path,
   return c;
 }
 
-bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions) {
-  const auto r = decode_bus_frame(frame);
-  if (!r) return false;
-  if (!message.empty() && message != name_of(r.value())) return false;
-  const SignalValues values = signal_values(r.value());
-  for (const auto& c : conditions) {
-    const auto v = signal_value(values, c.field);
-    if (!v || !holds(c, FieldValue{v->number, v->text})) return false;
-  }
-  return true;
-}
-
 Suite parse_suite(std::istream& in, const std::string& path) {
   Suite suite;
   suite.path = path;

@@ -27,6 +27,19 @@ std::string refusal_in(const std::string& bytes) {
   return tap.refusal();
 }
 
+/// True when the frame decodes to `message` (or any message when empty) and every condition holds.
+bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions) {
+  const auto r = decode_bus_frame(frame);
+  if (!r) return false;
+  if (!message.empty() && message != name_of(r.value())) return false;
+  const SignalValues values = signal_values(r.value());
+  for (const auto& c : conditions) {
+    const auto v = signal_value(values, c.field);
+    if (!v || !holds(c, FieldValue{v->number, v->text})) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool SuiteResult::passed() const {
@@ -131,7 +144,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
         case Step::Kind::wait:
           pump(t0 + step.duration_us, [](const CanFrame&) { return true; });
           break;
-        case Step::Kind::expect: {
+        case Step::Kind::expect:
           if (first_match(step, t0)) {
             r.message = fmt::format("seen after {}", us_text(target.now_us() - t0));
           } else {
@@ -139,12 +152,10 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
                              us_text(step.duration_us)));
           }
           break;
-        }
-        case Step::Kind::expect_none: {
+        case Step::Kind::expect_none:
           if (first_match(step, t0))
             fail(fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0)));
           break;
-        }
         case Step::Kind::hold: {
           std::uint64_t count = 0;
           std::string broken;

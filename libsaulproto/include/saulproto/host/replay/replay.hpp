@@ -1,10 +1,8 @@
-// Replaying a CAN capture onto a bus, faithfully: the scheduling, the id filters and remapping, the motion rule
-// and the lateness statistics behind `saulctl replay`, apart from any real clock or link so that tests can drive
-// them with a fake clock.
-//
-// Timing: every frame gets an absolute deadline on a monotonic clock, computed from the capture's timestamps
-// (start + file time / speed), never from the previous send, so errors do not add up (no drift). Lateness is
-// how long after its deadline a frame was handed to the link.
+// Replaying a CAN capture onto a bus: the scheduling, the id filters and remapping, the motion rule and the lateness
+// statistics behind `saulctl replay`, apart from any real clock or link so that tests drive them with a fake clock.
+// Timing: every frame gets an absolute deadline on a monotonic clock, from the capture's timestamps (start + file
+// time / speed), never from the previous send, so errors do not add up (no drift). Lateness is how long after its
+// deadline a frame was handed to the link.
 #pragma once
 
 #include <array>
@@ -123,16 +121,12 @@ class ReplayPacer {
   double speed_;
   std::optional<std::uint64_t> max_gap_ns_;
   bool stepping_;
-  bool anchored_ = false;
   std::uint64_t anchor_clock_ = 0;
   std::uint64_t anchor_t_ = 0;
   std::uint64_t t_ = 0;                      // virtual file time of the last item
   std::optional<std::uint64_t> last_stamp_;  // timestamp of the last item of this pass
-  std::uint64_t pass_start_t_ = 0;
+  std::uint64_t pass_start_t_ = 0;           // virtual file time of the first item of this pass
   std::uint64_t pass_items_ = 0;
-  bool started_ = false;
-  bool new_pass_ = false;
-  std::uint64_t pass_gap_ = 0;  // gap before the first item of a new pass
   std::optional<std::uint64_t> first_deadline_;
   std::uint64_t last_sent_ = 0;
   LatenessStats lateness_;
@@ -163,16 +157,10 @@ struct ReplayHooks {
 ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
                     ReplayClock& clock, const ReplayHooks& hooks);
 
-/// What a replay would do, from one pass over the file (saulctl asks before sending motion frames).
+/// What a replay would send, from one pass over the file (saulctl says how many motion frames it leaves out).
 struct ReplayPreview {
-  std::uint64_t frames = 0;
   std::uint64_t to_send = 0;  ///< with motion allowed
   std::uint64_t motion = 0;   ///< of those, frames that can move motors
-  std::uint64_t filtered = 0;
-  std::uint64_t error_frames = 0;
-  std::uint64_t corrupt = 0;
-  std::optional<std::uint64_t> first_ns;
-  std::optional<std::uint64_t> last_ns;
 };
 ReplayPreview preview_replay(std::unique_ptr<CaptureReader>& reader, const ReplayOptions& options);
 

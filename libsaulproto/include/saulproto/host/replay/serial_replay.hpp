@@ -143,8 +143,6 @@ struct SerialLinkPreview {
   std::uint64_t motion_bytes = 0;
   std::map<std::string, std::uint64_t> motion_by_type;
   std::uint64_t writes = 0;        ///< chunks that still have bytes without the motion messages
-  std::optional<std::uint64_t> first_ns;
-  std::optional<std::uint64_t> last_ns;
 };
 
 struct SerialReplayPreview {

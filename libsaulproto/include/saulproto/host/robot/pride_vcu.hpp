@@ -15,19 +15,8 @@
 
 namespace saul::host {
 
-/// Where the VCU takes the time from.
-class VcuClock {
- public:
-  using TimePoint = std::chrono::steady_clock::time_point;
-  virtual ~VcuClock() = default;
-  virtual TimePoint now() = 0;
-};
-
-/// The steady clock.
-class SteadyVcuClock final : public VcuClock {
- public:
-  TimePoint now() override { return std::chrono::steady_clock::now(); }
-};
+/// Where the VCU takes the time from: the steady clock in saulctl, a fake one in tests.
+using VcuClock = std::function<std::chrono::steady_clock::time_point()>;
 
 struct PrideVcuOptions {
   std::chrono::microseconds period{pride::kFramePeriodUs};
@@ -48,11 +37,11 @@ struct PrideVcuCounters {
 
 class PrideVcu {
  public:
-  using TimePoint = VcuClock::TimePoint;
+  using TimePoint = std::chrono::steady_clock::time_point;
   using StatusHandler = std::function<void(const pride::ControllerStatus&)>;
 
   /// Throws std::invalid_argument when the command is outside the manual's ranges.
-  PrideVcu(SerialPort& port, VcuClock& clock, pride::VcuCommand command, PrideVcuOptions options = {});
+  PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command, PrideVcuOptions options = {});
 
   /// From now on only neutral frames (same speed level, FB 0, LR 0); finished() after options.neutral_time
   /// worth of them. Calling it again does not restart the neutral period.
@@ -66,7 +55,6 @@ class PrideVcu {
   /// read returned nothing (e.g. EINTR), so the caller can check its stop condition. Throws SerialError.
   void step(const StatusHandler& on_status = {});
 
-  [[nodiscard]] const pride::VcuCommand& command() const { return command_; }
   [[nodiscard]] std::optional<pride::ControllerStatus> last_status() const { return last_status_; }
   [[nodiscard]] const PrideVcuCounters& counters() const { return counters_; }
   [[nodiscard]] const pride::EchoFilter::Counters& echo_counters() const { return echo_.counters(); }
@@ -78,7 +66,7 @@ class PrideVcu {
   void take(std::span<const std::uint8_t> bytes, TimePoint now, const StatusHandler& on_status);
 
   SerialPort& port_;
-  VcuClock& clock_;
+  VcuClock clock_;
   pride::VcuCommand command_;
   pride::VcuCommand previous_command_;  // what the frames before neutral carried
   PrideVcuOptions options_;

@@ -1,7 +1,5 @@
-// Talking to the robot over a CAN link: send a command frame and wait for its 0x402 acknowledgement.
-//
-// This is where "send a mode / PID set / config and report whether it was taken" lives, so saulctl, bench
-// scripts and tests share one behaviour. Frames that arrive while waiting are handed to an observer, so the
+// Talking to the robot over a CAN link: send a mode / PID set / config frame and wait for its 0x402 acknowledgement,
+// one behaviour for saulctl, bench scripts and tests. Frames that arrive while waiting go to an observer, so the
 // caller can keep printing telemetry. Time is the steady clock; waits are bounded by the caller's timeout.
 #pragma once
 
@@ -77,8 +75,9 @@ class RobotClient {
  private:
   CanLink& link_;
   Observer observer_;
-  std::uint8_t sequence_ = 0;
-  bool sequence_seeded_ = false;
+  // A fresh start value per run: the receiver treats a repeated sequence number as the same set.
+  std::uint8_t sequence_ = static_cast<std::uint8_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::chrono::system_clock::now().time_since_epoch()).count());
 };
 
 }  // namespace saul::host

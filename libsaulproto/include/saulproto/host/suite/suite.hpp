@@ -61,11 +61,7 @@ struct Suite {
 class ParseError : public std::runtime_error {
  public:
   ParseError(const std::string& path, int line, const std::string& what)
-      : std::runtime_error(path + ":" + std::to_string(line) + ": " + what), line_(line) {}
-  [[nodiscard]] int line() const { return line_; }
-
- private:
-  int line_;
+      : std::runtime_error(path + ":" + std::to_string(line) + ": " + what) {}
 };
 
 /// Parses a suite; throws ParseError naming the file and line.
@@ -137,9 +133,5 @@ struct FieldValue {
 };
 /// True when the value satisfies the condition (numbers compare as numbers, texts by name without case).
 bool holds(const Condition& condition, const FieldValue& value);
-
-/// Evaluates conditions against a frame: true when the frame decodes to `message` (or any message when empty)
-/// and every condition holds. Exposed for tests.
-bool matches(const CanFrame& frame, const std::string& message, const std::vector<Condition>& conditions);
 
 }  // namespace saul::host::suite
