@@ -76,6 +76,22 @@ TEST_CASE("asc: python-can 4.1.0 writer output parses (AM/PM date, trigger block
   CHECK(r.names[3] == "can1");
 }
 
+TEST_CASE("asc: a UTF-8 byte-order mark before the date line is skipped, as in the other text formats") {
+  // an editor on Windows saves one; the reader took it for part of the first word and lost the date
+  const std::string text =
+      "\xEF\xBB\xBF" "date Tue Nov 14 22:13:20 2023\n"
+      "base hex  timestamps absolute\n"
+      "   0.001250 1  938x            Rx   d 8 FF FF FB 50 00 23 00 FA\n";
+  CHECK(detect_capture_format(as_bytes(text)) == CaptureFormat::asc);
+  std::istringstream in(text);
+  AscReader reader(in);
+  const Read r = read_all(reader);
+  CHECK(reader.wall_clock());
+  CHECK(r.errors.empty());
+  REQUIRE(r.frames.size() == 1);
+  CHECK(r.frames[0] == kDocFrames[1]);
+}
+
 TEST_CASE("asc: base dec, timestamps relative (each time counted from the previous frame), no date") {
   const std::string text =
       "base dec  timestamps relative\n"

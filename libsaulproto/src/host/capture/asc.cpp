@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <stdexcept>
+
 #include "../util.hpp"
 #include "capture_io.hpp"
 #include "civil_time.hpp"
@@ -13,23 +15,17 @@ namespace saul::host {
 namespace {
 
 using detail::kFdUnsupported;
-
 using detail::Civil;
 using detail::civil_from_days;
 using detail::days_from_civil;
-
-constexpr std::uint64_t kAscNsPerSec = 1'000'000'000ULL;
+using detail::kNsPerSecond;
 
 constexpr std::array<std::string_view, 12> kMonths = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
                                                       "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
 constexpr std::array<std::string_view, 7> kWeekdays = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
 
-
 bool iequals(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (detail::ascii_lower(a[i]) != detail::ascii_lower(b[i])) return false;
-  return true;
+  return std::ranges::equal(a, b, [](char x, char y) { return detail::ascii_lower(x) == detail::ascii_lower(y); });
 }
 
 bool all_digits(std::string_view s) { return !s.empty() && s.find_first_not_of("0123456789") == s.npos; }
@@ -51,7 +47,7 @@ std::optional<std::uint64_t> parse_time(std::string_view s) {
     frac = *parse_unsigned(f, 10);
     for (std::size_t i = f.size(); i < 9; ++i) frac *= 10;
   }
-  return *sec * kAscNsPerSec + frac;
+  return *sec * kNsPerSecond + frac;
 }
 
 std::optional<unsigned> month_of(std::string_view s) {
@@ -86,7 +82,7 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text) {
   const auto hour = parse_unsigned(clock.substr(0, c1), 10);
   const auto minute = parse_unsigned(clock.substr(c1 + 1, c2 - c1 - 1), 10);
   const auto second = parse_time(clock.substr(c2 + 1));
-  if (!hour || !minute || !second || *hour > 23 || *minute > 59 || *second >= 61 * kAscNsPerSec) return std::nullopt;
+  if (!hour || !minute || !second || *hour > 23 || *minute > 59 || *second >= 61 * kNsPerSecond) return std::nullopt;
   std::uint64_t h = *hour;
   if (i < t.size() && (iequals(t[i], "am") || iequals(t[i], "pm"))) {
     if (h < 1 || h > 12) return std::nullopt;
@@ -100,11 +96,11 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text) {
   if (!year || *year < 1970 || *year > 9999) return std::nullopt;
   const std::int64_t days = days_from_civil(static_cast<std::int64_t>(*year), *month, static_cast<unsigned>(*day));
   if (days < 0) return std::nullopt;
-  return (static_cast<std::uint64_t>(days) * 86400U + h * 3600U + *minute * 60U) * kAscNsPerSec + *second;
+  return (static_cast<std::uint64_t>(days) * 86400U + h * 3600U + *minute * 60U) * kNsPerSecond + *second;
 }
 
 std::string format_asc_date(std::uint64_t ns) {
-  const std::uint64_t sec = ns / kAscNsPerSec;
+  const std::uint64_t sec = ns / kNsPerSecond;
   const auto days = static_cast<std::int64_t>(sec / 86400U);
   const std::uint64_t in_day = sec % 86400U;
   const Civil c = civil_from_days(days);
@@ -113,21 +109,6 @@ std::string format_asc_date(std::uint64_t ns) {
 }
 
 // ---- reader ----
-
-AscReader::Status AscReader::next() {
-  while (std::getline(in_, line_)) {
-    ++line_number_;
-    std::string_view line = line_;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    if (const Step step = parse_line(line); step != Step::skipped) return status(step);
-  }
-  return Status::end;
-}
-
-AscReader::Step AscReader::corrupt(std::size_t column, std::string message) {
-  detail::line_error(error_, line_number_, column, std::move(message));
-  return Step::corrupt;
-}
 
 std::uint64_t AscReader::absolute(std::uint64_t time_ns) {
   if (deltas_) {
@@ -323,7 +304,7 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
 // ---- writer ----
 
 void AscWriter::header(std::uint64_t first_ns) {
-  start_ns_ = first_ns - first_ns % kAscNsPerSec;
+  start_ns_ = first_ns - first_ns % kNsPerSecond;
   const std::string date = format_asc_date(start_ns_);
   out_ << "date " << date << "\nbase hex  timestamps absolute\ninternal events logged\nBegin Triggerblock " << date
        << "\n   0.000000 Start of measurement\n";

@@ -130,8 +130,6 @@ BlfReader::BlfReader(std::istream& in) : in_(in) {
   start_ns_ = systemtime_to_ns(h.data() + 40);
 }
 
-BlfReader::~BlfReader() = default;
-
 BlfReader::Status BlfReader::corrupt(std::uint64_t position, Recovery recovery, std::string message) {
   error_ = detail::byte_error(position, recovery, std::move(message));
   return Status::corrupt;

@@ -216,23 +216,16 @@ bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& i
   return true;
 }
 
-CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes) : fd_(fd), positional_(false) { allocate(block_bytes); }
+CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes) : fd_(fd) { allocate(block_bytes); }
 
 CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), positional_(true), offset_(begin), end_(end) {
   allocate(block_bytes);
 }
 
-CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes)
-    : fd_(-1), positional_(false), text_(text) {
-  allocate(block_bytes);
-}
+CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes) : text_(text) { allocate(block_bytes); }
 
-CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes) : fd_(-1), positional_(false), in_(&in) {
-  allocate(block_bytes);
-}
-
-CandumpScanner::~CandumpScanner() = default;
+CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes) : in_(&in) { allocate(block_bytes); }
 
 void CandumpScanner::allocate(std::size_t block_bytes) {
   block_ = block_bytes;

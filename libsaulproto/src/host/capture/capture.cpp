@@ -425,6 +425,17 @@ bool CaptureReader::next_batch(FrameBatch& batch) {
   return !batch.empty();
 }
 
+CaptureReader::Status LineCaptureReader::next() {
+  while (const auto line = detail::next_line(in_, line_, line_number_))
+    if (const Step step = parse_line(*line); step != Step::skipped) return status(step);
+  return Status::end;
+}
+
+LineCaptureReader::Step LineCaptureReader::corrupt(std::size_t column, std::string message) {
+  detail::line_error(error_, line_number_, column, std::move(message));
+  return Step::corrupt;
+}
+
 CaptureReader::Status BatchCaptureReader::next() {
   for (;;) {
     if (corrupt_ < batch_.corrupt.size() && batch_.corrupt[corrupt_].before == frame_) {
@@ -643,17 +654,14 @@ namespace {
 
 class FileText final : public CaptureText {
  public:
-  FileText(std::unique_ptr<FileSource> source, CaptureFormat format) : source_(std::move(source)), format_(format) {}
+  explicit FileText(std::unique_ptr<FileSource> source) : source_(std::move(source)) {}
   std::size_t read(char* dst, std::size_t n) override { return read_full(*source_->stream.rdbuf(), dst, n); }
   [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
-  [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
   [[nodiscard]] std::optional<CaptureError> end_error() const override { return source_->decompression_error(); }
-  [[nodiscard]] CaptureFormat format() const override { return format_; }
   [[nodiscard]] bool compressed() const override { return source_->inflater != nullptr; }
 
  private:
   std::unique_ptr<FileSource> source_;
-  CaptureFormat format_;
 };
 
 }  // namespace
@@ -664,7 +672,7 @@ std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& r
   auto source = file->release_source();
   if (!source) return nullptr;
   reader.reset();
-  return std::make_unique<FileText>(std::move(source), CaptureFormat::candump);
+  return std::make_unique<FileText>(std::move(source));
 }
 
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
@@ -694,11 +702,7 @@ OpenedCapture open_capture(const std::string& path, const SerialReadOptions& opt
   return opened;
 }
 
-std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path, std::optional<CaptureFormat> format) {
-  return open_capture_writer_made(path, format, nullptr);
-}
-
-std::unique_ptr<CaptureWriter> open_capture_writer_made(
+std::unique_ptr<CaptureWriter> open_capture_writer(
     const std::string& path, std::optional<CaptureFormat> format,
     const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make) {
   const Compression compression = compression_from_extension(path);

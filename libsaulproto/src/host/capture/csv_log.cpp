@@ -4,6 +4,7 @@
 
 #include <array>
 #include <stdexcept>
+#include <utility>
 
 #include "capture_io.hpp"
 #include "text_fields.hpp"
@@ -90,11 +91,12 @@ int base64_decode(std::string_view text, std::span<std::uint8_t> out) {
 
 // ---- reader ----
 
-bool CsvLogReader::fail(std::size_t column, std::string message) {
-  return detail::line_error(error_, line_number_, column, std::move(message));
+CsvLogReader::Step CsvLogReader::parse_line(std::string_view line) {
+  if (line.find_first_not_of(" \t") == std::string_view::npos) return Step::skipped;
+  return std::exchange(have_header_, true) ? row(line) : header(line);
 }
 
-bool CsvLogReader::header(std::string_view line) {
+CsvLogReader::Step CsvLogReader::header(std::string_view line) {
   std::vector<std::pair<std::size_t, std::string_view>> fields;
   detail::split_fields(line, ',', fields);
   field_.assign(kColumns.size(), 0);
@@ -105,65 +107,59 @@ bool CsvLogReader::header(std::string_view line) {
     if (i == fields.size()) {
       for (std::size_t k = 0; k < kColumns.size(); ++k) field_[k] = k;  // carry on in python-can's order
       columns_ = kColumns.size();
-      return fail(0, "not python-can's CSV header (timestamp,arbitration_id,extended,remote,error,dlc,data)");
+      return corrupt(0, "not python-can's CSV header (timestamp,arbitration_id,extended,remote,error,dlc,data)");
     }
     field_[c] = i;
   }
-  return true;
+  return Step::skipped;
 }
 
-bool CsvLogReader::row(std::string_view line) {
+CsvLogReader::Step CsvLogReader::row(std::string_view line) {
   std::vector<std::pair<std::size_t, std::string_view>> f;
   detail::split_fields(line, ',', f);
   if (f.size() != columns_)
-    return fail(0, fmt::format("{} fields, the header has {}", f.size(), columns_));
+    return corrupt(0, fmt::format("{} fields, the header has {}", f.size(), columns_));
   auto at = [&](Column c) { return f[field_[c]]; };
   const auto [time_col, time_text] = at(kTime);
   const auto ns = seconds_to_ns(time_text);
-  if (!ns) return fail(time_col, "timestamp must be seconds, e.g. 1700000000.00125");
+  if (!ns) return corrupt(time_col, "timestamp must be seconds, e.g. 1700000000.00125");
   auto [id_col, id_text] = at(kId);
   if (id_text.starts_with("0x") || id_text.starts_with("0X")) id_text.remove_prefix(2);
   const auto id = id_text.size() <= 8 ? detail::parse_hex(id_text) : std::nullopt;
-  if (!id) return fail(id_col, "arbitration_id must be hexadecimal, e.g. 0x344");
+  if (!id) return corrupt(id_col, "arbitration_id must be hexadecimal, e.g. 0x344");
   std::array<bool, 3> flags{};
   for (Column c : {kExtended, kRemote, kError}) {
     const auto v = flag(at(c).second);
-    if (!v) return fail(at(c).first, fmt::format("{} must be 1 or 0", kColumns[c]));
+    if (!v) return corrupt(at(c).first, fmt::format("{} must be 1 or 0", kColumns[c]));
     flags[c - kExtended] = *v;
   }
   const auto [dlc_col, dlc_text] = at(kDlc);
   const auto dlc = detail::parse_decimal(dlc_text);
-  if (!dlc) return fail(dlc_col, "dlc must be a number");
-  if (*dlc > 8) return fail(dlc_col, "CAN FD frame (more than 8 bytes): the robot's bus is classic CAN, FD is not supported");
+  if (!dlc) return corrupt(dlc_col, "dlc must be a number");
+  if (*dlc > 8) return corrupt(dlc_col, "CAN FD frame (more than 8 bytes): the robot's bus is classic CAN, FD is not supported");
   CanFrame fr;
   fr.timestamp_ns = *ns;
   std::string_view data_text = at(kData).second;
   while (!data_text.empty() && (data_text.back() == ' ' || data_text.back() == '\r')) data_text.remove_suffix(1);
   const int n = base64_decode(data_text, fr.data);
-  if (n < 0) return fail(at(kData).first, "data must be base64 of at most 8 bytes");
+  if (n < 0) return corrupt(at(kData).first, "data must be base64 of at most 8 bytes");
   fr.dlc = static_cast<std::uint8_t>(*dlc);
   fr.remote = flags[1];
   fr.error = flags[2];
   if (fr.error) {
-    if (fr.remote) return fail(at(kRemote).first, "an error frame cannot be a remote frame");
-    if (*id > CanFrame::kMaxExtendedId) return fail(id_col, "error class above 1FFFFFFF");
+    if (fr.remote) return corrupt(at(kRemote).first, "an error frame cannot be a remote frame");
+    if (*id > CanFrame::kMaxExtendedId) return corrupt(id_col, "error class above 1FFFFFFF");
     fr.id = static_cast<std::uint32_t>(*id);
   } else {
     fr.extended = flags[0];
     if (*id > (fr.extended ? CanFrame::kMaxExtendedId : CanFrame::kMaxStandardId))
-      return fail(id_col, fr.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended is 0)");
+      return corrupt(id_col, fr.extended ? "29-bit id above 1FFFFFFF" : "11-bit id above 7FF (extended is 0)");
     fr.id = static_cast<std::uint32_t>(*id);
   }
   if (!fr.remote && n != fr.dlc)
-    return fail(at(kData).first, fmt::format("dlc {} but {} data bytes", fr.dlc, n));
+    return corrupt(at(kData).first, fmt::format("dlc {} but {} data bytes", fr.dlc, n));
   frame_ = fr;
-  return true;
-}
-
-CsvLogReader::Status CsvLogReader::next() {
-  return detail::next_csv_record(
-      in_, line_, line_number_, have_header_, [this](std::string_view l) { return header(l); },
-      [this](std::string_view l) { return row(l); });
+  return Step::frame;
 }
 
 // ---- writer ----

@@ -716,7 +716,7 @@ CopyStats McapCaptureWriter::copy(const std::string& path, std::unique_ptr<Captu
 
 std::unique_ptr<CaptureWriter> open_mcap_writer(const std::string& path, McapWriterOptions options,
                                                 McapExtraMaker make_extra, const McapMap& metadata) {
-  return open_capture_writer_made(path, CaptureFormat::mcap, [&](std::ostream& out) -> std::unique_ptr<CaptureWriter> {
+  return open_capture_writer(path, CaptureFormat::mcap, [&](std::ostream& out) -> std::unique_ptr<CaptureWriter> {
     return std::make_unique<McapCaptureWriter>(out, std::move(options), std::move(make_extra), metadata);
   });
 }

@@ -147,8 +147,6 @@ PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::u
   size_ = end < size ? end : size;
 }
 
-PcapScanner::~PcapScanner() = default;
-
 namespace {
 
 class PcapCutter final : public detail::BlockCutter {

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <stdexcept>
 
@@ -56,6 +57,13 @@ std::uint64_t ticks_to_ns(std::uint64_t ticks, std::uint8_t tsresol) {
   std::uint64_t divisor = 1;
   for (unsigned i = 9; i < n && divisor <= UINT64_MAX / 10; ++i) divisor *= 10;
   return ticks / divisor;
+}
+
+/// What a Section Header Block's byte-order magic says: true for big-endian; nullopt when it is no such magic.
+std::optional<bool> section_big_endian(const std::uint8_t* magic) {
+  if (load_u32(magic, false) == kByteOrderMagic) return false;
+  if (load_u32(magic, true) == kByteOrderMagic) return true;
+  return std::nullopt;
 }
 
 /// Builds a block in a byte buffer, little-endian.
@@ -137,12 +145,9 @@ class PcapngCutter final : public detail::BlockCutter {
         }
       }
       if (type == kShb) {
-        if (pos_ != 0) break;  // a second section: not cut from here on
-        if (load_u32(h + 8, true) == kByteOrderMagic) {
-          big_ = true;
-        } else if (load_u32(h + 8, false) != kByteOrderMagic) {
-          break;
-        }
+        const auto big = section_big_endian(h + 8);
+        if (pos_ != 0 || !big) break;  // a second section: not cut from here on
+        big_ = *big;
       }
       const std::uint32_t length = load_u32(h + 4, big_);
       if (length < 12 || length % 4 != 0 || pos_ + length > size_) break;
@@ -222,13 +227,9 @@ void PcapngReader::open() {
   const std::size_t got = take(h.data(), h.size());
   if (got < h.size() || load_u32(h.data(), false) != kShb)
     throw CaptureOpenError("not a pcapng file: it does not start with a Section Header Block");
-  if (load_u32(h.data() + 8, false) == kByteOrderMagic) {
-    big_ = false;
-  } else if (load_u32(h.data() + 8, true) == kByteOrderMagic) {
-    big_ = true;
-  } else {
-    throw CaptureOpenError("not a pcapng file: bad byte-order magic in the Section Header Block");
-  }
+  const auto big = section_big_endian(h.data() + 8);
+  if (!big) throw CaptureOpenError("not a pcapng file: bad byte-order magic in the Section Header Block");
+  big_ = *big;
   if (block(0, kShb, load_u32(h.data() + 4, big_), 12) == Step::corrupt)
     throw CaptureOpenError("pcapng section header: " + error_.message);
 }
@@ -259,14 +260,12 @@ PcapngReader::Status PcapngReader::next() {
         corrupt(start, Recovery::stop, "file ends inside a section header");
         return Status::corrupt;
       }
-      if (load_u32(h.data() + 8, false) == kByteOrderMagic) {
-        big_ = false;
-      } else if (load_u32(h.data() + 8, true) == kByteOrderMagic) {
-        big_ = true;
-      } else {
+      const auto big = section_big_endian(h.data() + 8);
+      if (!big) {
         corrupt(start, Recovery::stop, "section header has a bad byte-order magic");
         return Status::corrupt;
       }
+      big_ = *big;
     }
     if (const Step step = block(start, type, load_u32(h.data() + 4, big_), header_bytes); step != Step::skipped)
       return status(step);

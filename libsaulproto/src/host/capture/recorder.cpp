@@ -24,19 +24,6 @@ std::uint64_t position(std::ofstream& file) {
   return p < 0 ? 0 : static_cast<std::uint64_t>(p);
 }
 
-/// Closes the current file (detail::close_with_file), hands it to the compressor when there is one, and after the last file
-/// waits for the compressor and gives the last file's final name.
-template <class Writer>
-void close_and_compress(Writer& writer, std::ofstream& file, std::string& path, FileCompressor* compressor,
-                        bool last) {
-  detail::close_with_file([&] { writer.close(); }, file, path);
-  if (!compressor) return;
-  compressor->add(path);
-  if (!last) return;
-  path += std::string(file_suffix(compressor->compression()));
-  compressor->finish();
-}
-
 }  // namespace
 
 void FileCompressor::add(const std::string& path) {
@@ -96,10 +83,7 @@ RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions ro
                                                           : std::make_unique<FileCompressor>(rotation.compress)),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
-  current_path_ = path_for(0);
-  file_ = create(current_path_);
-  inner_ = make_(*file_);
-  if (on_new_file_) on_new_file_(current_path_);
+  open(0);
 }
 
 template <class Writer>
@@ -117,14 +101,18 @@ std::uint64_t RotatingFiles<Writer>::bytes_in_file() {
 
 template <class Writer>
 void RotatingFiles<Writer>::close_current() {
-  close_and_compress(*inner_, *file_, current_path_, compressor_.get(), closed_);
+  detail::close_with_file([&] { inner_->close(); }, *file_, current_path_);
+  if (!compressor_) return;
+  compressor_->add(current_path_);
+  if (!closed_) return;
+  current_path_ += std::string(file_suffix(compressor_->compression()));  // the last file's final name
+  compressor_->finish();
 }
 
 template <class Writer>
-void RotatingFiles<Writer>::open_next() {
-  close_current();
-  ++index_;
-  current_path_ = path_for(index_);
+void RotatingFiles<Writer>::open(unsigned index) {
+  index_ = index;
+  current_path_ = path_for(index);
   file_ = create(current_path_);
   inner_ = make_(*file_);
   items_in_file_ = 0;
@@ -136,7 +124,10 @@ template <class Writer>
 void RotatingFiles<Writer>::write_item(std::optional<std::uint64_t> timestamp_ns,
                                        const std::function<void(Writer&)>& write) {
   if (closed_) throw std::runtime_error("record: write after close");
-  if (due(timestamp_ns)) open_next();
+  if (due(timestamp_ns)) {
+    close_current();
+    open(index_ + 1);
+  }
   detail::naming_file(current_path_, [&] { write(*inner_); });
   if (!file_start_ns_) file_start_ns_ = timestamp_ns;
   ++items_in_file_;

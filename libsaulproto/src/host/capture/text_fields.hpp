@@ -124,21 +124,4 @@ inline std::optional<std::string_view> next_line(std::istream& in, std::string& 
   return line;
 }
 
-/// next() of a CSV reader: a header line first (header(line) false: corrupt), then one frame per line (row(line)
-/// false: corrupt); blank lines are skipped.
-template <class Header, class Row>
-CaptureReader::Status next_csv_record(std::istream& in, std::string& buffer, std::uint64_t& number,
-                                      bool& have_header, Header&& header, Row&& row) {
-  while (const auto line = next_line(in, buffer, number)) {
-    if (line->find_first_not_of(" \t") == std::string_view::npos) continue;
-    if (!have_header) {
-      have_header = true;
-      if (!header(*line)) return CaptureReader::Status::corrupt;
-      continue;
-    }
-    return row(*line) ? CaptureReader::Status::frame : CaptureReader::Status::corrupt;
-  }
-  return CaptureReader::Status::end;
-}
-
 }  // namespace saul::host::detail

@@ -43,18 +43,6 @@ std::optional<std::uint64_t> parse_trc_start_time(std::string_view days) {
 
 // ---- reader ----
 
-TrcReader::Status TrcReader::next() {
-  while (const auto line = detail::next_line(in_, line_, line_number_)) {
-    if (const Step step = parse_line(*line); step != Step::skipped) return status(step);
-  }
-  return Status::end;
-}
-
-TrcReader::Step TrcReader::corrupt(std::size_t column, std::string message) {
-  detail::line_error(error_, line_number_, column, std::move(message));
-  return Step::corrupt;
-}
-
 TrcReader::Step TrcReader::error_frame(std::size_t time_token, std::optional<std::size_t> bus_token) {
   const auto [time_col, time_text] = tokens_[time_token];
   const auto offset = detail::parse_scaled(time_text, 1'000'000, 6);

@@ -30,18 +30,16 @@ std::optional<std::uint64_t> parse_asc_date(std::string_view text);
 /// "Tue Nov 14 22:13:20 2023" for the whole second of `ns` (UTC).
 std::string format_asc_date(std::uint64_t ns);
 
-class AscReader final : public RecordCaptureReader {
+class AscReader final : public LineCaptureReader {
  public:
-  explicit AscReader(std::istream& in) : in_(in) {}
-
-  Status next() override;
+  explicit AscReader(std::istream& in) : LineCaptureReader(in) {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::asc; }
 
   /// True once a date or Begin Triggerblock line gave the wall clock of the measurement start.
   [[nodiscard]] bool wall_clock() const noexcept { return start_ns_.has_value(); }
 
  private:
-  Step parse_line(std::string_view line);
+  Step parse_line(std::string_view line) override;
   Step timed_line(std::string_view line);
   Step frame_line(std::string_view line, std::uint64_t time_ns);
   Step canfd_line(std::string_view line, std::uint64_t time_ns);
@@ -49,12 +47,8 @@ class AscReader final : public RecordCaptureReader {
   std::optional<std::uint64_t> channel(std::size_t token);  ///< 1..255; nullopt after reporting it corrupt
   bool data_bytes(std::size_t first, CanFrame& frame);  ///< frame.dlc bytes; false after reporting one corrupt
   Step emit(CanFrame frame, std::uint64_t channel, std::uint64_t time_ns);
-  Step corrupt(std::size_t column, std::string message);
   [[nodiscard]] std::uint64_t absolute(std::uint64_t time_ns);
 
-  std::istream& in_;
-  std::string line_;
-  std::uint64_t line_number_ = 0;
   std::vector<std::pair<std::size_t, std::string_view>> tokens_;  ///< column, text; reused for every line
   int base_ = 16;
   bool deltas_ = false;  ///< "timestamps relative"

@@ -33,7 +33,6 @@ class BlfReader final : public RecordCaptureReader {
 
   /// Reads the file header; throws CaptureOpenError when the stream does not start with one.
   explicit BlfReader(std::istream& in);
-  ~BlfReader() override;
 
   Status next() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }

@@ -216,7 +216,6 @@ class CandumpScanner {
   explicit CandumpScanner(std::istream& in, std::size_t block_bytes = std::size_t{256} << 10);
   CandumpScanner(const CandumpScanner&) = delete;
   CandumpScanner& operator=(const CandumpScanner&) = delete;
-  ~CandumpScanner();
 
   /// Fills `batch` (cleared first) with the lines of up to one block (at most FrameBatch::kMax frames); false
   /// (batch empty) at the end. Throws std::runtime_error when reading fails.
@@ -241,8 +240,8 @@ class CandumpScanner {
   std::size_t fill(char* dst, std::size_t n);
   void allocate(std::size_t block_bytes);
 
-  int fd_;
-  bool positional_;
+  int fd_ = -1;
+  bool positional_ = false;
   std::string_view text_;  // what is left of the text read from memory (fd_ < 0, no in_)
   std::istream* in_ = nullptr;
   std::uint64_t offset_ = 0;  // next pread position

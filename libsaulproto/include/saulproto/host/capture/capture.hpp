@@ -215,6 +215,24 @@ class RecordCaptureReader : public CaptureReader {
   CaptureError error_;
 };
 
+/// A reader of a text format (ASC, TRC, the CSV logs): next() hands each line, without its CR and (line 1) a UTF-8
+/// byte-order mark, to parse_line() until one gives a frame or a corrupt record.
+class LineCaptureReader : public RecordCaptureReader {
+ public:
+  Status next() override;
+
+ protected:
+  explicit LineCaptureReader(std::istream& in) : in_(in) {}
+  virtual Step parse_line(std::string_view line) = 0;
+  /// The line is corrupt from `column` on; reading goes on at the next line.
+  Step corrupt(std::size_t column, std::string message);
+
+ private:
+  std::istream& in_;
+  std::string line_;
+  std::uint64_t line_number_ = 0;
+};
+
 /// Appends frames. Writers that wrap a caller's std::ostream leave it open; writers from open_capture_writer own
 /// their file and close it (without throwing) when destroyed if close() was not called.
 class CaptureWriter {
@@ -299,12 +317,10 @@ class CaptureText {
   virtual ~CaptureText() = default;
   /// Up to n bytes of the content (fewer only at its end); 0 at the end.
   virtual std::size_t read(char* dst, std::size_t n) = 0;
-  /// Bytes of the file read so far (compressed bytes for a compressed file, to compare with bytes_total).
+  /// Bytes of the file read so far (compressed bytes for a compressed file).
   [[nodiscard]] virtual std::uint64_t bytes_read() const = 0;
-  [[nodiscard]] virtual std::optional<std::uint64_t> bytes_total() const = 0;
   /// After the end: a decompression error as one corrupt record (Recovery::stop); nullopt at a clean end.
   [[nodiscard]] virtual std::optional<CaptureError> end_error() const = 0;
-  [[nodiscard]] virtual CaptureFormat format() const = 0;
   /// Whether the file is gzip or zstd.
   [[nodiscard]] virtual bool compressed() const = 0;
 };
@@ -320,14 +336,11 @@ std::unique_ptr<CaptureReader> make_capture_reader(std::istream& in, CaptureForm
 
 /// Creates (truncates) a capture file ("-": standard output). The format is `format`, else from the extension; a
 /// name ending in .gz or .zst is compressed (run.log.gz: a gzipped candump log). Throws CaptureOpenError when neither
-/// says, for a serial format, or when the file cannot be created.
-std::unique_ptr<CaptureWriter> open_capture_writer(const std::string& path,
-                                                   std::optional<CaptureFormat> format = std::nullopt);
-/// As open_capture_writer, with the format writer that `make` builds on the opened (maybe compressing) stream:
-/// for writers with options of their own (open_mcap_writer).
-std::unique_ptr<CaptureWriter> open_capture_writer_made(
-    const std::string& path, std::optional<CaptureFormat> format,
-    const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make);
+/// says, for a serial format, or when the file cannot be created. `make` (may be empty) builds the format writer on
+/// the opened (maybe compressing) stream, for writers with options of their own (open_mcap_writer).
+std::unique_ptr<CaptureWriter> open_capture_writer(
+    const std::string& path, std::optional<CaptureFormat> format = std::nullopt,
+    const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make = {});
 /// A writer of `format` onto a stream the caller keeps alive (and closes).
 std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFormat format);
 

@@ -40,7 +40,6 @@ class CaptureBlocks {
   [[nodiscard]] bool has(std::size_t k) const;
   /// The number of blocks (cuts the whole file first).
   [[nodiscard]] std::size_t count() const;
-  [[nodiscard]] std::uint64_t size() const noexcept { return size_; }
 
   /// What a reading thread keeps from block to block (no allocation per block).
   struct Scratch {

@@ -24,22 +24,18 @@ std::string base64_encode(std::span<const std::uint8_t> bytes);
 /// is not base64 or holds more than out.size() bytes.
 int base64_decode(std::string_view text, std::span<std::uint8_t> out);
 
-class CsvLogReader final : public RecordCaptureReader {
+class CsvLogReader final : public LineCaptureReader {
  public:
-  explicit CsvLogReader(std::istream& in) : in_(in) {}
-  Status next() override;
+  explicit CsvLogReader(std::istream& in) : LineCaptureReader(in) {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:
-  bool header(std::string_view line);
-  bool row(std::string_view line);
-  bool fail(std::size_t column, std::string message);
-  std::istream& in_;
-  std::string line_;
+  Step parse_line(std::string_view line) override;
+  Step header(std::string_view line);
+  Step row(std::string_view line);
   std::vector<std::size_t> field_;  // column index of timestamp, arbitration_id, extended, remote, error, dlc, data
   std::size_t columns_ = 0;
   bool have_header_ = false;
-  std::uint64_t line_number_ = 0;
 };
 
 class CsvLogWriter final : public StreamCaptureWriter {

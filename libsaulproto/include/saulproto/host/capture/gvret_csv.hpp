@@ -19,21 +19,17 @@
 
 namespace saul::host {
 
-class GvretCsvReader final : public RecordCaptureReader {
+class GvretCsvReader final : public LineCaptureReader {
  public:
-  explicit GvretCsvReader(std::istream& in) : in_(in) {}
-  Status next() override;
+  explicit GvretCsvReader(std::istream& in) : LineCaptureReader(in) {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:
-  bool header(std::string_view line);
-  bool row(std::string_view line);
-  bool fail(std::size_t column, std::string message);
-  std::istream& in_;
-  std::string line_;
+  Step parse_line(std::string_view line) override;
+  Step header(std::string_view line);
+  Step row(std::string_view line);
   std::size_t time_ = 0, id_ = 1, extended_ = 2, bus_ = 3, len_ = 4, data_ = 5;  // column indexes
   bool have_header_ = false;
-  std::uint64_t line_number_ = 0;
 };
 
 class GvretCsvWriter final : public StreamCaptureWriter {

@@ -51,14 +51,11 @@ class PcapScanner {
   explicit PcapScanner(std::istream& in, std::size_t block_bytes = std::size_t{64} << 10);
   PcapScanner(const PcapScanner&) = delete;
   PcapScanner& operator=(const PcapScanner&) = delete;
-  ~PcapScanner();
 
   /// Fills `batch` (cleared first) with up to FrameBatch::kMax records; false (batch empty) at the end.
   bool next_batch(FrameBatch& batch);
   [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
-
   [[nodiscard]] bool big_endian() const noexcept { return big_; }
-  [[nodiscard]] bool nanosecond() const noexcept { return nano_; }
 
  private:
   void read_header();
@@ -88,8 +85,6 @@ class PcapReader final : public BatchCaptureReader {
 
   bool next_batch(FrameBatch& batch) override { return scanner_.next_batch(batch); }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
-  [[nodiscard]] bool big_endian() const noexcept { return scanner_.big_endian(); }
-  [[nodiscard]] bool nanosecond() const noexcept { return scanner_.nanosecond(); }
 
  private:
   PcapScanner scanner_;

@@ -40,9 +40,6 @@ class PcapngReader final : public RecordCaptureReader {
   bool next_batch(FrameBatch& batch) override { return next_batch(batch, FrameBatch::kMax); }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
-  /// Byte order of the current section.
-  [[nodiscard]] bool big_endian() const noexcept { return big_; }
-
  private:
   struct Interface {
     std::uint16_t linktype = 0;

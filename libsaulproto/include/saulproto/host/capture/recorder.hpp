@@ -76,7 +76,9 @@ class RotatingFiles : public Writer {
   [[nodiscard]] std::string path_for(unsigned index) const;
   /// Whether an item at timestamp_ns must go into a new file, given what the current file holds.
   [[nodiscard]] bool due(std::optional<std::uint64_t> timestamp_ns);
-  void open_next();
+  /// Opens file `index` (a new, empty one).
+  void open(unsigned index);
+  /// Closes the current file and hands it to the compressor; after the last (closed_), waits for the compressor.
   void close_current();
   std::string path_;
   RotationOptions rotation_;

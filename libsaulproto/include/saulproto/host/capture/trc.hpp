@@ -37,34 +37,28 @@ namespace saul::host {
 /// is not a number or lies before 1970.
 std::optional<std::uint64_t> parse_trc_start_time(std::string_view days);
 
-class TrcReader final : public RecordCaptureReader {
+class TrcReader final : public LineCaptureReader {
  public:
-  explicit TrcReader(std::istream& in) : in_(in) {}
-
-  Status next() override;
+  explicit TrcReader(std::istream& in) : LineCaptureReader(in) {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::trc; }
 
   /// 10 for 1.0 (no $FILEVERSION), 11, 12, 13, 20, 21.
   [[nodiscard]] int version() const { return version_; }
 
  private:
-  Step parse_line(std::string_view line);
+  Step parse_line(std::string_view line) override;
   Step directive(std::string_view line);
   Step v1_line();
   Step v2_line();
   Step frame_from(std::size_t time_token, std::optional<std::size_t> bus_token, std::size_t id_token,
                   std::size_t dlc_token, bool dlc_is_length, std::size_t data_token, bool remote);
-  Step corrupt(std::size_t column, std::string message);
   Step error_frame(std::size_t time_token, std::optional<std::size_t> bus_token);
 
-  std::istream& in_;
-  std::string line_;
   std::size_t line_length_ = 0;  // without its CR
   std::vector<std::pair<std::size_t, std::string_view>> tokens_;  // (column, text)
   int version_ = 10;
   std::optional<std::uint64_t> start_ns_;
   std::string columns_;  // version 2: one letter per column, "NOTBIdRLD"
-  std::uint64_t line_number_ = 0;
 };
 
 class TrcWriter final : public StreamCaptureWriter {
