@@ -2,8 +2,6 @@
 // marks what is stale, says when the link is lost and takes keys (e = ESTOP); otherwise plain lines, or one JSON
 // line per telemetry update.
 #include <fmt/core.h>
-#include <poll.h>
-#include <unistd.h>
 
 #include <array>
 #include <deque>
@@ -275,62 +273,25 @@ std::string plain_line(Telemetry& tm, const saul::host::CanLink& link, steady_cl
 int run_monitor(const MonitorOptions& opt) {
   const auto spec = resolve_link(opt.link);
   std::unique_ptr<saul::host::CanLink> link = saul::host::open_can_link(spec, {.listen_only = opt.listen_only});
-  const bool limited = !opt.duration.empty();
-  const milliseconds limit = limited ? parse_duration(opt.duration) : milliseconds(0);
   const std::uint32_t bitrate = spec.kind == saul::host::LinkSpec::Kind::slcan ? spec.bitrate : 500'000;
-  std::unique_ptr<tui::Screen> screen = opt.json ? nullptr : tui::Screen::open();
-  std::optional<ViewCommands> keys;
-  if (screen) keys.emplace(*link);
+  LiveView view(*link, opt.json);
   Telemetry tm;
-  std::string lost;
   const auto start = steady_clock::now();
   auto next_draw = start;
   auto next_plain = start;
-  auto next_reopen = start;
   std::optional<sc::RobotState> printed_state;
-  int status = kOk;
-  while (!g_interrupted) {
-    const auto now = steady_clock::now();
-    if (limited && now - start >= limit) break;
-    // Wait for a frame or a key, whichever comes first: ESTOP must not wait for the next redraw.
-    std::array<pollfd, 2> fds{{{screen ? STDIN_FILENO : -1, POLLIN, 0}, {lost.empty() ? link->poll_handle() : -1, POLLIN, 0}}};
-    const auto wait = duration_cast<milliseconds>(std::max(next_draw - now, steady_clock::duration::zero()));
-    ::poll(fds.data(), fds.size(), static_cast<int>(std::min<long long>(wait.count(), 50)));
-    if (screen) {
-      bool quit = false;
-      for (int k; (k = screen->key()) >= 0;) quit = quit || keys->key(k);
-      if (quit) break;
-    }
-    if (lost.empty()) {
-      try {
-        while (auto f = link->receive(milliseconds(0))) {
-          const auto t = steady_clock::now();
-          const bool updated = tm.add(*f, t);
-          if (keys) keys->frame(*f);
-          if (opt.json && updated && tm.a && tm.b) {
-            fmt::print("{}\n", json_line(tm, t).dump());
-            std::fflush(stdout);
-          }
-        }
-      } catch (const std::exception& e) {
-        if (!screen) return report_error(e);
-        lost = e.what();  // keep showing what was known, say so, try again every second
-        status = kFailure;
-      }
-    } else if (screen && now >= next_reopen) {
-      next_reopen = now + seconds(1);
-      try {
-        link = saul::host::open_can_link(spec, {.listen_only = opt.listen_only});
-        keys->relink(*link);
-        lost.clear();
-        status = kOk;
-      } catch (const std::exception&) {  // still gone: the view says so already
-      }
-    }
+  const auto frame = [&](const saul::CanFrame& f) {
     const auto t = steady_clock::now();
-    if (screen) {
+    if (tm.add(f, t) && opt.json && tm.a && tm.b) {
+      fmt::print("{}\n", json_line(tm, t).dump());
+      std::fflush(stdout);
+    }
+    return true;
+  };
+  const auto tick = [&](steady_clock::time_point t) {
+    if (view.screen) {
       if (t >= next_draw) {
-        draw(*screen, tm, *link, *keys, lost, bitrate, t);
+        draw(*view.screen, tm, *link, *view.keys, view.lost, bitrate, t);
         next_draw = t + milliseconds(100);
       }
     } else if (!opt.json) {
@@ -343,19 +304,20 @@ int run_monitor(const MonitorOptions& opt) {
         if (tm.a) printed_state = tm.a->state;
       }
     }
-  }
-  screen.reset();  // back to the normal terminal before the summary
-  if (keys) {  // there was a view
+  };
+  const int status = view.run(link, opt.duration, frame, tick,
+                              [&] { return saul::host::open_can_link(spec, {.listen_only = opt.listen_only}); });
+  view.screen.reset();  // back to the normal terminal before the summary
+  if (view.keys) {  // there was a view
     const auto st = link->stats();
     const double secs = duration<double>(steady_clock::now() - start).count();
     fmt::print("monitor: {:.1f} s on {}, {} frames, last state {}\n", secs, link->name(), tm.frames,
                tm.a ? sc::to_string(tm.a->state) : "-");
     fmt::print("monitor: 0x400 {} frames, 0x401 {}; link rx {} tx {} dropped {}\n", tm.sa.count(), tm.sb.count(),
                st.rx_frames, st.tx_frames, st.rx_dropped);
-    if (const auto k = keys->summary(); !k.empty()) fmt::print("monitor: {}\n", k);
-    if (!lost.empty()) say("link lost: {}", lost);
+    if (const auto k = view.keys->summary(); !k.empty()) fmt::print("monitor: {}\n", k);
+    if (!view.lost.empty()) say("link lost: {}", view.lost);
   }
-  keys.reset();
   return status;
 }
 

@@ -1,13 +1,9 @@
 // saulctl sniff: live decode of everything on a CAN link or a serial byte link.
 #include <fmt/core.h>
 
-#include <poll.h>
-#include <unistd.h>
-
 #include <array>
 #include <map>
 #include <memory>
-#include <optional>
 
 #include "commands.hpp"
 #include "grammar.hpp"
@@ -209,71 +205,47 @@ void draw_top(tui::Screen& s, const saul::host::BusStats& stats,
 
 int sniff_top(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   auto link = open_filtered(opt, spec);
-  const bool limited = !opt.duration.empty();
-  const milliseconds duration = limited ? parse_duration(opt.duration) : milliseconds(0);
-  auto screen = tui::Screen::open();
-  std::optional<ViewCommands> keys;
-  if (screen) keys.emplace(*link);
+  LiveView view(*link, false);
   saul::host::BusStatsOptions bo;
   bo.bitrate = spec.kind == saul::host::LinkSpec::Kind::slcan ? spec.bitrate : 500'000;
   saul::host::BusStats stats(bo);
   std::map<saul::host::BusStats::IdKey, TopRow> rows;
-  const auto start = steady_clock::now();
-  auto interval_start = start;
-  auto next_draw = start;
+  auto interval_start = steady_clock::now();
+  auto next_draw = interval_start;
   std::uint64_t interval_bits = 0;
   double recent_load = 0;
   std::uint64_t shown = 0;
-  std::string lost;
-  int status = kOk;
-  while (!g_interrupted && (opt.count == 0 || shown < opt.count)) {
-    const auto now = steady_clock::now();
-    if (limited && now - start >= duration) break;
-    if (now >= next_draw) {
-      const double secs = std::chrono::duration<double>(now - interval_start).count();
-      if (secs >= 0.5 || interval_start == start) {
-        recent_load = secs > 0 ? 100.0 * static_cast<double>(interval_bits) / (secs * static_cast<double>(bo.bitrate)) : 0;
-        interval_bits = 0;
-        interval_start = now;
-      }
-      next_draw = now + milliseconds(screen ? 100 : 500);
-      if (screen) draw_top(*screen, stats, rows, *link, recent_load, *keys, lost);
+  const auto frame = [&](const saul::CanFrame& received) {
+    saul::CanFrame f = received;
+    if (!f.timestamp_ns) f.timestamp_ns = saul::host::realtime_ns();
+    stats.add(f, link->name());
+    ++shown;
+    if (!f.error) {
+      interval_bits += saul::host::can_frame_bits(f, saul::host::StuffBits::worst_case);
+      TopRow& r = rows[{f.extended, f.id}];
+      ++r.frames;
+      r.previous = r.data;
+      r.data = f.data;
+      r.dlc = f.remote ? 0 : f.dlc;
     }
-    // A key or a frame, whichever comes first (ESTOP does not wait for the next redraw).
-    std::array<pollfd, 2> fds{{{screen ? STDIN_FILENO : -1, POLLIN, 0}, {lost.empty() ? link->poll_handle() : -1, POLLIN, 0}}};
-    ::poll(fds.data(), fds.size(), 50);
-    if (screen) {
-      bool quit = false;
-      for (int k; (k = screen->key()) >= 0;) quit = quit || keys->key(k);
-      if (quit) break;
+    return opt.count == 0 || shown < opt.count;
+  };
+  const auto tick = [&](steady_clock::time_point now) {
+    if (now < next_draw) return;
+    // The load of the last half second or more (0 before the first).
+    if (const double secs = duration<double>(now - interval_start).count(); secs >= 0.5) {
+      recent_load = 100.0 * static_cast<double>(interval_bits) / (secs * static_cast<double>(bo.bitrate));
+      interval_bits = 0;
+      interval_start = now;
     }
-    if (!lost.empty()) continue;
-    try {
-      while (auto f = link->receive(milliseconds(0))) {
-        if (!f->timestamp_ns) f->timestamp_ns = saul::host::realtime_ns();
-        stats.add(*f, link->name());
-        if (keys) keys->frame(*f);
-        ++shown;
-        if (!f->error) {
-          interval_bits += saul::host::can_frame_bits(*f, saul::host::StuffBits::worst_case);
-          TopRow& r = rows[{f->extended, f->id}];
-          ++r.frames;
-          r.previous = r.data;
-          r.data = f->data;
-          r.dlc = f->remote ? 0 : f->dlc;
-        }
-        if (opt.count != 0 && shown >= opt.count) break;
-      }
-    } catch (const std::exception& e) {
-      status = screen ? kFailure : report_error(e);
-      if (!screen) break;
-      lost = e.what();  // the view stays, says so; q leaves
-    }
-  }
-  screen.reset();
-  if (keys && !keys->summary().empty()) fmt::print("sniff: {}\n", keys->summary());  // there was a view
-  keys.reset();
-  if (!lost.empty()) say("link lost: {}", lost);
+    next_draw = now + milliseconds(view.screen ? 100 : 500);
+    if (view.screen) draw_top(*view.screen, stats, rows, *link, recent_load, *view.keys, view.lost);
+  };
+  const int status = view.run(link, opt.duration, frame, tick);
+  view.screen.reset();
+  if (view.keys && !view.keys->summary().empty()) fmt::print("sniff: {}\n", view.keys->summary());  // there was a view
+  view.keys.reset();
+  if (!view.lost.empty()) say("link lost: {}", view.lost);
   // The table once more, in plain text: what a terminal keeps after the view, or all a pipe gets.
   fmt::print("{}", top_table(stats, rows, link->name(), recent_load));
   std::fflush(stdout);

@@ -1,8 +1,10 @@
 #include "live.hpp"
 
 #include <fmt/core.h>
+#include <poll.h>
 #include <unistd.h>
 
+#include <array>
 #include <csignal>
 #include <cstdlib>
 #include <fstream>
@@ -167,6 +169,55 @@ std::string ViewCommands::summary() const {
   if (last_what_.empty()) return "";
   return fmt::format("{} ESTOP{} sent from the keyboard; last: {}: {}", estops_, estops_ == 1 ? "" : "s", last_what_,
                      last_result_);
+}
+
+LiveView::LiveView(saul::host::CanLink& link, bool plain) : screen(plain ? nullptr : tui::Screen::open()) {
+  if (screen) keys.emplace(link);
+}
+
+int LiveView::run(std::unique_ptr<saul::host::CanLink>& link, const std::string& duration, const Frame& frame,
+                  const Tick& tick, const Reopen& reopen) {
+  using namespace std::chrono;
+  const auto start = steady_clock::now();
+  const bool limited = !duration.empty();
+  const milliseconds limit = limited ? parse_duration(duration) : milliseconds(0);
+  auto next_reopen = start;
+  int status = kOk;
+  while (!g_interrupted) {
+    const auto now = steady_clock::now();
+    if (limited && now - start >= limit) break;
+    std::array<pollfd, 2> fds{
+        {{screen ? STDIN_FILENO : -1, POLLIN, 0}, {lost.empty() ? link->poll_handle() : -1, POLLIN, 0}}};
+    ::poll(fds.data(), fds.size(), 50);
+    if (screen) {
+      bool quit = false;
+      for (int k; (k = screen->key()) >= 0;) quit = quit || keys->key(k);
+      if (quit) break;
+    }
+    if (lost.empty()) {
+      try {
+        while (auto f = link->receive(milliseconds(0))) {
+          if (keys) keys->frame(*f);
+          if (!frame(*f)) return status;
+        }
+      } catch (const std::exception& e) {
+        if (!screen) return report_error(e);
+        lost = e.what();  // keep showing what was known, say so
+        status = kFailure;
+      }
+    } else if (reopen && now >= next_reopen) {
+      next_reopen = now + seconds(1);
+      try {
+        link = reopen();
+        keys->relink(*link);
+        lost.clear();
+        status = kOk;
+      } catch (const std::exception&) {  // still gone: the view says so already
+      }
+    }
+    tick(steady_clock::now());
+  }
+  return status;
 }
 
 }  // namespace saulctl

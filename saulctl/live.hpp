@@ -6,6 +6,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -87,6 +89,27 @@ class ViewCommands {
   std::string last_result_;
   bool last_bad_ = false;
   std::optional<std::chrono::steady_clock::time_point> waiting_since_;
+};
+
+/// A full-screen view (monitor, sniff --top) with its keys, and the one loop it runs; without a terminal (or with
+/// `plain`) the same loop with no screen, for the verb's plain form.
+struct LiveView {
+  LiveView(saul::host::CanLink& link, bool plain);
+
+  std::unique_ptr<tui::Screen> screen;  ///< null: no view
+  std::optional<ViewCommands> keys;     ///< the view's keys (with a screen)
+  std::string lost;                     ///< why the link was lost under the view, "" while it lives
+
+  using Frame = std::function<bool(const saul::CanFrame&)>;
+  using Tick = std::function<void(std::chrono::steady_clock::time_point)>;
+  using Reopen = std::function<std::unique_ptr<saul::host::CanLink>()>;
+  /// Until Ctrl-C, `duration` (--duration, "" for none), q, or `frame` returning false: waits up to 50 ms for a key
+  /// or a frame (ESTOP does not wait for a redraw), gives the keys to `keys`, every frame that came to `frame` and
+  /// `keys`, then calls `tick(now)` to draw or print. A link error ends the loop without a screen (said; its exit
+  /// code returned); a view keeps showing, with the error in `lost` (exit 1), and, given `reopen`, tries every
+  /// second to open the link again.
+  int run(std::unique_ptr<saul::host::CanLink>& link, const std::string& duration, const Frame& frame,
+          const Tick& tick, const Reopen& reopen = {});
 };
 
 }  // namespace saulctl
