@@ -199,6 +199,15 @@ std::uint64_t steady_ns() {
 
 namespace {
 
+// Closing a socket with unread messages resets the connection, and the peer would lose the refusal or bye already
+// sent: what it sent is read first (and dropped).
+void discard_and_close(int fd) {
+  std::vector<std::uint8_t> m;
+  bool closed = false;
+  for (int i = 0; i < 64 && receive_message(fd, m, closed);) ++i;
+  ::close(fd);
+}
+
 bool priority(const std::vector<std::uint8_t>& m) {
   if (m.empty() || m[0] != static_cast<std::uint8_t>(Msg::frame)) return false;
   try {
@@ -218,11 +227,6 @@ std::string OwnerCore::Client::text() const { return fmt::format("{} (pid {})", 
 
 OwnerCore::OwnerCore(std::string device, std::string link_text, bool listen_only)
     : listen_only_(listen_only), device_(canonical_device(device)), link_text_(std::move(link_text)) {}
-
-OwnerCore::~OwnerCore() {
-  stop_serving();
-  release_clients(ByeReason::exit, self_text() + " stopped");
-}
 
 std::string OwnerCore::sharing_text() const {
   if (!serving_) return "";
@@ -258,7 +262,12 @@ void OwnerCore::start_serving(int device_fd) {
 }
 
 void OwnerCore::shutdown() {
-  stop_serving();
+  if (thread_.joinable()) {
+    stopping_ = true;
+    wake_serving();
+    thread_.join();
+  }
+  close_listener();
   const auto g = gone();
   close_device();
   release_clients(g ? ByeReason::gone : ByeReason::exit,
@@ -271,11 +280,7 @@ void OwnerCore::set_gone(LinkError::Kind kind, const std::string& text) {
     gone_.emplace(kind, text);
   }
   inbox_.signal();
-  for (auto& c : clients_) {
-    send_control(*c, Out(Msg::bye).u8(static_cast<std::uint8_t>(ByeReason::gone)).str(text).take());
-    flush(*c);
-    c->dead = true;
-  }
+  release_clients(ByeReason::gone, text);
   device_fd_ = -1;
   close_listener();  // nothing left to share: new commands find the device missing themselves
 }
@@ -283,15 +288,6 @@ void OwnerCore::set_gone(LinkError::Kind kind, const std::string& text) {
 std::optional<LinkError> OwnerCore::gone() const {
   std::lock_guard lock(gone_mu_);
   return gone_;
-}
-
-void OwnerCore::stop_serving() {
-  if (thread_.joinable()) {
-    stopping_ = true;
-    wake_serving();
-    thread_.join();
-  }
-  close_listener();
 }
 
 void OwnerCore::release_clients(ByeReason reason, const std::string& text) {
@@ -304,7 +300,7 @@ void OwnerCore::release_clients(ByeReason reason, const std::string& text) {
         wait_fd_event(c->fd, POLLOUT, milliseconds(50));
       }
     }
-    ::close(c->fd);
+    discard_and_close(c->fd);
   }
   clients_.clear();
   clients_count_ = 0;
@@ -369,17 +365,6 @@ void OwnerCore::flush(Client& c) {
   }
 }
 
-namespace {
-// Closing a socket with unread messages resets the connection, and the peer would lose the refusal already sent:
-// what it sent is read first (and dropped).
-void discard_and_close(int fd) {
-  std::vector<std::uint8_t> m;
-  bool closed = false;
-  for (int i = 0; i < 64 && receive_message(fd, m, closed);) ++i;
-  ::close(fd);
-}
-}  // namespace
-
 void OwnerCore::accept_client() {
   for (;;) {
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
@@ -428,17 +413,19 @@ void OwnerCore::handle(Client& c, const std::vector<std::uint8_t>& m) {
       c.dead = true;
       return;
     }
-    const Hello h{.version = in.u16(), .kind = static_cast<Kind>(in.u8()), .probe = in.u8() != 0, .pid = in.u32(),
-                  .command = in.str(), .link = in.str(), .rate = in.u32(), .format = in.str(),
-                  .listen_only = in.u8() != 0};  // a braced list is evaluated in order: the fields as sent
-    c.command = h.command;
+    // The version first: another version may lay out the rest otherwise.
     std::string why;
-    if (h.version != kVersion)
+    Hello h;
+    if (const std::uint16_t version = in.u16(); version != kVersion) {
       why = fmt::format("{} is held by {}, a saulctl of another version (sharing protocol {}, this one {}): "
                         "use the same saulctl, or stop it",
-                        device_, self_text(), kVersion, h.version);
-    else if (!h.probe)
-      why = refuse_reason(h);
+                        device_, self_text(), kVersion, version);
+    } else {
+      h = Hello{.kind = static_cast<Kind>(in.u8()), .probe = in.u8() != 0, .command = in.str(), .rate = in.u32(),
+                .format = in.str()};  // a braced list is evaluated in order: the fields as sent
+      c.command = h.command;
+      if (!h.probe) why = refuse_reason(h);
+    }
     if (!why.empty()) {
       send_control(c, Out(Msg::refuse).u8(static_cast<std::uint8_t>(LinkError::Kind::busy)).str(why).take());
       flush(c);
@@ -452,11 +439,9 @@ void OwnerCore::handle(Client& c, const std::vector<std::uint8_t>& m) {
       clients_count_ = others + 1;
     }
     send_control(c, Out(Msg::welcome)
-                        .u16(kVersion)
                         .u32(static_cast<std::uint32_t>(::getpid()))
                         .str(self_command())
                         .str(link_text_)
-                        .u8(listen_only_ ? 1 : 0)
                         .u32(static_cast<std::uint32_t>(others))
                         .take());
     if (h.probe) {
@@ -547,15 +532,12 @@ std::unique_ptr<ClientSocket> ClientSocket::connect(const std::string& device, c
                                 "check the permissions of {}",
                                 path, cred.uid, cred.pid, ::geteuid(), share_directory_path()));
   s->send(Out(Msg::hello)
-              .u16(hello.version)
+              .u16(kVersion)
               .u8(static_cast<std::uint8_t>(hello.kind))
               .u8(hello.probe ? 1 : 0)
-              .u32(static_cast<std::uint32_t>(::getpid()))
               .str(hello.command)
-              .str(hello.link)
               .u32(hello.rate)
               .str(hello.format)
-              .u8(hello.listen_only ? 1 : 0)
               .take(),
           milliseconds(1000));
   std::vector<std::uint8_t> m;
@@ -570,9 +552,8 @@ std::unique_ptr<ClientSocket> ClientSocket::connect(const std::string& device, c
         throw LinkError(kind == LinkError::Kind::permission ? kind : LinkError::Kind::busy, in.str());
       }
       if (type != Msg::welcome) continue;
-      if (in.u16() != kVersion) return nullptr;
       s->info_ = ShareInfo{.owner_pid = static_cast<int>(in.u32()), .owner_command = in.str(), .link = in.str(),
-                           .listen_only = in.u8() != 0, .clients = static_cast<int>(in.u32())};
+                           .clients = static_cast<int>(in.u32())};
       return s;
     }
   } catch (const OwnerLeft&) {

@@ -4,8 +4,8 @@
 //
 // Messages are SOCK_SEQPACKET datagrams on an AF_UNIX socket (one message per send, boundaries kept), fields in
 // the host's byte order (both ends are on this machine), first byte the type:
-//   hello    client -> owner   version, kind, pid, command, link text, listen-only
-//   welcome  owner -> client   version, owner pid, owner command, link text, listen-only, clients
+//   hello    client -> owner   version, kind, probe, command, rate, serial format
+//   welcome  owner -> client   owner pid, owner command, link text, clients
 //   refuse   owner -> client   why (one line); the owner closes the connection after it
 //   frame    both ways         a CAN frame; from a client with a token and its send time (steady clock)
 //   sent     owner -> client   token, ok, latency (client's send time -> device write), error kind and text
@@ -34,7 +34,7 @@
 
 namespace saul::host::share {
 
-inline constexpr std::uint16_t kVersion = 1;
+inline constexpr std::uint16_t kVersion = 2;
 enum class Msg : std::uint8_t { hello = 1, welcome, refuse, frame, sent, bytes, stats, bye };
 enum class Kind : std::uint8_t { can = 0, serial = 1 };
 enum class ByeReason : std::uint8_t { exit = 0, gone = 1 };
@@ -126,15 +126,11 @@ class EventFd {
 
 /// The hello a client sends and the owner checks.
 struct Hello {
-  std::uint16_t version = kVersion;
   Kind kind = Kind::can;
   bool probe = false;  ///< doctor: only asks, does not join
-  std::uint32_t pid = 0;
   std::string command{};
-  std::string link{};      ///< the client's link text, for messages
   std::uint32_t rate = 0;  ///< CAN bitrate, or serial baud rate
   std::string format{};    ///< serial: "8N1"
-  bool listen_only = false;
 };
 
 /// The owner's side: the listening socket, the clients, and a thread that polls the device and the sockets.
@@ -158,23 +154,19 @@ class OwnerCore {
   };
 
   OwnerCore(std::string device, std::string link_text, bool listen_only);
-  virtual ~OwnerCore();
+  virtual ~OwnerCore() = default;
 
   /// Creates the socket (when the directory is not private: a notice, and nothing is shared) and starts the serving
   /// thread, which polls `device_fd`.
   void start_serving(int device_fd);
-  /// What a derived destructor calls first: stops serving, closes the device, then tells the clients why (the owner
-  /// stopped, or the device's error), so that one of them can take the device over.
+  /// What a derived destructor calls first: stops the thread and removes the socket, closes the device, then tells
+  /// the clients why (the owner stopped, or the device's error), so that one of them can take the device over.
   void shutdown();
   virtual void close_device() = 0;
   /// On the serving thread, the device went away: remembered for the owner's own calls (gone()) and its reader
   /// woken; the clients are told, the socket goes and the device is no longer polled.
   void set_gone(LinkError::Kind kind, const std::string& text);
   [[nodiscard]] std::optional<LinkError> gone() const;
-  /// Stops the thread and removes the socket; clients stay connected until release_clients().
-  void stop_serving();
-  /// Tells every client why the owner leaves (after the device is closed, so one can take it over) and closes them.
-  void release_clients(ByeReason reason, const std::string& text);
 
   /// Hooks, on the serving thread.
   /// The device polled readable (or hung up): read it; true when there may be more already read and waiting.
@@ -216,6 +208,8 @@ class OwnerCore {
   void flush(Client& c);
   /// Closes and removes the listening socket: no new clients.
   void close_listener();
+  /// Tells every client why the owner leaves (after the device is closed, so one can take it over) and closes them.
+  void release_clients(ByeReason reason, const std::string& text);
 
   std::string device_;
   std::string link_text_;

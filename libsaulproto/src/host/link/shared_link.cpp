@@ -417,9 +417,8 @@ class SharedCanLink final : public CanLink {
       : filters_(filters),
         link_(
             spec.device,
-            [spec, listen_only, this]() -> std::unique_ptr<CanLink> {
-              const Hello h{.kind = Kind::can, .command = self_command(), .link = spec.text(), .rate = spec.bitrate,
-                            .listen_only = listen_only};
+            [spec, this]() -> std::unique_ptr<CanLink> {
+              const Hello h{.kind = Kind::can, .command = self_command(), .rate = spec.bitrate};
               auto sock = ClientSocket::connect(spec.device, h);
               if (!sock) return nullptr;
               return std::make_unique<CanClient>(std::move(sock), spec, filters_);
@@ -616,8 +615,8 @@ class SharedSerialPort final : public SerialPort {
       : port_(
             path,
             [path, settings]() -> std::unique_ptr<SerialPort> {
-              const Hello h{.kind = Kind::serial, .command = self_command(), .link = serial_text(path, settings),
-                            .rate = settings.baud, .format = to_string(settings)};
+              const Hello h{.kind = Kind::serial, .command = self_command(), .rate = settings.baud,
+                            .format = to_string(settings)};
               std::unique_ptr<ClientSocket> sock;
               try {
                 sock = ClientSocket::connect(path, h);

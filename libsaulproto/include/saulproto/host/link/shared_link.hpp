@@ -45,7 +45,6 @@ struct ShareInfo {
   int owner_pid = 0;
   std::string owner_command;  ///< "saulctl monitor"
   std::string link;           ///< "slcan:/dev/pts/3@500000", "serial:/dev/ttyACM1@115200:8N1"
-  bool listen_only = false;
   int clients = 0;            ///< other saulctl processes using it now
   [[nodiscard]] std::string owner_text() const;  ///< "saulctl monitor (pid 77)"
 };
