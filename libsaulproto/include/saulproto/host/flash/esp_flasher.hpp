@@ -2,10 +2,10 @@
 // (core/esp_loader.hpp) and leaving it again: resets, SLIP exchange, SYNC, chip check, registers, baud switch, and
 // finding the IO board's port after its reset (BALANCE resets through a CH343 bridge's DTR/RTS, IO through the S3's
 // own USB-Serial/JTAG); only the ROM loader is driven (no stub upload), a stub already running (SYNC value 0) is used
-// as it is (esp_connection.cpp). What to write (files at offsets, or a build folder's flasher_args.json), the checks
-// before the board is touched, and the region writer: skip a region whose flash MD5 matches, else compressed or plain
-// blocks with retries, then verify the MD5 (esp_flasher.cpp). Every failure is a FlashError whose one line says what
-// to do. Time goes through an injectable sleeper.
+// as it is. What to write (files at offsets, or a build folder's flasher_args.json), the checks before the board is
+// touched, and the region writer: skip a region whose flash MD5 matches, else compressed or plain blocks with
+// retries, then verify the MD5. Every failure is a FlashError whose one line says what to do. Time goes through an
+// injectable sleeper.
 #pragma once
 
 #include <chrono>
@@ -190,8 +190,7 @@ class EspFlasher {
   static constexpr std::chrono::milliseconds kCommandTimeout{3000};
 
  private:
-  /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length) and waits for the answer to
-  /// op; nullopt when none came in time.
+  /// send(), then waits for the answer to op; nullopt when none came in time.
   std::optional<esp::Response> transact(esp::Op op, const Result<std::size_t>& built,
                                         std::chrono::milliseconds timeout);
   /// transact(), with no answer and a failure status as FlashError(no_answer / refused).
@@ -201,7 +200,8 @@ class EspFlasher {
   void write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask = 0xFFFFFFFF);
   bool try_sync();
   std::optional<esp::Response> await(esp::Op op, std::chrono::milliseconds timeout, esp::Loader loader);
-  void send(std::span<const std::uint8_t> packet);
+  /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length).
+  void send(const Result<std::size_t>& built);
   void drain(std::chrono::milliseconds quiet);
   /// Feeds one received byte to the SLIP decoder; returns the frame it completed, if any.
   std::optional<std::span<const std::uint8_t>> take(std::uint8_t byte);
