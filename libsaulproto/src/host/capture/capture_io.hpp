@@ -207,8 +207,8 @@ inline std::uint64_t skip_counted(std::istream& in, std::uint64_t n, std::uint64
   return done;
 }
 
-/// A file's block starts found one at a time by walking its record headers (pcap, pcapng), so that the walk overlaps
-/// the decoding of the first blocks instead of coming before it.
+/// A file's block starts found one at a time by walking its record headers (pcap, pcapng) in a HeaderWindow, so that
+/// the walk overlaps the decoding of the first blocks instead of coming before it.
 class BlockCutter {
  public:
   virtual ~BlockCutter() = default;
@@ -217,7 +217,7 @@ class BlockCutter {
     switch (state_) {
       case State::first:
         state_ = State::walking;
-        start = first_;
+        start = last_;
         return true;
       case State::walking:
         if (walk(start)) return true;
@@ -231,27 +231,31 @@ class BlockCutter {
   }
   /// pcapng: where the header blocks end (the first packet block), known once a start after the first was given.
   [[nodiscard]] virtual std::uint64_t prefix_end() const { return 0; }
-  /// The bytes [from, to) just walked, when the walk still holds them all: HeaderWindow::lend().
-  virtual bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
-    (void)from, (void)to, (void)into, (void)offset;
-    return false;
+  /// The bytes [from, to) just walked, when the window still holds them all: HeaderWindow::lend().
+  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) {
+    return window_.lend(from, to, into, offset);
   }
 
  protected:
-  BlockCutter(std::uint64_t first, std::uint64_t size) : first_(first), size_(size) {}
+  /// Blocks of about `block` bytes from `first` on; the window is a block and some, so that a block's walk usually
+  /// takes one read.
+  BlockCutter(int fd, std::uint64_t first, std::uint64_t size, std::uint64_t block)
+      : window_(fd, size, static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) +
+                              (std::size_t{16} << 10)),
+        size_(size), block_(block == 0 ? 1 : block), pos_(first), last_(first) {}
   /// The next start before the end; false where the walk stops (the end, or a record it cannot cut after).
   virtual bool walk(std::uint64_t& start) = 0;
+
+  HeaderWindow window_;
+  const std::uint64_t size_;
+  const std::uint64_t block_;
+  std::uint64_t pos_;   // the next record the walk reads
+  std::uint64_t last_;  // the last start given
 
  private:
   enum class State { first, walking, over };
   State state_ = State::first;
-  std::uint64_t first_;
-  std::uint64_t size_;
 };
-/// The window a cutter walks a file with: a block and some, so that a block's walk usually takes one read.
-inline std::size_t window_bytes(std::uint64_t block) {
-  return static_cast<std::size_t>(std::min<std::uint64_t>(block, std::uint64_t{64} << 20)) + (std::size_t{16} << 10);
-}
 /// Record starts that cut a pcap file (`big`: its byte order) into blocks of about `block` bytes: 24, s1, ..., its
 /// size. From the first implausible or cut record on, the rest is one block (a corrupt file reads as in one piece).
 std::unique_ptr<BlockCutter> pcap_block_cutter(int fd, std::uint64_t size, bool big, std::uint64_t block);

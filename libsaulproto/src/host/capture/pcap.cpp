@@ -151,12 +151,7 @@ namespace {
 
 class PcapCutter final : public detail::BlockCutter {
  public:
-  PcapCutter(int fd, std::uint64_t size, bool big, std::uint64_t block)
-      : BlockCutter(24, size), window_(fd, size, detail::window_bytes(block)), size_(size), block_(block == 0 ? 1 : block),
-        big_(big) {}
-  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) override {
-    return window_.lend(from, to, into, offset);
-  }
+  PcapCutter(int fd, std::uint64_t size, bool big, std::uint64_t block) : BlockCutter(fd, 24, size, block), big_(big) {}
 
  private:
   bool walk(std::uint64_t& start) override {
@@ -174,12 +169,7 @@ class PcapCutter final : public detail::BlockCutter {
     return false;  // from the first implausible or cut record on, the rest is one block
   }
 
-  detail::HeaderWindow window_;
-  std::uint64_t size_;
-  std::uint64_t block_;
   bool big_;
-  std::uint64_t pos_ = 24;
-  std::uint64_t last_ = 24;  // the last start given
 };
 
 }  // namespace

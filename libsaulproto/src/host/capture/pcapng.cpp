@@ -111,13 +111,8 @@ namespace {
 
 class PcapngCutter final : public detail::BlockCutter {
  public:
-  PcapngCutter(int fd, std::uint64_t size, std::uint64_t block)
-      : BlockCutter(0, size), window_(fd, size, detail::window_bytes(block)), size_(size),
-        block_(block == 0 ? 1 : block) {}
+  PcapngCutter(int fd, std::uint64_t size, std::uint64_t block) : BlockCutter(fd, 0, size, block) {}
   [[nodiscard]] std::uint64_t prefix_end() const override { return prefix_end_; }
-  bool lend(std::uint64_t from, std::uint64_t to, std::vector<std::uint8_t>& into, std::size_t& offset) override {
-    return window_.lend(from, to, into, offset);
-  }
 
  private:
   bool walk(std::uint64_t& start) override {
@@ -169,11 +164,6 @@ class PcapngCutter final : public detail::BlockCutter {
   }
 
   static constexpr std::uint64_t kRunBlock = 4096;  // longer blocks are stepped one at a time
-  detail::HeaderWindow window_;
-  std::uint64_t size_;
-  std::uint64_t block_;
-  std::uint64_t pos_ = 0;
-  std::uint64_t last_ = 0;  // the last start given
   bool big_ = false;
   bool packets_ = false;  // a packet block was seen
   std::uint64_t prefix_end_ = 0;
