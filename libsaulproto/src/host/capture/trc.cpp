@@ -43,20 +43,6 @@ std::optional<std::uint64_t> parse_trc_start_time(std::string_view days) {
 
 // ---- reader ----
 
-TrcReader::Step TrcReader::error_frame(std::size_t time_token, std::optional<std::size_t> bus_token) {
-  const auto [time_col, time_text] = tokens_[time_token];
-  const auto offset = detail::parse_scaled(time_text, 1'000'000, 6);
-  if (!offset) return corrupt(time_col, "time offset must be milliseconds, e.g. 1059.900");
-  frame_ = detail::bus_error_frame();
-  frame_.timestamp_ns = start_ns_.value_or(0) + *offset;
-  name_ = "can0";
-  if (bus_token && *bus_token < tokens_.size()) {
-    const auto bus = detail::parse_decimal(tokens_[*bus_token].second);
-    if (bus && *bus > 0 && *bus <= 255) name_ = detail::channel_name(*bus);
-  }
-  return Step::frame;
-}
-
 TrcReader::Step TrcReader::parse_line(std::string_view line) {
   line_length_ = line.size();
   detail::split_tokens(line, tokens_);
@@ -116,14 +102,21 @@ TrcReader::Step TrcReader::frame_from(std::size_t time_token, std::optional<std:
   const auto [time_col, time_text] = tokens_[time_token];
   const auto offset = detail::parse_scaled(time_text, 1'000'000, 6);  // ms with up to 6 decimals, in ns
   if (!offset) return corrupt(time_col, "time offset must be milliseconds, e.g. 1059.900");
-  CanFrame f;
+  const bool error = id_token == kErrorLine;
+  CanFrame f = error ? detail::bus_error_frame() : CanFrame{};
   f.timestamp_ns = start_ns_.value_or(0) + *offset;
   name_ = "can0";
-  if (bus_token) {
+  if (bus_token && *bus_token < tokens_.size()) {  // (an error line may end before it)
     const auto [bus_col, bus_text] = tokens_[*bus_token];
     const auto bus = detail::parse_decimal(bus_text);
-    if (!bus || *bus == 0 || *bus > 255) return corrupt(bus_col, "bus must be 1..255");
-    name_ = detail::channel_name(*bus);
+    if (bus && *bus > 0 && *bus <= 255)
+      name_ = detail::channel_name(*bus);
+    else if (!error)
+      return corrupt(bus_col, "bus must be 1..255");  // an error line's reads as can0
+  }
+  if (error) {
+    frame_ = f;
+    return Step::frame;
   }
   const auto [id_col, id_text] = tokens_[id_token];
   const auto id = id_text.size() <= 8 ? detail::parse_hex(id_text) : std::nullopt;
@@ -159,6 +152,7 @@ TrcReader::Step TrcReader::v1_line() {
   const auto [col0, number] = tokens_[0];
   if (number.back() != ')') return corrupt(col0, "expected a message number like '12)' (or a ';' comment)");
   const bool has_bus = version_ == 12 || version_ == 13;
+  const auto bus = has_bus ? std::optional<std::size_t>(2) : std::nullopt;
   const std::size_t type_token = has_bus ? 3 : 2;
   if (version_ == 10) {  // no type column: number) time id dlc data
     if (tokens_.size() < 4) return corrupt(line_length_, "expected time, id and length");
@@ -168,13 +162,12 @@ TrcReader::Step TrcReader::v1_line() {
   if (tokens_.size() <= type_token) return corrupt(line_length_, "expected time and message type");
   const auto [type_col, type] = tokens_[type_token];
   if (type == "Warng") return Step::skipped;  // bus status (BUSHEAVY, BUSOFF ...)
-  if (type == "Error") return error_frame(1, has_bus ? std::optional<std::size_t>(2) : std::nullopt);
+  if (type == "Error") return frame_from(1, bus, kErrorLine, 0, false, 0, false);
   if (type != "Rx" && type != "Tx") return corrupt(type_col, fmt::format("unknown message type '{}'", type));
   const std::size_t id_token = type_token + 1;
   const std::size_t dlc_token = id_token + (version_ == 13 ? 2 : 1);
   if (tokens_.size() <= id_token) return corrupt(line_length_, "missing id");
-  return frame_from(1, has_bus ? std::optional<std::size_t>(2) : std::nullopt, id_token, dlc_token, false,
-                    dlc_token + 1, false);
+  return frame_from(1, bus, id_token, dlc_token, false, dlc_token + 1, false);
 }
 
 TrcReader::Step TrcReader::v2_line() {
@@ -189,7 +182,7 @@ TrcReader::Step TrcReader::v2_line() {
   if (type == "FD" || type == "FB" || type == "FE" || type == "BI") return corrupt(type_col, std::string(kFdUnsupported));
   const std::size_t o = columns_.find('O');
   if (o >= tokens_.size()) return corrupt(line_length_, "line has fewer columns than $COLUMNS");
-  if (type == "ER") return error_frame(o, index('B'));
+  if (type == "ER") return frame_from(o, index('B'), kErrorLine, 0, false, 0, false);
   if (type != "DT" && type != "RR") return corrupt(type_col, fmt::format("unknown message type '{}'", type));
   const bool by_length = index('l').has_value();
   const std::size_t length = by_length ? *index('l') : *index('L');

@@ -50,9 +50,10 @@ class TrcReader final : public LineCaptureReader {
   Step directive(std::string_view line);
   Step v1_line();
   Step v2_line();
+  /// The frame of a line from its tokens; id_token kErrorLine: an error frame, of the line's time and bus alone.
   Step frame_from(std::size_t time_token, std::optional<std::size_t> bus_token, std::size_t id_token,
                   std::size_t dlc_token, bool dlc_is_length, std::size_t data_token, bool remote);
-  Step error_frame(std::size_t time_token, std::optional<std::size_t> bus_token);
+  static constexpr std::size_t kErrorLine = SIZE_MAX;
 
   std::size_t line_length_ = 0;  // without its CR
   std::vector<std::pair<std::size_t, std::string_view>> tokens_;  // (column, text)
