@@ -105,13 +105,9 @@ PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::u
 
 void PcapScanner::read_header() {
   std::array<std::uint8_t, 24> h{};
-  std::size_t got = 0;
-  if (in_ != nullptr) {
-    std::uint64_t counted = 0;
-    got = detail::read_counted(*in_, h.data(), h.size(), counted);
-  } else {
-    got = detail::pread_full(fd_, h.data(), size_ < h.size() ? static_cast<std::size_t>(size_) : h.size(), 0);
-  }
+  std::uint64_t counted = 0;
+  const std::size_t got = in_ != nullptr ? detail::read_counted(*in_, h.data(), h.size(), counted)
+                                         : detail::pread_full(fd_, h.data(), std::min<std::uint64_t>(size_, 24), 0);
   if (got < h.size())
     throw CaptureOpenError(fmt::format("not a pcap file: {} bytes, a pcap header needs 24", got));
   const std::uint32_t magic = load_u32(h.data(), false);

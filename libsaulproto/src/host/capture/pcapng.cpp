@@ -269,12 +269,7 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
   const std::uint32_t body_length = length - header_bytes - 4;
   const bool wanted = type == kShb || type == kIdb || type == kEpb || type == kSpb;
   const bool parse = wanted && body_length <= kMaxBody;
-  std::uint64_t got = 0;
-  if (parse) {
-    got = take_body(body_length);
-  } else {
-    got = skip(body_length);
-  }
+  std::uint64_t got = parse ? take_body(body_length) : skip(body_length);
   std::array<std::uint8_t, 4> trailer{};
   if (got == body_length) got += take(trailer.data(), 4);
   if (got < std::uint64_t{body_length} + 4)
