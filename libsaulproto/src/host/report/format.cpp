@@ -140,10 +140,7 @@ std::string c_literal(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {
     if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n')
-      out += "\\n";
-    else
-      out += c;
+    out += c == '\n' ? std::string_view("\\n") : std::string_view(&c, 1);
   }
   return out + '"';
 }

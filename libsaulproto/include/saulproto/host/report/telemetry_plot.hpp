@@ -139,7 +139,7 @@ class TelemetryPlotter {
   [[nodiscard]] bool timed() const { return min_ns_.has_value(); }
   [[nodiscard]] const ChangeTracker& changes() const { return changes_; }
 
-  /// Second pass: the picture, `columns` bins per series, for render_svg or render_html.
+  /// Second pass: the picture, `columns` bins per series, for render_static or render_html.
   [[nodiscard]] PlotDocument document(std::size_t columns = kPlotWidth) const;
   /// Second pass: the numbers, "time_s" (untimed: "message") and one column per series drawn (the dashboard adds
   /// "state" and "faults" when the capture has them); a row per message giving any, empty cells for the rest.
