@@ -462,14 +462,9 @@ void EspFlasher::drain(milliseconds quiet) {
   decoder_.reset();
 }
 
-std::optional<esp::Response> EspFlasher::transact(esp::Op op, const Result<std::size_t>& built,
-                                                     milliseconds timeout) {
-  send(built);
-  return await(op, timeout, chip_.loader);
-}
-
 esp::Response EspFlasher::command(esp::Op op, const Result<std::size_t>& built, milliseconds timeout) {
-  auto r = transact(op, built, timeout);
+  send(built);
+  auto r = await(op, timeout, chip_.loader);
   if (!r)
     throw FlashError(FlashError::Kind::no_answer,
                      fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
@@ -542,7 +537,8 @@ const ChipInfo& EspFlasher::connect() {
 }
 
 void EspFlasher::detect_chip() {
-  auto r = transact(esp::Op::get_security_info, esp::build_get_security_info(packet_), kSecurityInfoTimeout);
+  send(esp::build_get_security_info(packet_));
+  auto r = await(esp::Op::get_security_info, kSecurityInfoTimeout, chip_.loader);
   bool identified = false;
   if (r && r->ok()) {
     if (auto si = esp::parse_security_info(r->data)) {
@@ -710,7 +706,8 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
     }
     n = compressed ? esp::build_flash_defl_data(seq, slice, packet_) : esp::build_flash_data(seq, slice, packet_);
     for (int attempt = 1;; ++attempt) {
-      auto r = transact(data_op, n, per_mb(40, block));
+      send(n);
+      auto r = await(data_op, per_mb(40, block), loader);
       if (r && r->ok()) break;
       if (attempt == kBlockAttempts) {
         if (!r)

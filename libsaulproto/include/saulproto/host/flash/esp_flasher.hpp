@@ -190,15 +190,13 @@ class EspFlasher {
   static constexpr std::chrono::milliseconds kCommandTimeout{3000};
 
  private:
-  /// send(), then waits for the answer to op; nullopt when none came in time.
-  std::optional<esp::Response> transact(esp::Op op, const Result<std::size_t>& built,
-                                        std::chrono::milliseconds timeout);
-  /// transact(), with no answer and a failure status as FlashError(no_answer / refused).
+  /// send(), then await() the answer, with no answer and a failure status as FlashError(no_answer / refused).
   esp::Response command(esp::Op op, const Result<std::size_t>& built, std::chrono::milliseconds timeout);
   [[nodiscard]] bool cancelled() const { return options_.cancelled && options_.cancelled(); }
   std::uint32_t read_reg(std::uint32_t address);
   void write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask = 0xFFFFFFFF);
   bool try_sync();
+  /// The answer to op (read with `loader`'s status layout); nullopt when none came in time.
   std::optional<esp::Response> await(esp::Op op, std::chrono::milliseconds timeout, esp::Loader loader);
   /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length).
   void send(const Result<std::size_t>& built);
