@@ -32,20 +32,12 @@ std::size_t typo_distance(const std::string& a, const std::string& b) {
 
 std::string without_dashes(const std::string& s) { return s.substr(std::min(s.find_first_not_of('-'), s.size())); }
 
-// Every name an app answers to as a verb, and every option name it takes ("--json", "-o").
+// Every name an app answers to as a verb (not the hidden ones: __complete).
 std::vector<std::string> verb_names(const CLI::App& app) {
   std::vector<std::string> out;
-  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App* s) { return !s->get_group().empty(); })) {
     out.push_back(sub->get_name());
     for (const auto& alias : sub->get_aliases()) out.push_back(alias);
-  }
-  return out;
-}
-std::vector<std::string> option_names(const CLI::App& app) {
-  std::vector<std::string> out;
-  for (const CLI::Option* opt : app.get_options()) {
-    for (const auto& l : opt->get_lnames()) out.push_back("--" + l);
-    for (const auto& s : opt->get_snames()) out.push_back("-" + s);
   }
   return out;
 }
@@ -96,6 +88,15 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 }
 
 }  // namespace
+
+std::vector<std::string> option_names(const CLI::App& app) {
+  std::vector<std::string> out;
+  for (const CLI::Option* opt : app.get_options()) {
+    for (const auto& l : opt->get_lnames()) out.push_back("--" + l);
+    for (const auto& s : opt->get_snames()) out.push_back("-" + s);
+  }
+  return out;
+}
 
 std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** argv) {
   std::vector<std::string> args(argv, argv + argc);

@@ -13,6 +13,9 @@ namespace saulctl {
 /// parser to report); argv unchanged when its first word is not "help".
 std::vector<std::string> expand_help_verb(const CLI::App& app, int argc, char** argv);
 
+/// Every option name an app takes: "--json", "-o".
+std::vector<std::string> option_names(const CLI::App& app);
+
 /// "saulctl", "saulctl decode", "saulctl pride vcu": the verbs parsed so far.
 std::string verb_path(const CLI::App& app);
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # saulctl completion bash|zsh: the bash script is sourced and its function run as bash runs it (COMP_LINE,
-# COMP_POINT, COMP_WORDS), and COMPREPLY compared with what a user expects, written by hand. The serial ports come
+# COMP_POINT, COMP_WORDS), and COMPREPLY compared with what a user expects, written by hand. The scripts ask
+# saulctl itself (saulctl __complete WORD...) on every TAB. The serial ports come
 # from a stand-in saulctl whose 'ports --json' lists two, the SocketCAN interfaces from a made-up /sys
 # (SAUL_SYSFS). The zsh script is loaded the way a user does (compinit, then source), and its front end run with
 # zsh's completion builtins replaced by ones that print what they were given.
@@ -75,8 +76,12 @@ check "nothing to offer for a number (--count), and no options instead" expect "
 check "options: 'decode --js' -> --json" expect "$s decode --js" "--json"
 check "subverbs: 'pride ' -> vcu" expect "$s pride " "vcu"
 check "'help de' -> decode" expect "$s help de" "decode"
-words=$(bash -c 'source "$1"; COMP_WORDS=(saulctl dec); COMP_CWORD=1; _saulctl; echo "${COMPREPLY[*]}"' _ "$out/saulctl.bash")
+# (the script asks the saulctl the line names, here as a user has it: on PATH)
+words=$(PATH=$out:$PATH bash -c 'source "$1"; COMP_WORDS=(saulctl dec); COMP_CWORD=1; _saulctl
+                               echo "${COMPREPLY[*]}"' _ "$out/saulctl.bash")
 check "without COMP_LINE (COMP_WORDS only) it still completes" test "$words" = "decode"
+check "the verb the scripts ask (__complete) is not in saulctl's help" \
+  bash -c "! '$saulctl' --help | grep -q __complete && ! '$saulctl' help | grep -q __complete"
 
 # --- zsh --------------------------------------------------------------------------------------------------------
 if command -v zsh >/dev/null; then
@@ -112,6 +117,7 @@ if command -v zsh >/dev/null; then
     "_files -g *.(log|candump|pcap|cap|pcapng|ntar|asc|blf|trc|csv|serial|txt|json)(|.gz|.zst)"
   check "zsh: 'flash --build-dir ' -> folders" zexpect "$s flash --build-dir " "_files -/"
   check "zsh: 'pride ' -> vcu" zexpect "$s pride " "vcu"
+  check "zsh: nothing to offer for a number ('sniff --count ')" zexpect "$s sniff --count " ""
 else
   echo "skip zsh checks: zsh is not installed (scripts/setup.sh installs it)"
 fi

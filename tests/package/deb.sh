@@ -94,8 +94,9 @@ else
   fail "saulctl decode differs from $golden:"; diff <(sed '/^# stderr:$/,$d' "$golden") "$tmp/decode.out" | head
 fi
 
-words=$(bash -c 'source "$1"; COMP_WORDS=(saulctl dec); COMP_CWORD=1; _saulctl; echo "${COMPREPLY[*]}"' _ \
-        "$root/usr/share/bash-completion/completions/saulctl")
+# (the script asks the saulctl on PATH: saulctl __complete)
+words=$(PATH=$root/usr/bin:$PATH bash -c 'source "$1"; COMP_WORDS=(saulctl dec); COMP_CWORD=1; _saulctl
+  echo "${COMPREPLY[*]}"' _ "$root/usr/share/bash-completion/completions/saulctl")
 [[ " $words " == *" decode "* ]] && ok "bash completion: 'saulctl dec<TAB>' offers decode" || fail "bash completion offers '$words'"
 zsh_file=$root/usr/share/zsh/vendor-completions/_saulctl
 if [[ $(head -1 "$zsh_file") != "#compdef saulctl" ]]; then
