@@ -56,7 +56,7 @@ def at_least(state, ms, why):
     return {"state": state, "kind": "at_least", "ms": ms, "why": why}
 
 
-# States are "DR": DTR then RTS. esp_connection.cpp sets each step with set_modem_lines(dtr, rts), which libserialport
+# States are "DR": DTR then RTS. esp_flasher.cpp sets each step with set_modem_lines(dtr, rts), which libserialport
 # does as sp_set_dtr then sp_set_rts (sp_set_rts first when both go low): a step that raises DTR and drops RTS
 # shows (1,1) in between (as esptool's ClassicReset does: setDTR(True) then setRTS(False)).
 OPEN = [any_time("00", "port closed, lines low", optional=True),
