@@ -278,7 +278,10 @@ def load(record):
         if m.get("type") == "telemetry_a":
             tel.append((t, m["state"]))
         elif m.get("type") == "vesc_set_rpm":
-            rpm.append((t, m["erpm"]))
+            # With the number of 0x400 frames before it in the record: the order is the bus's, while the
+            # timestamps are not enough (sniff stamps every frame of one read alike, and a loaded host makes
+            # big reads: a 0x400 sent before an arming's first SET_RPM can carry that SET_RPM's time).
+            rpm.append((t, m["erpm"], len(tel)))
     return tel, rpm
 
 
@@ -343,7 +346,7 @@ def check(inputs, tel, rpm):
     for t0, t1, kind, text in stops:
         until = armed_again_after(t1)
         allowance = (STOP_MS + RULE_MS.get(text, 0)) / 1000
-        late = [(t, e) for t, e in rpm if t1 + allowance < t < until - 0.15 and e != 0]
+        late = [(t, e) for t, e, _ in rpm if t1 + allowance < t < until - 0.15 and e != 0]
         late = [(t, e) for t, e in late if judged(t, t1)]
         if late:
             violations.append(("stop", late[0][0], f"SET_RPM {late[0][1]} {1000 * (late[0][0] - t1):.0f} ms after "
@@ -360,11 +363,11 @@ def check(inputs, tel, rpm):
         if s != "ESTOP" and not excused and judged(t, t0):
             violations.append(("stop", t, f"0x400 shows {s} {1000 * (t - t1):.0f} ms after '{text}' (ESTOP expected)"))
 
-    for i, (t, e) in enumerate(rpm):
+    for t, e, k in rpm:
         if e == 0:
             continue
-        before = next((s for ts, s in reversed(tel) if ts <= t), None)
-        after = next((s for ts, s in tel if ts >= t), None)
+        before = tel[k - 1][1] if k > 0 else None  # the 0x400 frames around it in the record's order
+        after = tel[k][1] if k < len(tel) else None
         if before is not None and after is not None and before not in ARMED and after not in ARMED and judged(t):
             violations.append(("motion", t, f"SET_RPM {e} between two 0x400 showing {before} and {after}"))
             break
@@ -434,7 +437,7 @@ def main():
     span = (tel[-1][0] - tel[0][0]) if tel else 0
     latches = sum(1 for (ta, sa), (tb, sb) in zip(tel, tel[1:]) if sb in LATCHED and sa != sb)
     print(f"sim_random seed {a.seed}: {len(d.inputs)} inputs, {frames} frames over {span:.1f} s, "
-          f"{len(armings)} armings, {latches} latches, {sum(1 for _, e in rpm if e)} SET_RPM frames driving")
+          f"{len(armings)} armings, {latches} latches, {sum(1 for _, e, _ in rpm if e)} SET_RPM frames driving")
     left_out = sum(hi - lo for lo, hi in starved)
     if starved:
         print(f"sim_random: {len(starved)} stretches ({left_out:.1f} s) left out: the host starved the simulator")
