@@ -206,9 +206,9 @@ void add_convert_command(CLI::App& app, Runner& run) {
       ->check(CLI::Range(-7, 19));
   cmd->add_option_function<std::string>(
       "--chunk-size",
-      [opt](const std::string& text) {
-        opt->chunk_bytes = parse_size_option("--chunk-size", text);
-        if (opt->chunk_bytes < 4096 || opt->chunk_bytes > (std::uint64_t{256} << 20))
+      [options = opt](const std::string& text) {
+        options->chunk_bytes = parse_size_option("--chunk-size", text);
+        if (options->chunk_bytes < 4096 || options->chunk_bytes > (std::uint64_t{256} << 20))
           throw CLI::ValidationError("--chunk-size", "a chunk holds 4K to 256M of records, not " + text);
       },
       "MCAP: close a chunk when its records reach this size (4K-256M, default 4M: smaller seeks finer, larger "

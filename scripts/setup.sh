@@ -2,30 +2,47 @@
 # Install what this project needs from Debian's packages, only what is missing.
 # Safe to run again: it does nothing when everything is there.
 #   scripts/setup.sh            build + test dependencies
+#   scripts/setup.sh --build    only what building needs (scripts/test.sh installs the rest while it compiles)
+#   scripts/setup.sh --test     only what the tests need beyond that, and the npm packages
 #   SAUL_SKIP_EMBEDDED=1 ...    leave out the arm-none-eabi cross compiler (saves ~50 s)
 set -euo pipefail
+part=all
+case "${1:-}" in
+  --build) part=build; shift ;;
+  --test) part=test; shift ;;
+esac
 
-packages=(
+# Building the libraries, saulctl, the simulator, the tests and the benchmarks (clang: the test preset's compiler).
+build_packages=(
   cmake ninja-build g++ pkg-config
+  clang libclang-rt-14-dev  # the test build (CMakePresets.json "test") and its ASan/UBSan runtimes; libFuzzer
   libcli11-dev libfmt-dev nlohmann-json3-dev libserialport-dev zlib1g-dev libzstd-dev
-  libncurses-dev tmux  # saulctl's full-screen views; tmux drives them in tests/cli/views.sh
+  libncurses-dev  # saulctl's full-screen views
   catch2 libbenchmark-dev
   nettle-dev  # MD5 of ESP flash regions (host/flash/esp_flasher.cpp)
-  libfftw3-dev python3-numpy python3-scipy  # saulctl tune's FFTs (host/tune); its independent checks (tests/tune)
+  libfftw3-dev  # saulctl tune's FFTs (host/tune)
   liblz4-dev  # lz4 chunks of MCAP files (host/capture/mcap.cpp)
   libdeflate-dev  # fast CRC-32 of MCAP files (host/capture/mcap.cpp)
+)
+# Running the tests: interop tools, the browser, the VM, the package checks, the independent analysis.
+test_packages=(
+  tmux  # drives saulctl's full-screen views in tests/cli/views.sh
+  python3-numpy python3-scipy  # the independent checks of saulctl tune (tests/tune)
   libjs-dygraphs gnuplot-nox chromium  # saulctl plot: HTML page, SVG/PNG/PDF reports; headless browser test
   zsh  # the zsh completion check (tests/cli/completion.sh)
   tshark python3-can can-utils  # interop checks of the capture formats (tests/cli/captures_interop.sh)
   sigrok-cli  # UART decodes of logic captures (tests/cli/uart_interop.sh, captures/make_sigrok_fixtures.sh)
   qemu-system-x86 busybox-static cpio kmod  # the real-kernel harness (tests/vm; can-utils too)
-  clang libclang-rt-14-dev  # libFuzzer + ASan/UBSan runtimes of the fuzz targets (tests/fuzz/run.sh)
   pybind11-dev python3-pybind11 python3-dev python3-pytest  # the Python module and its tests (python/)
   help2man dpkg-dev man-db  # the .deb: man page, dpkg-shlibdeps, man -l on the page (packaging/, tests/package)
   lintian  # Debian's package checker on the .deb files (tests/package/deb.sh)
   strace  # counts the threads of decode's and stats' two-core paths (tests/cli/decode_fast.sh)
+  time  # GNU time: the peak memory of tests/cli/memory_flat.sh (without it that test only says SKIP)
 )
-if [[ "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
+packages=()
+[[ $part == test ]] || packages+=("${build_packages[@]}")
+[[ $part == build ]] || packages+=("${test_packages[@]}")
+if [[ $part != build && "${SAUL_SKIP_EMBEDDED:-0}" != 1 ]]; then
   packages+=(gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi)
 fi
 packages+=("$@")
@@ -35,6 +52,7 @@ packages+=("$@")
 # With the machine's Node.js and npm, from the npm registry; only when they are not there yet.
 npm_packages() {
   local dir
+  [[ $part != build ]] || return 0
   dir="$(cd "$(dirname "$0")/.." && pwd)/tests/npm"
   [[ -d $dir/node_modules/@duckdb/node-api && -d $dir/node_modules/@mcap/core && -d $dir/node_modules/@mcap/support &&
      -d $dir/node_modules/ajv ]] && return 0

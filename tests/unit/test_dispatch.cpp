@@ -15,7 +15,7 @@ TEST_CASE("decode_bus_name gives decode_bus_frame's reason, or the decoded messa
   // every SAUL id and neighbours; VESC commands (known, unknown, past 0xFF) for a few nodes; ids too large
   constexpr std::array<std::uint32_t, 12> kStandard{0x300, 0x301, 0x302, 0x303, 0x304, 0x3FF,
                                                     0x400, 0x401, 0x402, 0x403, 0x7FF, 0x800};
-  constexpr std::array<std::uint32_t, 18> kCommands{0,  1,  2,  3,  4,  5,  9,  10,   14,
+  constexpr std::array<std::uint32_t, 18> kVescCommands{0,  1,  2,  3,  4,  5,  9,  10,   14,
                                                     15, 16, 17, 18, 27, 58, 59, 0xFF, 0x100};
   // bytes near the codecs' limits (enums, signs, NaN and infinity patterns) more often than others
   constexpr std::array<std::uint8_t, 10> kEdges{0x00, 0x01, 0x02, 0x03, 0x04, 0x7F, 0x80, 0xC0, 0xFE, 0xFF};
@@ -25,7 +25,7 @@ TEST_CASE("decode_bus_name gives decode_bus_frame's reason, or the decoded messa
     f.extended = rng() % 2 != 0;
     if (f.extended) {
       f.id = rng() % 16 == 0 ? static_cast<std::uint32_t>(rng() % 0x40000000)
-                             : kCommands[rng() % kCommands.size()] << 8 | static_cast<std::uint32_t>(rng() % 256);
+                             : kVescCommands[rng() % kVescCommands.size()] << 8 | static_cast<std::uint32_t>(rng() % 256);
     } else {
       f.id = kStandard[rng() % kStandard.size()];
     }

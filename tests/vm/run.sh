@@ -13,6 +13,8 @@
 #   --dynamic         instead of the static build: the normal build's own saulctl and saul_vm_guest from DIR
 #                     (a configured build dir), with the shared libraries ldd names; no second compile
 #   --no-build        use the binaries as they are (when changing only tests/vm/guest/init.sh)
+#   --saulctl FILE    with --dynamic: this saulctl instead of DIR's (the ctest gives the package build's: the
+#                     released binary, and without the sanitizers each start takes a fraction of the time in TCG)
 # Environment: SAUL_VM_JOBS (build parallelism, default 2); SAUL_VM_KERNEL_PACKAGE (the kernel package to
 # download instead of the one linux-image-amd64 depends on); SAUL_VM_KERNEL_DEB (use this linux-image .deb file).
 #
@@ -32,6 +34,7 @@ verbose=0
 boot_timeout=240
 rebuild=1
 dynamic=0
+saulctl_given=""
 while (($#)); do
   case "$1" in
     --build-dir) build=$2; shift 2 ;;
@@ -41,10 +44,12 @@ while (($#)); do
     --timeout) boot_timeout=$2; shift 2 ;;
     --no-build) rebuild=0; shift ;;
     --dynamic) dynamic=1; shift ;;
+    --saulctl) saulctl_given=$2; shift 2 ;;
     -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
     *) echo "vm: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
+[[ -z $saulctl_given ]] || ((dynamic)) || { echo "vm: --saulctl goes with --dynamic" >&2; exit 2; }
 mkdir -p "$build"
 build=$(cd "$build" && pwd)
 vm="$build/vm"
@@ -142,12 +147,14 @@ if ((dynamic)); then
   # The binaries the normal build made (what ctest tests and users run), with their shared libraries.
   [[ -f $build/CMakeCache.txt ]] || die "--dynamic needs a configured build dir: $build has no CMakeCache.txt"
   if ((rebuild)); then
-    cmake --build "$build" -j "$jobs" --target saulctl saul_vm_guest >"$vm/build.log" 2>&1 ||
-      { tail -40 "$vm/build.log" >&2; die "building saulctl and saul_vm_guest in $build failed (log: $vm/build.log)"; }
+    targets=(saul_vm_guest)
+    [[ -n $saulctl_given ]] || targets+=(saulctl)
+    cmake --build "$build" -j "$jobs" --target "${targets[@]}" >"$vm/build.log" 2>&1 ||
+      { tail -40 "$vm/build.log" >&2; die "building ${targets[*]} in $build failed (log: $vm/build.log)"; }
   fi
-  saulctl="$build/saulctl/saulctl"
+  saulctl=${saulctl_given:-$build/saulctl/saulctl}
   guest="$build/tests/vm/guest/saul_vm_guest"
-  what="saulctl and saul_vm_guest (dynamic, from $build)"
+  what="$saulctl and saul_vm_guest (dynamic, from $build)"
 else
   # -Og: about half the compile time of -O2 with CLI11 and fmt header-only; speed does not matter in the guest.
   # Warnings are the normal build's business (-Werror there); here only behaviour is tested.

@@ -419,9 +419,9 @@ TEST_CASE("share: a paced owner alone that reads slowly loses nothing: the devic
   CHECK(written < 40000);
   CHECK(written > 2048);
   // The end of the frame the full pty cut goes in as soon as there is room again (a blocking write).
-  std::thread finish([&pty, &rest] {
+  std::thread finish([&h, &rest] {
     for (std::size_t at = 0; at < rest.size();) {
-      const ssize_t w = ::write(pty.master, rest.data() + at, rest.size() - at);
+      const ssize_t w = ::write(h.pty.master, rest.data() + at, rest.size() - at);
       if (w <= 0) return;
       at += static_cast<std::size_t>(w);
     }
@@ -464,15 +464,15 @@ TEST_CASE("share: a client is never held back by a paced owner that does not rea
   // A held device would stop the writer near 3 300 and the client near there (2048 queued, what the link and the
   // pty hold); a slow client loses frames (counted: the owner drops them for it when its socket is full, and under
   // load that can be all of the last few thousand), so the check is that it gets well past that.
-  std::uint64_t last = 0;
+  std::uint64_t highest = 0;
   std::thread reader([&] {
     const auto end = steady_clock::now() + seconds(10);
-    while (last < 10000 && steady_clock::now() < end)
-      if (auto f = client->receive(milliseconds(50))) last = std::max(last, sequence_of(*f));
+    while (highest < 10000 && steady_clock::now() < end)
+      if (auto f = client->receive(milliseconds(50))) highest = std::max(highest, sequence_of(*f));
   });
   const std::uint64_t written = write_numbered_frames(pty.master, 20000, rest);
   CHECK(written == 20000);  // never stalled on the owner's full queue
   reader.join();
-  CHECK(last >= 10000);
+  CHECK(highest >= 10000);
   CHECK(owner->stats().rx_dropped > 0);  // the owner's reader took nothing: its queue overflowed
 }

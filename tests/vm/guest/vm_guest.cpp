@@ -55,9 +55,13 @@ struct CheckFailed : std::runtime_error {
 
 template <class... A>
 [[noreturn]] void fail(const char* format, A... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof buf, format, args...);
-  throw CheckFailed(buf);
+  if constexpr (sizeof...(A) == 0) {
+    throw CheckFailed(format);  // no arguments: the text as it is, not a format
+  } else {
+    char buf[512];
+    std::snprintf(buf, sizeof buf, format, args...);
+    throw CheckFailed(buf);
+  }
 }
 
 void expect(bool ok, const std::string& what) {

@@ -91,7 +91,6 @@ class World {
   std::uint32_t balance_resets_ = 0;
   // fault injection and the radio
   bool balance_hung_ = false;
-  fw::TimeUs balance_last_feed_ = 0;
   bool link_cut_ = false;
   bool imu_on_ = true;
   bool crsf_on_ = true;
