@@ -100,18 +100,30 @@ check "the sim's status shows its own gains again" test "$(gains)" = "kp=100 ki=
 check "the proposal is not applied" grep -q "^not applied: the robot runs its own gains again" run.txt
 
 # Interrupted in the middle of a set (after x1.2 was acknowledged): the gains are restored all the same.
+# A run can end by itself before x1.2 (a CI run measured x1.0's overshoot at 32.8 % instead of 12 %, the simulator
+# starved beside two builds): that run says why, restores the gains, and the test starts another, three at most.
 for signal in INT TERM; do
-  if ! status | grep -q "state=BALANCE"; then  # not armed any more (a latch, once, on a loaded machine): again
-    status
-    timeout 10 "$saulctl" console "$balance" disarm >/dev/null 2>&1
-    upright
-    printf 'button down\n' >&3
-    for _ in $(seq 600); do status | grep -q "state=BALANCE" && break; sleep 0.1; done
-    printf 'button up\n' >&3
-  fi
-  "$saulctl" tune auto --console-balance "$balance" --yes --duration 10s >sig.txt 2>sig.err &
-  auto=$!
-  for _ in $(seq 1200); do grep -q "(x1.2) ... acknowledged" sig.txt && break; sleep 0.1; done
+  for attempt in 1 2 3; do
+    if ! status | grep -q "state=BALANCE"; then  # not armed any more (a latch, once, on a loaded machine): again
+      status
+      timeout 10 "$saulctl" console "$balance" disarm >/dev/null 2>&1
+      upright
+      printf 'button down\n' >&3
+      for _ in $(seq 600); do status | grep -q "state=BALANCE" && break; sleep 0.1; done
+      printf 'button up\n' >&3
+    fi
+    "$saulctl" tune auto --console-balance "$balance" --yes --duration 10s >sig.txt 2>sig.err &
+    auto=$!
+    for _ in $(seq 1200); do
+      grep -q "(x1.2) ... acknowledged" sig.txt && break
+      kill -0 "$auto" 2>/dev/null || break
+      sleep 0.1
+    done
+    grep -q "(x1.2) ... acknowledged" sig.txt && break
+    wait "$auto"
+    echo "SIG$signal attempt $attempt: the run ended by itself (exit $?) before x1.2:"
+    cat sig.txt sig.err
+  done
   check "SIG$signal: the x1.2 set was sent and acknowledged" grep -q "^sending: pid 120 600 3.6 (x1.2) ... acknowledged" sig.txt
   kill -s "$signal" "$auto"
   wait "$auto"

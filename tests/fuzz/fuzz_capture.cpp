@@ -1,7 +1,7 @@
-// CAN capture readers (make_capture_reader over a std::istringstream), one binary per format: built with
-// -DSAUL_FUZZ_FORMAT=candump|pcap|pcapng|asc|blf|trc|csv|gvret_csv|mcap. Only CaptureOpenError (bad header) may be
-// thrown; next() never throws. BLF inflates its log containers, so a few input bytes may
-// stand for many records: its bound is per container, not per input byte.
+// CAN capture readers (make_capture_reader over a std::istringstream), one target per format
+// (saul_fuzz_capture_<format>, listed in fuzz_targets.inc). Only CaptureOpenError (bad header) may be thrown; next()
+// never throws. BLF inflates its log containers, so a few input bytes may stand for many records: its bound is per
+// container, not per input byte.
 #include <sstream>
 #include <string>
 #include <vector>
@@ -78,25 +78,20 @@ void same_in_memory(const std::uint8_t* data, std::size_t size) {
   }
 }
 
-// A constant of its own: comparing the macro's enumerator with another in place is a self-comparison to clang.
-constexpr saul::host::CaptureFormat kFormat = saul::host::CaptureFormat::SAUL_FUZZ_FORMAT;
-
-}  // namespace
-
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+int read_capture(saul::host::CaptureFormat format, const std::uint8_t* data, std::size_t size) {
   using namespace saul::host;
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
   std::unique_ptr<CaptureReader> reader;
   try {
-    reader = make_capture_reader(in, kFormat);
+    reader = make_capture_reader(in, format);
   } catch (const CaptureOpenError&) {
     return 0;
   }
   std::size_t records = 0;
   std::size_t max_records = size + 1;
-  if (kFormat == CaptureFormat::blf)  // an object is at least 16 bytes once inflated
+  if (format == CaptureFormat::blf)  // an object is at least 16 bytes once inflated
     max_records = (size / 16 + 1) * (BlfReader::kMaxContainerBytes / 16 + 2);
-  if (kFormat == CaptureFormat::mcap)  // a chunk inflates to kMcapMaxRecord at most
+  if (format == CaptureFormat::mcap)  // a chunk inflates to kMcapMaxRecord at most
     max_records = (size / 9 + 1) * (kMcapMaxRecord / 31 + 2);     // ... of records of 31 bytes or more
   for (;;) {
     auto status = reader->next();
@@ -110,6 +105,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (++records > max_records) saul::fuzz::fail();  // every record consumes input
   }
   (void)detect_capture_format(std::span<const std::uint8_t>(data, size));
-  if (kFormat == CaptureFormat::pcapng) same_in_memory(data, size);
+  if (format == CaptureFormat::pcapng) same_in_memory(data, size);
   return 0;
 }
+
+}  // namespace
+
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, candump)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, pcap)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, pcapng)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, asc)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, blf)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, trc)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, csv)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, gvret_csv)
+SAUL_FUZZ_FORMAT_TARGET(capture, read_capture, mcap)

@@ -1,5 +1,5 @@
-// The decompressors under the capture readers (compressed.hpp), one binary per method: built with
-// -DSAUL_FUZZ_COMPRESSION=gzip|zstd. Whatever the input, reading ends (at its end or at the first corrupt byte,
+// The decompressors under the capture readers (compressed.hpp), one target per method (saul_fuzz_compressed_<method>,
+// listed in fuzz_targets.inc). Whatever the input, reading ends (at its end or at the first corrupt byte,
 // with error() saying which), never throws, and what comes out is then read as a capture of the format its first
 // bytes say, as open_capture_reader does.
 #include <memory>
@@ -10,10 +10,12 @@
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/compressed.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+namespace {
+
+int inflate_and_read(saul::host::Compression method, const std::uint8_t* data, std::size_t size) {
   using namespace saul::host;
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
-  auto inflater = make_decompressing_buf(*in.rdbuf(), Compression::SAUL_FUZZ_COMPRESSION);
+  auto inflater = make_decompressing_buf(*in.rdbuf(), method);
   // At most 1 MiB of output: a small input may stand for a lot (that is what compression is for).
   std::string out;
   char buffer[4096];
@@ -37,4 +39,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const CaptureOpenError&) {
   }
   return 0;
+}
+
+}  // namespace
+
+extern "C" int saul_fuzz_compressed_gzip(const std::uint8_t* data, std::size_t size) {
+  return inflate_and_read(saul::host::Compression::gzip, data, size);
+}
+extern "C" int saul_fuzz_compressed_zstd(const std::uint8_t* data, std::size_t size) {
+  return inflate_and_read(saul::host::Compression::zstd, data, size);
 }

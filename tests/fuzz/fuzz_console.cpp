@@ -4,7 +4,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/core/console.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_console(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   std::string_view all(reinterpret_cast<const char*>(data), size);
   (void)console::parse(all);

@@ -4,7 +4,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/core/dispatch.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_dispatch(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   for (std::size_t at = 0; at + 13 <= size; at += 13) {
     CanFrame f;

@@ -5,7 +5,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/core/esp_loader.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_esp_slip(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   std::span<const std::uint8_t> in(data, size);
   static std::array<std::uint8_t, 64> small_a, small_b;  // small storage: exercises the overlong path

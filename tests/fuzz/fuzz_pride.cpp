@@ -2,7 +2,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/core/pride.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_pride(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   std::span<const std::uint8_t> in(data, size);
   pride::StreamDecoder one, chunked;

@@ -4,7 +4,7 @@
 #include "fuzz_util.hpp"
 #include "saulproto/core/slcan.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_slcan(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   std::span<const std::uint8_t> in(data, size);
   slcan::LineDecoder one, chunked;

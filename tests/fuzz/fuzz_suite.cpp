@@ -6,7 +6,7 @@
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/host/suite/suite.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_suite(const std::uint8_t* data, std::size_t size) {
   using namespace saul::host::suite;
   std::string text(reinterpret_cast<const char*>(data), size);
   std::istringstream in(text);

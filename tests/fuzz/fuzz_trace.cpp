@@ -15,7 +15,7 @@ struct Count {
 };
 }  // namespace
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+extern "C" int saul_fuzz_trace(const std::uint8_t* data, std::size_t size) {
   using namespace saul;
   std::span<const std::uint8_t> in(data, size);
   trace::ConsoleDecoder one, chunked;

@@ -29,3 +29,9 @@ void in_chunks(std::span<const std::uint8_t> data, F&& feed) {
 [[noreturn]] inline void fail() { std::abort(); }
 
 }  // namespace saul::fuzz
+
+/// The target saul_fuzz_<prefix>_<format> (fuzz_targets.inc): check(CaptureFormat::<format>, data, size).
+#define SAUL_FUZZ_FORMAT_TARGET(prefix, check, format)                                     \
+  extern "C" int saul_fuzz_##prefix##_##format(const std::uint8_t* data, std::size_t size) { \
+    return check(saul::host::CaptureFormat::format, data, size);                           \
+  }

@@ -6,8 +6,7 @@
 //
 //   saul_fuzz_replay CORPUS_ROOT REGRESSION_ROOT [TARGET...]     default: every target
 //
-// Each target's source (tests/fuzz/fuzz_*.cpp) is compiled with LLVMFuzzerTestOneInput renamed to
-// saul_fuzz_<target> (tests/CMakeLists.txt), so all of them live in this one program.
+// Each target is a function saul_fuzz_<target> of its source (tests/fuzz/fuzz_*.cpp), as in the libFuzzer program.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -17,22 +16,12 @@
 #include <string_view>
 #include <vector>
 
-#define SAUL_FUZZ_TARGET(name) extern "C" int saul_fuzz_##name(const std::uint8_t* data, std::size_t size);
-#include "fuzz_targets.inc"
-#undef SAUL_FUZZ_TARGET
+#include "fuzz_targets.hpp"
 
 namespace {
 
-struct Target {
-  std::string_view name;
-  int (*run)(const std::uint8_t*, std::size_t);
-};
-
-constexpr Target kTargets[] = {
-#define SAUL_FUZZ_TARGET(name) {#name, saul_fuzz_##name},
-#include "fuzz_targets.inc"
-#undef SAUL_FUZZ_TARGET
-};
+using saul::fuzz::kTargets;
+using saul::fuzz::Target;
 
 /// The files under dir (sorted, so the order and the log are the same on every machine); none when it is absent.
 std::vector<std::filesystem::path> inputs_in(const std::filesystem::path& dir) {
@@ -57,7 +46,7 @@ int main(int argc, char** argv) {
   std::vector<std::string_view> only(argv + 3, argv + argc);
   int unknown = 0;
   for (auto name : only) {
-    if (std::none_of(std::begin(kTargets), std::end(kTargets), [&](const Target& t) { return t.name == name; })) {
+    if (!saul::fuzz::find_target(name)) {
       std::fprintf(stderr, "saul_fuzz_replay: no target '%.*s'\n", static_cast<int>(name.size()), name.data());
       ++unknown;
     }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz/CMakeLists.txt) with clang, ASan and UBSan into their own build dir and
-# runs each for a bounded time, starting from its seed corpus in tests/fuzz/corpus/<target>/.
+# Builds the libFuzzer program saul_fuzz (tests/fuzz/CMakeLists.txt) with clang, ASan and UBSan into its own build dir
+# and runs each of its targets (fuzz_targets.inc; SAUL_FUZZ_TARGET picks one) for a bounded time, starting from its
+# seed corpus in tests/fuzz/corpus/<target>/.
 #   tests/fuzz/run.sh [--build-dir DIR] [TARGET...]      default: build-fuzz at the repository root, every target
 #   FUZZ_SECONDS=10 (per target), FUZZ_SEED=N (libFuzzer's -seed; default 0 = a new random seed each run; the ctest
 #   run uses a fixed one so that CI explores the same inputs every time and does not fail at random)
@@ -28,18 +29,21 @@ declare -A max_len=(
   [suite]=4096
 )
 targets=("$@")
-# Every target the build made (a list kept here let two built targets go unrun in CI for weeks).
-((${#targets[@]})) || targets=($(find "$build" -maxdepth 1 -type f -executable -name 'fuzz_*' -printf '%f\n' | sed 's/^fuzz_//' | sort))
-((${#targets[@]})) || { echo "fuzz: no target built in $build" >&2; exit 1; }
+# Every target of the program (the list it is built from: a list kept here once let two targets go unrun for weeks).
+((${#targets[@]})) || targets=($(sed -n 's/^SAUL_FUZZ_TARGET(\(.*\))$/\1/p' "$here/fuzz_targets.inc"))
 
 passed=0 failed=0
 for t in "${targets[@]}"; do
-  bin="$build/fuzz_$t"
-  [[ -x $bin ]] || { echo "fuzz_$t: no such target"; failed=$((failed + 1)); continue; }
+  if ! grep -qx "SAUL_FUZZ_TARGET($t)" "$here/fuzz_targets.inc"; then
+    echo "fuzz_$t: no such target"
+    failed=$((failed + 1))
+    continue
+  fi
   work="$build/corpus/$t" crashes="$build/crashes/$t"
   mkdir -p "$work" "$crashes"
   log="$build/fuzz_$t.log"
-  "$bin" "$work" "$here/corpus/$t" -seed="${FUZZ_SEED:-0}" -max_total_time="$seconds" -max_len="${max_len[$t]:-4096}" -timeout=5 \
+  SAUL_FUZZ_TARGET=$t "$build/saul_fuzz" "$work" "$here/corpus/$t" -seed="${FUZZ_SEED:-0}" \
+    -max_total_time="$seconds" -max_len="${max_len[$t]:-4096}" -timeout=5 \
     -rss_limit_mb=1024 -print_final_stats=1 -artifact_prefix="$crashes/" >"$log" 2>&1
   rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
@@ -50,7 +54,7 @@ for t in "${targets[@]}"; do
     failed=$((failed + 1))
     printf 'fuzz_%-22s FAIL  %10s executions (exit %d)\n' "$t" "${execs:-?}" "$rc"
     grep -E "ERROR|runtime error|SUMMARY|Test unit written" "$log" | head -8 | sed 's/^/    /'
-    echo "    log: $log"
+    echo "    log: $log; again: SAUL_FUZZ_TARGET=$t $build/saul_fuzz $crashes/crash-*"
     echo "    after the fix, keep the input as a regression test: cp $crashes/crash-* $here/regression/$t/"
   fi
 done
