@@ -2,6 +2,7 @@
 """The simulated robot driven from outside with seeded random inputs from every source; the rules checked on the bus.
 
   sim_random.py SAULCTL [--seed N[,N...]] [--duration SECONDS] [--keep DIR]
+  sim_random.py --self-test      the rules below on records written by hand (each must fire on its violation)
 
 Several seeds run at once, each a simulator, a sniff and a driver of its own (a run takes ~10 % of a core: most of
 it is waiting for real time), and the outputs are printed seed by seed; the exit status is 1 when any failed.
@@ -406,7 +407,38 @@ def run_at_once(a, seeds):
     return 1 if failed else 0
 
 
+def self_test():
+    """The rules on records written by hand: each fires on its violation, and the motion rule stays quiet on the
+    record that once failed CI at random (a rule that cannot fire, or fires on good records, is a defect)."""
+    off_then_balance = [(0.0, "OFF"), (0.1, "OFF"), (0.2, "OFF"), (0.3, "BALANCE"), (0.4, "BALANCE")]
+    console_arm = [(0.25, 0.25, "arm_console", "console balance arm")]
+    cases = [
+        ("a driving SET_RPM between two 0x400 showing OFF", off_then_balance, console_arm, [(0.15, 92, 2)],
+         ["motion"]),
+        # The arming's first SET_RPM follows BALANCE in the record, its stamp among the OFF frames' (the timestamps
+        # of a starved host's reads): by time it sits between two OFF 0x400, by the bus's order it does not.
+        ("a driving SET_RPM after BALANCE in the record, stamped before it", [(0.0, "OFF"), (0.1, "OFF"),
+         (0.2, "OFF"), (0.2, "BALANCE"), (0.3, "BALANCE")], [(0.18, 0.18, "arm_console", "console balance arm")],
+         [(0.15, 92, 4)], []),
+        ("armed with no console arm and no 3 s press", off_then_balance, [], [], ["arming"]),
+        ("ESTOP, then BALANCE in the next 0x400", [(0.0, "OFF"), (0.1, "ESTOP"), (0.2, "BALANCE")],
+         [(0.15, 0.15, "arm_console", "console balance arm")], [], ["latch"]),
+        ("a driving SET_RPM 200 ms after a console estop", off_then_balance,
+         console_arm + [(0.35, 0.35, "stop", "console balance estop")], [(0.55, 92, 5)], ["stop"]),
+    ]
+    failed = 0
+    for what, tel, inputs, rpm, expected in cases:
+        got = sorted({rule for rule, _, _ in check(inputs, tel, rpm)[0]})
+        ok = got == sorted(expected)
+        failed += not ok
+        print(f"{'ok  ' if ok else 'FAIL'} {what}: {', '.join(got) or 'no violation'}"
+              f"{'' if ok else ' (expected: ' + (', '.join(expected) or 'none') + ')'}")
+    return 1 if failed else 0
+
+
 def main():
+    if sys.argv[1:] == ["--self-test"]:
+        return self_test()
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("saulctl")
     ap.add_argument("--seed", default="1", help="a seed, or several separated by commas (run at once)")
