@@ -414,14 +414,28 @@ EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
   if (options_.connect_attempts < 1) options_.connect_attempts = 1;
 }
 
-void EspFlasher::send(const Result<std::size_t>& built) {
+std::optional<esp::Response> EspFlasher::exchange(const Result<std::size_t>& built, milliseconds timeout,
+                                                  esp::Loader loader) {
   auto n = esp::slip_encode(std::span<const std::uint8_t>(packet_.data(), *built), frame_);
   if (!n) throw FlashError(FlashError::Kind::protocol, "internal: request does not fit its frame buffer");
   // Long enough for the frame at the current rate, twice over, plus a second of slack.
   const auto baud = std::max<std::uint32_t>(port_.settings().baud, 9600);
-  const milliseconds timeout(1000 + static_cast<long long>(*n) * 10 * 2 * 1000 / baud);
-  port_.write(std::span<const std::uint8_t>(frame_.data(), *n), timeout);
+  const milliseconds write_timeout(1000 + static_cast<long long>(*n) * 10 * 2 * 1000 / baud);
+  port_.write(std::span<const std::uint8_t>(frame_.data(), *n), write_timeout);
   bytes_sent_ += *n;
+  const std::uint8_t op = packet_[1];  // every request is 00, op, size, checksum, data
+  const auto deadline = steady_clock::now() + timeout;
+  for (;;) {
+    while (rx_pos_ < rx_.size()) {
+      auto frame = take(rx_[rx_pos_++]);
+      if (!frame) continue;
+      auto r = esp::parse_response(*frame, loader);
+      if (r && r->op == op) return *r;  // others: late answers to earlier requests
+    }
+    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() <= 0) return std::nullopt;
+    fill(left);
+  }
 }
 
 std::optional<std::span<const std::uint8_t>> EspFlasher::take(std::uint8_t byte) {
@@ -433,38 +447,23 @@ std::optional<std::span<const std::uint8_t>> EspFlasher::take(std::uint8_t byte)
   return frame;
 }
 
-std::optional<esp::Response> EspFlasher::await(esp::Op op, milliseconds timeout, esp::Loader loader) {
-  const auto deadline = steady_clock::now() + timeout;
-  for (;;) {
-    while (rx_pos_ < rx_.size()) {
-      auto frame = take(rx_[rx_pos_++]);
-      if (!frame) continue;
-      auto r = esp::parse_response(*frame, loader);
-      if (r && r->op == static_cast<std::uint8_t>(op)) return *r;  // others: late answers to earlier requests
-    }
-    const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-    if (left.count() <= 0) return std::nullopt;
-    rx_.resize(4096);
-    const std::size_t n = port_.read(rx_, left);
-    rx_.resize(n);
-    rx_pos_ = 0;
-  }
+bool EspFlasher::fill(milliseconds timeout) {
+  rx_.resize(4096);
+  rx_.resize(port_.read(rx_, timeout));
+  rx_pos_ = 0;
+  return !rx_.empty();
 }
 
 void EspFlasher::drain(milliseconds quiet) {
-  std::array<std::uint8_t, 1024> buf{};
-  for (;;) {
+  do {
     while (rx_pos_ < rx_.size()) (void)take(rx_[rx_pos_++]);
-    const std::size_t n = port_.read(buf, quiet);
-    if (n == 0) break;
-    for (std::size_t i = 0; i < n; ++i) (void)take(buf[i]);
-  }
+  } while (fill(quiet));
   decoder_.reset();
 }
 
-esp::Response EspFlasher::command(esp::Op op, const Result<std::size_t>& built, milliseconds timeout) {
-  send(built);
-  auto r = await(op, timeout, chip_.loader);
+esp::Response EspFlasher::command(const Result<std::size_t>& built, milliseconds timeout) {
+  auto r = exchange(built, timeout, chip_.loader);
+  const auto op = static_cast<esp::Op>(packet_[1]);
   if (!r)
     throw FlashError(FlashError::Kind::no_answer,
                      fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
@@ -476,15 +475,6 @@ esp::Response EspFlasher::command(esp::Op op, const Result<std::size_t>& built, 
         fmt::format("{}: {} refused by the {} loader: {}", port_.path(), esp::to_string(op),
                     chip_.loader == esp::Loader::rom ? "ROM" : "stub", refusal_text(r->error)));
   return *r;
-}
-
-bool EspFlasher::try_sync() {
-  send(esp::build_sync(packet_));
-  // Read with the 2-byte status layout: it fits both the ROM's answer (4 status bytes) and a stub's.
-  auto r = await(esp::Op::sync, options_.sync_timeout, esp::Loader::stub);
-  if (!r || !r->ok()) return false;
-  chip_.loader = r->value == 0 ? esp::Loader::stub : esp::Loader::rom;  // the ROM answers SYNC with a non-zero value
-  return true;
 }
 
 std::string EspFlasher::diagnose_silence() const {
@@ -527,7 +517,10 @@ const ChipInfo& EspFlasher::connect() {
     drain(milliseconds(0));
     for (int i = 0; i < 5 && !synced; ++i) {
       if (cancelled()) throw FlashError(FlashError::Kind::interrupted, "interrupted while connecting: nothing was written; run again");
-      synced = try_sync();
+      // Read with the 2-byte status layout: it fits both the ROM's answer (4 status bytes) and a stub's.
+      const auto r = exchange(esp::build_sync(packet_), options_.sync_timeout, esp::Loader::stub);
+      synced = r && r->ok();
+      if (synced) chip_.loader = r->value == 0 ? esp::Loader::stub : esp::Loader::rom;  // the ROM answers SYNC non-zero
     }
   }
   if (!synced) throw FlashError(FlashError::Kind::no_answer, diagnose_silence());
@@ -537,8 +530,7 @@ const ChipInfo& EspFlasher::connect() {
 }
 
 void EspFlasher::detect_chip() {
-  send(esp::build_get_security_info(packet_));
-  auto r = await(esp::Op::get_security_info, kSecurityInfoTimeout, chip_.loader);
+  auto r = exchange(esp::build_get_security_info(packet_), kSecurityInfoTimeout, chip_.loader);
   bool identified = false;
   if (r && r->ok()) {
     if (auto si = esp::parse_security_info(r->data)) {
@@ -590,18 +582,18 @@ void EspFlasher::detect_chip() {
 }
 
 std::uint32_t EspFlasher::read_reg(std::uint32_t address) {
-  return command(esp::Op::read_reg, esp::build_read_reg(address, packet_), kCommandTimeout).value;
+  return command(esp::build_read_reg(address, packet_), kCommandTimeout).value;
 }
 
 void EspFlasher::write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask) {
-  (void)command(esp::Op::write_reg, esp::build_write_reg(address, value, mask, 0, packet_), kCommandTimeout);
+  (void)command(esp::build_write_reg(address, value, mask, 0, packet_), kCommandTimeout);
 }
 
 void EspFlasher::change_baud(std::uint32_t baud) {
   const std::uint32_t current = port_.settings().baud;
   if (baud == 0 || baud == current) return;
-  const auto n = esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_);
-  (void)command(esp::Op::change_baudrate, n, kCommandTimeout);
+  (void)command(esp::build_change_baudrate(baud, chip_.loader == esp::Loader::stub ? current : 0, packet_),
+                kCommandTimeout);
   port_.set_baud(baud);
   drain(milliseconds(20));  // whatever the switch garbled
   if (options_.note) options_.note(fmt::format("baud rate {} -> {}", current, baud));
@@ -659,7 +651,7 @@ std::string wait_for_usb_port(const std::string& serial_number, int usb_vid, con
 // --- the region writer ----------------------------------------------------------------------------------------
 
 esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
-  auto r = command(esp::Op::spi_flash_md5, esp::build_spi_flash_md5(offset, size, packet_), per_mb(8, size));
+  auto r = command(esp::build_spi_flash_md5(offset, size, packet_), per_mb(8, size));
   auto md5 = esp::parse_md5(r.data);
   if (!md5)
     throw FlashError(FlashError::Kind::protocol,
@@ -670,8 +662,8 @@ esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
 }
 
 void EspFlasher::attach_flash(std::uint32_t flash_size) {
-  (void)command(esp::Op::spi_attach, esp::build_spi_attach(0, chip_.loader, packet_), kCommandTimeout);
-  (void)command(esp::Op::spi_set_params, esp::build_spi_set_params(flash_size, packet_), kCommandTimeout);
+  (void)command(esp::build_spi_attach(0, chip_.loader, packet_), kCommandTimeout);
+  (void)command(esp::build_spi_set_params(flash_size, packet_), kCommandTimeout);
 }
 
 void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::span<const std::uint8_t> payload,
@@ -687,8 +679,7 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
   auto n = compressed ? esp::build_flash_defl_begin(esp::defl_begin_size(size, loader), blocks, block, image.offset,
                                                     loader, packet_)
                       : esp::build_flash_begin(size, blocks, block, image.offset, loader, packet_);
-  (void)command(compressed ? esp::Op::flash_defl_begin : esp::Op::flash_begin, n, begin_timeout);
-  const esp::Op data_op = compressed ? esp::Op::flash_defl_data : esp::Op::flash_data;
+  (void)command(n, begin_timeout);
   std::vector<std::uint8_t> chunk(block, 0xFF);
   for (std::uint32_t seq = 0; seq < blocks; ++seq) {
     if (cancelled())
@@ -706,8 +697,7 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
     }
     n = compressed ? esp::build_flash_defl_data(seq, slice, packet_) : esp::build_flash_data(seq, slice, packet_);
     for (int attempt = 1;; ++attempt) {
-      send(n);
-      auto r = await(data_op, per_mb(40, block), loader);
+      auto r = exchange(n, per_mb(40, block), loader);
       if (r && r->ok()) break;
       if (attempt == kBlockAttempts) {
         if (!r)
@@ -733,9 +723,9 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
   }
   if (loader == esp::Loader::stub) {
     // The stub writes behind the answers: an empty begin makes it finish, END(1) keeps it in the loader.
-    (void)command(esp::Op::flash_begin, esp::build_flash_begin(0, 0, block, 0, loader, packet_), kCommandTimeout);
-    n = compressed ? esp::build_flash_defl_end(true, packet_) : esp::build_flash_end(true, packet_);
-    (void)command(compressed ? esp::Op::flash_defl_end : esp::Op::flash_end, n, kCommandTimeout);
+    (void)command(esp::build_flash_begin(0, 0, block, 0, loader, packet_), kCommandTimeout);
+    (void)command(compressed ? esp::build_flash_defl_end(true, packet_) : esp::build_flash_end(true, packet_),
+                  kCommandTimeout);
   }
 }
 

@@ -190,16 +190,17 @@ class EspFlasher {
   static constexpr std::chrono::milliseconds kCommandTimeout{3000};
 
  private:
-  /// send(), then await() the answer, with no answer and a failure status as FlashError(no_answer / refused).
-  esp::Response command(esp::Op op, const Result<std::size_t>& built, std::chrono::milliseconds timeout);
+  /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length) and returns the answer
+  /// to its op (read with `loader`'s status layout); nullopt when none came in time.
+  std::optional<esp::Response> exchange(const Result<std::size_t>& built, std::chrono::milliseconds timeout,
+                                        esp::Loader loader);
+  /// exchange() with the chip's loader, no answer and a failure status as FlashError(no_answer / refused).
+  esp::Response command(const Result<std::size_t>& built, std::chrono::milliseconds timeout);
   [[nodiscard]] bool cancelled() const { return options_.cancelled && options_.cancelled(); }
   std::uint32_t read_reg(std::uint32_t address);
   void write_reg(std::uint32_t address, std::uint32_t value, std::uint32_t mask = 0xFFFFFFFF);
-  bool try_sync();
-  /// The answer to op (read with `loader`'s status layout); nullopt when none came in time.
-  std::optional<esp::Response> await(esp::Op op, std::chrono::milliseconds timeout, esp::Loader loader);
-  /// Sends the request an esp::build_* call just wrote to packet_ (`built`: its length).
-  void send(const Result<std::size_t>& built);
+  /// Reads what comes within timeout into rx_, in place of what was there; false when nothing came.
+  bool fill(std::chrono::milliseconds timeout);
   void drain(std::chrono::milliseconds quiet);
   /// Feeds one received byte to the SLIP decoder; returns the frame it completed, if any.
   std::optional<std::span<const std::uint8_t>> take(std::uint8_t byte);
