@@ -330,11 +330,6 @@ void check_plan(FlashPlan& plan, bool force) {
   }
 }
 
-const char* to_string(RegionOutcome::State s) {
-  constexpr const char* kNames[] = {"pending", "unchanged", "written", "UNVERIFIED"};  // in the enum's order
-  return kNames[static_cast<std::size_t>(s)];
-}
-
 std::string refusal_text(std::uint8_t error) {
   const char* fix = nullptr;
   switch (error) {
@@ -714,12 +709,10 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
       ++out.retries;
     }
     out.wire_bytes = bytes_sent_ - sent0;
-    if (options_.progress) {
-      const std::uint64_t consumed = std::min<std::uint64_t>(payload_size, static_cast<std::uint64_t>(from) + len);
+    if (options_.progress)
       options_.progress({.stage = FlashProgress::Stage::writing, .index = index, .image = &image,
-                 .bytes_done = payload_size ? consumed * size / payload_size : size, .bytes_total = size,
-                 .wire_bytes = out.wire_bytes, .seconds = duration<double>(steady_clock::now() - t0).count()});
-    }
+                         .bytes_done = (std::uint64_t{from} + len) * size / payload_size, .bytes_total = size,
+                         .seconds = duration<double>(steady_clock::now() - t0).count()});
   }
   if (loader == esp::Loader::stub) {
     // The stub writes behind the answers: an empty begin makes it finish, END(1) keeps it in the loader.

@@ -127,8 +127,7 @@ struct FlashProgress {
   const FlashImage* image = nullptr;
   std::uint64_t bytes_done = 0;  ///< image bytes (uncompressed) handed to the loader
   std::uint64_t bytes_total = 0;
-  std::uint64_t wire_bytes = 0;  ///< bytes sent on the port for this image so far
-  double seconds = 0;            ///< since this image's write began
+  double seconds = 0;  ///< since this image's write began
   [[nodiscard]] double bytes_per_second() const { return seconds > 0 ? static_cast<double>(bytes_done) / seconds : 0; }
 };
 
@@ -144,7 +143,6 @@ struct RegionOutcome {
   std::uint32_t retries = 0;  ///< data blocks sent again after a refused or lost answer
   std::string md5;            ///< hex
 };
-const char* to_string(RegionOutcome::State s);
 
 /// What to do on connecting, and how to write.
 struct FlasherOptions {
