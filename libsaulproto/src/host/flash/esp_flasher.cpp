@@ -166,10 +166,13 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
                      fmt::format("{}: not valid JSON ({}): run 'idf.py build' again to rewrite it", json_path.string(),
                                  e.what()));
   }
+  // j[object][key] when it is a string, else "".
+  const auto text = [&j](const char* object, const char* key) {
+    return j.contains(object) && j[object].contains(key) && j[object][key].is_string()
+               ? j[object][key].get<std::string>() : "";
+  };
   FlashPlan plan;
-  if (j.contains("extra_esptool_args") && j["extra_esptool_args"].contains("chip") &&
-      j["extra_esptool_args"]["chip"].is_string())
-    plan.target_chip = j["extra_esptool_args"]["chip"].get<std::string>();
+  plan.target_chip = text("extra_esptool_args", "chip");
   if (!plan.target_chip.empty() && ascii_lower(plan.target_chip) != "esp32s3")
     throw FlashError(FlashError::Kind::wrong_chip,
                      fmt::format("{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py "
@@ -191,15 +194,11 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
     img.name = value.get<std::string>();
     plan.images.push_back(std::move(img));
   }
-  if (j.contains("flash_settings") && j["flash_settings"].is_object()) {
-    const auto& fs = j["flash_settings"];
-    auto text = [&fs](const char* key) { return fs.contains(key) && fs[key].is_string() ? fs[key].get<std::string>() : ""; };
-    plan.settings_mode = text("flash_mode");
-    plan.settings_size = text("flash_size");
-    plan.settings_freq = text("flash_freq");
-    plan.flash_size = parse_flash_size(plan.settings_size);
-    if (plan.flash_size) plan.flash_size_source = "flasher_args.json";
-  }
+  plan.settings_mode = text("flash_settings", "flash_mode");
+  plan.settings_size = text("flash_settings", "flash_size");
+  plan.settings_freq = text("flash_settings", "flash_freq");
+  plan.flash_size = parse_flash_size(plan.settings_size);
+  if (plan.flash_size) plan.flash_size_source = "flasher_args.json";
   return plan;
 }
 
