@@ -81,13 +81,22 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
     }
   };
 
+  // The frames of the step's message within its time from t0, each to `each` (false stops); returns how many.
+  const auto each_of = [&](const Step& step, std::uint64_t t0, const auto& each) {
+    std::uint64_t count = 0;
+    pump(t0 + step.duration_us, [&](const CanFrame& f) {
+      if (!matches(f, step.message, {})) return true;
+      ++count;
+      return each(f);
+    });
+    return count;
+  };
   // expect / expect none: the first frame matching the step within its time from t0, the streams running meanwhile.
   const auto first_match = [&](const Step& step, std::uint64_t t0) {
     std::optional<CanFrame> seen;
-    pump(t0 + step.duration_us, [&](const CanFrame& f) {
-      if (!matches(f, step.message, step.conditions)) return true;
-      seen = f;
-      return false;
+    each_of(step, t0, [&](const CanFrame& f) {
+      if (matches(f, step.message, step.conditions)) seen = f;
+      return !seen;
     });
     return seen;
   };
@@ -109,18 +118,18 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
     target.console_type("balance", std::string(text, n.ok() ? *n : 0));
   };
 
-  bool failed = false;
+  using S = StepResult::Status;
   for (const auto& step : suite.steps) {
     StepResult r;
     r.line = step.line;
     r.source = step.source;
-    const auto fail = [&r](std::string why) {
-      r.status = StepResult::Status::failed;
+    const auto verdict = [&r](S status, std::string why) {
+      r.status = status;
       r.message = std::move(why);
     };
-    if (failed) {
-      r.status = StepResult::Status::skipped;
-      r.message = "not run: an earlier step failed";
+    const auto fail = [&verdict](std::string why) { verdict(S::failed, std::move(why)); };
+    if (!result.passed()) {
+      verdict(S::skipped, "not run: an earlier step failed");
       result.steps.push_back(r);
       continue;
     }
@@ -157,11 +166,8 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
             fail(fmt::format("a matching {} arrived after {}", step.message, us_text(target.now_us() - t0)));
           break;
         case Step::Kind::hold: {
-          std::uint64_t count = 0;
           std::string broken;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, {})) return true;
-            ++count;
+          const std::uint64_t count = each_of(step, t0, [&](const CanFrame& f) {
             if (matches(f, step.message, step.conditions)) return true;
             broken = fmt::format("condition broken after {} by {}", us_text(target.now_us() - t0),
                                  format_candump_frame(f));
@@ -177,20 +183,17 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           break;
         }
         case Step::Kind::mean: {
-          std::map<std::string, double> sums;              // per field ("|field|" for the absolute values)
-          std::map<std::string, std::uint64_t> sums_frames;  // the frame count a field was last added at
-          std::uint64_t count = 0;
-          pump(t0 + step.duration_us, [&](const CanFrame& f) {
-            if (!matches(f, step.message, {})) return true;
-            const auto m = decode_bus_frame(f);
-            ++count;
-            for (const auto& c : step.conditions) {  // once per field (and per |field|)
-              const std::string key = c.absolute ? "|" + c.field + "|" : c.field;
-              if (sums.count(key) != 0 && sums_frames[key] == count) continue;
-              const auto v = signal_value(signal_values(m.value()), c.field);
-              if (!v) throw std::runtime_error(step.message + " has no signal '" + c.field + "'");
-              sums[key] += c.absolute ? std::fabs(v->number) : v->number;
-              sums_frames[key] = count;
+          // One sum per field ("|field|" for the absolute values), however many conditions name it.
+          const auto key = [](const Condition& c) { return c.absolute ? "|" + c.field + "|" : c.field; };
+          std::map<std::string, const Condition*> fields;
+          for (const auto& c : step.conditions) fields.emplace(key(c), &c);
+          std::map<std::string, double> sums;
+          const std::uint64_t count = each_of(step, t0, [&](const CanFrame& f) {
+            const SignalValues values = signal_values(decode_bus_frame(f).value());
+            for (const auto& [field, c] : fields) {
+              const auto v = signal_value(values, c->field);
+              if (!v) throw std::runtime_error(step.message + " has no signal '" + c->field + "'");
+              sums[field] += c->absolute ? std::fabs(v->number) : v->number;
             }
             return true;
           });
@@ -204,13 +207,13 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           for (const auto& c : step.conditions) {
             Condition plain = c;
             plain.absolute = false;  // the mean is already of the absolute values
-            const double mean = sums[c.absolute ? "|" + c.field + "|" : c.field] / static_cast<double>(count);
+            const double mean = sums[key(c)] / static_cast<double>(count);
             if (!holds(plain, FieldValue{mean, fmt::format("{}", mean)})) {
               fail(fmt::format("{} mean {:.2f} breaks the condition ({})", c.field, mean, r.output));
               break;
             }
           }
-          if (r.status == StepResult::Status::passed) r.message = r.output;
+          if (r.status == S::passed) r.message = r.output;
           break;
         }
         case Step::Kind::stable: {
@@ -245,11 +248,8 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
               if (!matches(f, clauses[c].message, clauses[c].conditions))
                 restart(now, "broken by " + format_candump_frame(f));
             }
-            if (now - since >= step.duration_us) {
-              done = true;
-              return false;
-            }
-            return true;
+            done = now - since >= step.duration_us;
+            return !done;
           });
           const std::uint64_t end = target.now_us();
           if (!done) check_gaps(end);
@@ -270,8 +270,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
         case Step::Kind::console: {
           const auto reply = target.console(step.board, step.text, step.expect_text, step.duration_us);
           if (!reply) {
-            r.status = StepResult::Status::skipped;
-            r.message = "no console for board " + step.board + " on this target";
+            verdict(S::skipped, "no console for board " + step.board + " on this target");
           } else if (reply->find(step.expect_text) == std::string::npos) {
             fail(fmt::format("reply did not contain '{}': '{}'", step.expect_text, *reply));
           } else {
@@ -283,8 +282,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
           // As `saulctl tune record --sim` does: trace on, a step after a quiet stretch (so the trace holds the level
           // before it), the other signals at once; the excitation lasts the trace (at most its 20 s).
           if (!target.console_take("balance")) {
-            r.status = StepResult::Status::skipped;
-            r.message = "no BALANCE console to trace on this target";
+            verdict(S::skipped, "no BALANCE console to trace on this target");
             trace_skipped = true;
             break;
           }
@@ -318,9 +316,9 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
         }
         case Step::Kind::expect_tune: {
           if (!traced) {
-            r.status = trace_skipped ? StepResult::Status::skipped : StepResult::Status::failed;
-            r.message = trace_skipped ? "the trace step was skipped on this target"
-                                      : "no trace to judge: a 'trace ... for DURATION' step must come first";
+            verdict(trace_skipped ? S::skipped : S::failed,
+                    trace_skipped ? "the trace step was skipped on this target"
+                                  : "no trace to judge: a 'trace ... for DURATION' step must come first");
             break;
           }
           const std::string broken = check_tune(step.conditions, *traced);
@@ -333,10 +331,7 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
         }
         case Step::Kind::sim: {
           std::string error;
-          if (!target.sim(step.text, error)) {
-            r.status = target.is_simulator() ? StepResult::Status::failed : StepResult::Status::skipped;
-            r.message = error;
-          }
+          if (!target.sim(step.text, error)) verdict(target.is_simulator() ? S::failed : S::skipped, error);
           break;
         }
       }
@@ -344,7 +339,6 @@ SuiteResult run_suite(const Suite& suite, Target& target) {
       fail(e.what());
     }
     r.elapsed_us = target.now_us() - t0;
-    if (r.status == StepResult::Status::failed) failed = true;
     result.steps.push_back(r);
   }
   result.elapsed_us = target.now_us() - suite_start;
