@@ -171,18 +171,17 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
     return j.contains(object) && j[object].contains(key) && j[object][key].is_string()
                ? j[object][key].get<std::string>() : "";
   };
-  FlashPlan plan;
-  plan.target_chip = text("extra_esptool_args", "chip");
-  if (!plan.target_chip.empty() && ascii_lower(plan.target_chip) != "esp32s3")
+  if (const std::string chip = text("extra_esptool_args", "chip"); !chip.empty() && ascii_lower(chip) != "esp32s3")
     throw FlashError(FlashError::Kind::wrong_chip,
                      fmt::format("{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py "
                                  "set-target esp32s3' and build again",
-                                 json_path.string(), plan.target_chip));
+                                 json_path.string(), chip));
   if (!j.contains("flash_files") || !j["flash_files"].is_object() || j["flash_files"].empty())
     throw FlashError(FlashError::Kind::input,
                      fmt::format("{}: has no \"flash_files\", so it is not an ESP-IDF flasher_args.json: give the "
                                  "build folder idf.py wrote, or OFFSET FILE pairs",
                                  json_path.string()));
+  FlashPlan plan;
   for (const auto& [key, value] : j["flash_files"].items()) {
     const auto offset = parse_offset(key);
     if (!offset || !value.is_string())
@@ -278,12 +277,6 @@ void check_plan(FlashPlan& plan, bool force) {
   using K = FlashError::Kind;
   if (plan.images.empty())
     throw FlashError(K::input, "nothing to flash: give FILE [--offset], OFFSET FILE pairs or --build-dir");
-  if (!plan.target_chip.empty() && ascii_lower(plan.target_chip) != "esp32s3")
-    throw FlashError(
-        K::wrong_chip,
-        fmt::format("the build folder was made for {} (flasher_args.json), not esp32s3: wrong build folder, "
-                    "or run 'idf.py set-target esp32s3' and build again",
-                    plan.target_chip));
   std::sort(plan.images.begin(), plan.images.end(), [](const auto& a, const auto& b) { return a.offset < b.offset; });
   for (std::size_t i = 0; i < plan.images.size(); ++i) {
     const auto& img = plan.images[i];

@@ -94,7 +94,6 @@ struct FlashPlan {
   std::vector<FlashImage> images;
   std::uint32_t flash_size = 0;   ///< bytes; 0 = not known yet
   std::string flash_size_source;  ///< where flash_size came from ("--flash-size", "flasher_args.json", ...)
-  std::string target_chip;        ///< from flasher_args.json ("esp32s3"), else empty
   /// flasher_args.json's flash_settings as written there ("dio", "8MB", "80m"), else empty: compared with the
   /// bootloader image's header, which esptool would rewrite to match them and saulctl writes as it is.
   std::string settings_mode, settings_size, settings_freq;
@@ -103,8 +102,9 @@ struct FlashPlan {
 
 /// Reads one file to write at offset. FlashError(input) for a missing, unreadable or empty file.
 FlashImage load_image(std::uint32_t offset, const std::filesystem::path& path);
-/// Reads an ESP-IDF build folder's flasher_args.json (or that file itself): flash_files, flash_settings and
-/// extra_esptool_args.chip. File names in it are relative to the folder. FlashError(input) when unusable.
+/// Reads an ESP-IDF build folder's flasher_args.json (or that file itself): flash_files and flash_settings; a build
+/// whose extra_esptool_args.chip is not esp32s3 is FlashError(wrong_chip). File names in it are relative to the
+/// folder. FlashError(input) when unusable.
 FlashPlan load_build_dir(const std::filesystem::path& dir);
 /// "4MB", "16MB", "512KB" -> bytes; 0 for "detect", "keep" or anything else.
 std::uint32_t parse_flash_size(const std::string& text);
@@ -112,9 +112,9 @@ std::uint32_t parse_flash_size(const std::string& text);
 std::optional<std::uint32_t> parse_offset(const std::string& text);
 
 /// Sorts by offset and checks the plan before anything touches the board: offsets on 4 KiB sectors, no overlaps,
-/// images built for the ESP32-S3 (an image header's chip id), a build folder made for esp32s3, and every image
-/// inside the flash. Fills flash_size when unknown: from a bootloader image's header at 0x0, else 4 MB (the
-/// smallest ESP32-S3 module) with the source saying so. FlashError(input / too_large / wrong_chip).
+/// images built for the ESP32-S3 (an image header's chip id), and every image inside the flash. Fills flash_size
+/// when unknown: from a bootloader image's header at 0x0, else 4 MB (the smallest ESP32-S3 module) with the source
+/// saying so. FlashError(input / too_large / wrong_chip).
 /// Like esptool, refuses what the ROM cannot boot at 0x0 (no image magic 0xE9) and an ELF file anywhere, unless
 /// `force` (then they are warnings). Adds a warning when the bootloader header's flash mode, size or frequency
 /// disagree with flasher_args.json's flash_settings.
