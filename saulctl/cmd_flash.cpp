@@ -252,7 +252,9 @@ void warn_holders(const std::string& path) {
         path, saul::host::describe_holders(holders));
 }
 
-std::string line_steps(const std::vector<saul::host::LineStep>& steps) {
+// Runs the sequence on the port's DTR and RTS lines; says what they were.
+std::string run_lines(saul::host::SerialPort& port, const std::vector<saul::host::LineStep>& steps) {
+  saul::host::run_line_sequence(port, steps, saul::host::sleep_real);
   std::string s;
   for (const auto& st : steps) {
     s += fmt::format("{}({:d},{:d})", s.empty() ? "" : " ", st.dtr, st.rts);
@@ -272,20 +274,15 @@ int run_reset(const FlashOptions& opt) {
   if (const int rc = check_robot(opt); rc != kOk) return rc;
   warn_holders(path);
   auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
-  // Runs the sequence on the port's DTR and RTS lines; says what they were.
-  const auto run_lines = [&port](const std::vector<saul::host::LineStep>& seq) {
-    saul::host::run_line_sequence(*port, seq, saul::host::sleep_real);
-    return line_steps(seq);
-  };
   if (opt.reset == "bootloader") {
     fmt::print("reset the {} on {} into download mode: (DTR,RTS) {}; nothing written, the bootloader's answer not "
                "checked (flash with --no-reset now)\n",
-               board_name(style), path, run_lines(saul::host::bootloader_reset_sequence(style, 0)));
+               board_name(style), path, run_lines(*port, saul::host::bootloader_reset_sequence(style, 0)));
     return kOk;
   }
   if (style == ResetStyle::usb_uart_bridge) {
     fmt::print("reset the {} on {} into its application: EN pulse, (DTR,RTS) {}\n", board_name(style), path,
-               run_lines(saul::host::hard_reset_sequence(style)));
+               run_lines(*port, saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   // IO board: a USB-Serial/JTAG RTS reset is a core reset that leaves a chip in download mode there. When a
@@ -303,7 +300,7 @@ int run_reset(const FlashOptions& opt) {
     if (e.kind() != FlashError::Kind::no_answer) throw;
     fmt::print("no bootloader answered on {}: restarted the {}'s application by the USB-Serial/JTAG reset, "
                "(DTR,RTS) {}\n",
-               path, board_name(style), run_lines(saul::host::hard_reset_sequence(style)));
+               path, board_name(style), run_lines(*port, saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   flasher.reset_to_app();

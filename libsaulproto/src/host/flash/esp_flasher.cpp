@@ -497,10 +497,8 @@ std::string EspFlasher::diagnose_silence() const {
 const ChipInfo& EspFlasher::connect() {
   bool synced = false;
   for (int attempt = 0; attempt < options_.connect_attempts && !synced; ++attempt) {
-    if (options_.reset_before) {
-      const auto seq = bootloader_reset_sequence(options_.reset, attempt);
-      run_line_sequence(port_, seq, options_.sleep);
-    }
+    if (options_.reset_before)
+      run_line_sequence(port_, bootloader_reset_sequence(options_.reset, attempt), options_.sleep);
     drain(milliseconds(0));
     for (int i = 0; i < 5 && !synced; ++i) {
       if (cancelled()) throw FlashError(FlashError::Kind::interrupted, "interrupted while connecting: nothing was written; run again");
@@ -588,8 +586,7 @@ void EspFlasher::change_baud(std::uint32_t baud) {
 
 void EspFlasher::reset_to_app() {
   if (!chip_.usb_serial_jtag) {
-    const auto seq = hard_reset_sequence(options_.reset);
-    run_line_sequence(port_, seq, options_.sleep);
+    run_line_sequence(port_, hard_reset_sequence(options_.reset), options_.sleep);
     return;
   }
   // Over USB-Serial/JTAG an RTS reset is a core reset: GPIO0 is not sampled again and a board put into download
