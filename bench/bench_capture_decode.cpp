@@ -42,9 +42,10 @@ void BM_CandumpDecode(benchmark::State& state) {
     std::istringstream in(log);
     saul::host::CandumpReader reader(in);
     std::uint64_t decoded = 0, read = 0;
-    while (reader.next() == saul::host::CaptureReader::Status::frame) {
-      ++read;
-      if (saul::decode_bus_frame(reader.frame())) ++decoded;
+    for (saul::host::FrameBatch batch; reader.next_batch(batch);) {
+      read += batch.frames.size();
+      for (const saul::CanFrame& frame : batch.frames)
+        if (saul::decode_bus_frame(frame)) ++decoded;
     }
     if (read != kLines || decoded != kLines) state.SkipWithError("not every generated line decoded");
     frames += read;

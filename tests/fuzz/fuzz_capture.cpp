@@ -1,7 +1,7 @@
 // CAN capture readers (make_capture_reader over a std::istringstream), one target per format
-// (saul_fuzz_capture_<format>, listed in fuzz_targets.inc). Only CaptureOpenError (bad header) may be thrown; next()
-// never throws. BLF inflates its log containers, so a few input bytes may stand for many records: its bound is per
-// container, not per input byte.
+// (saul_fuzz_capture_<format>, listed in fuzz_targets.inc). Only CaptureOpenError (bad header) may be thrown;
+// next_batch() never throws. BLF inflates its log containers, so a few input bytes may stand for many records: its
+// bound is per container, not per input byte.
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,7 +14,40 @@
 
 namespace {
 
-// pcapng: the reader over bytes in memory (what decode's blocks use) must say exactly what the stream reader says.
+struct Record {
+  bool frame;
+  saul::CanFrame f;
+  std::string interface;
+  std::string error;
+};
+
+bool operator==(const Record& a, const Record& b) {
+  return a.frame == b.frame && a.f.same_wire(b.f) && a.f.timestamp_ns == b.f.timestamp_ns &&
+         a.interface == b.interface && a.error == b.error;
+}
+
+/// A pcapng reader's records in order, from batches of FrameBatch::kMax records or (varied) of 1, 2, ..., 7, 1, ...
+std::vector<Record> records_of(saul::host::PcapngReader& reader, bool varied, std::size_t size) {
+  using namespace saul::host;
+  std::vector<Record> records;
+  FrameBatch batch;
+  for (std::size_t max = 1; reader.next_batch(batch, varied ? max : FrameBatch::kMax); max = max % 7 + 1) {
+    if (varied && batch.frames.size() + batch.corrupt.size() > max) saul::fuzz::fail();
+    std::size_t k = 0;
+    for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
+      for (; k < batch.corrupt.size() && batch.corrupt[k].before == i; ++k)
+        records.push_back({false, {}, {}, format_capture_error("f", batch.corrupt[k].error)});
+      if (i < batch.frames.size()) records.push_back({true, batch.frames[i], std::string(batch.interfaces[i]), {}});
+    }
+    if (k != batch.corrupt.size()) saul::fuzz::fail();
+    if (records.size() > size + 1) saul::fuzz::fail();  // every record consumes input
+  }
+  return records;
+}
+
+// pcapng: the reader over bytes in memory (what decode's blocks use) must say exactly what the stream reader says,
+// record by record: in whole batches, and in batches of sizes varied (the usual packets read straight from memory,
+// the rest by the reader's one-record path).
 void same_in_memory(const std::uint8_t* data, std::size_t size) {
   using namespace saul::host;
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
@@ -33,49 +66,9 @@ void same_in_memory(const std::uint8_t* data, std::size_t size) {
     if (a || b) saul::fuzz::fail();
     return;
   }
-  // c: the same bytes in batches (next_batch: the usual packets read straight from memory, the rest by next()),
-  // batch sizes varied; flattened in order, it must say what the stream reader says, record by record.
-  std::unique_ptr<PcapngReader> c = std::make_unique<PcapngReader>(std::span<const std::uint8_t>(data, size));
-  struct Record {
-    bool frame;
-    saul::CanFrame f;
-    std::string interface;
-    std::string error;
-  };
-  std::vector<Record> batched;
-  FrameBatch batch;
-  for (std::size_t max = 1; c->next_batch(batch, max); max = max % 7 + 1) {
-    if (batch.frames.size() + batch.corrupt.size() > max) saul::fuzz::fail();
-    std::size_t k = 0;
-    for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
-      for (; k < batch.corrupt.size() && batch.corrupt[k].before == i; ++k)
-        batched.push_back({false, {}, {}, format_capture_error("f", batch.corrupt[k].error)});
-      if (i < batch.frames.size()) batched.push_back({true, batch.frames[i], std::string(batch.interfaces[i]), {}});
-    }
-    if (batched.size() > size + 1) saul::fuzz::fail();  // every record consumes input
-  }
-  std::size_t at = 0;
-  for (std::size_t n = 0; n <= size + 1; ++n) {
-    const auto sa = a->next();
-    const auto sb = b->next();
-    if (sa != sb) saul::fuzz::fail();
-    if (sa == CaptureReader::Status::end) {
-      if (at != batched.size()) saul::fuzz::fail();
-      return;
-    }
-    if (at >= batched.size() || batched[at].frame != (sa == CaptureReader::Status::frame)) saul::fuzz::fail();
-    const Record& r = batched[at++];
-    if (sa == CaptureReader::Status::frame) {
-      if (!a->frame().same_wire(b->frame()) || a->frame().timestamp_ns != b->frame().timestamp_ns ||
-          a->interface() != b->interface())
-        saul::fuzz::fail();
-      if (!a->frame().same_wire(r.f) || a->frame().timestamp_ns != r.f.timestamp_ns || a->interface() != r.interface)
-        saul::fuzz::fail();
-    } else {
-      const std::string error = format_capture_error("f", a->error());
-      if (error != format_capture_error("f", b->error()) || error != r.error) saul::fuzz::fail();
-    }
-  }
+  PcapngReader c{std::span<const std::uint8_t>(data, size)};
+  const std::vector<Record> streamed = records_of(*a, false, size);
+  if (records_of(*b, false, size) != streamed || records_of(c, true, size) != streamed) saul::fuzz::fail();
 }
 
 int read_capture(saul::host::CaptureFormat format, const std::uint8_t* data, std::size_t size) {
@@ -93,16 +86,15 @@ int read_capture(saul::host::CaptureFormat format, const std::uint8_t* data, std
     max_records = (size / 16 + 1) * (BlfReader::kMaxContainerBytes / 16 + 2);
   if (format == CaptureFormat::mcap)  // a chunk inflates to kMcapMaxRecord at most
     max_records = (size / 9 + 1) * (kMcapMaxRecord / 31 + 2);     // ... of records of 31 bytes or more
-  for (;;) {
-    auto status = reader->next();
-    if (status == CaptureReader::Status::end) break;
-    if (status == CaptureReader::Status::frame) {
-      if (!reader->frame().valid()) saul::fuzz::fail();
-      (void)reader->interface();
-    } else {
-      (void)format_capture_error("fuzz", reader->error());
+  for (FrameBatch batch; reader->next_batch(batch);) {
+    if (batch.interfaces.size() != batch.frames.size()) saul::fuzz::fail();
+    for (std::size_t i = 0; i < batch.frames.size(); ++i) {
+      if (!batch.frames[i].valid()) saul::fuzz::fail();
+      (void)std::string(batch.interfaces[i]);  // the views point at live bytes
     }
-    if (++records > max_records) saul::fuzz::fail();  // every record consumes input
+    for (const auto& c : batch.corrupt) (void)format_capture_error("fuzz", c.error);
+    records += batch.frames.size() + batch.corrupt.size();
+    if (records > max_records) saul::fuzz::fail();  // every record consumes input
   }
   (void)detect_capture_format(std::span<const std::uint8_t>(data, size));
   if (format == CaptureFormat::pcapng) same_in_memory(data, size);

@@ -12,14 +12,21 @@
 
 namespace saul::host::test {
 
-class CandumpLineModel final : public CaptureReader {
+class CandumpLineModel final : public RecordCaptureReader {
  public:
   explicit CandumpLineModel(std::istream& in) : in_(in) {}
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
+
+ private:
   Status next() override {
     while (std::getline(in_, line_)) {
       ++line_number_;
       if (line_.empty() || line_[0] != '(') continue;
-      if (parse_candump_line(line_, current_, error_)) return Status::frame;
+      if (parse_candump_line(line_, current_, error_)) {
+        frame_ = current_.frame;
+        name_ = current_.interface;
+        return Status::frame;
+      }
       error_.kind = PositionKind::line;
       error_.position = line_number_;
       error_.recovery = Recovery::next_line;
@@ -27,16 +34,10 @@ class CandumpLineModel final : public CaptureReader {
     }
     return Status::end;
   }
-  [[nodiscard]] const CanFrame& frame() const override { return current_.frame; }
-  [[nodiscard]] std::string_view interface() const override { return current_.interface; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
 
- private:
   std::istream& in_;
   std::string line_;
   CandumpLine current_;
-  CaptureError error_;
   std::uint64_t line_number_ = 0;
 };
 

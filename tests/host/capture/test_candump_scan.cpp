@@ -44,27 +44,12 @@ struct Seen {
   std::vector<std::string> errors;  // in order among the frames: "before N: FILE:LINE:COL: message"
 };
 
-Seen with_reader(const std::string& text) {
-  std::istringstream in(text);
-  test::CandumpLineModel reader(in);
-  Seen s;
-  for (;;) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::corrupt) {
-      s.errors.push_back(std::to_string(s.frames.size()) + ": " + format_capture_error("f", reader.error()));
-      continue;
-    }
-    s.frames.push_back(reader.frame());
-    s.interfaces.emplace_back(reader.interface());
-  }
-  return s;
-}
-
-Seen with_scanner(CandumpScanner& scanner) {
+/// The records of a CandumpScanner's or a reader's batches, in order.
+template <class Batches>
+Seen with_batches(Batches& source) {
   Seen s;
   FrameBatch batch;
-  while (scanner.next_batch(batch)) {
+  while (source.next_batch(batch)) {
     std::size_t c = 0;
     for (std::size_t i = 0; i <= batch.frames.size(); ++i) {
       for (; c < batch.corrupt.size() && batch.corrupt[c].before == i; ++c)
@@ -76,6 +61,12 @@ Seen with_scanner(CandumpScanner& scanner) {
     }
   }
   return s;
+}
+
+Seen with_reader(const std::string& text) {
+  std::istringstream in(text);
+  test::CandumpLineModel reader(in);
+  return with_batches(reader);
 }
 
 /// A pipe whose write end is fed by a thread (so nothing of it is ever a file).
@@ -115,7 +106,7 @@ TEST_CASE("candump scanner: the frames, interfaces and reports of the line-by-li
     INFO("block " << block);
     Pipe pipe([](int fd) { write_all(fd, kLog.data(), kLog.size()); });
     CandumpScanner scanner(pipe.fds[0], block);
-    const Seen got = with_scanner(scanner);
+    const Seen got = with_batches(scanner);
     CHECK(got.frames == expected.frames);
     CHECK(got.interfaces == expected.interfaces);
     CHECK(got.errors == expected.errors);
@@ -138,7 +129,7 @@ TEST_CASE("candump scanner: a 200 MB line is reported at its line and skipped, t
     write_all(fd, tail.data(), tail.size());
   });
   CandumpScanner scanner(pipe.fds[0]);
-  const Seen got = with_scanner(scanner);
+  const Seen got = with_batches(scanner);
   REQUIRE(got.frames.size() == 3);
   CHECK(got.frames[0].id == 0x300);
   CHECK(got.frames[1].id == 0x400);
@@ -169,7 +160,7 @@ TEST_CASE("candump scanner: ranges from split_candump_blocks start at line start
       REQUIRE(starts[k] < starts[k + 1]);
       if (k > 0) CHECK(log[starts[k] - 1] == '\n');
       CandumpScanner scanner(fd, starts[k], starts[k + 1], 64);
-      const Seen s = with_scanner(scanner);
+      const Seen s = with_batches(scanner);
       frames += s.frames.size();
       for (const auto& e : s.errors) errors += e;
     }
@@ -226,17 +217,7 @@ TEST_CASE("pcap reader: a regular file read with pread gives the frames and byte
 
   std::istringstream in(pcap);
   const auto reader = make_capture_reader(in, CaptureFormat::pcap);
-  Seen expected;
-  for (;;) {
-    const auto st = reader->next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::corrupt) {
-      expected.errors.push_back(std::to_string(expected.frames.size()) + ": " + format_capture_error("f", reader->error()));
-      continue;
-    }
-    expected.frames.push_back(reader->frame());
-    expected.interfaces.emplace_back(reader->interface());
-  }
+  const Seen expected = with_batches(*reader);
   REQUIRE(expected.frames.size() > 2900);
   REQUIRE(expected.errors.size() == 31);
 

@@ -291,10 +291,12 @@ TEST_CASE("a candump log through a pipe path is read once: take_capture_text giv
   SECTION("a reader something has read from is kept, and reads on") {
     through_pipe(log, [&](const std::string& name) {
       OpenedCapture opened = open_capture(name);
-      REQUIRE(opened.frames->next() == CaptureReader::Status::frame);
+      FrameBatch first;
+      REQUIRE(opened.frames->next_batch(first));
+      REQUIRE(!first.frames.empty());
       CHECK(take_capture_text(opened.frames) == nullptr);
       REQUIRE(opened.frames);
-      CHECK(read_all(*opened.frames).frames.size() == 1999);
+      CHECK(first.frames.size() + read_all(*opened.frames).frames.size() == 2000);
     });
   }
   SECTION("a capture that is not candump text keeps its reader") {

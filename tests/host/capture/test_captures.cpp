@@ -154,18 +154,18 @@ TEST_CASE("open_capture_reader: the bundled sample, and files that do not open")
   std::filesystem::remove(dir, ignored);  // only once empty
 }
 
-TEST_CASE("read_in_order gives next()'s records in file order, read ahead or not, and stops when told") {
+TEST_CASE("read_in_order gives next_batch()'s records in file order, read ahead or not, and stops when told") {
   std::string text;  // 20 000 frames over a few batches, a corrupt line every 997
   for (int i = 0; i < 20000; ++i) {
     text += fmt::format("(1700000000.{:06}) can{} {:03X}#{:02X}\n", i, i % 3, i % 0x7FF, i % 256);
     if (i % 997 == 5) text += "(1700000000.000000) can0 3G0#00\n";
   }
   const TempFile file(text);
-  std::vector<std::string> want;  // "can1 123" per frame, "!LINE" per corrupt record, from next()
+  std::vector<std::string> want;  // "can1 123" per frame, "!LINE" per corrupt record, from next_batch()
   auto one = open_capture_reader(file.path);
-  for (CaptureReader::Status st; (st = one->next()) != CaptureReader::Status::end;)
-    want.push_back(st == CaptureReader::Status::corrupt ? fmt::format("!{}", one->error().position)
-                                                        : fmt::format("{} {:X}", one->interface(), one->frame().id));
+  for (FrameBatch b; one->next_batch(b);)
+    b.walk([&](std::size_t i) { want.push_back(fmt::format("{} {:X}", b.interfaces[i], b.frames[i].id)); },
+           [&](const CaptureError& e) { want.push_back(fmt::format("!{}", e.position)); });
   REQUIRE(want.size() == 20000 + 21);
   for (const std::uint64_t from : {std::uint64_t{0}, std::uint64_t{1} << 40}) {  // read ahead on a thread, or not
     INFO(from);

@@ -52,16 +52,14 @@ struct Read {
 
 inline Read read_all(CaptureReader& reader) {
   Read r;
-  for (;;) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::corrupt) {
-      r.errors.push_back(reader.error());
-      continue;
-    }
-    r.frames.push_back(reader.frame());
-    r.names.emplace_back(reader.interface());
-  }
+  FrameBatch batch;
+  while (reader.next_batch(batch))
+    batch.walk(
+        [&](std::size_t i) {
+          r.frames.push_back(batch.frames[i]);
+          r.names.emplace_back(batch.interfaces[i]);
+        },
+        [&](const CaptureError& e) { r.errors.push_back(e); });
   return r;
 }
 

@@ -161,8 +161,9 @@ TEST_CASE("pcap: nanosecond writer keeps nanoseconds") {
   const std::string bytes = buffer.str();
   CHECK(static_cast<std::uint8_t>(bytes[0]) == 0x4D);  // A1B23C4D little-endian
   PcapReader reader(buffer);
-  REQUIRE(reader.next() == CaptureReader::Status::frame);
-  CHECK(reader.frame() == f);
+  const Read r = read_all(reader);
+  REQUIRE(r.frames.size() == 1);
+  CHECK(r.frames[0] == f);
 }
 
 TEST_CASE("pcap: SocketCAN packet flags and payload_length") {

@@ -63,11 +63,10 @@ ReadBack read_back(const std::string& bytes) {
   std::istringstream in(bytes);
   ReadBack r;
   McapFrameReader reader(in, bytes.size());
-  for (std::size_t n = 0; n < bytes.size() + 10; ++n) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::frame) r.frames.push_back(reader.frame());
-    else r.errors.push_back(format_capture_error("f", reader.error()));
+  FrameBatch batch;
+  for (std::size_t n = 0; n < bytes.size() + 10 && reader.next_batch(batch); ++n) {
+    r.frames.insert(r.frames.end(), batch.frames.begin(), batch.frames.end());
+    for (const auto& c : batch.corrupt) r.errors.push_back(format_capture_error("f", c.error));
   }
   return r;
 }

@@ -37,11 +37,9 @@ CanFrame velocity(std::uint64_t ns) {
 std::vector<std::uint64_t> stamps_in(const std::string& path) {
   auto reader = open_capture_reader(path);
   std::vector<std::uint64_t> out;
-  for (;;) {
-    const auto st = reader->next();
-    if (st == CaptureReader::Status::end) break;
-    REQUIRE(st == CaptureReader::Status::frame);
-    out.push_back(*reader->frame().timestamp_ns);
+  for (FrameBatch batch; reader->next_batch(batch);) {
+    REQUIRE(batch.corrupt.empty());
+    for (const auto& f : batch.frames) out.push_back(*f.timestamp_ns);
   }
   return out;
 }

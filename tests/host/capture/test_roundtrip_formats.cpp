@@ -70,12 +70,11 @@ std::vector<Sample> expected(CaptureFormat format) {
 
 std::vector<Sample> read_all(CaptureReader& reader) {
   std::vector<Sample> got;
-  for (;;) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    INFO(reader.error().message);
-    REQUIRE(st == CaptureReader::Status::frame);
-    got.push_back({reader.frame(), std::string(reader.interface())});
+  for (FrameBatch batch; reader.next_batch(batch);) {
+    INFO((batch.corrupt.empty() ? std::string() : batch.corrupt[0].error.message));
+    REQUIRE(batch.corrupt.empty());
+    for (std::size_t i = 0; i < batch.frames.size(); ++i)
+      got.push_back({batch.frames[i], std::string(batch.interfaces[i])});
   }
   return got;
 }

@@ -161,7 +161,10 @@ TEST_CASE("bus statistics of a hand-made capture") {
 TEST_CASE("stats of the bundled sample match make_robot_bus.py's story") {
   auto reader = open_capture_reader(std::string(SAUL_SOURCE_DIR) + "/captures/robot_bus.log");
   BusStats stats;
-  while (reader->next() == CaptureReader::Status::frame) stats.add(reader->frame(), reader->interface());
+  for (FrameBatch batch; reader->next_batch(batch);) {
+    REQUIRE(batch.corrupt.empty());
+    for (std::size_t i = 0; i < batch.frames.size(); ++i) stats.add(batch.frames[i], batch.interfaces[i]);
+  }
   CHECK(stats.frames() == 452);
   // Worst-case bits by hand, per id x count: 0x300 95 x 44, 0x400/0x401 125 x 30 each, 0x302 65, 0x402 85 x 3,
   // 0x301 135 x 3, 0x303 95, SET_RPM 120 x 250, STATUS and STATUS_5 160 x 90 = 56 900 bits; first frame at

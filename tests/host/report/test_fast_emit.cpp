@@ -185,16 +185,13 @@ Expected expected_from(CaptureReader& reader, DecodeFormat format, TimeMode mode
   FrameEmitter emitter(format, mode);
   fmt::memory_buffer out;
   DecodeCounts counts;
-  for (;;) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::corrupt) {
-      e.corrupt.push_back(format_capture_error("f", reader.error()));
-      continue;
-    }
-    if (ids != nullptr && !ids->count(reader.frame().id)) continue;
-    emitter.add(reader.frame(), reader.interface(), out, counts);
-  }
+  for (FrameBatch batch; reader.next_batch(batch);)
+    batch.walk(
+        [&](std::size_t i) {
+          if (ids != nullptr && !ids->count(batch.frames[i].id)) return;
+          emitter.add(batch.frames[i], batch.interfaces[i], out, counts);
+        },
+        [&](const CaptureError& error) { e.corrupt.push_back(format_capture_error("f", error)); });
   e.out.assign(out.data(), out.size());
   return e;
 }
@@ -331,16 +328,12 @@ struct CountedByReader {
 CountedByReader count_by_reader(CaptureReader& reader) {
   BusStats one;
   CountedByReader r;
-  for (;;) {
-    const auto st = reader.next();
-    if (st == CaptureReader::Status::end) break;
-    if (st == CaptureReader::Status::corrupt) {
-      one.add_corrupt();
-      r.corrupt.push_back(format_capture_error("f", reader.error()));
-      continue;
-    }
-    one.add(reader.frame(), reader.interface());
-  }
+  for (FrameBatch batch; reader.next_batch(batch);)
+    batch.walk([&](std::size_t i) { one.add(batch.frames[i], batch.interfaces[i]); },
+               [&](const CaptureError& e) {
+                 one.add_corrupt();
+                 r.corrupt.push_back(format_capture_error("f", e));
+               });
   r.text = one.text("f");
   r.json = one.json("f").dump();
   return r;
@@ -581,7 +574,10 @@ TEST_CASE("pcap and pcapng blocks cut ahead of their readers are lent late, read
     const auto reader = format == CaptureFormat::pcap ? std::unique_ptr<CaptureReader>(new PcapReader(in))
                                                       : std::unique_ptr<CaptureReader>(new PcapngReader(in));
     std::vector<CanFrame> expected;
-    while (reader->next() == CaptureReader::Status::frame) expected.push_back(reader->frame());
+    for (FrameBatch batch; reader->next_batch(batch);) {
+      REQUIRE(batch.corrupt.empty());
+      expected.insert(expected.end(), batch.frames.begin(), batch.frames.end());
+    }
     REQUIRE(expected.size() == 20000);
     const int fd = ::open(file.path.c_str(), O_RDONLY);
     REQUIRE(fd >= 0);

@@ -16,18 +16,18 @@ int main(int argc, char** argv) {
   auto reader = saul::host::open_capture_reader(argv[1]);
   long frames = 0, telemetry_a = 0, telemetry_b = 0;
   long pitch_sum = 0;
-  while (true) {
-    const auto status = reader->next();
-    if (status == saul::host::CaptureReader::Status::end) break;
-    if (status != saul::host::CaptureReader::Status::frame) continue;
-    ++frames;
-    const auto m = saul::decode_bus_frame(reader->frame());
-    if (!m) continue;
-    if (const auto* a = std::get_if<saul::saulcan::TelemetryA>(&m.value())) {
-      ++telemetry_a;
-      pitch_sum += a->pitch_x100;
+  saul::host::FrameBatch batch;
+  while (reader->next_batch(batch)) {
+    for (const saul::CanFrame& frame : batch.frames) {
+      ++frames;
+      const auto m = saul::decode_bus_frame(frame);
+      if (!m) continue;
+      if (const auto* a = std::get_if<saul::saulcan::TelemetryA>(&m.value())) {
+        ++telemetry_a;
+        pitch_sum += a->pitch_x100;
+      }
+      if (std::holds_alternative<saul::saulcan::TelemetryB>(m.value())) ++telemetry_b;
     }
-    if (std::holds_alternative<saul::saulcan::TelemetryB>(m.value())) ++telemetry_b;
   }
   std::printf("frames=%ld telemetry_a=%ld telemetry_b=%ld pitch_x100_sum=%ld\n", frames, telemetry_a, telemetry_b,
               pitch_sum);

@@ -95,16 +95,8 @@ struct FileSource {
 template <class Reader>
 class FileOwned : public Reader {
  public:
-  using Status = typename Reader::Status;
   FileOwned(std::unique_ptr<FileSource> source, std::unique_ptr<Reader> inner)
       : source_(std::move(source)), inner_(std::move(inner)) {}
-  Status next() override {
-    started_ = true;
-    const Status st = inner_->next();
-    own_error_ = st == Status::end && source_->take_error(error_);
-    return own_error_ ? Status::corrupt : st;
-  }
-  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
   [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
   [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<std::uint64_t> bytes_total() const override { return source_->size; }
@@ -112,9 +104,6 @@ class FileOwned : public Reader {
  protected:
   std::unique_ptr<FileSource> source_;  // declared first: destroyed after the reader of its stream
   std::unique_ptr<Reader> inner_;
-  CaptureError error_;
-  bool own_error_ = false;
-  bool started_ = false;
 };
 
 class FileReader final : public FileOwned<CaptureReader> {
@@ -128,21 +117,32 @@ class FileReader final : public FileOwned<CaptureReader> {
     batch.corrupt.push_back({0, std::move(error)});  // the decompressor stopped: one corrupt record at its end
     return true;
   }
-  /// The file, for take_capture_text(): only before the first next() (the format reader may buffer what it read).
-  /// This reader is not to be used afterwards.
+  /// The file, for take_capture_text(): only before the first next_batch() (the format reader may buffer what it
+  /// read). This reader is not to be used afterwards.
   std::unique_ptr<FileSource> release_source() {
     if (started_) return nullptr;
     inner_.reset();  // it refers to the source's stream
     return std::move(source_);
   }
-  [[nodiscard]] const CanFrame& frame() const override { return inner_->frame(); }
-  [[nodiscard]] std::string_view interface() const override { return inner_->interface(); }
+
+ private:
+  bool started_ = false;
 };
 
 class FileSerialReader final : public FileOwned<SerialCaptureReader> {
  public:
   using FileOwned::FileOwned;
+  Status next() override {
+    const Status st = inner_->next();
+    own_error_ = st == Status::end && source_->take_error(error_);
+    return own_error_ ? Status::corrupt : st;
+  }
+  [[nodiscard]] const CaptureError& error() const override { return own_error_ ? error_ : inner_->error(); }
   [[nodiscard]] const SerialChunk& chunk() const override { return inner_->chunk(); }
+
+ private:
+  CaptureError error_;
+  bool own_error_ = false;
 };
 
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
@@ -400,7 +400,7 @@ void FrameBatch::own() {
     interfaces[i] = std::string_view(names.data() + at[i], interfaces[i].size());
 }
 
-bool CaptureReader::next_batch(FrameBatch& batch) {
+bool RecordCaptureReader::next_batch(FrameBatch& batch) {
   batch.clear();
   batch.names.clear();
   std::vector<std::pair<std::size_t, std::size_t>> spans;  // of the interfaces in names, made views at the end
@@ -409,11 +409,11 @@ bool CaptureReader::next_batch(FrameBatch& batch) {
     const auto st = next();
     if (st == Status::end) break;
     if (st == Status::corrupt) {
-      batch.corrupt.push_back({batch.frames.size(), error()});
+      batch.corrupt.push_back({batch.frames.size(), error_});
       continue;
     }
-    batch.frames.push_back(frame());
-    const std::string_view name = interface();
+    batch.frames.push_back(frame_);
+    const std::string_view name = name_;
     if (spans.empty() || name != std::string_view(batch.names).substr(spans.back().first, spans.back().second)) {
       spans.emplace_back(batch.names.size(), name.size());
       batch.names.append(name);
@@ -425,7 +425,7 @@ bool CaptureReader::next_batch(FrameBatch& batch) {
   return !batch.empty();
 }
 
-CaptureReader::Status LineCaptureReader::next() {
+LineCaptureReader::Status LineCaptureReader::next() {
   while (const auto line = detail::next_line(in_, line_, line_number_))
     if (const Step step = parse_line(*line); step != Step::skipped) return status(step);
   return Status::end;
@@ -434,21 +434,6 @@ CaptureReader::Status LineCaptureReader::next() {
 LineCaptureReader::Step LineCaptureReader::corrupt(std::size_t column, std::string message) {
   detail::line_error(error_, line_number_, column, std::move(message));
   return Step::corrupt;
-}
-
-CaptureReader::Status BatchCaptureReader::next() {
-  for (;;) {
-    if (corrupt_ < batch_.corrupt.size() && batch_.corrupt[corrupt_].before == frame_) {
-      ++corrupt_;
-      return Status::corrupt;
-    }
-    if (frame_ < batch_.frames.size()) {
-      ++frame_;
-      return Status::frame;
-    }
-    frame_ = corrupt_ = 0;
-    if (!next_batch(batch_)) return Status::end;
-  }
 }
 
 namespace {

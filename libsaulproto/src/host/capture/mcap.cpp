@@ -935,7 +935,7 @@ bool McapFrameReader::frames_channel(std::uint16_t id) {
   return yes;
 }
 
-CaptureReader::Status McapFrameReader::next() {
+McapFrameReader::Status McapFrameReader::next() {
   for (;;) {
     const auto st = records_.next();
     if (st == McapRecordReader::Status::end) return Status::end;
@@ -982,7 +982,7 @@ CaptureReader::Status McapFrameReader::next() {
       if (dlc > CanFrame::kMaxDlc) return bad("dlc is more than 8");
       f.dlc = static_cast<std::uint8_t>(dlc);
       if (!f.remote && f.dlc != data.size() / 2) return bad("dlc does not match the data's length");
-      interface_ = j.contains("interface") && j["interface"].is_string() ? j["interface"].get<std::string>() : "can0";
+      name_ = j.contains("interface") && j["interface"].is_string() ? j["interface"].get<std::string>() : "can0";
     } catch (const nlohmann::json::exception& e) {
       return bad(e.what());
     }

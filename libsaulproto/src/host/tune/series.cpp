@@ -199,42 +199,44 @@ Series read_capture_series(const std::string& path) {
   Series s;
   s.name = path;
   s.source = SeriesSource::telemetry;
-  std::uint64_t frames = 0;
-  for (;;) {
-    const auto status = reader->next();
-    if (status == CaptureReader::Status::end) break;
+  std::uint64_t frames = 0;  // records: frames and corrupt ones
+  auto corrupt = [&](const CaptureError& e) {
+    if (s.truncated) return;
     ++frames;
-    if (status == CaptureReader::Status::corrupt) {
-      s.problem(format_capture_error(path, reader->error()));
-      continue;
-    }
-    const CanFrame& f = reader->frame();
-    if (f.id != saulcan::kTelemetryAId || f.extended || f.error || f.remote) continue;
+    s.problem(format_capture_error(path, e));
+  };
+  auto frame = [&](const CanFrame& f) {
+    if (s.truncated) return;
+    ++frames;
+    if (f.id != saulcan::kTelemetryAId || f.extended || f.error || f.remote) return;
     const auto t = saulcan::decode_telemetry_a(f);
     if (!t) {
       s.problem(fmt::format("{}: frame {}: a 0x400 frame that does not decode (frame skipped)", path, frames));
-      continue;
+      return;
     }
     if (!f.timestamp_ns) {
       s.problem(fmt::format("{}: frame {}: no timestamp (frame skipped)", path, frames));
-      continue;
+      return;
     }
     const double time = static_cast<double>(*f.timestamp_ns) * 1e-9;
     if (!s.time_s.empty() && time <= s.time_s.back()) {
       s.problem(fmt::format("{}: frame {}: time does not move forward (frame skipped)", path, frames));
-      continue;
+      return;
     }
     if (s.size() >= kMaxRecords) {
       s.truncated = true;
       s.problem(fmt::format("{}: more than {} telemetry frames: the rest is left out", path, kMaxRecords));
-      break;
+      return;
     }
     s.time_s.push_back(time);
     s.pitch_deg.push_back(t->pitch_x100 / 100.0);
     s.output.push_back(t->pid_out);
     s.state.push_back(static_cast<std::uint8_t>(t->state));
     s.line.push_back(frames);
-  }
+  };
+  FrameBatch batch;
+  while (!s.truncated && reader->next_batch(batch))
+    batch.walk([&](std::size_t i) { frame(batch.frames[i]); }, corrupt);
   if (s.size() == 0)
     throw SeriesError(fmt::format("{}: no telemetry (0x400) frame in {} frames: nothing to analyse", path, frames));
   return s;

@@ -34,7 +34,6 @@ class BlfReader final : public RecordCaptureReader {
   /// Reads the file header; throws CaptureOpenError when the stream does not start with one.
   explicit BlfReader(std::istream& in);
 
-  Status next() override;
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::blf; }
 
   /// Objects of types that are not CAN frames (markers, statistics, other buses ...), skipped.
@@ -50,6 +49,7 @@ class BlfReader final : public RecordCaptureReader {
 
  private:
   enum class Step { frame, corrupt, skipped, need_more };
+  Status next() override;
   enum class Load { loaded, corrupt, none };
   Status corrupt(std::uint64_t position, Recovery recovery, std::string message);
   /// A corrupt object of the container under way; reading goes on after it.

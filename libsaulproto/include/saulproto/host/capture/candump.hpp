@@ -261,8 +261,8 @@ class CandumpScanner {
 /// 0, ..., then `size`. Reads only near the cuts. Throws std::runtime_error when reading fails.
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block);
 
-/// The candump member of the capture interface: CandumpScanner's batches, handed out frame by frame too.
-class CandumpReader final : public BatchCaptureReader {
+/// The candump member of the capture interface: CandumpScanner's batches.
+class CandumpReader final : public CaptureReader {
  public:
   /// Reads a stream the caller keeps alive (a compressed file: what its decompressor gives).
   explicit CandumpReader(std::istream& in) : scanner_(in) {}

@@ -107,7 +107,7 @@ struct FrameBatch {
   std::vector<CanFrame> frames;
   std::vector<std::string_view> interfaces;
   std::vector<Corrupt> corrupt;
-  /// The interface names' text when no reader's buffer holds it (own(), CaptureReader::next_batch's default).
+  /// The interface names' text when no reader's buffer holds it (own(), RecordCaptureReader::next_batch).
   std::string names;
   void clear() noexcept {
     frames.clear();
@@ -129,28 +129,19 @@ struct FrameBatch {
   void own();
 };
 
-/// Reads frames, one at a time (next()) or in batches (next_batch()): the one reading interface of every format.
+/// Reads frames in batches: the one reading interface of every format.
 class CaptureReader {
  public:
-  enum class Status { frame, corrupt, end };
-
   CaptureReader() = default;
   CaptureReader(const CaptureReader&) = delete;
   CaptureReader& operator=(const CaptureReader&) = delete;
   virtual ~CaptureReader() = default;
 
-  /// Advances to the next frame. On Status::frame, frame() and interface() describe it; on Status::corrupt,
-  /// error() does (a Recovery::stop error is followed by Status::end). Never throws for bad content.
-  virtual Status next() = 0;
-  /// Fills `batch` (cleared first) with what next() would give, up to FrameBatch::kMax frames; false (batch empty)
-  /// at the end. Read a reader with next() or with next_batch(), not both.
-  virtual bool next_batch(FrameBatch& batch);
-  /// The frame last read; timestamp_ns is set whenever the format has one.
-  [[nodiscard]] virtual const CanFrame& frame() const = 0;
-  /// Interface or channel name of the frame last read (valid until the next call of next()). Formats without
-  /// names report "can0" (pcap), "can<N-1>" for ASC channel N, "can<i>" for a pcapng interface with no if_name.
-  [[nodiscard]] virtual std::string_view interface() const = 0;
-  [[nodiscard]] virtual const CaptureError& error() const = 0;
+  /// Fills `batch` (cleared first) with the next records in file order, up to FrameBatch::kMax frames; false (batch
+  /// empty) at the end. A frame's timestamp_ns is set whenever the format has one; formats without interface names
+  /// report "can0" (pcap), "can<N-1>" for ASC channel N, "can<i>" for a pcapng interface with no if_name. A
+  /// Recovery::stop error is the last record. Never throws for bad content.
+  virtual bool next_batch(FrameBatch& batch) = 0;
   [[nodiscard]] virtual CaptureFormat format() const = 0;
   /// For progress: bytes of the file read so far (up to 64 KiB ahead of the record last returned) and its size.
   /// Readers of files opened by path know both (a pipe has no size); readers on a caller's stream say 0 / nullopt.
@@ -181,32 +172,17 @@ ReadCounts read_in_order(std::unique_ptr<CaptureReader>& reader, const ReadOptio
                          const std::function<bool(const FrameBatch&)>& each,
                          const std::function<void(std::uint64_t records, std::uint64_t bytes)>& progress = {});
 
-/// A reader whose format reads in batches (candump, pcap): next() hands out the batches' records one at a time.
-class BatchCaptureReader : public CaptureReader {
- public:
-  Status next() override;
-  bool next_batch(FrameBatch& batch) override = 0;
-  [[nodiscard]] const CanFrame& frame() const override { return batch_.frames[frame_ - 1]; }
-  [[nodiscard]] std::string_view interface() const override { return batch_.interfaces[frame_ - 1]; }
-  /// The last corrupt record of the batch under way (a blank error before any).
-  [[nodiscard]] const CaptureError& error() const override {
-    return corrupt_ > 0 ? batch_.corrupt[corrupt_ - 1].error : none_;
-  }
-
- private:
-  CaptureError none_;
-  FrameBatch batch_;
-  std::size_t frame_ = 0, corrupt_ = 0;  // what next() handed out of batch_
-};
-
-/// A reader of one record at a time (ASC, BLF, TRC, the CSV logs, pcapng): next() fills frame_ and name_, or error_.
+/// A reader of one record at a time (ASC, BLF, TRC, the CSV logs, pcapng, MCAP): next_batch() hands out what next()
+/// gives.
 class RecordCaptureReader : public CaptureReader {
  public:
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return name_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
+  bool next_batch(FrameBatch& batch) override;
 
  protected:
+  enum class Status { frame, corrupt, end };
+  /// Advances to the next record: on Status::frame, frame_ and name_ describe it; on Status::corrupt, error_ does
+  /// (a Recovery::stop error is followed by Status::end).
+  virtual Status next() = 0;
   /// What reading one record gave: a frame, a corrupt record, or nothing to hand out (reading goes on).
   enum class Step { frame, corrupt, skipped };
   static Status status(Step step) { return step == Step::frame ? Status::frame : Status::corrupt; }
@@ -218,11 +194,9 @@ class RecordCaptureReader : public CaptureReader {
 /// A reader of a text format (ASC, TRC, the CSV logs): next() hands each line, without its CR and (line 1) a UTF-8
 /// byte-order mark, to parse_line() until one gives a frame or a corrupt record.
 class LineCaptureReader : public RecordCaptureReader {
- public:
-  Status next() override;
-
  protected:
   explicit LineCaptureReader(std::istream& in) : in_(in) {}
+  Status next() override;
   virtual Step parse_line(std::string_view line) = 0;
   /// The line is corrupt from `column` on; reading goes on at the next line.
   Step corrupt(std::size_t column, std::string message);

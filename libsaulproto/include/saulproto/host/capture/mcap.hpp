@@ -391,22 +391,16 @@ class McapRecordReader {
 /// "saul.can_frame", in json encoding, as written by McapCaptureWriter or any writer using that schema (other
 /// channels are passed over). A message that is not such a frame is reported with the offset of its record (of
 /// its chunk, for one in a chunk) and skipped.
-class McapFrameReader final : public CaptureReader {
+class McapFrameReader final : public RecordCaptureReader {
  public:
   explicit McapFrameReader(std::istream& in, std::optional<std::uint64_t> size = std::nullopt);
-  Status next() override;
-  [[nodiscard]] const CanFrame& frame() const override { return frame_; }
-  [[nodiscard]] std::string_view interface() const override { return interface_; }
-  [[nodiscard]] const CaptureError& error() const override { return error_; }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::mcap; }
 
  private:
+  Status next() override;
   bool frames_channel(std::uint16_t id);
   McapRecordReader records_;
   std::map<std::uint16_t, bool> is_frames_;
-  CanFrame frame_;
-  std::string interface_;
-  CaptureError error_;
 };
 
 }  // namespace saul::host

@@ -78,7 +78,7 @@ class PcapScanner {
 };
 
 /// PcapScanner over a stream as a CaptureReader.
-class PcapReader final : public BatchCaptureReader {
+class PcapReader final : public CaptureReader {
  public:
   /// Reads the 24-byte file header; throws CaptureOpenError when it is missing, not pcap, or not link type 227.
   explicit PcapReader(std::istream& in) : scanner_(in) {}

@@ -32,15 +32,14 @@ class PcapngReader final : public RecordCaptureReader {
   /// The same over bytes in memory (they must outlive the reader): packets are read in place, not copied.
   explicit PcapngReader(std::span<const std::uint8_t> bytes);
 
-  Status next() override;
   /// Fills `batch` (cleared first) with what next() would give, up to `max` frames and corrupt records; false at the
-  /// end. Over bytes in memory the usual packet is decoded in place (~4x faster than next()); frame() and
-  /// interface() are not kept up to date by it.
+  /// end. Over bytes in memory the usual packet is decoded in place (~4x faster than next()).
   bool next_batch(FrameBatch& batch, std::size_t max);
   bool next_batch(FrameBatch& batch) override { return next_batch(batch, FrameBatch::kMax); }
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcapng; }
 
  private:
+  Status next() override;
   struct Interface {
     std::uint16_t linktype = 0;
     std::uint8_t tsresol = 6;  ///< if_tsresol as stored: bit 7 clear = 10^-n s, set = 2^-n s
