@@ -4,23 +4,22 @@
 //  - in blocks on ReadOptions::threads threads (a piece per block, taken in file order): an uncompressed candump,
 //    pcap or pcapng regular file of at least parallel_from bytes (CaptureBlocks), or a candump log that is
 //    compressed or a pipe, cut as it is read (CaptureTextBlocks);
-//  - else in batches on this thread, a second thread reading ahead from parallel_from bytes on.
+//  - else in batches on this thread, a second thread reading the next batch ahead from parallel_from bytes on.
 // The work says whether its results allow blocks (decode --time delta and stats --signals need every frame in order).
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <memory>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
 #include "saulproto/host/capture/capture_blocks.hpp"
 #include "../threads/in_order.hpp"
-#include "../threads/read_ahead.hpp"
 
 namespace saul::host::detail {
 
@@ -129,34 +128,30 @@ ReadCounts read_capture(const std::string& path, std::unique_ptr<CaptureReader>&
       return counts;
     }
   }
+  // Else batches in file order. From parallel_from bytes on, the next batch is read on a second thread while this
+  // one hands on the batch before (reading ahead); else each is read once the one before was handed on.
+  const bool ahead = parallel && total && *total >= o.parallel_from;
   Thread t{work.worker(), {}, {}};
   Piece p;
-  auto batch_piece = [&](const FrameBatch& batch, std::uint64_t read) {
+  std::array<FrameBatch, 2> batches;
+  std::array<std::uint64_t, 2> read_bytes{};
+  auto read = [&](std::size_t i) {
+    if (!reader->next_batch(batches[i])) return false;
+    if (ahead) batches[i].own();  // the reader's next batch, read while this one is handed on, reuses its buffer
+    read_bytes[i] = reader->bytes_read();
+    return true;
+  };
+  bool more = read(0);
+  for (std::size_t i = 0; more; i ^= 1) {
+    // what the batch's work throws waits for the reading under way (the future's destructor), then goes on up
+    auto next = std::async(ahead ? std::launch::async : std::launch::deferred, read, i ^ 1);
     start(t, p, false);
-    add(t, p, batch);
+    add(t, p, batches[i]);
     p.frames += work.finish(t.worker, p.piece);
-    p.bytes = read;
+    p.bytes = read_bytes[i];
     take(p, false);
-  };
-  if (!(parallel && total && *total >= o.parallel_from)) {
-    FrameBatch batch;
-    while (reader->next_batch(batch)) batch_piece(batch, reader->bytes_read());
-    return counts;
+    more = next.get();
   }
-  struct Ahead {
-    FrameBatch batch;
-    std::uint64_t bytes = 0;
-  };
-  std::array<Ahead, kAheadBatches> slots;
-  read_ahead(
-      slots.size(),
-      [&](std::size_t k) {
-        if (!reader->next_batch(slots[k].batch)) return false;
-        slots[k].batch.own();  // the reader's next batch reuses its buffer
-        slots[k].bytes = reader->bytes_read();
-        return true;
-      },
-      [&](std::size_t k) { batch_piece(slots[k].batch, slots[k].bytes); });
   return counts;
 }
 

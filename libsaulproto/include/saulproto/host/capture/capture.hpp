@@ -125,7 +125,7 @@ struct FrameBatch {
     }
   }
   /// Copies the interface names into `names` and points the views there: the batch then outlives its reader's
-  /// next call (a batch read ahead on another thread).
+  /// next call (a batch read while another thread hands on the one before).
   void own();
 };
 
