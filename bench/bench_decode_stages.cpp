@@ -200,14 +200,9 @@ void BM_StuffBits(benchmark::State& state) {
 BENCHMARK(BM_StuffBits)->Unit(benchmark::kMillisecond);
 
 // What stats' line tables pay for a content they have not seen: the header's share known (CanStuffStart per id and
-// DLC), the data bytes' steps one after another (0) or composed with SSSE3 shuffles (1). Each frame's count feeds the
-// next frame's start state, as a chain of new contents would: latency, not throughput.
+// DLC), the data bytes' steps one after another. Each frame's count feeds the next frame's start state, as a chain
+// of new contents would: latency, not throughput.
 void BM_StuffBitsData(benchmark::State& state) {
-  const bool shuffles = state.range(0) == 1;
-  if (shuffles && !saul::host::detail::can_stuff_ssse3()) {
-    state.SkipWithError("no SSSE3 on this CPU");
-    return;
-  }
   const auto frames = parsed_frames();
   std::vector<std::pair<saul::host::CanStuffStart, std::array<std::uint8_t, 8>>> starts;
   for (const auto& [f, iface] : frames)
@@ -217,15 +212,14 @@ void BM_StuffBitsData(benchmark::State& state) {
     unsigned total = 0;
     for (auto [start, data] : starts) {
       data[0] = static_cast<std::uint8_t>(data[0] ^ (total & 1));  // depends on the count before
-      total += shuffles ? saul::host::detail::can_stuff_bits_ssse3(start, data.data())
-                        : saul::host::detail::can_stuff_bits_table(start, data.data());
+      total += saul::host::can_stuff_bits(start, data.data());
     }
     benchmark::DoNotOptimize(total);
     n += starts.size();
   }
   rate(state, n);
 }
-BENCHMARK(BM_StuffBitsData)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StuffBitsData)->Unit(benchmark::kMillisecond);
 
 void BM_BusStatsAdd(benchmark::State& state) {
   const auto frames = parsed_frames();

@@ -49,13 +49,6 @@ struct CanStuffStart {
 CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std::uint8_t dlc) noexcept;
 /// can_stuff_bits() of the frame whose header gave `start` and whose data is start.bytes bytes at `data`.
 unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) noexcept;
-namespace detail {
-/// The two ways can_stuff_bits(start, data) counts, for tests and benchmarks: a table step per data byte (any CPU),
-/// and the steps composed with SSSE3 byte shuffles (x86-64; only where can_stuff_ssse3() says the CPU has it).
-unsigned can_stuff_bits_table(const CanStuffStart& start, const std::uint8_t* data) noexcept;
-unsigned can_stuff_bits_ssse3(const CanStuffStart& start, const std::uint8_t* data) noexcept;
-bool can_stuff_ssse3() noexcept;
-}  // namespace detail
 
 /// The BALANCE board stops driving when no 0x300 came for this long.
 inline constexpr std::uint64_t kOrinTimeoutNs = 500'000'000ULL;
