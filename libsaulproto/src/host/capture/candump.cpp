@@ -106,25 +106,29 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   return true;
 }
 
-std::string format_candump_frame(const CanFrame& frame) {
-  std::string s;
-  if (frame.error) {
-    s = fmt::format("{:08X}#", frame.id | 0x2000'0000U);
-  } else if (frame.extended) {
-    s = fmt::format("{:08X}#", frame.id);
-  } else {
-    s = fmt::format("{:03X}#", frame.id);
+char* write_candump_frame(char* w, const CanFrame& frame, bool data_only) {
+  if (!data_only) {
+    std::uint32_t id = frame.error ? (frame.id | 0x2000'0000U) : frame.id;
+    const int digits = frame.error || frame.extended ? 8 : 3;
+    for (int i = digits - 1; i >= 0; --i, id >>= 4) w[i] = hex::kUpperDigits[id & 0xF];
+    w += digits;
+    *w++ = '#';
   }
   if (frame.remote) {
-    s += 'R';
-    if (frame.dlc) s += static_cast<char>('0' + frame.dlc);
-    return s;
+    *w++ = 'R';
+    if (frame.dlc) *w++ = static_cast<char>('0' + frame.dlc);
+    return w;
   }
   for (std::uint8_t b : frame.payload()) {
-    s += hex::kUpperDigits[b >> 4];
-    s += hex::kUpperDigits[b & 0xF];
+    *w++ = hex::kUpperDigits[b >> 4];
+    *w++ = hex::kUpperDigits[b & 0xF];
   }
-  return s;
+  return w;
+}
+
+std::string format_candump_frame(const CanFrame& frame) {
+  char text[kCandumpFrameMax];
+  return {text, write_candump_frame(text, frame)};
 }
 
 std::string candump_interface(std::string_view interface) {

@@ -13,32 +13,10 @@
 namespace saul::host {
 namespace {
 
-constexpr const char* kHex = hex::kUpperDigits;
-
 /// v's last `digits` hex digits, upper case.
 char* put_hex(char* w, std::uint32_t v, int digits) {
-  for (int i = digits - 1; i >= 0; --i, v >>= 4) w[i] = kHex[v & 0xF];
+  for (int i = digits - 1; i >= 0; --i, v >>= 4) w[i] = hex::kUpperDigits[v & 0xF];
   return w + digits;
-}
-
-char* put_bytes(char* w, std::span<const std::uint8_t> bytes) {
-  for (std::uint8_t b : bytes) {
-    *w++ = kHex[b >> 4];
-    *w++ = kHex[b & 0xF];
-  }
-  return w;
-}
-
-/// The candump frame text ("300#E8030CFE"), as format_candump_frame writes it; `data_only`: what follows the '#'.
-char* frame_chars(char* w, const CanFrame& f, bool data_only = false) {
-  if (!data_only) {
-    w = put_hex(w, f.error ? (f.id | 0x2000'0000U) : f.id, f.error || f.extended ? 8 : 3);
-    *w++ = '#';
-  }
-  if (!f.remote) return put_bytes(w, f.payload());
-  *w++ = 'R';
-  if (f.dlc) *w++ = static_cast<char>('0' + f.dlc);
-  return w;
 }
 
 std::string_view bool_text(bool b) { return b ? "true" : "false"; }
@@ -55,7 +33,7 @@ char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const 
   const bool ok = reason == Reason::ok;
   if (format_ == DecodeFormat::text) {
     char* const at = w;
-    w = frame_chars(w, f);
+    w = write_candump_frame(w, f);
     while (w < at + 24) *w++ = ' ';
     *w++ = ' ';
     if (ok) return w;
@@ -72,7 +50,7 @@ char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const 
     w = put_chars(w, f.remote ? "1," : "0,");
     w = std::to_chars(w, w + 4, unsigned{f.dlc}).ptr;
     *w++ = ',';
-    w = frame_chars(w, f, true);
+    w = write_candump_frame(w, f, true);
     *w++ = ',';
     if (ok) return w;
     *w++ = '!';
@@ -94,7 +72,7 @@ char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const 
     }
   }
   w = put_chars(w, "\"frame\":{\"data\":\"");
-  w = put_bytes(w, f.payload());
+  if (!f.remote) w = write_candump_frame(w, f, true);  // the data's digits
   w = put_chars(w, "\",\"dlc\":");
   w = std::to_chars(w, w + 4, unsigned{f.dlc}).ptr;
   w = put_chars(w, ",\"error\":");

@@ -46,6 +46,11 @@ std::string format_candump_line(const CanFrame& frame, std::string_view interfac
 
 /// The compact frame text alone, e.g. "300#E8030CFE", "00000344#000005DC", "123#R4".
 std::string format_candump_frame(const CanFrame& frame);
+/// The longest compact frame text: 8 id digits, '#' and 16 data digits.
+inline constexpr std::size_t kCandumpFrameMax = 25;
+/// format_candump_frame() written at `w` (room for kCandumpFrameMax chars), its end returned; `data_only`: only
+/// what follows the '#' (decode's CSV data column).
+char* write_candump_frame(char* w, const CanFrame& frame, bool data_only = false);
 
 /// The longest candump line the scanner accepts (a real one is under 100 bytes).
 inline constexpr std::size_t kMaxCandumpLine = 64 * 1024;
