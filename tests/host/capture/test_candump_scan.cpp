@@ -227,7 +227,7 @@ TEST_CASE("pcap reader: a regular file read with pread gives the frames and byte
   REQUIRE(::write(fd, pcap.data(), pcap.size()) == static_cast<ssize_t>(pcap.size()));
   for (std::size_t block : {1, 33, 4096, 1 << 20}) {
     INFO("block " << block);
-    PcapScanner scanner(fd, pcap.size(), block);
+    PcapScanner scanner(fd, pcap.size(), 0, pcap.size(), block);
     Seen got;
     FrameBatch batch;
     while (scanner.next_batch(batch)) {

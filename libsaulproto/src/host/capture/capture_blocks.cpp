@@ -39,7 +39,8 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
       break;
     case CaptureFormat::pcap:
       try {
-        blocks->cutter_ = detail::pcap_block_cutter(fd, size, PcapScanner(fd, size).big_endian(), block_bytes);
+        const PcapScanner header(fd, size, 0, 0, std::span<const std::uint8_t>());  // reads the file header alone
+        blocks->cutter_ = detail::pcap_block_cutter(fd, size, header.big_endian(), block_bytes);
       } catch (const CaptureOpenError&) {
         return nullptr;  // not a pcap header after all
       }

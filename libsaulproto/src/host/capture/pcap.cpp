@@ -85,11 +85,13 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
 
 // ---- reader ----
 
-PcapScanner::PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes)
+PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), size_(size), cap_(block_bytes + kMaxRecord + 16), block_(block_bytes) {
   buf_.reset(new std::uint8_t[cap_]);
   data_ = buf_.get();
   read_header();
+  offset_ = read_to_ = begin < 24 ? 24 : begin;
+  size_ = end < size ? end : size;
 }
 
 PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
@@ -135,12 +137,6 @@ PcapScanner::PcapScanner(std::istream& in, std::size_t block_bytes)
   buf_.reset(new std::uint8_t[cap_]);
   data_ = buf_.get();
   read_header();
-}
-
-PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
-    : PcapScanner(fd, size, block_bytes) {
-  offset_ = read_to_ = begin < 24 ? 24 : begin;
-  size_ = end < size ? end : size;
 }
 
 namespace {

@@ -38,10 +38,9 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
 /// (block size + the longest record accepted), whatever the file size.
 class PcapScanner {
  public:
-  /// Reads the regular file `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as
-  /// PcapReader does (CaptureOpenError).
-  PcapScanner(int fd, std::uint64_t size, std::size_t block_bytes = std::size_t{1} << 20);
-  /// Reads only the records from byte `begin` (a record's start, where CaptureBlocks cuts) to `end`.
+  /// Reads the records from byte `begin` (a record's start, where CaptureBlocks cuts) to `end` of the regular file
+  /// `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as PcapReader does
+  /// (CaptureOpenError).
   PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
               std::size_t block_bytes = std::size_t{1} << 20);
   /// The same with the file's bytes [begin, end) already in memory (`bytes`, kept alive by the caller): nothing is
