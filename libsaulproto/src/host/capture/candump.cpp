@@ -266,7 +266,7 @@ std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
   }
 }
 
-void CandumpScanner::line(std::string_view text, FrameBatch& batch, CandumpLineTaker* taker) {
+void CandumpScanner::line(std::string_view text, FrameBatch& batch) {
   ++line_;
   if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer (and CandumpReader) does
     if (first_other_.empty() && text.find_first_not_of(" \t\r") != std::string_view::npos)
@@ -277,7 +277,6 @@ void CandumpScanner::line(std::string_view text, FrameBatch& batch, CandumpLineT
     corrupt(batch, 0, fmt::format("line longer than {} bytes", kMaxCandumpLine));
     return;
   }
-  if (taker != nullptr && taker->take(text)) return;
   CanFrame& f = batch.frames.emplace_back();
   std::string_view name;
   if (parse_candump_usual(text, f, name)) {
@@ -333,14 +332,14 @@ bool CandumpScanner::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
         const void* nl = std::memchr(buf + head_, '\n', tail_ - head_);
         if (nl == nullptr) break;
         const std::size_t at = static_cast<std::size_t>(static_cast<const char*>(nl) - buf);
-        line(std::string_view(buf + head_, at - head_), batch, taker);
+        line(std::string_view(buf + head_, at - head_), batch);
         consumed_ += at + 1 - head_;
         head_ = at + 1;
         if (batch.frames.size() >= FrameBatch::kMax) return true;
       }
       if (eof_) {
         if (head_ < tail_) {  // a last line without newline
-          line(std::string_view(buf + head_, tail_ - head_), batch, taker);
+          line(std::string_view(buf + head_, tail_ - head_), batch);
           consumed_ += tail_ - head_;
           head_ = tail_;
         }

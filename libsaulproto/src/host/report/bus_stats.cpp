@@ -530,18 +530,6 @@ class LineMemo final : public CandumpLineTaker {
   }
   [[nodiscard]] std::uint64_t taken() const { return taken_; }
 
-  bool take(std::string_view line) override {
-    if (line.size() > kCandumpFixedTimeLength + sizeof(Words)) return false;
-    std::uint64_t ns = 0;
-    if (!times_.read(line, ns)) return false;
-    const char* const text = line.data() + kCandumpFixedTimeLength;
-    Words words;
-    std::memcpy(words, text, sizeof words);  // kCandumpLineSlack bytes follow
-    if (!count(line, words, detail::first_two(text, '\n', '#').b, ns)) return false;
-    ++taken_;
-    return true;
-  }
-
   // The loop stats spends its time in: a line's end found in the words read of it anyway, no call per line.
   [[gnu::flatten]] std::size_t take_run(const char* begin, const char* end, std::size_t& used) override {
     const char* p = begin;

@@ -56,19 +56,14 @@ char* write_candump_frame(char* w, const CanFrame& frame, bool data_only = false
 inline constexpr std::size_t kMaxCandumpLine = 64 * 1024;
 
 /// Takes whole candump lines before the scanner parses them (stats handles the usual lines cheaper than a CanFrame
-/// each). take() gets every line that starts with '(' and is not too long, in file order; a line it refuses (false)
-/// is read the usual way. kCandumpLineSlack bytes (of no meaning) follow any line, so take() may read whole words.
+/// each). kCandumpLineSlack bytes (of no meaning) follow `end`, so a taker may read whole words.
 inline constexpr std::size_t kCandumpLineSlack = 64;
 class CandumpLineTaker {
  public:
-  virtual bool take(std::string_view line) = 0;
-  /// The same for the whole lines at the start of [begin, end), up to the first it does not take (which the
-  /// scanner then reads the usual way, take() included): returns how many it took, `used` the bytes they span. A
-  /// call per line would cost as much as stats' own work on a line. The default takes none.
-  virtual std::size_t take_run(const char* /*begin*/, const char* /*end*/, std::size_t& used) {
-    used = 0;
-    return 0;
-  }
+  /// Takes the whole lines at the start of [begin, end), in file order, up to the first it does not take (which the
+  /// scanner then reads the usual way, as it does a last line without newline): returns how many it took, `used`
+  /// the bytes they span. A call per line would cost as much as stats' own work on a line.
+  virtual std::size_t take_run(const char* begin, const char* end, std::size_t& used) = 0;
 
  protected:
   ~CandumpLineTaker() = default;
@@ -239,7 +234,7 @@ class CandumpScanner {
   static constexpr std::size_t kDefaultBlock = std::size_t{1} << 20;
 
  private:
-  void line(std::string_view text, FrameBatch& batch, CandumpLineTaker* taker);
+  void line(std::string_view text, FrameBatch& batch);
   /// A corrupt record at the current line.
   void corrupt(FrameBatch& batch, std::size_t column, std::string message);
   std::size_t fill(char* dst, std::size_t n);
