@@ -21,10 +21,16 @@ for ((i = 0; i < 16 * 1024 * 1024 / block + 1; i++)); do cat "$out/block.log"; d
 for ((i = 0; i < 128 * 1024 * 1024 / block + 1; i++)); do cat "$out/block.log"; done >"$out/big.log"
 echo "     files: $(du -m "$out/small.log" | cut -f1) MB and $(du -m "$out/big.log" | cut -f1) MB"
 
-peak() {  # FILE ARGS...: peak RSS in KiB of saulctl ARGS FILE
-  local file=$1; shift
-  /usr/bin/time -f "%M" -o "$out/rss" "$saulctl" "$@" "$file" >/dev/null 2>"$out/err" || { echo 0; return; }
-  tail -1 "$out/rss"
+peak_runs=1
+peak() {  # FILE ARGS...: peak RSS in KiB of saulctl ARGS FILE, the least of peak_runs runs
+  local file=$1 best=0 run rss
+  shift
+  for ((run = 0; run < peak_runs; run++)); do
+    /usr/bin/time -f "%M" -o "$out/rss" "$saulctl" "$@" "$file" >/dev/null 2>"$out/err" || { echo 0; return; }
+    rss=$(tail -1 "$out/rss")
+    ((best == 0 || rss < best)) && best=$rss
+  done
+  echo "$best"
 }
 # flat WHAT SMALL BIG SLACK_MIB VERB...: each verb's peak RSS on BIG is within SLACK_MIB of that on SMALL.
 flat() {
@@ -51,6 +57,9 @@ noise() {  # LINES FILE
 }
 noise 250000 "$out/noise_small.log"
 noise 1000000 "$out/noise_big.log"
+# Two runs each, the least peak kept: the peak on this log varies with the machine's load by up to 16 MiB (stats
+# --json under ctest -j2: 41 then 57 MiB; alone, 44-52 MiB for both files). Holding every id took 0.9 GB.
+peak_runs=2
 flat "noise: 250 k ids, then 1 M" "$out/noise_small.log" "$out/noise_big.log" 16 "stats" "stats --json"
 "$saulctl" stats "$out/noise_small.log" >"$out/noise.txt" 2>/dev/null
 check "stats on noise: says how many frames of ids and interfaces it did not list" \
