@@ -134,7 +134,8 @@ struct Hello {
 };
 
 /// The owner's side: the listening socket, the clients, and a thread that polls the device and the sockets.
-/// The CAN and serial owners derive from it and implement the hooks; the hooks run on the serving thread.
+/// The shared CAN and serial ends (shared_link.cpp) derive from it and implement the hooks; the hooks run on the
+/// serving thread.
 class OwnerCore {
  public:
   OwnerCore(const OwnerCore&) = delete;

@@ -17,13 +17,7 @@ using namespace std::chrono;
 
 // The serial port's errors as the link's (same kind, same message).
 template <class F>
-auto as_link(F&& f) {
-  try {
-    return f();
-  } catch (const SerialError& e) {
-    throw to_link_error(e);
-  }
-}
+auto as_link(F&& f) { return rethrow_as(to_link_error, std::forward<F>(f)); }
 
 class SlcanLink final : public CanLink {
  public:

@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "saulproto/host/link/can_link.hpp"
@@ -29,6 +30,15 @@ struct LinkSpec {
 /// A serial port's error as a link's, and back (same kind, or io; same message).
 LinkError to_link_error(const SerialError& e);
 SerialError to_serial_error(const LinkError& e);
+/// Runs `f`; an error of the one kind it throws is thrown as the other (`convert`: one of the two above).
+template <class To, class From, class F>
+auto rethrow_as(To (*convert)(const From&), F&& f) {
+  try {
+    return f();
+  } catch (const From& e) {
+    throw convert(e);
+  }
+}
 
 /// Parses a link name; throws std::invalid_argument with a message that shows the accepted forms.
 LinkSpec parse_link_spec(const std::string& text);
