@@ -30,7 +30,8 @@ class SlcanLink final : public CanLink {
     std::string open = fmt::format("C\rS{}\r", *preset);
     if (options.listen_only) {
       as_link([&] { port_->write(open + "V\r", milliseconds(200)); });
-      open = wait_for_version(milliseconds(200)) ? "L\r" : "M1\rO\r";  // Lawicel's listen-only, else the CANable's
+      fill_until([this] { return version_seen_; }, milliseconds(200));
+      open = lawicel_ ? "L\r" : "M1\rO\r";  // Lawicel's listen-only, else the CANable's
     } else {
       open += "O\r";
     }
@@ -55,11 +56,7 @@ class SlcanLink final : public CanLink {
   }
 
   std::optional<CanFrame> receive(milliseconds timeout) override {
-    const auto deadline = steady_clock::now() + timeout;
-    while (queue_.empty()) {
-      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-      if (left.count() < 0 || !fill(left)) return std::nullopt;
-    }
+    if (!fill_until([this] { return !queue_.empty(); }, timeout)) return std::nullopt;
     const CanFrame f = queue_.front();
     queue_.pop_front();
     return f;
@@ -85,6 +82,17 @@ class SlcanLink final : public CanLink {
   [[nodiscard]] int poll_handle() const override { return port_->poll_handle(); }
 
  private:
+  // Reads and parses until `done` holds; false when `timeout` passed first.
+  template <class Done>
+  bool fill_until(Done done, milliseconds timeout) {
+    const auto deadline = steady_clock::now() + timeout;
+    while (!done()) {
+      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+      if (left.count() < 0 || !fill(left)) return false;
+    }
+    return true;
+  }
+
   // Reads one chunk and parses it; returns false on timeout.
   bool fill(milliseconds timeout) {
     std::array<std::uint8_t, 4096> buf{};
@@ -133,15 +141,6 @@ class SlcanLink final : public CanLink {
     // Lawicel answers "Vhhss": exactly four hex digits. The stock CANable firmware answers a git hash and more.
     return text.size() == 4 &&
            std::all_of(text.begin(), text.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
-  }
-
-  bool wait_for_version(milliseconds timeout) {
-    const auto deadline = steady_clock::now() + timeout;
-    while (!version_seen_) {
-      const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-      if (left.count() <= 0 || !fill(left)) break;
-    }
-    return lawicel_;
   }
 
   std::unique_ptr<SerialPort> port_;
