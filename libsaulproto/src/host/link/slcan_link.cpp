@@ -155,14 +155,10 @@ class SlcanLink final : public CanLink {
 
 }  // namespace
 
-std::unique_ptr<CanLink> open_slcan(std::unique_ptr<SerialPort> port, const SlcanOptions& options) {
-  return std::make_unique<SlcanLink>(std::move(port), options);
-}
-
 std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options) {
   SerialSettings s;
   s.baud = 115200;  // USB CDC ignores it; a real UART adapter would need the right value
-  return as_link([&] { return open_slcan(open_serial(path, s, options.backend), options); });
+  return as_link([&] { return std::make_unique<SlcanLink>(open_serial(path, s, options.backend), options); });
 }
 
 }  // namespace saul::host

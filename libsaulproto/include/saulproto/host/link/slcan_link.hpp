@@ -21,7 +21,4 @@ struct SlcanOptions {
 
 std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options = {});
 
-/// Wraps an already-open serial port (tests, the simulator).
-std::unique_ptr<CanLink> open_slcan(std::unique_ptr<SerialPort> port, const SlcanOptions& options = {});
-
 }  // namespace saul::host
