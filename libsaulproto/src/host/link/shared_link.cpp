@@ -24,13 +24,6 @@ constexpr std::size_t kHoldFrames = 2048;
 constexpr std::size_t kMaxQueuedBytes = 1 << 16;
 
 // The queues of what was read for a process; when one is full its oldest goes (frames counted).
-void push_frame(std::deque<CanFrame>& q, const CanFrame& f, std::uint64_t& dropped) {
-  if (q.size() >= kMaxQueuedFrames) {
-    q.pop_front();
-    ++dropped;
-  }
-  q.push_back(f);
-}
 void push_bytes(std::deque<std::uint8_t>& q, std::span<const std::uint8_t> data) {
   q.insert(q.end(), data.begin(), data.end());
   if (q.size() > kMaxQueuedBytes)
@@ -310,7 +303,11 @@ class SharedCanLink final : public CanLink, private ShareEnd {
       std::lock_guard lock(inbox_mu_);
       for (const CanFrame& f : frames) {
         if (!passes(filters_, f)) continue;
-        push_frame(queue_, f, dropped_);
+        if (queue_.size() >= kMaxQueuedFrames) {
+          queue_.pop_front();
+          ++dropped_;
+        }
+        queue_.push_back(f);
         queued = true;
       }
     }
