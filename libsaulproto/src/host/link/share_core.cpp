@@ -225,8 +225,8 @@ bool priority(const std::vector<std::uint8_t>& m) {
 
 std::string OwnerCore::Client::text() const { return fmt::format("{} (pid {})", command.empty() ? "?" : command, pid); }
 
-OwnerCore::OwnerCore(std::string device, std::string link_text, bool listen_only)
-    : listen_only_(listen_only), device_(canonical_device(device)), link_text_(std::move(link_text)) {}
+OwnerCore::OwnerCore(std::string device, std::string link_text)
+    : device_(canonical_device(device)), link_text_(std::move(link_text)) {}
 
 std::string OwnerCore::sharing_text() const {
   if (!serving_) return "";

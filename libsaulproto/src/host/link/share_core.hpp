@@ -154,7 +154,7 @@ class OwnerCore {
     [[nodiscard]] std::string text() const;
   };
 
-  OwnerCore(std::string device, std::string link_text, bool listen_only);
+  OwnerCore(std::string device, std::string link_text);
   virtual ~OwnerCore() = default;
 
   /// Creates the socket (when the directory is not private: a notice, and nothing is shared) and starts the serving
@@ -199,7 +199,6 @@ class OwnerCore {
 
   mutable std::mutex io_;  ///< the device: the serving thread's reads, every write
   EventFd inbox_;          ///< wakes this process's reader
-  std::atomic<bool> listen_only_;  ///< CAN: opened listen-only and no ESTOP sent yet
 
  private:
   void run();

@@ -44,8 +44,8 @@ std::vector<std::uint8_t> frame_message(const CanFrame& f) { return Out(Msg::fra
 /// ends derive from it; what they read waits in a queue of theirs under `inbox_mu_`.
 class ShareEnd : protected OwnerCore {
  protected:
-  ShareEnd(std::string device, std::string link_text, bool listen_only, Hello hello)
-      : OwnerCore(device, std::move(link_text), listen_only), device_(std::move(device)), hello_(std::move(hello)) {}
+  ShareEnd(std::string device, std::string link_text, Hello hello)
+      : OwnerCore(device, std::move(link_text)), device_(std::move(device)), hello_(std::move(hello)) {}
 
   /// Joins an owner, or becomes one (open_device(), then serving it); while another saulctl holds the device but is
   /// not serving yet (starting, or handing over), tries again for up to two seconds.
@@ -119,14 +119,13 @@ class ShareEnd : protected OwnerCore {
                                milliseconds slack) {
     const auto deadline = steady_clock::now() + timeout + slack;
     sock_->send(m, timeout);
-    std::vector<std::uint8_t> got;
     for (;;) {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
       if (left.count() < 0)
         throw LinkError(LinkError::Kind::timeout,
                         fmt::format("{} did not confirm the write in time", sock_->owner().owner_text()));
-      if (!sock_->next(got, left)) continue;
-      In in(got);
+      if (!sock_->next(msg_, left)) continue;
+      In in(msg_);
       const Msg type = in.type();
       if (type != Msg::sent) {
         dispatch(type, in);
@@ -198,7 +197,7 @@ class ShareEnd : protected OwnerCore {
 
   std::string device_;
   Hello hello_;
-  std::vector<std::uint8_t> msg_;  ///< read_input()'s message
+  std::vector<std::uint8_t> msg_;  ///< the owner's last message
 };
 
 // ---- CAN ------------------------------------------------------------------------------------------------------------
@@ -206,10 +205,9 @@ class ShareEnd : protected OwnerCore {
 class SharedCanLink final : public CanLink, private ShareEnd {
  public:
   SharedCanLink(const LinkSpec& spec, bool listen_only, const std::vector<CanFilter>& filters, bool paced)
-      : ShareEnd(spec.device, spec.text(), listen_only,
-                 {.kind = Kind::can, .command = self_command(), .rate = spec.bitrate}),
+      : ShareEnd(spec.device, spec.text(), {.kind = Kind::can, .command = self_command(), .rate = spec.bitrate}),
         spec_(spec),
-        listen_only_opened_(listen_only),
+        listen_only_(listen_only),
         paced_(paced),
         name_("slcan:" + spec.device),
         filters_(filters) {
@@ -280,7 +278,7 @@ class SharedCanLink final : public CanLink, private ShareEnd {
 
  private:
   int open_device() override {
-    const SlcanOptions o{.bitrate = spec_.bitrate, .listen_only = listen_only_opened_, .backend = spec_.backend};
+    const SlcanOptions o{.bitrate = spec_.bitrate, .listen_only = listen_only_, .backend = spec_.backend};
     real_ = open_slcan(spec_.device, o);
     return real_->poll_handle();
   }
@@ -387,7 +385,7 @@ class SharedCanLink final : public CanLink, private ShareEnd {
   }
 
   const LinkSpec spec_;
-  const bool listen_only_opened_;
+  std::atomic<bool> listen_only_;  ///< no ESTOP sent yet (a client leaves it: a take-over opens the adapter as asked)
   const bool paced_;  ///< LinkOpenOptions::paced
   const std::string name_;
   std::unique_ptr<CanLink> real_;  ///< the owner's adapter
@@ -410,7 +408,7 @@ auto as_serial(F&& f) { return rethrow_as(to_serial_error, std::forward<F>(f)); 
 class SharedSerialPort final : public SerialPort, private ShareEnd {
  public:
   SharedSerialPort(const std::string& path, const SerialSettings& settings, SerialBackend backend)
-      : ShareEnd(path, fmt::format("serial:{}@{}:{}", path, settings.baud, to_string(settings)), false,
+      : ShareEnd(path, fmt::format("serial:{}@{}:{}", path, settings.baud, to_string(settings)),
                  {.kind = Kind::serial, .command = self_command(), .rate = settings.baud,
                   .format = to_string(settings)}),
         path_(path),
