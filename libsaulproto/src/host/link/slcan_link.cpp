@@ -82,24 +82,18 @@ class SlcanLink final : public CanLink {
   [[nodiscard]] int poll_handle() const override { return port_->poll_handle(); }
 
  private:
-  // Reads and parses until `done` holds; false when `timeout` passed first.
+  // Reads chunks and parses them until `done` holds; false when `timeout` passed first.
   template <class Done>
   bool fill_until(Done done, milliseconds timeout) {
     const auto deadline = steady_clock::now() + timeout;
     while (!done()) {
       const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
-      if (left.count() < 0 || !fill(left)) return false;
+      std::array<std::uint8_t, 4096> buf{};
+      const std::size_t n = left.count() < 0 ? 0 : as_link([&] { return port_->read(buf, left); });
+      if (n == 0) return false;
+      const std::uint64_t stamp = realtime_ns();  // one stamp per read: the stock firmwares send none
+      decoder_.push(std::span<const std::uint8_t>(buf.data(), n), [&](const slcan::Event& e) { on_event(e, stamp); });
     }
-    return true;
-  }
-
-  // Reads one chunk and parses it; returns false on timeout.
-  bool fill(milliseconds timeout) {
-    std::array<std::uint8_t, 4096> buf{};
-    const std::size_t n = as_link([&] { return port_->read(buf, timeout); });
-    if (n == 0) return false;
-    const std::uint64_t stamp = realtime_ns();  // one stamp per read: the stock firmwares send none
-    decoder_.push(std::span<const std::uint8_t>(buf.data(), n), [&](const slcan::Event& e) { on_event(e, stamp); });
     return true;
   }
 
