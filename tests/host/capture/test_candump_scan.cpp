@@ -1,4 +1,4 @@
-// CandumpScanner (large reads, lines scanned in place, batches) reads what the log read line by line with
+// CandumpReader (large reads, lines scanned in place, batches) reads what the log read line by line with
 // parse_candump_line gives (test::CandumpLineModel): the same frames,
 // interfaces and corrupt-line reports, whatever the block size; an over-long line (200 MB here, written through a
 // pipe on the fly) is reported at its line and skipped without being held, and the lines after it still read;
@@ -44,7 +44,7 @@ struct Seen {
   std::vector<std::string> errors;  // in order among the frames: "before N: FILE:LINE:COL: message"
 };
 
-/// The records of a CandumpScanner's or a reader's batches, in order.
+/// The records of a reader's batches, in order.
 template <class Batches>
 Seen with_batches(Batches& source) {
   Seen s;
@@ -105,7 +105,7 @@ TEST_CASE("candump scanner: the frames, interfaces and reports of the line-by-li
   for (std::size_t block : {1, 2, 7, 64, 4096}) {
     INFO("block " << block);
     Pipe pipe([](int fd) { write_all(fd, kLog.data(), kLog.size()); });
-    CandumpScanner scanner(pipe.fds[0], block);
+    CandumpReader scanner(pipe.fds[0], block);
     const Seen got = with_batches(scanner);
     CHECK(got.frames == expected.frames);
     CHECK(got.interfaces == expected.interfaces);
@@ -128,7 +128,7 @@ TEST_CASE("candump scanner: a 200 MB line is reported at its line and skipped, t
     const std::string tail = "\n(1700000000.200000) can0 400#01\n(1700000000.300000) can1 401#02\n";
     write_all(fd, tail.data(), tail.size());
   });
-  CandumpScanner scanner(pipe.fds[0]);
+  CandumpReader scanner(pipe.fds[0]);
   const Seen got = with_batches(scanner);
   REQUIRE(got.frames.size() == 3);
   CHECK(got.frames[0].id == 0x300);
@@ -159,7 +159,7 @@ TEST_CASE("candump scanner: ranges from split_candump_blocks start at line start
     for (std::size_t k = 0; k + 1 < starts.size(); ++k) {
       REQUIRE(starts[k] < starts[k + 1]);
       if (k > 0) CHECK(log[starts[k] - 1] == '\n');
-      CandumpScanner scanner(fd, starts[k], starts[k + 1], 64);
+      CandumpReader scanner(fd, starts[k], starts[k + 1], 64);
       const Seen s = with_batches(scanner);
       frames += s.frames.size();
       for (const auto& e : s.errors) errors += e;
@@ -227,7 +227,7 @@ TEST_CASE("pcap reader: a regular file read with pread gives the frames and byte
   REQUIRE(::write(fd, pcap.data(), pcap.size()) == static_cast<ssize_t>(pcap.size()));
   for (std::size_t block : {1, 33, 4096, 1 << 20}) {
     INFO("block " << block);
-    PcapScanner scanner(fd, pcap.size(), 0, pcap.size(), block);
+    PcapReader scanner(fd, pcap.size(), 0, pcap.size(), {}, block);
     Seen got;
     FrameBatch batch;
     while (scanner.next_batch(batch)) {
@@ -302,7 +302,7 @@ TEST_CASE("candump scanner: a line taker's lines and the batches give the line-b
   for (std::size_t block : {1, 7, 100, 4096, 1 << 20}) {
     INFO("block " << block);
     Pipe pipe([&](int fd) { write_all(fd, log.data(), log.size()); });
-    CandumpScanner scanner(pipe.fds[0], block);
+    CandumpReader scanner(pipe.fds[0], block);
     Seen got;
     Taker taker;
     taker.seen = &got;

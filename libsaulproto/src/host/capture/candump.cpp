@@ -220,25 +220,25 @@ bool parse_candump_usual(std::string_view line, CanFrame& f, std::string_view& i
   return true;
 }
 
-CandumpScanner::CandumpScanner(int fd, std::size_t block_bytes) : fd_(fd) { allocate(block_bytes); }
+CandumpReader::CandumpReader(int fd, std::size_t block_bytes) : fd_(fd) { allocate(block_bytes); }
 
-CandumpScanner::CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
+CandumpReader::CandumpReader(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
     : fd_(fd), positional_(true), offset_(begin), end_(end) {
   allocate(block_bytes);
 }
 
-CandumpScanner::CandumpScanner(std::string_view text, std::size_t block_bytes) : text_(text) { allocate(block_bytes); }
+CandumpReader::CandumpReader(std::string_view text, std::size_t block_bytes) : text_(text) { allocate(block_bytes); }
 
-CandumpScanner::CandumpScanner(std::istream& in, std::size_t block_bytes) : in_(&in) { allocate(block_bytes); }
+CandumpReader::CandumpReader(std::istream& in, std::size_t block_bytes) : in_(&in) { allocate(block_bytes); }
 
-void CandumpScanner::allocate(std::size_t block_bytes) {
+void CandumpReader::allocate(std::size_t block_bytes) {
   block_ = block_bytes;
   cap_ = block_bytes + kMaxCandumpLine + 1;
   buf_.reset(new char[cap_ + kCandumpLineSlack]);  // not zeroed: only what was read is looked at
   std::memset(buf_.get() + cap_, 0, kCandumpLineSlack);
 }
 
-std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
+std::size_t CandumpReader::fill(char* dst, std::size_t n) {
   if (in_ != nullptr) {
     const auto got = static_cast<std::size_t>(in_->rdbuf()->sgetn(dst, static_cast<std::streamsize>(n)));
     offset_ += got;
@@ -266,9 +266,9 @@ std::size_t CandumpScanner::fill(char* dst, std::size_t n) {
   }
 }
 
-void CandumpScanner::line(std::string_view text, FrameBatch& batch) {
+void CandumpReader::line(std::string_view text, FrameBatch& batch) {
   ++line_;
-  if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer (and CandumpReader) does
+  if (text.empty() || text[0] != '(') {  // comment or blank, as canplayer does
     if (first_other_.empty() && text.find_first_not_of(" \t\r") != std::string_view::npos)
       first_other_.assign(text.substr(0, 256));
     return;
@@ -294,13 +294,13 @@ void CandumpScanner::line(std::string_view text, FrameBatch& batch) {
   corrupt(batch, error.column, std::move(error.message));
 }
 
-void CandumpScanner::corrupt(FrameBatch& batch, std::size_t column, std::string message) {
+void CandumpReader::corrupt(FrameBatch& batch, std::size_t column, std::string message) {
   FrameBatch::Corrupt& bad = batch.corrupt.emplace_back();
   bad.before = batch.frames.size();
   detail::line_error(bad.error, line_, column, std::move(message));
 }
 
-bool CandumpScanner::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
+bool CandumpReader::next_batch(FrameBatch& batch, CandumpLineTaker* taker) {
   batch.clear();
   // with a taker, a batch ends at its first entry (what was taken after it would come before it)
   auto taker_stops = [&] { return taker != nullptr && (!batch.frames.empty() || !batch.corrupt.empty()); };

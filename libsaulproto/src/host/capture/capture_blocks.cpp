@@ -39,7 +39,7 @@ std::unique_ptr<CaptureBlocks> CaptureBlocks::of(int fd, std::uint64_t size, Cap
       break;
     case CaptureFormat::pcap:
       try {
-        const PcapScanner header(fd, size, 0, 0, std::span<const std::uint8_t>());  // reads the file header alone
+        const PcapReader header(fd, size, 0, 0);  // reads the file header alone
         blocks->cutter_ = detail::pcap_block_cutter(fd, size, header.big_endian(), block_bytes);
       } catch (const CaptureOpenError&) {
         return nullptr;  // not a pcap header after all
@@ -152,7 +152,7 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
   const std::uint8_t* const lent = r->lent ? scratch.bytes.data() + r->offset : nullptr;
   switch (format_) {
     case CaptureFormat::candump: {
-      CandumpScanner scanner(fd_, begin, end, std::size_t{256} << 10);
+      CandumpReader scanner(fd_, begin, end, std::size_t{256} << 10);
       while (scanner.next_batch(batch, taker) && each(batch)) {
       }
       read.lines = scanner.lines();
@@ -160,12 +160,9 @@ CaptureBlocks::Read CaptureBlocks::read(std::size_t k, Scratch& scratch,
       break;
     }
     case CaptureFormat::pcap: {
-      std::optional<PcapScanner> scanner;
-      if (lent != nullptr)
-        scanner.emplace(fd_, size_, begin, end, std::span<const std::uint8_t>(lent, end - begin));
-      else
-        scanner.emplace(fd_, size_, begin, end, std::size_t{256} << 10);
-      while (scanner->next_batch(batch) && each(batch)) {
+      PcapReader scanner(fd_, size_, begin, end, std::span<const std::uint8_t>(lent, lent ? end - begin : 0),
+                         std::size_t{256} << 10);
+      while (scanner.next_batch(batch) && each(batch)) {
       }
       read.bytes = end - (k == 0 ? 0 : begin);  // block 0 counts the file header too
       break;

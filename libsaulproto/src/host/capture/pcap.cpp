@@ -85,27 +85,20 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
 
 // ---- reader ----
 
-PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes)
-    : fd_(fd), size_(size), cap_(block_bytes + kMaxRecord + 16), block_(block_bytes) {
-  buf_.reset(new std::uint8_t[cap_]);
-  data_ = buf_.get();
+PcapReader::PcapReader(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+                       std::span<const std::uint8_t> bytes, std::size_t block_bytes)
+    : fd_(fd), size_(size), cap_(bytes.data() ? 0 : block_bytes + kMaxRecord + 16),
+      block_(bytes.data() ? 0 : block_bytes) {
+  if (bytes.data() == nullptr) buf_.reset(new std::uint8_t[cap_]);
+  data_ = bytes.data() ? bytes.data() : buf_.get();
   read_header();
-  offset_ = read_to_ = begin < 24 ? 24 : begin;
-  size_ = end < size ? end : size;
-}
-
-PcapScanner::PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
-                         std::span<const std::uint8_t> bytes)
-    : fd_(fd), size_(size), cap_(0), block_(0) {
-  read_header();
-  data_ = bytes.data();
   tail_ = bytes.size();
   offset_ = begin < 24 ? 24 : begin;
   read_to_ = offset_ + bytes.size();
   size_ = end < size ? end : size;
 }
 
-void PcapScanner::read_header() {
+void PcapReader::read_header() {
   std::array<std::uint8_t, 24> h{};
   std::uint64_t counted = 0;
   const std::size_t got = in_ != nullptr ? detail::read_counted(*in_, h.data(), h.size(), counted)
@@ -131,7 +124,7 @@ void PcapScanner::read_header() {
                         : ""));
 }
 
-PcapScanner::PcapScanner(std::istream& in, std::size_t block_bytes)
+PcapReader::PcapReader(std::istream& in, std::size_t block_bytes)
     : in_(&in), size_(std::numeric_limits<std::uint64_t>::max()), cap_(block_bytes + kMaxRecord + 16),
       block_(block_bytes) {
   buf_.reset(new std::uint8_t[cap_]);
@@ -172,7 +165,7 @@ std::unique_ptr<detail::BlockCutter> detail::pcap_block_cutter(int fd, std::uint
 }
 
 // At least n bytes from head_ in the buffer, or all that is left of the file; returns how many there are.
-std::size_t PcapScanner::ensure(std::size_t n) {
+std::size_t PcapReader::ensure(std::size_t n) {
   if (tail_ - head_ >= n || read_to_ >= size_) return tail_ - head_;
   if (head_ > 0) {
     std::memmove(buf_.get(), buf_.get() + head_, tail_ - head_);  // (bytes in memory: all there, never here)
@@ -199,12 +192,12 @@ std::size_t PcapScanner::ensure(std::size_t n) {
   return tail_ - head_;
 }
 
-void PcapScanner::corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
+void PcapReader::corrupt(FrameBatch& batch, std::uint64_t at, Recovery recovery, std::string message) {
   if (recovery == Recovery::stop) stopped_ = true;
   batch.corrupt.push_back({batch.frames.size(), detail::byte_error(at, recovery, std::move(message))});
 }
 
-bool PcapScanner::next_batch(FrameBatch& batch) {
+bool PcapReader::next_batch(FrameBatch& batch) {
   batch.clear();
   while (!stopped_ && batch.frames.size() < FrameBatch::kMax) {
     const std::uint64_t start = offset_;

@@ -2,7 +2,7 @@
 // and canplayer reads them (syntax and choices: docs/captures.md "candump"). CAN FD lines ("##") are reported as
 // unsupported: the robot's bus is classic CAN.
 //
-// CandumpScanner is the one reader: large reads into one buffer, lines scanned in place, frames handed out in
+// CandumpReader is the one reader: large reads into one buffer, lines scanned in place, frames handed out in
 // batches, from a file descriptor, a range of a regular file, text in memory or a stream. Memory is one buffer
 // (block size + kMaxCandumpLine), whatever the file size: a longer line is reported as corrupt and skipped. A file
 // can be read in ranges that start at line starts (split_candump_blocks), each by a scanner of its own.
@@ -203,30 +203,30 @@ class CandumpFixedTimes {
   std::uint64_t seconds_ns_ = 0;
 };
 
-class CandumpScanner {
+class CandumpReader final : public CaptureReader {
  public:
-  /// Reads `fd` (not owned, not closed) from its current position to its end with read(2): files and pipes.
-  explicit CandumpScanner(int fd, std::size_t block_bytes = kDefaultBlock);
+  /// Reads `fd` (not owned, not closed) from its current position to its end with read(2) as its bytes come: files
+  /// and pipes (a pipe from `candump -L` is decoded line by line).
+  explicit CandumpReader(int fd, std::size_t block_bytes = kDefaultBlock);
   /// Reads the byte range [begin, end) of a regular file with pread(2) (begin a line start, e.g. from
   /// split_candump_blocks). Line numbers count from the range's first line.
-  CandumpScanner(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes = kDefaultBlock);
+  CandumpReader(int fd, std::uint64_t begin, std::uint64_t end, std::size_t block_bytes = kDefaultBlock);
   /// Reads `text` (kept alive by the caller; a block of lines cut from a stream, CaptureTextBlocks).
-  explicit CandumpScanner(std::string_view text, std::size_t block_bytes = kDefaultBlock);
+  explicit CandumpReader(std::string_view text, std::size_t block_bytes = kDefaultBlock);
   /// Reads `in` (kept alive by the caller: a compressed file's content) to its end.
-  explicit CandumpScanner(std::istream& in, std::size_t block_bytes = std::size_t{256} << 10);
-  CandumpScanner(const CandumpScanner&) = delete;
-  CandumpScanner& operator=(const CandumpScanner&) = delete;
+  explicit CandumpReader(std::istream& in, std::size_t block_bytes = std::size_t{256} << 10);
 
   /// Fills `batch` (cleared first) with the lines of up to one block (at most FrameBatch::kMax frames); false
   /// (batch empty) at the end. Throws std::runtime_error when reading fails.
-  bool next_batch(FrameBatch& batch) { return next_batch(batch, nullptr); }
+  bool next_batch(FrameBatch& batch) override { return next_batch(batch, nullptr); }
   /// The same with the lines `taker` takes left out; in file order with them, a batch ends at the first frame or
   /// corrupt line the taker did not take (false at the end, when the taker may have taken everything).
   bool next_batch(FrameBatch& batch, CandumpLineTaker* taker);
   /// Lines seen so far (comments and corrupt lines included).
   [[nodiscard]] std::uint64_t lines() const noexcept { return line_; }
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
   /// Bytes read so far (from the range's start).
-  [[nodiscard]] std::uint64_t bytes_read() const noexcept { return consumed_; }
+  [[nodiscard]] std::uint64_t bytes_read() const noexcept override { return consumed_; }
   /// The first 256 bytes of the first line that was neither blank nor a candump line (a comment), "" when none:
   /// what a file that yields no frame looks like.
   [[nodiscard]] const std::string& first_other() const noexcept { return first_other_; }
@@ -257,27 +257,12 @@ class CandumpScanner {
   std::string first_other_;
 };
 
+/// The name the read path and the benchmarks know the candump reader by.
+using CandumpScanner = CandumpReader;
+
 /// The starts of ranges of about `block` bytes (never empty) that cut [0, size) of a regular file at line starts:
 /// 0, ..., then `size`. Reads only near the cuts. Throws std::runtime_error when reading fails.
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block);
-
-/// The candump member of the capture interface: CandumpScanner's batches.
-class CandumpReader final : public CaptureReader {
- public:
-  /// Reads a stream the caller keeps alive (a compressed file: what its decompressor gives).
-  explicit CandumpReader(std::istream& in) : scanner_(in) {}
-  /// Reads `fd` (not owned) with read(2) as its bytes come: a pipe from `candump -L` is decoded line by line.
-  explicit CandumpReader(int fd) : scanner_(fd) {}
-
-  bool next_batch(FrameBatch& batch) override { return scanner_.next_batch(batch); }
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::candump; }
-  [[nodiscard]] std::uint64_t bytes_read() const override { return scanner_.bytes_read(); }
-  /// CandumpScanner::first_other(): what a stream that gave no frame looks like.
-  [[nodiscard]] const std::string& first_other() const noexcept { return scanner_.first_other(); }
-
- private:
-  CandumpScanner scanner_;
-};
 
 /// Writes `candump -l` lines (format_candump_line, LF), which canplayer replays.
 class CandumpWriter final : public StreamCaptureWriter {

@@ -54,7 +54,7 @@ class CaptureBlocks {
   };
   /// Block k's (has(k)) frames and corrupt records, batch by batch in file order, to each(batch) until it returns
   /// false; blocks can be read at once on several threads, each with its own Scratch. A candump block's lines go to
-  /// `taker` first (CandumpScanner::next_batch). Throws std::system_error when reading fails.
+  /// `taker` first (CandumpReader::next_batch). Throws std::system_error when reading fails.
   Read read(std::size_t k, Scratch& scratch, const std::function<bool(const FrameBatch&)>& each,
             CandumpLineTaker* taker = nullptr) const;
   /// The time of the first frame that `keep` accepts (every frame when empty), 0 for a frame without one; nullopt

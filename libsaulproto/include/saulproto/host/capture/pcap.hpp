@@ -3,7 +3,7 @@
 // live socket's can_frame; payload_length is authoritative (records of 16 bytes or of the payload alone).
 // Reading: both byte orders, µs and ns magic. A record with bad content is reported and skipped; a truncated
 // record or an implausible length stops reading. CAN FD packets are reported as unsupported. Every frame reads as
-// "can0". PcapScanner is the one reader; PcapReader hands its frames out one at a time.
+// "can0". PcapReader reads a file, a range of one or a stream.
 // Writing: little-endian, microsecond magic unless asked for nanoseconds, snaplen 65535, 16-byte records.
 #pragma once
 
@@ -36,24 +36,21 @@ std::array<std::uint8_t, 16> encode_socketcan_packet(const CanFrame& frame) noex
 /// The pcap reader: large reads into one buffer, records decoded in place, frames handed out in batches. Reads a
 /// regular file with pread(2) (whole, or a range of it: a block of the read path) or a stream. Memory is one buffer
 /// (block size + the longest record accepted), whatever the file size.
-class PcapScanner {
+class PcapReader final : public CaptureReader {
  public:
   /// Reads the records from byte `begin` (a record's start, where CaptureBlocks cuts) to `end` of the regular file
-  /// `fd` (not owned) of `size` bytes with pread(2). The 24-byte file header is checked as PcapReader does
-  /// (CaptureOpenError).
-  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
-              std::size_t block_bytes = std::size_t{1} << 20);
-  /// The same with the file's bytes [begin, end) already in memory (`bytes`, kept alive by the caller): nothing is
-  /// read but the header.
-  PcapScanner(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end, std::span<const std::uint8_t> bytes);
-  /// Reads `in` (kept alive by the caller) from its file header on, without seeking.
-  explicit PcapScanner(std::istream& in, std::size_t block_bytes = std::size_t{64} << 10);
-  PcapScanner(const PcapScanner&) = delete;
-  PcapScanner& operator=(const PcapScanner&) = delete;
+  /// `fd` (not owned) of `size` bytes with pread(2), or from the file's bytes [begin, end) when they are in memory
+  /// (`bytes`, kept alive by the caller: nothing is read but the header). The 24-byte file header is checked as a
+  /// stream's is below (CaptureOpenError).
+  PcapReader(int fd, std::uint64_t size, std::uint64_t begin, std::uint64_t end,
+             std::span<const std::uint8_t> bytes = {}, std::size_t block_bytes = std::size_t{1} << 20);
+  /// Reads `in` (kept alive by the caller) from its file header on, without seeking: throws CaptureOpenError when
+  /// the 24-byte file header is missing, not pcap, or not link type 227.
+  explicit PcapReader(std::istream& in, std::size_t block_bytes = std::size_t{64} << 10);
 
   /// Fills `batch` (cleared first) with up to FrameBatch::kMax records; false (batch empty) at the end.
-  bool next_batch(FrameBatch& batch);
-  [[nodiscard]] std::uint64_t bytes_read() const noexcept { return offset_; }
+  bool next_batch(FrameBatch& batch) override;
+  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
   [[nodiscard]] bool big_endian() const noexcept { return big_; }
 
  private:
@@ -74,19 +71,6 @@ class PcapScanner {
   bool big_ = false;
   bool nano_ = false;
   bool stopped_ = false;
-};
-
-/// PcapScanner over a stream as a CaptureReader.
-class PcapReader final : public CaptureReader {
- public:
-  /// Reads the 24-byte file header; throws CaptureOpenError when it is missing, not pcap, or not link type 227.
-  explicit PcapReader(std::istream& in) : scanner_(in) {}
-
-  bool next_batch(FrameBatch& batch) override { return scanner_.next_batch(batch); }
-  [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::pcap; }
-
- private:
-  PcapScanner scanner_;
 };
 
 struct PcapWriterOptions {
