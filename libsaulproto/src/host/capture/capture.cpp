@@ -611,28 +611,40 @@ std::unique_ptr<CaptureWriter> make_capture_writer(std::ostream& out, CaptureFor
 }
 
 namespace {
-/// The format's reader of an opened file of CAN frames; MCAP's is told the file's size, so that a record longer than
-/// the file is reported as such at once (not read up to the file's end first).
-std::unique_ptr<CaptureReader> frame_reader(std::unique_ptr<FileSource> source, const std::string& path,
-                                            CaptureFormat format) {
+/// open_capture(), with the kind of capture the caller reads (`serial`; any when nullopt): the other kind is refused
+/// before a reader is made. MCAP's reader is told the file's size, so that a record longer than the file is reported
+/// as such at once (not read up to the file's end first).
+OpenedCapture open_kind(const std::string& path, const SerialReadOptions& options,
+                        std::optional<CaptureFormat> format, std::optional<bool> serial) {
+  if (!format) format = options.format;
+  auto source = open_source(path, format);
+  OpenedCapture opened;
+  opened.format = *format;
+  opened.compressed = source->inflater != nullptr;
+  if (serial && holds_serial_bytes(*format) != *serial)
+    throw CaptureOpenError(fmt::format("'{}' holds {} ({}), not {}", path, *serial ? "CAN frames" : "serial bytes",
+                                       to_string(*format), *serial ? "serial bytes" : "CAN frames"));
+  if (holds_serial_bytes(*format)) {
+    auto inner = make_serial_capture_reader(source->stream, *format, options);
+    opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+    return opened;
+  }
   try {
     std::unique_ptr<CaptureReader> inner;
-    if (format == CaptureFormat::mcap && !source->inflater)
+    if (*format == CaptureFormat::mcap && !source->inflater)
       inner = std::make_unique<McapFrameReader>(source->stream, source->size);
     else
-      inner = make_capture_reader(source->stream, format);
-    return std::make_unique<FileReader>(std::move(source), std::move(inner));
+      inner = make_capture_reader(source->stream, *format);
+    opened.frames = std::make_unique<FileReader>(std::move(source), std::move(inner));
   } catch (const CaptureOpenError& e) {
     throw CaptureOpenError(fmt::format("'{}': {}", path, e.what()));
   }
+  return opened;
 }
 }  // namespace
 
 std::unique_ptr<CaptureReader> open_capture_reader(const std::string& path, std::optional<CaptureFormat> format) {
-  auto source = open_source(path, format);
-  if (holds_serial_bytes(*format))
-    throw CaptureOpenError(fmt::format("'{}' holds serial bytes ({}), not CAN frames", path, to_string(*format)));
-  return frame_reader(std::move(source), path, *format);
+  return open_kind(path, {}, format, false).frames;
 }
 
 namespace {
@@ -663,28 +675,12 @@ std::unique_ptr<CaptureText> take_capture_text(std::unique_ptr<CaptureReader>& r
 std::unique_ptr<SerialCaptureReader> open_serial_capture_reader(const std::string& path,
                                                                 const SerialReadOptions& options,
                                                                 std::optional<CaptureFormat> format) {
-  if (!format) format = options.format;
-  auto source = open_source(path, format);
-  if (!holds_serial_bytes(*format))
-    throw CaptureOpenError(fmt::format("'{}' holds CAN frames ({}), not serial bytes", path, to_string(*format)));
-  auto inner = make_serial_capture_reader(source->stream, *format, options);
-  return std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
+  return open_kind(path, options, format, true).chunks;
 }
 
 OpenedCapture open_capture(const std::string& path, const SerialReadOptions& options,
                            std::optional<CaptureFormat> format) {
-  if (!format) format = options.format;
-  auto source = open_source(path, format);
-  OpenedCapture opened;
-  opened.format = *format;
-  opened.compressed = source->inflater != nullptr;
-  if (holds_serial_bytes(*format)) {
-    auto inner = make_serial_capture_reader(source->stream, *format, options);
-    opened.chunks = std::make_unique<FileSerialReader>(std::move(source), std::move(inner));
-    return opened;
-  }
-  opened.frames = frame_reader(std::move(source), path, *format);
-  return opened;
+  return open_kind(path, options, format, std::nullopt);
 }
 
 std::unique_ptr<CaptureWriter> open_capture_writer(
