@@ -202,21 +202,10 @@ CaptureFormat candump_or_serial(std::string_view line) {
   return CaptureFormat::serial;
 }
 
-/// Up to n bytes of a stream buffer, fewer only at its end (a decompressor hands out its data in pieces).
-std::size_t read_full(std::streambuf& source, char* dst, std::size_t n) {
-  std::size_t done = 0;
-  while (done < n) {
-    const std::streamsize got = source.sgetn(dst + done, static_cast<std::streamsize>(n - done));
-    if (got <= 0) break;
-    done += static_cast<std::size_t>(got);
-  }
-  return done;
-}
-
 /// Reads up to kHeadBytes from a stream buffer, for detection (the ReplayBuf hands them out again).
 std::string read_head(std::streambuf& source) {
   std::string head(kHeadBytes, '\0');
-  head.resize(read_full(source, head.data(), head.size()));
+  head.resize(detail::read_some(source, head.data(), head.size()));
   return head;
 }
 
@@ -652,7 +641,7 @@ namespace {
 class FileText final : public CaptureText {
  public:
   explicit FileText(std::unique_ptr<FileSource> source) : source_(std::move(source)) {}
-  std::size_t read(char* dst, std::size_t n) override { return read_full(*source_->stream.rdbuf(), dst, n); }
+  std::size_t read(char* dst, std::size_t n) override { return detail::read_some(*source_->stream.rdbuf(), dst, n); }
   [[nodiscard]] std::uint64_t bytes_read() const override { return source_->bytes_read(); }
   [[nodiscard]] std::optional<CaptureError> end_error() const override { return source_->decompression_error(); }
   [[nodiscard]] bool compressed() const override { return source_->inflater != nullptr; }

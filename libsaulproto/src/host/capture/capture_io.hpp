@@ -181,13 +181,18 @@ class HeaderWindow {
   std::uint64_t from_ = 0, to_ = 0;  // the file bytes in buf_ from buf_[kFront] on
 };
 
+/// Reads up to n bytes of a stream buffer, fewer only at its end (sgetn reads on through short reads of a pipe and
+/// a decompressor's pieces until then); 0 at the end.
+inline std::size_t read_some(std::streambuf& source, char* dst, std::size_t n) {
+  const std::streamsize got = source.sgetn(dst, static_cast<std::streamsize>(n));
+  return got > 0 ? static_cast<std::size_t>(got) : 0;
+}
+
 /// Reads up to n bytes, adding what arrived to `offset`; returns that count (fewer than n only at the end). Straight
 /// from the stream's buffer: istream::read()'s sentry per call cost a fifth of reading a pcapng packet.
 inline std::size_t read_counted(std::istream& in, std::uint8_t* dst, std::size_t n, std::uint64_t& offset) {
   std::streambuf* buf = in.rdbuf();
-  const auto got = buf == nullptr ? std::size_t{0}
-                                  : static_cast<std::size_t>(buf->sgetn(reinterpret_cast<char*>(dst),
-                                                                        static_cast<std::streamsize>(n)));
+  const std::size_t got = buf == nullptr ? 0 : read_some(*buf, reinterpret_cast<char*>(dst), n);
   offset += got;
   return got;
 }

@@ -13,18 +13,13 @@
 #include <stdexcept>
 
 #include "../util.hpp"
+#include "capture_io.hpp"
 
 namespace saul::host {
 namespace {
 
 constexpr std::size_t kBufferBytes = 64 * 1024;
 constexpr int kZstdWindowLogMax = 27;  // 128 MiB: zstd's own default limit for streaming decoders
-
-/// Reads up to n bytes of a stream buffer; 0 at its end.
-std::size_t read_some(std::streambuf& source, char* dst, std::size_t n) {
-  const std::streamsize got = source.sgetn(dst, static_cast<std::streamsize>(n));
-  return got > 0 ? static_cast<std::size_t>(got) : 0;
-}
 
 /// Writes n bytes to a stream buffer; false when it takes fewer.
 bool write_all(std::streambuf& sink, const char* src, std::size_t n) {
@@ -45,7 +40,7 @@ class InflaterBase : public DecompressingBuf {
   explicit InflaterBase(std::streambuf& source) : source_(source) {}
   /// Reads more compressed bytes into `dst`; 0 at the end of the source.
   std::size_t take(char* dst, std::size_t n) {
-    const std::size_t got = read_some(source_, dst, n);
+    const std::size_t got = detail::read_some(source_, dst, n);
     compressed_ += got;
     return got;
   }
@@ -338,7 +333,7 @@ std::string compress_file(const std::string& path, Compression compression) {
     auto z = make_compressing_buf(out, compression);
     std::array<char, kBufferBytes> buffer{};
     for (;;) {
-      const std::size_t n = read_some(in, buffer.data(), buffer.size());
+      const std::size_t n = detail::read_some(in, buffer.data(), buffer.size());
       if (n == 0) break;
       if (!write_all(*z, buffer.data(), n)) {
         ok = false;
