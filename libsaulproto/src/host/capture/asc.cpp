@@ -303,18 +303,16 @@ AscReader::Step AscReader::canfd_line(std::string_view line, std::uint64_t time_
 
 // ---- writer ----
 
-void AscWriter::header(std::uint64_t first_ns) {
+void AscWriter::begin(std::uint64_t first_ns) {
   start_ns_ = first_ns - first_ns % kNsPerSecond;
   const std::string date = format_asc_date(start_ns_);
   out_ << "date " << date << "\nbase hex  timestamps absolute\ninternal events logged\nBegin Triggerblock " << date
        << "\n   0.000000 Start of measurement\n";
-  header_written_ = true;
 }
 
 void AscWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::size_t index = detail::channel_index(channels_, interface, 255, "ASC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
-  if (!header_written_) header(ns);
   const std::uint64_t rel = ns > start_ns_ ? ns - start_ns_ : 0;
   const std::uint64_t usec = rel / 1000U;
   std::string line = fmt::format("{:4}.{:06} {}  ", usec / 1'000'000U, usec % 1'000'000U, index + 1);
@@ -333,9 +331,6 @@ void AscWriter::put(const CanFrame& frame, std::string_view interface) {
   out_ << line;
 }
 
-void AscWriter::finish() {
-  if (!header_written_) header(0);
-  out_ << "End TriggerBlock\n";
-}
+void AscWriter::finish() { out_ << "End TriggerBlock\n"; }
 
 }  // namespace saul::host

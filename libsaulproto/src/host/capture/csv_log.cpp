@@ -164,11 +164,6 @@ CsvLogReader::Step CsvLogReader::row(std::string_view line) {
 
 // ---- writer ----
 
-CsvLogWriter::CsvLogWriter(std::ostream& out) : StreamCaptureWriter(out, "CSV") {
-  out_ << "timestamp,arbitration_id,extended,remote,error,dlc,data\n";
-  check_written();
-}
-
 void CsvLogWriter::put(const CanFrame& frame, std::string_view /*interface*/) {
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
   out_ << fmt::format("{}.{:06},0x{:x},{},{},{},{},{}\n", ns / 1'000'000'000ULL, ns % 1'000'000'000ULL / 1000,

@@ -82,11 +82,6 @@ GvretCsvReader::Step GvretCsvReader::row(std::string_view line) {
 
 // ---- writer ----
 
-GvretCsvWriter::GvretCsvWriter(std::ostream& out) : StreamCaptureWriter(out, "GVRET CSV") {
-  out_ << "Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n";
-  check_written();
-}
-
 void GvretCsvWriter::put(const CanFrame& frame, std::string_view interface) {
   if (frame.remote || frame.error) return;  // the format has neither
   const std::size_t bus = detail::channel_index(buses_, interface, 256, "GVRET CSV");

@@ -194,7 +194,7 @@ TrcReader::Step TrcReader::v2_line() {
 
 // ---- writer ----
 
-void TrcWriter::header(std::uint64_t first_ns) {
+void TrcWriter::begin(std::uint64_t first_ns) {
   start_ns_ = first_ns - first_ns % kStartStepNs;
   const std::uint64_t days = start_ns_ / detail::kNsPerDay;
   const std::uint64_t steps = start_ns_ % detail::kNsPerDay / kStartStepNs;
@@ -213,13 +213,11 @@ void TrcWriter::header(std::uint64_t first_ns) {
           ";   |         |       |  |    |      |  |  |    Data [hex] ...\r\n"
           ";   |         |       |  |    |      |  |  |    |\r\n"
           ";---+-- ------+------ +- +- --+----- +- +- +--- +- -- -- -- -- -- -- --\r\n";
-  header_written_ = true;
 }
 
 void TrcWriter::put(const CanFrame& frame, std::string_view interface) {
   const std::size_t index = detail::channel_index(buses_, interface, 255, "TRC");
   const std::uint64_t ns = frame.timestamp_ns.value_or(0);
-  if (!header_written_) header(ns);
   const std::uint64_t us = (ns > start_ns_ ? ns - start_ns_ : 0) / 1000;
   const std::string time = fmt::format("{}.{:03}", us / 1000, us % 1000);
   std::string line;
@@ -233,10 +231,6 @@ void TrcWriter::put(const CanFrame& frame, std::string_view interface) {
     while (!line.empty() && line.back() == ' ') line.pop_back();
   }
   out_ << line << "\r\n";
-}
-
-void TrcWriter::finish() {
-  if (!header_written_) header(0);
 }
 
 }  // namespace saul::host

@@ -66,11 +66,10 @@ class AscWriter final : public StreamCaptureWriter {
  private:
   /// Frames earlier than the measurement start (the first frame's whole second) are written at time 0.
   void put(const CanFrame& frame, std::string_view interface) override;
+  void begin(std::uint64_t first_ns) override;
   void finish() override;
-  void header(std::uint64_t first_ns);
 
   std::uint64_t start_ns_ = 0;
-  bool header_written_ = false;
   InterfaceIndex channels_;  ///< index + 1 = ASC channel
 };
 

@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
@@ -239,6 +240,7 @@ class StreamCaptureWriter : public CaptureWriter {
   void write(const CanFrame& frame, std::string_view interface) final {
     if (closed_) throw std::runtime_error(std::string(name_) + " writer: write after close");
     check_writable(frame);
+    if (!std::exchange(started_, true)) begin(frame.timestamp_ns.value_or(0));
     put(frame, interface);
     check_written();
   }
@@ -249,14 +251,23 @@ class StreamCaptureWriter : public CaptureWriter {
   void close() final {
     if (closed_) return;
     closed_ = true;
+    if (!std::exchange(started_, true)) begin(0);
     finish();
     flush();
   }
 
  protected:
-  StreamCaptureWriter(std::ostream& out, const char* name) : out_(out), name_(name) {}
+  /// `header`: the line a text format starts with, written at once.
+  StreamCaptureWriter(std::ostream& out, const char* name, std::string_view header = {}) : out_(out), name_(name) {
+    if (header.empty()) return;
+    out_ << header;
+    check_written();
+  }
   /// Writes one frame that write() checked.
   virtual void put(const CanFrame& frame, std::string_view interface) = 0;
+  /// What the format writes before its first frame, whose time is `first_ns` (0 when close() comes first): a
+  /// header that carries the first frame's date (ASC, TRC). Runs once.
+  virtual void begin(std::uint64_t /*first_ns*/) {}
   /// What the format writes at its end (a trailer, a header put right), before close()'s flush. Runs once.
   virtual void finish() {}
   /// After writing to out_: a failed stream throws.
@@ -269,6 +280,7 @@ class StreamCaptureWriter : public CaptureWriter {
 
  private:
   const char* name_;
+  bool started_ = false;
   bool closed_ = false;
 };
 

@@ -40,7 +40,8 @@ class CsvLogReader final : public LineCaptureReader {
 
 class CsvLogWriter final : public StreamCaptureWriter {
  public:
-  explicit CsvLogWriter(std::ostream& out);
+  explicit CsvLogWriter(std::ostream& out)
+      : StreamCaptureWriter(out, "CSV", "timestamp,arbitration_id,extended,remote,error,dlc,data\n") {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::csv; }
 
  private:

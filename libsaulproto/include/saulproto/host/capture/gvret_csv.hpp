@@ -34,7 +34,8 @@ class GvretCsvReader final : public LineCaptureReader {
 
 class GvretCsvWriter final : public StreamCaptureWriter {
  public:
-  explicit GvretCsvWriter(std::ostream& out);
+  explicit GvretCsvWriter(std::ostream& out)
+      : StreamCaptureWriter(out, "GVRET CSV", "Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n") {}
   [[nodiscard]] CaptureFormat format() const override { return CaptureFormat::gvret_csv; }
 
  private:

@@ -69,12 +69,10 @@ class TrcWriter final : public StreamCaptureWriter {
 
  private:
   void put(const CanFrame& frame, std::string_view interface) override;
-  void finish() override;
-  void header(std::uint64_t first_ns);
+  void begin(std::uint64_t first_ns) override;
   InterfaceIndex buses_;
   std::uint64_t start_ns_ = 0;
   std::uint64_t number_ = 0;
-  bool header_written_ = false;
 };
 
 }  // namespace saul::host
