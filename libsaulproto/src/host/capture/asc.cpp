@@ -37,17 +37,8 @@ using detail::parse_unsigned;
 /// "12.345678" (1 to 9 fraction digits, or none) to nanoseconds.
 std::optional<std::uint64_t> parse_time(std::string_view s) {
   const std::size_t dot = s.find('.');
-  const std::string_view whole = s.substr(0, dot);
-  const auto sec = parse_unsigned(whole, 10);
-  if (!sec || *sec > 1'000'000'000'000ULL) return std::nullopt;
-  std::uint64_t frac = 0;
-  if (dot != std::string_view::npos) {
-    const std::string_view f = s.substr(dot + 1);
-    if (!all_digits(f) || f.size() > 9) return std::nullopt;
-    frac = *parse_unsigned(f, 10);
-    for (std::size_t i = f.size(); i < 9; ++i) frac *= 10;
-  }
-  return *sec * kNsPerSecond + frac;
+  if (dot != std::string_view::npos && (dot + 1 == s.size() || s.size() - dot - 1 > 9)) return std::nullopt;
+  return detail::parse_scaled(s, kNsPerSecond, 9);
 }
 
 std::optional<unsigned> month_of(std::string_view s) {
