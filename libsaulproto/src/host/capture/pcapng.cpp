@@ -293,17 +293,11 @@ PcapngReader::Step PcapngReader::block(std::uint64_t start, std::uint32_t type, 
     }
     return interface_block(start);
   }
-  if (type == kEpb) {
+  if (type == kEpb || type == kSpb) {
     if (!parse)
-      return corrupt(start, Recovery::next_block,
-                     fmt::format("packet block of {} bytes is too long for a CAN packet", length));
-    return packet_block(start);
-  }
-  if (type == kSpb) {
-    if (!parse)
-      return corrupt(start, Recovery::next_block,
-                     fmt::format("simple packet block of {} bytes is too long for a CAN packet", length));
-    return simple_packet_block(start);
+      return corrupt(start, Recovery::next_block, fmt::format("{}packet block of {} bytes is too long for a CAN packet",
+                                                              type == kSpb ? "simple " : "", length));
+    return type == kEpb ? packet_block(start) : simple_packet_block(start);
   }
   if (type == kShb) {
     if (!parse) return corrupt(start, Recovery::stop, "section header block is too long");
