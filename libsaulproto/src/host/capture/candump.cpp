@@ -23,20 +23,11 @@ bool parse_candump_line(std::string_view line, CandumpLine& out, CandumpError& e
   std::size_t close = 0;
   if (!detail::parse_paren_time(line, UINT64_MAX, ns, close, error)) return false;
 
-  // interface
-  std::size_t pos = close + 1;
-  while (pos < line.size() && line[pos] == ' ') ++pos;
-  const std::size_t if_start = pos;
-  while (pos < line.size() && line[pos] != ' ') ++pos;
-  if (pos == if_start) return column_error(error, if_start, "missing interface name");
-  out.interface = line.substr(if_start, pos - if_start);
-  while (pos < line.size() && line[pos] == ' ') ++pos;
-
-  // frame: ID '#' DATA
-  const std::size_t frame_start = pos;
-  std::size_t end = line.find(' ', pos);
-  if (end == std::string_view::npos) end = line.size();
-  const std::string_view text = line.substr(frame_start, end - frame_start);
+  // interface, then the frame: ID '#' DATA
+  std::size_t pos = close + 1, if_start = 0, frame_start = 0;
+  out.interface = detail::word(line, pos, if_start);
+  if (out.interface.empty()) return column_error(error, if_start, "missing interface name");
+  const std::string_view text = detail::word(line, pos, frame_start);
   const std::size_t hash = text.find('#');
   if (hash == std::string_view::npos) return column_error(error, frame_start, "frame needs '#' between id and data");
   if (hash != 3 && hash != 8) return column_error(error, frame_start, "id must be 3 hex digits (11-bit) or 8 (29-bit)");

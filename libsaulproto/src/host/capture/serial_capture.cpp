@@ -14,14 +14,6 @@ namespace {
 
 using detail::column_error;
 
-/// The next space-separated word from pos (pos moves past it and the spaces after it).
-std::string_view word(std::string_view line, std::size_t& pos, std::size_t& start) {
-  while (pos < line.size() && line[pos] == ' ') ++pos;
-  start = pos;
-  while (pos < line.size() && line[pos] != ' ') ++pos;
-  return line.substr(start, pos - start);
-}
-
 }  // namespace
 
 constexpr std::string_view kProtocolNames[] = {"raw", "interboard", "crsf", "pride"};  // by SerialProtocol
@@ -57,13 +49,13 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
 
   std::size_t pos = close + 1;
   std::size_t start = 0;
-  const std::string_view link = word(line, pos, start);
+  const std::string_view link = detail::word(line, pos, start);
   if (link.empty()) return column_error(error, start, "missing link name");
-  const std::string_view protocol_text = word(line, pos, start);
+  const std::string_view protocol_text = detail::word(line, pos, start);
   if (protocol_text.empty()) return column_error(error, start, "missing protocol (interboard, crsf, pride or raw)");
   const auto protocol = serial_protocol_from_name(protocol_text);
   if (!protocol) return column_error(error, start, "unknown protocol: use interboard, crsf, pride or raw");
-  const std::string_view data = word(line, pos, start);
+  const std::string_view data = detail::word(line, pos, start);
   if (data.empty()) return column_error(error, start, "missing bytes (hex, or '-' for none)");
   out.bytes.clear();
   if (data != "-") {
@@ -77,7 +69,7 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
   }
   std::uint8_t errors = 0;
   for (;;) {
-    const std::string_view mark = word(line, pos, start);
+    const std::string_view mark = detail::word(line, pos, start);
     if (mark.empty()) break;
     if (mark == "!parity") {
       errors |= uart_error::kParity;

@@ -26,6 +26,14 @@ inline void split_tokens(std::string_view line, std::vector<std::pair<std::size_
   }
 }
 
+/// The next space-separated word from pos, which starts at `start` (pos moves past it).
+inline std::string_view word(std::string_view line, std::size_t& pos, std::size_t& start) {
+  while (pos < line.size() && line[pos] == ' ') ++pos;
+  start = pos;
+  while (pos < line.size() && line[pos] != ' ') ++pos;
+  return line.substr(start, pos - start);
+}
+
 /// Splits at every `separator` (CSV without quoting); each field with its 0-based column. Reuses `out`'s storage.
 inline void split_fields(std::string_view line, char separator,
                          std::vector<std::pair<std::size_t, std::string_view>>& out) {
