@@ -26,25 +26,6 @@ std::uint64_t position(std::ofstream& file) {
 
 }  // namespace
 
-void FileCompressor::add(const std::string& path) {
-  // std::async's future waits for its thread when destroyed: the destructor waits for every file added
-  last_ = std::async(std::launch::async, [before = std::move(last_), path, compression = compression_]() mutable {
-    std::string failure = before.valid() ? before.get() : std::string();
-    try {
-      compress_file(path, compression);
-    } catch (const std::runtime_error& e) {
-      if (failure.empty()) failure = e.what();
-    }
-    return failure;
-  });
-}
-
-void FileCompressor::finish() {
-  if (!last_.valid()) return;
-  const std::string failure = last_.get();
-  if (!failure.empty()) throw std::runtime_error(failure);
-}
-
 std::string numbered_path(const std::string& path, unsigned index) {
   const std::size_t slash = path.find_last_of('/');
   const std::size_t base = slash == std::string::npos ? 0 : slash + 1;
@@ -79,8 +60,6 @@ RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions ro
                                      std::function<void(const std::string&)> on_new_file, MakeWriter make)
     : path_(path),
       rotation_(rotation),
-      compressor_(rotation.compress == Compression::none ? nullptr
-                                                          : std::make_unique<FileCompressor>(rotation.compress)),
       on_new_file_(std::move(on_new_file)),
       make_(std::move(make)) {
   open(0);
@@ -102,11 +81,21 @@ std::uint64_t RotatingFiles<Writer>::bytes_in_file() {
 template <class Writer>
 void RotatingFiles<Writer>::close_current() {
   detail::close_with_file([&] { inner_->close(); }, *file_, current_path_);
-  if (!compressor_) return;
-  compressor_->add(current_path_);
+  if (rotation_.compress == Compression::none) return;
+  // std::async's future waits for its thread when destroyed: the destructor waits for every file closed
+  compressed_ = std::async(std::launch::async, [before = std::move(compressed_), path = current_path_,
+                                                compression = rotation_.compress]() mutable {
+    std::string failure = before.valid() ? before.get() : std::string();
+    try {
+      compress_file(path, compression);
+    } catch (const std::runtime_error& e) {
+      if (failure.empty()) failure = e.what();
+    }
+    return failure;
+  });
   if (!closed_) return;
-  current_path_ += std::string(file_suffix(compressor_->compression()));  // the last file's final name
-  compressor_->finish();
+  current_path_ += std::string(file_suffix(rotation_.compress));  // the last file's final name
+  if (const std::string failure = compressed_.get(); !failure.empty()) throw std::runtime_error(failure);
 }
 
 template <class Writer>

@@ -28,21 +28,6 @@ struct RotationOptions {
   [[nodiscard]] bool enabled() const { return max_bytes > 0 || max_duration_ns > 0; }
 };
 
-/// Compresses finished files in order (compress_file), each on a thread of its own that first waits for the file
-/// before; the destructor waits for all.
-class FileCompressor {
- public:
-  explicit FileCompressor(Compression compression) : compression_(compression) {}
-  void add(const std::string& path);
-  /// Waits until every file added is compressed; throws std::runtime_error for the first that could not be.
-  void finish();
-  [[nodiscard]] Compression compression() const { return compression_; }
-
- private:
-  Compression compression_;
-  std::future<std::string> last_;  // the last file's compression: the first failure up to it ("": none)
-};
-
 /// "run.log", 3 -> "run-003.log"; "dir/run" (no extension), 3 -> "dir/run-003".
 std::string numbered_path(const std::string& path, unsigned index);
 
@@ -82,7 +67,9 @@ class RotatingFiles : public Writer {
   void close_current();
   std::string path_;
   RotationOptions rotation_;
-  std::unique_ptr<FileCompressor> compressor_;  // with RotationOptions::compress
+  /// With RotationOptions::compress: the compression (compress_file) of the files closed so far, each on a thread of
+  /// its own that first waits for the file before; the first failure up to the last ("": none).
+  std::future<std::string> compressed_;
   std::function<void(const std::string&)> on_new_file_;
   MakeWriter make_;
   std::unique_ptr<std::ofstream> file_;
