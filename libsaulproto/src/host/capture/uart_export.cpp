@@ -36,11 +36,6 @@ std::string_view unquote(std::string_view s) {
   return s;
 }
 
-bool parse_u64(std::string_view s, std::uint64_t& v) {
-  s = trim(s);
-  return !s.empty() && std::from_chars(s.data(), s.data() + s.size(), v).ptr == s.data() + s.size();
-}
-
 /// "RX" or "TX" when the row or class says so, else "".
 std::string_view direction(const UartAnnotation& a) {
   for (std::string_view s : {std::string_view(a.row), std::string_view(a.ann_class)}) {
@@ -197,15 +192,13 @@ class UartExportReader final : public SerialCaptureReader {
     if (line.front() >= '0' && line.front() <= '9') {
       const std::size_t dash = line.find('-');
       const std::size_t space = line.find(' ');
-      std::uint64_t start = 0;
-      std::uint64_t end = 0;
-      if (dash == std::string_view::npos || space == std::string_view::npos || dash > space ||
-          !parse_u64(line.substr(0, dash), start) || !parse_u64(line.substr(dash + 1, space - dash - 1), end)) {
-        // "uart-1: ..." also starts with a letter, so a leading digit means sample numbers
-        return corrupt(0, "expected START-END sample numbers before the decoder name");
+      if (dash != std::string_view::npos && space != std::string_view::npos && dash < space) {
+        a.start_sample = detail::parse_decimal(trim(line.substr(0, dash)));
+        a.end_sample = detail::parse_decimal(trim(line.substr(dash + 1, space - dash - 1)));
       }
-      a.start_sample = start;
-      a.end_sample = end;
+      // "uart-1: ..." also starts with a letter, so a leading digit means sample numbers
+      if (!a.start_sample || !a.end_sample)
+        return corrupt(0, "expected START-END sample numbers before the decoder name");
       pos = space + 1;
     }
     const std::string_view rest = line.substr(pos);
@@ -266,8 +259,7 @@ class UartExportReader final : public SerialCaptureReader {
       return index >= 0 && i < fields_.size() ? trim(fields_[i]) : std::string_view();
     };
     if (static_cast<std::size_t>(value_) >= fields_.size()) return corrupt(0, "fewer fields than the header has");
-    std::uint64_t sample = 0;
-    if (sample_ >= 0 && parse_u64(field(sample_), sample)) a.start_sample = sample;
+    if (sample_ >= 0) a.start_sample = detail::parse_decimal(field(sample_));
     if (time_ >= 0) {
       const auto ns = parse_pulseview_time(field(time_));
       if (ns && *ns >= 0) a.time_ns = static_cast<std::uint64_t>(*ns);
