@@ -109,31 +109,25 @@ std::size_t CaptureBlocks::count() const {
 }
 
 std::unique_ptr<CaptureBlocks> CaptureBlocks::open(const std::string& path, std::uint64_t block_bytes) {
-  const int fd = ::open(capture_open_name(path), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return nullptr;
+  struct Closer {  // closes the file on every way out but the blocks' own
+    int fd;
+    ~Closer() {
+      if (fd >= 0) ::close(fd);
+    }
+  } file{::open(capture_open_name(path), O_RDONLY | O_CLOEXEC)};
   struct stat st {};
   std::uint8_t head[4096];
   ssize_t got = 0;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || (got = ::pread(fd, head, sizeof head, 0)) <= 0) {
-    ::close(fd);
+  if (file.fd < 0 || ::fstat(file.fd, &st) != 0 || !S_ISREG(st.st_mode) ||
+      (got = ::pread(file.fd, head, sizeof head, 0)) <= 0)
     return nullptr;
-  }
   const std::span<const std::uint8_t> first(head, static_cast<std::size_t>(got));
   const auto format = detect_capture_format(first);
-  std::unique_ptr<CaptureBlocks> blocks;
-  if (detect_compression(first) == Compression::none && format) {
-    try {
-      blocks = of(fd, static_cast<std::uint64_t>(st.st_size), *format, block_bytes);
-    } catch (...) {
-      ::close(fd);
-      throw;
-    }
-  }
-  if (!blocks) {
-    ::close(fd);
-    return nullptr;
-  }
+  if (detect_compression(first) != Compression::none || !format) return nullptr;
+  auto blocks = of(file.fd, static_cast<std::uint64_t>(st.st_size), *format, block_bytes);
+  if (!blocks) return nullptr;
   blocks->owned_ = true;
+  file.fd = -1;
   return blocks;
 }
 
