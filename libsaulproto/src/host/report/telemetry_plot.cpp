@@ -153,26 +153,21 @@ std::string bit_name(unsigned bit) {
   return name != nullptr ? name : fmt::format("bit{}", bit);
 }
 
-/// The robot state a message reports, if it is one that does.
-std::optional<unsigned> robot_state_of(const PlotMessage& m) {
-  if (m.bus != nullptr) {
-    if (const auto* a = std::get_if<saulcan::TelemetryA>(m.bus)) return static_cast<unsigned>(a->state);
-  } else if (m.serial != nullptr) {
-    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
-      if (const auto* s = std::get_if<interboard::State>(ib)) return s->error_state;
-  }
+/// The value a message reports in the CAN message Bus's field or the inter-board message Serial's, if it is one of
+/// them.
+template <class Bus, class B, class Serial, class S>
+std::optional<unsigned> reported(const PlotMessage& m, B Bus::*bus_field, S Serial::*serial_field) {
+  if (const auto* b = m.bus != nullptr ? std::get_if<Bus>(m.bus) : nullptr) return static_cast<unsigned>(b->*bus_field);
+  const auto* ib = m.serial != nullptr ? std::get_if<interboard::Message>(m.serial) : nullptr;
+  if (const auto* s = ib != nullptr ? std::get_if<Serial>(ib) : nullptr) return static_cast<unsigned>(s->*serial_field);
   return std::nullopt;
 }
-
-/// The fault bits a message reports, if it is one that does.
+/// The robot state (0x400 state, UART STATE error_state) or fault bits (0x401 faults, UART FAULT flags) reported.
+std::optional<unsigned> robot_state_of(const PlotMessage& m) {
+  return reported(m, &saulcan::TelemetryA::state, &interboard::State::error_state);
+}
 std::optional<unsigned> fault_bits_of(const PlotMessage& m) {
-  if (m.bus != nullptr) {
-    if (const auto* b = std::get_if<saulcan::TelemetryB>(m.bus)) return b->faults;
-  } else if (m.serial != nullptr) {
-    if (const auto* ib = std::get_if<interboard::Message>(m.serial))
-      if (const auto* f = std::get_if<interboard::Fault>(ib)) return f->flags;
-  }
-  return std::nullopt;
+  return reported(m, &saulcan::TelemetryB::faults, &interboard::Fault::flags);
 }
 
 /// [lo, hi] widened to hold v.
@@ -204,11 +199,10 @@ std::string change_label(const StateChange& c) {
   if (c.kind == MarkerKind::state) return state_name(c.to);
   const unsigned from = c.from.value_or(0);
   std::string s;
-  auto add = [&s](char sign, unsigned bit) { s += (s.empty() ? "" : " ") + std::string(1, sign) + bit_name(bit); };
-  for (unsigned bit = 0; bit < 8; ++bit)
-    if ((c.to & (1U << bit)) != 0 && (from & (1U << bit)) == 0) add('+', bit);
-  for (unsigned bit = 0; bit < 8; ++bit)
-    if ((c.to & (1U << bit)) == 0 && (from & (1U << bit)) != 0) add('-', bit);
+  for (const unsigned set : {1U, 0U})  // the bits set, then those cleared
+    for (unsigned bit = 0; bit < 8; ++bit)
+      if ((c.to >> bit & 1U) == set && (from >> bit & 1U) != set)
+        s += (s.empty() ? "" : " ") + std::string(1, set ? '+' : '-') + bit_name(bit);
   return s;
 }
 
