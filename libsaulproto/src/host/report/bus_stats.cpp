@@ -12,6 +12,7 @@
 
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/host/capture/candump.hpp"
+#include "saulproto/host/report/frame_text.hpp"
 #include "../capture/read_path.hpp"
 
 namespace saul::host {
@@ -59,13 +60,6 @@ nlohmann::json cadence_json(const Cadence& c) {
 std::string stamp_text(std::uint64_t ns) {
   return fmt::format("{:010}.{:06}", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000);
 }
-
-/// Error frame kinds by class bit (linux/can/error.h), so the table stays small whatever the counters say.
-constexpr std::pair<std::uint32_t, const char*> kErrorClasses[] = {
-    {0x001, "tx_timeout"}, {0x002, "lost_arbitration"}, {0x004, "controller"}, {0x008, "protocol_violation"},
-    {0x010, "transceiver"}, {0x020, "no_ack"},          {0x040, "bus_off"},    {0x080, "bus_error"},
-    {0x100, "restarted"},  {0x200, "error_counters"},
-};
 
 std::string id_text(bool extended, std::uint32_t id) {
   return extended ? fmt::format("{:08X}", id) : fmt::format("{:03X}", id);
@@ -220,14 +214,10 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   if (f.timestamp_ns) note_time(*f.timestamp_ns);
   if (f.error) {
     ++error_frames_;
-    bool any = false;
-    for (const auto& [bit, name] : kErrorClasses) {
-      if (f.id & bit) {
-        ++error_kinds_[name];
-        any = true;
-      }
-    }
-    if (!any) ++error_kinds_["unspecified"];
+    // by class bit (frame_text.hpp), so the table stays small whatever the counters say
+    for (const auto& c : kErrorClasses)
+      if (f.id & c.bit) ++error_kinds_[c.kind];
+    if ((f.id & 0x3FF) == 0) ++error_kinds_["unspecified"];  // none of the classes' bits
     return;
   }
   count(content_of(f, facts), f.timestamp_ns.has_value(), f.timestamp_ns.value_or(0),

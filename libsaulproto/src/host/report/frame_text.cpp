@@ -16,13 +16,14 @@ namespace saul::host {
 
 std::string describe_error_frame(const CanFrame& f) {
   std::string s;
-  auto add = [&](const std::string& part) {
+  for (const auto& c : kErrorClasses) {
+    if ((f.id & c.bit) == 0) continue;
     if (!s.empty()) s += ", ";
-    s += part;
-  };
-  if (f.id & CAN_ERR_TX_TIMEOUT) add("tx timeout");
-  if (f.id & CAN_ERR_LOSTARB) add(fmt::format("lost arbitration at bit {}", f.data[0]));
-  if (f.id & CAN_ERR_CRTL) {
+    if (c.text != nullptr) {
+      const auto& d = f.data;  // {n} in the text is data byte n
+      s += fmt::format(fmt::runtime(c.text), d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7]);
+      continue;
+    }
     constexpr std::pair<unsigned, const char*> kStatus[] = {
         {CAN_ERR_CRTL_RX_OVERFLOW, " rx-overflow"}, {CAN_ERR_CRTL_TX_OVERFLOW, " tx-overflow"},
         {CAN_ERR_CRTL_RX_WARNING, " rx-warning"},   {CAN_ERR_CRTL_TX_WARNING, " tx-warning"},
@@ -31,17 +32,8 @@ std::string describe_error_frame(const CanFrame& f) {
     std::string d;
     for (const auto& [bit, name] : kStatus)
       if (f.data[1] & bit) d += name;
-    add("controller:" + (d.empty() ? std::string(" problem") : d));
+    s += "controller:" + (d.empty() ? std::string(" problem") : d);
   }
-  if (f.id & CAN_ERR_PROT) add(fmt::format("protocol violation type 0x{:02X} at 0x{:02X}", f.data[2], f.data[3]));
-  if (f.id & CAN_ERR_TRX) add("transceiver problem");
-  if (f.id & CAN_ERR_ACK) add("no ACK (is anything else on the bus? termination?)");
-  if (f.id & CAN_ERR_BUSOFF) add("BUS-OFF");
-  if (f.id & CAN_ERR_BUSERROR) add("bus error");
-  if (f.id & CAN_ERR_RESTARTED) add("controller restarted");
-#ifdef CAN_ERR_CNT
-  if (f.id & CAN_ERR_CNT) add(fmt::format("tec={} rec={}", f.data[6], f.data[7]));
-#endif
   return s.empty() ? std::string("error frame") : s;
 }
 

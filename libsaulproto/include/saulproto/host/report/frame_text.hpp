@@ -43,6 +43,26 @@ class TimeColumn {
 /// or the error frame's meaning for error frames.
 std::string describe_frame(const CanFrame& frame);
 
+/// The classes of error a SocketCAN error frame's id flags (linux/can/error.h), in bit order: the name stats counts
+/// each under, and describe_error_frame()'s text ({n}: data byte n; nullptr: the controller's status bits).
+struct ErrorClass {
+  std::uint32_t bit;
+  const char* kind;
+  const char* text;
+};
+inline constexpr ErrorClass kErrorClasses[] = {
+    {0x001, "tx_timeout", "tx timeout"},
+    {0x002, "lost_arbitration", "lost arbitration at bit {0}"},
+    {0x004, "controller", nullptr},
+    {0x008, "protocol_violation", "protocol violation type 0x{2:02X} at 0x{3:02X}"},
+    {0x010, "transceiver", "transceiver problem"},
+    {0x020, "no_ack", "no ACK (is anything else on the bus? termination?)"},
+    {0x040, "bus_off", "BUS-OFF"},
+    {0x080, "bus_error", "bus error"},
+    {0x100, "restarted", "controller restarted"},
+    {0x200, "error_counters", "tec={6} rec={7}"},
+};
+
 /// What a SocketCAN error frame says (linux/can/error.h's layout), e.g. "BUS-OFF", "controller: tx-passive".
 std::string describe_error_frame(const CanFrame& error_frame);
 
