@@ -260,14 +260,10 @@ BusStats::IdStats& BusStats::id_of(const IdKey& id) {
 }
 
 // A capture lists the ids that came first (kMaxIds, and 0x300 always); block statistics list all theirs.
-bool BusStats::lists_new_id(const IdKey& id) const {
-  return block_ || ids_.size() < kMaxIds || id == IdKey{false, saulcan::kVelocityCmdId};
-}
-
 BusStats::IdStats& BusStats::listed_or_not(const IdKey& id) {
   const auto it = ids_.find(id);
   if (it != ids_.end()) return it->second;
-  if (!lists_new_id(id)) return *unlisted_id_;
+  if (!block_ && ids_.size() >= kMaxIds && id != IdKey{false, saulcan::kVelocityCmdId}) return *unlisted_id_;
   if (block_) id_order_.push_back(id);
   return ids_[id];
 }
@@ -338,16 +334,7 @@ void BusStats::append(const BusStats& later) {
   for (const auto& [reason, count] : later.failures_) failures_[reason] += count;
   for (const std::string& name : later.interface_order_) {  // in file order: the first ones are listed
     const Load& from = later.interfaces_.find(name)->second;
-    auto it = interfaces_.find(name);
-    if (it == interfaces_.end() && !block_ && interfaces_.size() >= kMaxInterfaces) {
-      unlisted_load_->frames += from.frames;  // beyond the listed ones: their frames counted, no load line
-      continue;
-    }
-    if (it == interfaces_.end()) {
-      it = interfaces_.emplace(name, Load{}).first;
-      if (block_) interface_order_.push_back(name);
-    }
-    Load& load = it->second;
+    Load& load = load_of(name);  // beyond the listed ones, *unlisted_load_: only its frames are reported
     load.frames += from.frames;
     load.bits_none += from.bits_none;
     load.bits_worst += from.bits_worst;
@@ -360,16 +347,8 @@ void BusStats::append(const BusStats& later) {
   unlisted_load_->frames += later.unlisted_load_->frames;  // (a block lists all, so these are 0 there)
   append_id(*unlisted_id_, *later.unlisted_id_, 0);
   for (const IdKey& key : later.id_order_) {  // in file order: the first ones are listed
-    const IdStats& from = later.ids_.find(key)->second;
-    const auto it = ids_.find(key);
-    if (it != ids_.end()) {
-      append_id(it->second, from, timeout_of(key));
-    } else if (lists_new_id(key)) {
-      ids_.emplace(key, from);
-      if (block_) id_order_.push_back(key);
-    } else {
-      append_id(*unlisted_id_, from, 0);
-    }
+    IdStats& to = listed_or_not(key);
+    append_id(to, later.ids_.find(key)->second, &to == unlisted_id_.get() ? 0 : timeout_of(key));
   }
 }
 

@@ -261,7 +261,6 @@ class BusStats {
   /// id beyond kMaxIds.
   IdStats& id_of(const IdKey& id);
   IdStats& listed_or_not(const IdKey& id);
-  [[nodiscard]] bool lists_new_id(const IdKey& id) const;
   static std::uint64_t next_serial();
   void note_time(std::uint64_t ns);
   /// What a data or remote frame (at `ns` when `timed`) adds to its interface's load and its id's statistics.
