@@ -11,7 +11,7 @@
 #include "saulproto/host/report/format.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/capture/capture.hpp"
-#include "saulproto/host/report/frame_text.hpp"
+#include "saulproto/host/report/fast_emit.hpp"
 #include "saulproto/host/link/link_spec.hpp"
 #include "saulproto/host/replay/replay.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
@@ -262,7 +262,7 @@ int run_replay(const ReplayCliOptions& opt) {
   std::uint64_t stepped = 0;
   if (opt.step) {
     hooks.step = [&stepped](const saul::CanFrame& f) {
-      return step_prompt(++stepped, fmt::format("{:<24} {}", format_candump_frame(f), describe_frame(f)));
+      return step_prompt(++stepped, frame_text(f));
     };
   }
   ReplayReport report;

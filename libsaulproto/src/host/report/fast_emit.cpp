@@ -8,7 +8,6 @@
 #include "saulproto/core/hex.hpp"
 #include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/format.hpp"
-#include "saulproto/host/report/frame_key.hpp"
 
 namespace saul::host {
 namespace {
@@ -21,17 +20,13 @@ char* put_hex(char* w, std::uint32_t v, int digits) {
 
 std::string_view bool_text(bool b) { return b ? "true" : "false"; }
 
-}  // namespace
-
-FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
-FrameEmitter::~FrameEmitter() = default;
-
 // What the line says of the frame's content before the per-frame columns' place (the split of a cached line):
 // text "300#E8030CFE{pad} [!reason [detail]]", CSV "300,0,0,4,E8030CFE,[!reason,]", JSON
 // {["error":"reason",["error_detail":"...",]]"frame":{"data":..,"remote":b
-char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const std::string& detail) {
+// (room for 2 * TimeColumn::kMaxChars + 6 * detail + 256).
+char* head_chars(char* w, DecodeFormat format, const CanFrame& f, Reason reason, const std::string& detail) {
   const bool ok = reason == Reason::ok;
-  if (format_ == DecodeFormat::text) {
+  if (format == DecodeFormat::text) {
     char* const at = w;
     w = write_candump_frame(w, f);
     while (w < at + 24) *w++ = ' ';
@@ -42,7 +37,7 @@ char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const 
     if (!detail.empty()) *w++ = ' ';
     return put_chars(w, detail);
   }
-  if (format_ == DecodeFormat::csv) {
+  if (format == DecodeFormat::csv) {
     int digits = 1;
     while (digits < 8 && (f.id >> (4 * digits)) != 0) ++digits;
     w = put_hex(w, f.id, digits);
@@ -86,13 +81,14 @@ char* FrameEmitter::head_chars(char* w, const CanFrame& f, Reason reason, const 
 }
 
 // The message part of the line: text "name k=v ...", CSV "name,fields", JSON ,"message":{"k":v,...,"type":"name"},
-// from the frame's bytes (a frame that decodes carries exactly the values its message holds).
-char* FrameEmitter::message_chars(char* w, const signals::MessageDesc& d, const CanFrame& f) {
-  if (format_ == DecodeFormat::jsonl) w = put_chars(w, ",\"message\":");
+// from the frame's bytes (a frame that decodes carries exactly the values its message holds). Room for
+// 2 * message_chars_max(d) + 16.
+char* message_chars(char* w, DecodeFormat format, const signals::MessageDesc& d, const CanFrame& f) {
+  if (format == DecodeFormat::jsonl) w = put_chars(w, ",\"message\":");
   char* const at = w;
-  w = write_message(w, format_ == DecodeFormat::jsonl ? MessageFormat::json : MessageFormat::text, d,
+  w = write_message(w, format == DecodeFormat::jsonl ? MessageFormat::json : MessageFormat::text, d,
                     signals::Wire{f.id, f.payload()});
-  if (format_ != DecodeFormat::csv) return w;
+  if (format != DecodeFormat::csv) return w;
   // "name,fields": the space after the name becomes the comma when the fields need no quotes (nearly always)
   char* const space = std::find(at, w, ' ');
   if (space == w) {
@@ -105,10 +101,26 @@ char* FrameEmitter::message_chars(char* w, const signals::MessageDesc& d, const 
   return plain ? w : put_chars(space + 1, csv_quote(std::string(space + 1, w)));
 }
 
+}  // namespace
+
+FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
+FrameEmitter::~FrameEmitter() = default;
+
+std::string frame_text(const CanFrame& f) {
+  const Result<DecodedName> result = decode_bus_name(f);
+  const std::string detail = f.error ? describe_error_frame(f) : std::string();
+  const signals::MessageDesc* d = result ? signals::find_can(f.id, f.extended) : nullptr;
+  std::string text(6 * detail.size() + (d ? 2 * message_chars_max(*d) : 0) + 320, '\0');
+  char* w = head_chars(text.data(), DecodeFormat::text, f, result.reason(), detail);
+  if (d) w = message_chars(w, DecodeFormat::text, *d, f);
+  text.resize(static_cast<std::size_t>(w - text.data()));
+  return text;
+}
+
 void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts) {
   const FrameKey key = frame_key(f);
   Entry& e = cache_[key.slot(cache_.size())];  // robot buses repeat payloads: the content's text from before
-  const bool hit = e.used && e.k1 == key.k1 && e.k2 == key.k2;
+  const bool hit = e.used && e.key == key;
   Result<DecodedName> result = Reason::ok;
   if (!hit) {
     result = decode_bus_name(f);
@@ -146,7 +158,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   }
   const std::string_view cached = e.text;
   char* const head = w;
-  w = hit ? put_chars(w, cached.substr(0, e.split)) : head_chars(w, f, result.reason(), detail);
+  w = hit ? put_chars(w, cached.substr(0, e.split)) : head_chars(w, format_, f, result.reason(), detail);
   const auto head_size = static_cast<std::size_t>(w - head);
   if (json) {
     if (f.timestamp_ns) {
@@ -160,10 +172,9 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   if (hit) {
     w = put_chars(w, cached.substr(e.split));
   } else {
-    if (d) w = message_chars(w, *d, f);
+    if (d) w = message_chars(w, format_, *d, f);
     e.used = true;
-    e.k1 = key.k1;
-    e.k2 = key.k2;
+    e.key = key;
     e.split = head_size;
     e.text.assign(head, head_size);
     e.text.append(tail, static_cast<std::size_t>(w - tail));

@@ -8,8 +8,6 @@
 #include <iterator>
 #include <utility>
 
-#include "saulproto/core/dispatch.hpp"
-#include "saulproto/host/capture/candump.hpp"
 #include "saulproto/host/report/format.hpp"
 
 namespace saul::host {
@@ -75,13 +73,6 @@ char* TimeColumn::write(char* w, std::uint64_t ns, bool parens) {
 std::string TimeColumn::operator()(std::uint64_t ns) {
   char text[kMaxChars];
   return std::string(text, write(text, ns));
-}
-
-std::string describe_frame(const CanFrame& frame) {
-  if (frame.error) return "!error_frame " + describe_error_frame(frame);
-  const auto r = decode_bus_frame(frame);
-  if (r) return describe(r.value());
-  return std::string("!") + to_string(r.reason());
 }
 
 }  // namespace saul::host

@@ -14,6 +14,7 @@
 #include "saulproto/core/can_frame.hpp"
 #include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/signals.hpp"
+#include "saulproto/host/report/frame_key.hpp"
 #include "saulproto/host/report/frame_text.hpp"
 
 namespace saul::host {
@@ -65,23 +66,21 @@ class FrameEmitter {
 
  private:
   struct Entry {
-    std::uint64_t k1 = 0;
-    std::uint64_t k2 = 0;
+    FrameKey key;
     bool used = false;
     Reason reason = Reason::ok;  // of the decode
     std::string text;
     std::size_t split = 0;  // where the timestamp and the interface go in JSON (head_chars, then message_chars)
   };
-  /// The line's text of the frame's content before the split (room for 2 * TimeColumn::kMaxChars + 6 * detail + 256).
-  char* head_chars(char* w, const CanFrame& frame, Reason reason, const std::string& detail);
-  /// The message of a frame that decoded, after the split (room for 2 * message_chars_max(message) + 16).
-  char* message_chars(char* w, const signals::MessageDesc& message, const CanFrame& frame);
-
   DecodeFormat format_;
   TimeColumn time_;
   std::vector<Entry> cache_;
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
   bool error_detail_ = false;
 };
+
+/// A frame as decode's text line shows it after the time and interface, error frames with what they report:
+/// "300#E8030CFE             velocity_cmd speed_mmps=1000 steer_mrad=-500" (replay --step).
+std::string frame_text(const CanFrame& frame);
 
 }  // namespace saul::host

@@ -1,6 +1,6 @@
 // Pieces of the line per CAN frame that decode and sniff write (fast_emit.hpp writes the line):
 //   (1763800000.600000) can0 301#000100000000C03F     pid_gain gain=kp sequence=1 value=1.5
-// the time column, a frame's meaning, an error frame's meaning.
+// the time column and an error frame's meaning.
 #pragma once
 
 #include <optional>
@@ -38,10 +38,6 @@ class TimeColumn {
   bool seconds_negative_ = false;
   std::string seconds_text_;
 };
-
-/// "velocity_cmd speed_mmps=1000 steer_mrad=-500", or "!wrong_dlc" / "!unknown_id" when it does not decode,
-/// or the error frame's meaning for error frames.
-std::string describe_frame(const CanFrame& frame);
 
 /// The classes of error a SocketCAN error frame's id flags (linux/can/error.h), in bit order: the name stats counts
 /// each under, and describe_error_frame()'s text ({n}: data byte n; nullptr: the controller's status bits).
