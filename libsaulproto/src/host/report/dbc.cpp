@@ -197,27 +197,22 @@ std::string make_dbc() {
                        c == vesc::kLeftId ? ", left hub motor" : c == vesc::kRightId ? ", right hub motor" : "");
   for (const auto& msg : messages)
     if (!msg.comment.empty()) out += fmt::format("CM_ BO_ {} {};\n", msg.dbc_id, c_literal(msg.comment));
-  // A scaled signal whose wire integer saulctl's JSON keeps gets that integer's key as its comment.
-  for (const auto& msg : messages)
-    for (const auto& s : msg.signals)
-      if (s.scaled() && s.desc->text == signals::Text::raw)
-        out += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, c_literal(raw_key(*s.desc) + " on the wire"));
-  out += "\n";
-
-  // Value tables: the names saulctl decode prints (descending, as DBC editors write them).
+  // Per signal: a scaled one whose wire integer saulctl's JSON keeps gets that integer's key as its comment; value
+  // tables, the names saulctl decode prints (descending, as DBC editors write them); float32 signals' value type.
+  std::string comments, tables, types;
   for (const auto& msg : messages)
     for (const auto& s : msg.signals) {
-      if (s.bit || s.desc->values.empty()) continue;
-      out += fmt::format("VAL_ {} {}", msg.dbc_id, s.name);
-      for (auto it = s.desc->values.rbegin(); it != s.desc->values.rend(); ++it)
-        out += fmt::format(" {} {}", it->value, c_literal(it->name));
-      out += " ;\n";
+      if (s.scaled() && s.desc->text == signals::Text::raw)
+        comments += fmt::format("CM_ SG_ {} {} {};\n", msg.dbc_id, s.name, c_literal(raw_key(*s.desc) + " on the wire"));
+      if (!s.bit && !s.desc->values.empty()) {
+        tables += fmt::format("VAL_ {} {}", msg.dbc_id, s.name);
+        for (auto it = s.desc->values.rbegin(); it != s.desc->values.rend(); ++it)
+          tables += fmt::format(" {} {}", it->value, c_literal(it->name));
+        tables += " ;\n";
+      }
+      if (s.is_float()) types += fmt::format("SIG_VALTYPE_ {} {} : 1;\n", msg.dbc_id, s.name);
     }
-  out += "\n";
-  for (const auto& msg : messages)
-    for (const auto& s : msg.signals)
-      if (s.is_float()) out += fmt::format("SIG_VALTYPE_ {} {} : 1;\n", msg.dbc_id, s.name);
-  return out;
+  return out + comments + "\n" + tables + "\n" + types;
 }
 
 }  // namespace saul::host
