@@ -414,21 +414,12 @@ auto render(const pride::Message& message, With&& with) {
   return std::visit([&](const auto& m) { return with(d, read_fields(d, m)); }, message);
 }
 
-template <class Message>
-std::string describe_any(const Message& message) {
-  return render(message, [](const MessageDesc& d, const Readings& r) {
-    return written([&](char* w) { return write_text(w, d, r); });
-  });
+// What describe() and to_json() render() of a message's readings.
+std::string text_of(const MessageDesc& d, const Readings& r) {
+  return written([&](char* w) { return write_text(w, d, r); });
 }
-template <class Message>
-nlohmann::json json_any(const Message& message) {
-  return render(message, [](const MessageDesc& d, const Readings& r) {
-    return nlohmann::json::parse(written([&](char* w) { return write_json(w, d, r); }));
-  });
-}
-template <class Message>
-SignalValues values_any(const Message& message) {
-  return render(message, [](const MessageDesc& d, const Readings& r) { return values_of(d, r); });
+nlohmann::json json_of(const MessageDesc& d, const Readings& r) {
+  return nlohmann::json::parse(written([&](char* w) { return write_json(w, d, r); }));
 }
 
 }  // namespace
@@ -446,17 +437,17 @@ void append_message(std::string& out, MessageFormat format, const MessageDesc& m
   out.append(text.data(), write_message(text.data(), format, message, wire));
 }
 
-SignalValues signal_values(const BusMessage& message) { return values_any(message); }
-SignalValues signal_values(const interboard::Message& message) { return values_any(message); }
-SignalValues signal_values(const crsf::Message& message) { return values_any(message); }
-SignalValues signal_values(const pride::Message& message) { return values_any(message); }
-std::string describe(const BusMessage& message) { return describe_any(message); }
-std::string describe(const interboard::Message& message) { return describe_any(message); }
-std::string describe(const crsf::Message& message) { return describe_any(message); }
-std::string describe(const pride::Message& message) { return describe_any(message); }
-nlohmann::json to_json(const BusMessage& message) { return json_any(message); }
-nlohmann::json to_json(const interboard::Message& message) { return json_any(message); }
-nlohmann::json to_json(const crsf::Message& message) { return json_any(message); }
-nlohmann::json to_json(const pride::Message& message) { return json_any(message); }
+SignalValues signal_values(const BusMessage& message) { return render(message, values_of); }
+SignalValues signal_values(const interboard::Message& message) { return render(message, values_of); }
+SignalValues signal_values(const crsf::Message& message) { return render(message, values_of); }
+SignalValues signal_values(const pride::Message& message) { return render(message, values_of); }
+std::string describe(const BusMessage& message) { return render(message, text_of); }
+std::string describe(const interboard::Message& message) { return render(message, text_of); }
+std::string describe(const crsf::Message& message) { return render(message, text_of); }
+std::string describe(const pride::Message& message) { return render(message, text_of); }
+nlohmann::json to_json(const BusMessage& message) { return render(message, json_of); }
+nlohmann::json to_json(const interboard::Message& message) { return render(message, json_of); }
+nlohmann::json to_json(const crsf::Message& message) { return render(message, json_of); }
+nlohmann::json to_json(const pride::Message& message) { return render(message, json_of); }
 
 }  // namespace saul::host
