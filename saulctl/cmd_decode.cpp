@@ -123,7 +123,7 @@ int run_decode(const DecodeOptions& opt) {
       options.render = [&](const saul::CanFrame& f, std::string_view interface, fmt::memory_buffer& out,
                            saul::host::DecodeCounts& counts) {
         const auto result = saul::decode_bus_frame(f);
-        counts.count(result);
+        counts.count(result ? saul::Reason::ok : result.reason());
         const std::string rows = saul::host::long_csv_rows(
             saul::host::TimeColumn::bare(time_column(f.timestamp_ns.value_or(0))), interface,
             f.extended ? fmt::format("{:08X}", f.id) : fmt::format("{:03X}", f.id),

@@ -9,12 +9,7 @@ namespace {
 
 /// decode's work on the read path: each piece (a block, or a batch) rendered into its own buffer.
 struct DecodeWork {
-  struct Worker {
-    Worker(const FrameDecodeOptions& o, std::optional<std::uint64_t> first) : emitter(o.format, o.time) {
-      if (first) emitter.set_first(*first);
-    }
-    FrameEmitter emitter;
-  };
+  using Worker = FrameEmitter;
   struct Piece {
     fmt::memory_buffer out;
     DecodeCounts counts;
@@ -24,7 +19,7 @@ struct DecodeWork {
   FrameDecodeResult result;
   std::optional<std::uint64_t> first;  // relative times in blocks: the first kept frame's
 
-  Worker worker() { return Worker(o, first); }
+  Worker worker() { return FrameEmitter(o.format, o.time, first); }
   bool in_blocks(const CaptureBlocks* blocks) {
     // delta needs the previous frame's time, and render the frames in order; relative times the first frame's,
     // which only a file cut up front can tell before its blocks are read
@@ -40,7 +35,7 @@ struct DecodeWork {
     p.counts = {};
   }
   CandumpLineTaker* taker(Worker&) { return nullptr; }
-  void add(Worker& w, Piece& p, const FrameBatch& batch) {
+  void add(Worker& emitter, Piece& p, const FrameBatch& batch) {
     const std::size_t n = batch.frames.size();
     for (std::size_t i = 0; i < n; ++i) {
       const CanFrame& f = batch.frames[i];
@@ -48,7 +43,7 @@ struct DecodeWork {
       if (o.render)
         o.render(f, batch.interfaces[i], p.out, p.counts);
       else
-        w.emitter.add(f, batch.interfaces[i], p.out, p.counts);
+        emitter.add(f, batch.interfaces[i], p.out, p.counts);
     }
   }
   std::uint64_t finish(Worker&, Piece&) { return 0; }

@@ -103,7 +103,10 @@ char* message_chars(char* w, DecodeFormat format, const signals::MessageDesc& d,
 
 }  // namespace
 
-FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time) : format_(format), time_(time), cache_(1024) {}
+FrameEmitter::FrameEmitter(DecodeFormat format, TimeMode time, std::optional<std::uint64_t> first)
+    : format_(format), time_(time), cache_(1024) {
+  if (first) time_.note(*first);
+}
 FrameEmitter::~FrameEmitter() = default;
 
 std::string frame_text(const CanFrame& f) {

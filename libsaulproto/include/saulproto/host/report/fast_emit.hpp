@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -46,21 +47,19 @@ struct DecodeCounts {
       default: ++rejected;
     }
   }
-  void count(const Result<BusMessage>& result) noexcept { count(result ? Reason::ok : result.reason()); }
 };
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache.
 class FrameEmitter {
  public:
-  FrameEmitter(DecodeFormat format, TimeMode time);
+  /// `first`: the first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
+  FrameEmitter(DecodeFormat format, TimeMode time, std::optional<std::uint64_t> first = std::nullopt);
   FrameEmitter(const FrameEmitter&) = delete;
   FrameEmitter& operator=(const FrameEmitter&) = delete;
   ~FrameEmitter();
 
   /// Appends the frame's line and its newline to `out` and counts how it decoded.
   void add(const CanFrame& frame, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts);
-  /// The first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
-  void set_first(std::uint64_t ns) noexcept { time_.note(ns); }
   /// Error frames with what they report (sniff's lines), not only "!error_frame" (decode's).
   void show_error_detail() noexcept { error_detail_ = true; }
 
