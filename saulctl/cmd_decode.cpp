@@ -231,7 +231,7 @@ void add_decode_command(CLI::App& app, Runner& run) {
                   "value,unit, values in physical units)")
       ->check(CLI::IsMember({"text", "jsonl", "csv", "long"}))
       ->capture_default_str();
-  add_json_flag(cmd, opt->json, "same as --format jsonl: one JSON object per frame");
+  cmd->add_flag("--json", opt->json, "same as --format jsonl: one JSON object per frame");
   cmd->add_flag("--strict", opt->strict,
                 "exit 1 when any line or record was corrupt (default: report them, skip them, exit 0)");
   cmd->add_option("-t,--time", opt->time,

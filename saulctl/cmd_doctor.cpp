@@ -380,7 +380,7 @@ void add_doctor_command(CLI::App& app, Runner& run) {
       app, run, "doctor", "Check the bench setup and print the most likely fix for each problem", run_doctor);
   add_link_option(cmd, o->link, true);
   cmd->add_option("--wait", o->wait, "how long to listen for bus traffic")->capture_default_str()->check(duration_check());
-  add_json_flag(cmd, o->json, "one JSON object: {\"checks\": [{check, result, detail, fix}], \"failed\": N}");
+  cmd->add_flag("--json", o->json, "one JSON object: {\"checks\": [{check, result, detail, fix}], \"failed\": N}");
   cmd->add_option("--sysroot", o->sysroot, "the system root whose /proc and udev rules the ModemManager check reads")
       ->capture_default_str();
   cmd->footer(

@@ -311,7 +311,7 @@ void add_sniff_command(CLI::App& app, Runner& run) {
   cmd->add_option("--protocol", o->protocol, "what a serial link carries")
       ->check(CLI::IsMember({"interboard"}))
       ->capture_default_str();
-  add_json_flag(cmd, o->json, "JSON Lines, one object per frame");
+  cmd->add_flag("--json", o->json, "JSON Lines, one object per frame");
   cmd->add_flag("--top", o->top,
                 "per-id table: count, rate, period, jitter, last data (changed bytes marked), bus load and state; a "
                 "full-screen view on a terminal (keys: e or space = ESTOP, o = mode off, q = quit), printed once at "

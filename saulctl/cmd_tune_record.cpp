@@ -140,7 +140,7 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
       ->check(CLI::Range(0.0F, 1000.0F));
   cmd->add_flag("--dump", o->dump,
                 "fetch the flight recorder (the last 5 s before a latch) instead; with --sim: trace, tilt, then dump");
-  add_json_flag(cmd, o->json, "print the summary as one JSON object");
+  cmd->add_flag("--json", o->json, "print the summary as one JSON object");
   cmd->footer(
       "\nThe file holds the console's bytes: 39-byte records (docs/protocol.md section 10) and any text between them;\n"
       "BALANCE's status reply comes first, so the file says which gains the loop ran with (tune report shows them).\n"

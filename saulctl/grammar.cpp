@@ -106,10 +106,6 @@ CLI::Option* add_duration_option(CLI::App* cmd, std::string& duration, const std
       ->check(duration_check());
 }
 
-CLI::Option* add_json_flag(CLI::App* cmd, bool& json, const std::string& what) {
-  return cmd->add_flag("--json", json, what);
-}
-
 saul::host::TimeMode time_mode(const std::string& time) {
   using saul::host::TimeMode;
   return time == "rel" ? TimeMode::relative : time == "delta" ? TimeMode::delta : TimeMode::absolute;

@@ -1,6 +1,6 @@
-// The words every saulctl verb spells the same way (docs/cli.md): the link, CAN ids, durations and --json.
-// Each verb adds its options through these functions, so a spelling cannot drift; tests/cli/grammar.py checks
-// every verb's --help against a table.
+// The words every saulctl verb spells the same way (docs/cli.md): the link, CAN ids and durations (--json is a
+// plain add_flag). Each verb adds its options through these functions, so a spelling cannot drift;
+// tests/cli/grammar.py checks every verb's --help against a table.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -38,8 +38,5 @@ std::chrono::milliseconds parse_duration(const std::string& text);
 
 /// --time abs|rel|delta (decode, sniff) as the time column's mode.
 saul::host::TimeMode time_mode(const std::string& time);
-
-/// Adds --json with the verb's own description of what it prints.
-CLI::Option* add_json_flag(CLI::App* cmd, bool& json, const std::string& what);
 
 }  // namespace saulctl
