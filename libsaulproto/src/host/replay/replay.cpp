@@ -147,17 +147,25 @@ bool MonotonicReplayClock::sleep_until(std::uint64_t deadline_ns) {
 
 // ---- engine -------------------------------------------------------------------------------------------------------
 
+void replay_passes(ReplayTotals& totals, unsigned loops, ReplayPacer& pacer, const std::function<bool()>& stop,
+                   const std::function<void()>& pass) {
+  for (unsigned n = 0; (n < loops || n == 0) && !totals.stopped; ++n) {
+    totals.stopped = stop && stop();
+    if (totals.stopped) break;
+    ++totals.passes;
+    if (n > 0) pacer.next_pass();
+    pass();
+  }
+  totals.elapsed_ns = pacer.elapsed_ns();
+  totals.lateness = pacer.lateness();
+}
+
 ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
                     ReplayClock& clock, const ReplayHooks& hooks) {
   ReplayReport report;
   ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
-  const unsigned loops = options.loops == 0 ? 1 : options.loops;
-  for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
-    report.stopped = hooks.stop && hooks.stop();
-    if (report.stopped) break;
+  replay_passes(report, options.loops, pacer, hooks.stop, [&] {
     auto reader = open_pass();
-    ++report.passes;
-    if (pass > 0) pacer.next_pass();
     read_in_order(reader, {}, [&](const FrameBatch& batch) {
       batch.walk(
           [&](std::size_t i) {
@@ -184,9 +192,7 @@ ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_
           });
       return !report.stopped;
     });
-  }
-  report.elapsed_ns = pacer.elapsed_ns();
-  report.lateness = pacer.lateness();
+  });
   return report;
 }
 

@@ -250,13 +250,8 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
     pacer.sent();
   };
 
-  const unsigned loops = options.loops == 0 ? 1 : options.loops;
-  for (unsigned pass = 0; pass < loops && !report.stopped; ++pass) {
-    report.stopped = hooks.stop && hooks.stop();
-    if (report.stopped) break;
+  replay_passes(report, options.loops, pacer, hooks.stop, [&] {
     auto reader = open_pass();
-    ++report.passes;
-    if (pass > 0) pacer.next_pass();
     std::optional<ChunkCutter> cutter;
     while (!report.stopped) {
       const auto status = reader->next();
@@ -281,7 +276,7 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
       report.bytes += chunk.bytes.size();
       cutter->add(chunk, on_ready);
     }
-    if (!cutter) continue;
+    if (!cutter) return;
     if (!report.stopped) cutter->finish(on_ready);
     report.frames += cutter->frames;
     if (options.allow_motion) {
@@ -291,9 +286,7 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
       report.motion_bytes += cutter->motion_bytes;
       for (const auto& [name, n] : cutter->motion_by_type) report.motion_by_type[name] += n;
     }
-  }
-  report.elapsed_ns = pacer.elapsed_ns();
-  report.lateness = pacer.lateness();
+  });
   return report;
 }
 

@@ -132,17 +132,26 @@ class ReplayPacer {
   LatenessStats lateness_;
 };
 
-struct ReplayReport {
-  unsigned passes = 0;          ///< passes started
+/// What every replay reports, of CAN frames or serial chunks.
+struct ReplayTotals {
+  unsigned passes = 0;           ///< passes started
+  std::uint64_t elapsed_ns = 0;  ///< from the first deadline to the last send
+  bool stopped = false;          ///< ended early (interrupted, or step() said stop)
+  LatenessStats lateness;        ///< per item sent; empty in single-step mode and at speed 0
+};
+
+/// The passes every replay makes: `loops` of them (at least one), each begun unless `stop` says so (then
+/// totals.stopped), `pass()` reading one over `pacer`'s schedule; the pacer's figures end in `totals`.
+void replay_passes(ReplayTotals& totals, unsigned loops, ReplayPacer& pacer, const std::function<bool()>& stop,
+                   const std::function<void()>& pass);
+
+struct ReplayReport : ReplayTotals {
   std::uint64_t frames = 0;     ///< frames read (all passes)
   std::uint64_t sent = 0;
   std::uint64_t filtered = 0;
   std::uint64_t motion_dropped = 0;
   std::uint64_t error_frames = 0;
   std::uint64_t corrupt = 0;
-  std::uint64_t elapsed_ns = 0;  ///< from the first deadline to the last send
-  bool stopped = false;          ///< ended early (interrupted, or step() said stop)
-  LatenessStats lateness;        ///< empty in single-step mode and at speed 0
 };
 
 struct ReplayHooks {

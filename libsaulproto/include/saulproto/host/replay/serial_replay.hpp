@@ -93,8 +93,7 @@ struct SerialReplayOptions {
   std::optional<SerialProtocol> protocol;
 };
 
-struct SerialReplayReport {
-  unsigned passes = 0;            ///< passes started
+struct SerialReplayReport : ReplayTotals {  ///< lateness: per write
   std::uint64_t chunks = 0;       ///< chunks of the replayed link read (all passes)
   std::uint64_t bytes = 0;        ///< their bytes
   std::uint64_t writes = 0;       ///< chunks written (those with bytes left after dropping)
@@ -106,11 +105,8 @@ struct SerialReplayReport {
   std::uint64_t motion_sent = 0;  ///< messages that can move motors sent (motion allowed)
   std::uint64_t other_links = 0;  ///< chunks of other links (not sent)
   std::uint64_t corrupt = 0;      ///< corrupt records of the file (all passes)
-  std::uint64_t elapsed_ns = 0;   ///< from the first deadline to the last write
-  bool stopped = false;           ///< ended early (interrupted, or step() said stop)
   SerialProtocol protocol = SerialProtocol::raw;  ///< what the bytes were cut with
   std::string link;               ///< the captured link replayed
-  LatenessStats lateness;         ///< per write; empty in single-step mode and at speed 0
 };
 
 struct SerialReplayHooks {
