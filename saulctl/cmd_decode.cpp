@@ -169,8 +169,7 @@ int run_decode(const DecodeOptions& opt) {
         status = kFailure;
       }
     } catch (const saul::host::CaptureOpenError& e) {
-      say("{}", e.what());
-      status = kFailure;
+      status = report_error(e);
     } catch (const std::system_error& e) {
       say("{}: {}", path, e.what());
       status = kFailure;

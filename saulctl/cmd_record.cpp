@@ -103,8 +103,7 @@ int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Write
     }
     return got;
   };
-  int status = kOk;
-  try {
+  const int status = report_errors([&] {
     receive_until(opt.duration, start, opt.count, taken, [&](milliseconds wait) {
       take_and_flush(wait);
       progress.update(taken, unit, writer.current_path(), writer.bytes_in_file());
@@ -114,9 +113,7 @@ int receive_loop(const RecordOptions& opt, steady_clock::time_point start, Write
     while (g_interrupted && steady_clock::now() < until && (opt.count == 0 || taken < opt.count) &&
            take_and_flush(milliseconds(200))) {
     }
-  } catch (const std::exception& e) {
-    status = report_error(e);
-  }
+  });
   progress.done();
   writer.close();
   return status;

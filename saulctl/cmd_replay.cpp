@@ -140,12 +140,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
   }
   const auto open_pass = [&opt, &read_options]() { return open_serial_capture_reader(opt.file, read_options); };
   SerialReplayReport report;
-  int status = kOk;
-  try {
-    report = replay_serial(open_pass, options, clock, hooks);
-  } catch (const SerialError& e) {
-    status = report_error(e);
-  }
+  const int status = report_errors<SerialError>([&] { report = replay_serial(open_pass, options, clock, hooks); });
   const std::string motion =
       options.allow_motion
           ? fmt::format("{} message(s) that can move motors sent (--allow-motion)", report.motion_sent)
@@ -266,12 +261,7 @@ int run_replay(const ReplayCliOptions& opt) {
     };
   }
   ReplayReport report;
-  int status = kOk;
-  try {
-    report = replay(open_pass, options, clock, hooks);
-  } catch (const LinkError& e) {
-    status = report_error(e);
-  }
+  const int status = report_errors<LinkError>([&] { report = replay(open_pass, options, clock, hooks); });
   print_report(opt.json,
                {{"file", opt.file},
                 {"link", link->name()},

@@ -50,7 +50,6 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
     fmt::print(stderr, "sniff: listening on {} (timestamps: {}{}); Ctrl-C to stop\n", link->name(),
                saul::host::to_string(link->timestamp_source()), shared.empty() ? "" : "; " + shared);
   }
-  int status = kOk;
   // decode's lines (FrameEmitter), error frames with what they report, written once the link has nothing more
   // queued (or the buffer is large): a burst of frames costs one write, a lone frame still shows at once.
   saul::host::FrameEmitter emit(opt.json ? saul::host::DecodeFormat::jsonl : saul::host::DecodeFormat::text,
@@ -74,7 +73,7 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
                saul::host::to_string(state), saul::host::to_string(now_state));
     state = now_state;
   };
-  try {
+  const int status = report_errors([&] {
     receive_until(opt.duration, start, opt.count, shown, [&](milliseconds wait) {
       auto f = link->receive(out.size() != 0 ? milliseconds(0) : wait);
       if (!f) {
@@ -90,9 +89,7 @@ int sniff_can(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       if (out.size() >= (1 << 16)) flush();
     });
     check_state();  // a change the last frames brought (-n reached) is still shown
-  } catch (const std::exception& e) {
-    status = report_error(e);
-  }
+  });
   flush();
   const auto s = link->stats();
   fmt::print(stderr, "sniff: {} frames shown; link rx {} tx {} dropped {} error frames {} bus-off {} state {}{}\n", shown,
@@ -258,11 +255,10 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
   saul::host::TimeColumn column(time_mode(opt.time));
   saul::interboard::StreamDecoder decoder;
   std::uint64_t shown = 0;
-  int status = kOk;
   if (!opt.json)
     fmt::print(stderr, "sniff: {} bytes on {} ({} {}); Ctrl-C to stop\n", opt.protocol, port->path(),
                spec.serial.baud, saul::host::to_string(spec.serial));
-  try {
+  const int status = report_errors([&] {
     std::array<std::uint8_t, 4096> buf{};
     receive_until(opt.duration, start, opt.count, shown, [&](milliseconds wait) {
       const std::size_t n = port->read(buf, wait);
@@ -281,9 +277,7 @@ int sniff_serial(const SniffOptions& opt, const saul::host::LinkSpec& spec) {
       }
       std::fflush(stdout);
     });
-  } catch (const std::exception& e) {
-    status = report_error(e);
-  }
+  });
   const auto& c = decoder.counters();
   fmt::print(stderr, "sniff: {} frames; crc errors {}, length errors {}, unknown types {}, bytes skipped {}\n",
              c.frames, c.crc_errors, c.length_errors, c.unknown_types, c.bytes_skipped);

@@ -32,6 +32,17 @@ using Runner = std::function<int()>;
 /// (CLI::ValidationError), 3 for a link's timeout or a flash chip that never answered, else 1. main() calls it for
 /// whatever a verb throws; verbs call it for an error they carry on after.
 int report_error(const std::exception& e);
+/// Runs `body`; an E it throws is said by report_error(), whose exit code is returned (kOk when nothing was thrown):
+/// for a verb that still has its summary to print after an error.
+template <class E = std::exception, class Body>
+int report_errors(Body&& body) {
+  try {
+    body();
+  } catch (const E& e) {
+    return report_error(e);
+  }
+  return kOk;
+}
 
 /// Installs the handlers that set g_interrupted (live.hpp) on SIGINT and SIGTERM, and ignores SIGPIPE.
 void install_signal_handlers();
