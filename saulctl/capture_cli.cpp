@@ -32,10 +32,9 @@ bool refuse_read_once(std::string_view verb, const std::string& file, std::strin
   if (error || !std::filesystem::exists(status) || std::filesystem::is_regular_file(status) ||
       std::filesystem::is_directory(status))
     return false;
-  fmt::print(stderr,
-             "saulctl {}: {}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; "
-             "save it to a file first (... > run.log)\n",
-             verb, file, verb, reads);
+  say("{}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; save it to a file "
+      "first (... > run.log)",
+      file, verb, reads);
   return true;
 }
 

@@ -1,6 +1,4 @@
 // saulctl: the bench tool for the SAUL-TEE robot. This file only parses arguments and hands over to a verb.
-#include <fmt/core.h>
-
 #include <vector>
 
 #include "commands.hpp"
@@ -45,7 +43,7 @@ int main(int argc, char** argv) {
     return saulctl::report_usage_error(app, e);  // names the verb, suggests the nearest word, points to its help
   }
   if (!run) {
-    fmt::print(stderr, "saulctl: no verb to run (see saulctl --help)\n");
+    saulctl::say("no verb to run (see saulctl --help)");  // "saulctl: ...": no verb named yet
     return saulctl::kUsage;
   }
   const std::string verb = saulctl::verb_path(app);
