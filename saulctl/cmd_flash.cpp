@@ -264,25 +264,17 @@ std::string run_lines(saul::host::SerialPort& port, const std::vector<saul::host
 }
 
 // saulctl flash --reset bootloader|app: the reset alone, nothing written (a bench engineer's "hold BOOT, tap
-// RESET" or "tap RESET", done over USB).
-int run_reset(const FlashOptions& opt) {
-  if (!opt.inputs.empty() || !opt.build_dir.empty())
-    throw CLI::ValidationError("--reset", "--reset only resets the board: give no files and no --build-dir");
-  if (opt.no_reset) throw CLI::ValidationError("--reset", "--reset and --no-reset contradict each other");
-  std::optional<saul::host::PortInfo> info;
-  const auto [path, style] = pick_port(opt, info);
-  if (const int rc = check_robot(opt); rc != kOk) return rc;
-  warn_holders(path);
-  auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
+// RESET" or "tap RESET", done over USB), on the port run_flash() opened after the robot check.
+int run_reset(const FlashOptions& opt, saul::host::SerialPort& port, const std::string& path, ResetStyle style) {
   if (opt.reset == "bootloader") {
     fmt::print("reset the {} on {} into download mode: (DTR,RTS) {}; nothing written, the bootloader's answer not "
                "checked (flash with --no-reset now)\n",
-               board_name(style), path, run_lines(*port, saul::host::bootloader_reset_sequence(style, 0)));
+               board_name(style), path, run_lines(port, saul::host::bootloader_reset_sequence(style, 0)));
     return kOk;
   }
   if (style == ResetStyle::usb_uart_bridge) {
     fmt::print("reset the {} on {} into its application: EN pulse, (DTR,RTS) {}\n", board_name(style), path,
-               run_lines(*port, saul::host::hard_reset_sequence(style)));
+               run_lines(port, saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   // IO board: a USB-Serial/JTAG RTS reset is a core reset that leaves a chip in download mode there. When a
@@ -293,14 +285,14 @@ int run_reset(const FlashOptions& opt) {
   fo.reset_before = false;
   fo.connect_attempts = 1;
   fo.cancelled = interrupted;
-  saul::host::EspFlasher flasher(*port, fo);
+  saul::host::EspFlasher flasher(port, fo);
   try {
     flasher.connect();
   } catch (const FlashError& e) {
     if (e.kind() != FlashError::Kind::no_answer) throw;
     fmt::print("no bootloader answered on {}: restarted the {}'s application by the USB-Serial/JTAG reset, "
                "(DTR,RTS) {}\n",
-               path, board_name(style), run_lines(*port, saul::host::hard_reset_sequence(style)));
+               path, board_name(style), run_lines(port, saul::host::hard_reset_sequence(style)));
     return kOk;
   }
   flasher.reset_to_app();
@@ -310,18 +302,23 @@ int run_reset(const FlashOptions& opt) {
 }
 
 int run_flash(const FlashOptions& opt) {
-  if (!opt.reset.empty()) return run_reset(opt);
-  saul::host::FlashPlan plan = build_plan(opt);
+  const bool reset_only = !opt.reset.empty();
+  if (reset_only && (!opt.inputs.empty() || !opt.build_dir.empty()))
+    throw CLI::ValidationError("--reset", "--reset only resets the board: give no files and no --build-dir");
+  if (reset_only && opt.no_reset) throw CLI::ValidationError("--reset", "--reset and --no-reset contradict each other");
+  const saul::host::FlashPlan plan = reset_only ? saul::host::FlashPlan{} : build_plan(opt);
   std::optional<saul::host::PortInfo> info;
   const auto [path, style] = pick_port(opt, info);
 
   if (const int rc = check_robot(opt); rc != kOk) return rc;
 
   warn_holders(path);
-  fmt::print("flashing the {} on {} ({}): {} region(s), flash {} ({})\n", board_name(style), path,
-             saul::host::to_string(style), plan.images.size(), mb(plan.flash_size), plan.flash_size_source);
+  if (!reset_only)
+    fmt::print("flashing the {} on {} ({}): {} region(s), flash {} ({})\n", board_name(style), path,
+               saul::host::to_string(style), plan.images.size(), mb(plan.flash_size), plan.flash_size_source);
 
   auto port = saul::host::open_serial(path, saul::host::SerialSettings{});  // 115200 8N1; a held port names its holder
+  if (reset_only) return run_reset(opt, *port, path, style);
 
   ProgressBar bar(plan.images.size());
   saul::host::FlasherOptions fo;
@@ -355,10 +352,7 @@ int run_flash(const FlashOptions& opt) {
     // What was done before the failure, and what was left unverified.
     for (const auto& r : flasher.outcomes())
       if (r.state == saul::host::RegionOutcome::State::unverified) print_outcome(r);
-    if (const auto* fe = dynamic_cast<const FlashError*>(&e)) {
-      say("{}", e.what());
-      return fe->kind() == FlashError::Kind::no_answer ? kTimeout : kFailure;
-    }
+    if (dynamic_cast<const FlashError*>(&e)) return report_error(e);  // 3 for no answer, else 1
     // The port failing under us (a write that would not go out, a driver error): FlashError's lines carry their
     // fix, the port's own do not.
     say("{}: replug the board and flash again{}", e.what(),
