@@ -25,6 +25,14 @@ using detail::ascii_lower;
 
 namespace {
 
+using K = FlashError::Kind;
+
+// Every failure with a formatted line: the FlashError thrown.
+template <class... Args>
+[[noreturn]] void fail(K kind, fmt::format_string<Args...> format, Args&&... args) {
+  throw FlashError(kind, fmt::format(format, std::forward<Args>(args)...));
+}
+
 constexpr std::uint32_t kDefaultFlashSize = 4U * 1024 * 1024;
 constexpr int kBlockAttempts = 3;
 constexpr milliseconds kSecurityInfoTimeout{500};  // older ROMs do not know the command: do not wait long
@@ -85,8 +93,7 @@ std::vector<std::uint8_t> deflate(std::span<const std::uint8_t> data) {
   uLongf size = compressBound(static_cast<uLong>(data.size()));
   std::vector<std::uint8_t> out(size);
   if (compress2(out.data(), &size, data.data(), static_cast<uLong>(data.size()), 9) != Z_OK)
-    throw FlashError(FlashError::Kind::input,
-                     "zlib could not compress the image (out of memory?): run again with --no-compress");
+    throw FlashError(K::input, "zlib could not compress the image (out of memory?): run again with --no-compress");
   out.resize(size);
   return out;
 }
@@ -97,24 +104,20 @@ FlashImage load_image(std::uint32_t offset, const std::filesystem::path& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(path, ec))
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: no such file (an ESP-IDF build leaves build/<project>.bin, "
-                                 "build/bootloader/bootloader.bin and build/partition_table/partition-table.bin)",
-                                 path.string()));
+    fail(K::input,
+         "{}: no such file (an ESP-IDF build leaves build/<project>.bin, build/bootloader/bootloader.bin and "
+         "build/partition_table/partition-table.bin)",
+         path.string());
   if (fs::is_directory(path, ec))
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: is a folder; for an ESP-IDF build folder use --build-dir", path.string()));
+    fail(K::input, "{}: is a folder; for an ESP-IDF build folder use --build-dir", path.string());
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: cannot be read: check its permissions (ls -l) and run again", path.string()));
+  if (!in) fail(K::input, "{}: cannot be read: check its permissions (ls -l) and run again", path.string());
   FlashImage img;
   img.offset = offset;
   img.name = path.string();
   img.data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   if (img.data.empty())
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: the file is empty: build again (idf.py build) or fix the path", path.string()));
+    fail(K::input, "{}: the file is empty: build again (idf.py build) or fix the path", path.string());
   return img;
 }
 
@@ -153,18 +156,16 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
   const fs::path json_path = is_file ? dir : dir / "flasher_args.json";
   const fs::path base = is_file ? dir.parent_path() : dir;
   if (!fs::exists(json_path, ec))
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: no flasher_args.json there (it is what 'idf.py build' leaves in the build "
-                                 "folder: build it first, or pass OFFSET FILE pairs)",
-                                 dir.string()));
+    fail(K::input,
+         "{}: no flasher_args.json there (it is what 'idf.py build' leaves in the build folder: build it first, or "
+         "pass OFFSET FILE pairs)",
+         dir.string());
   std::ifstream in(json_path);
   nlohmann::json j;
   try {
     in >> j;
   } catch (const std::exception& e) {
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: not valid JSON ({}): run 'idf.py build' again to rewrite it", json_path.string(),
-                                 e.what()));
+    fail(K::input, "{}: not valid JSON ({}): run 'idf.py build' again to rewrite it", json_path.string(), e.what());
   }
   // j[object][key] when it is a string, else "".
   const auto text = [&j](const char* object, const char* key) {
@@ -172,23 +173,23 @@ FlashPlan load_build_dir(const std::filesystem::path& dir) {
                ? j[object][key].get<std::string>() : "";
   };
   if (const std::string chip = text("extra_esptool_args", "chip"); !chip.empty() && ascii_lower(chip) != "esp32s3")
-    throw FlashError(FlashError::Kind::wrong_chip,
-                     fmt::format("{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py "
-                                 "set-target esp32s3' and build again",
-                                 json_path.string(), chip));
+    fail(K::wrong_chip,
+         "{}: the build was made for {}, not esp32s3: wrong build folder, or run 'idf.py set-target esp32s3' and build "
+         "again",
+         json_path.string(), chip);
   if (!j.contains("flash_files") || !j["flash_files"].is_object() || j["flash_files"].empty())
-    throw FlashError(FlashError::Kind::input,
-                     fmt::format("{}: has no \"flash_files\", so it is not an ESP-IDF flasher_args.json: give the "
-                                 "build folder idf.py wrote, or OFFSET FILE pairs",
-                                 json_path.string()));
+    fail(K::input,
+         "{}: has no \"flash_files\", so it is not an ESP-IDF flasher_args.json: give the build folder idf.py wrote, "
+         "or OFFSET FILE pairs",
+         json_path.string());
   FlashPlan plan;
   for (const auto& [key, value] : j["flash_files"].items()) {
     const auto offset = parse_offset(key);
     if (!offset || !value.is_string())
-      throw FlashError(FlashError::Kind::input,
-                       fmt::format("{}: flash_files entry \"{}\" is not OFFSET: \"file\": run 'idf.py build' again "
-                                   "to rewrite it, or give OFFSET FILE pairs",
-                                   json_path.string(), key));
+      fail(K::input,
+           "{}: flash_files entry \"{}\" is not OFFSET: \"file\": run 'idf.py build' again to rewrite it, or give "
+           "OFFSET FILE pairs",
+           json_path.string(), key);
     FlashImage img = load_image(*offset, base / value.get<std::string>());
     img.name = value.get<std::string>();
     plan.images.push_back(std::move(img));
@@ -225,7 +226,7 @@ void check_kind(const FlashImage& img, bool force, std::vector<std::string>& war
                           img.name, img.data[0], esp::kImageMagic);
   }
   if (problem.empty()) return;
-  if (!force) throw FlashError(FlashError::Kind::input, problem + " (--force writes it anyway)");
+  if (!force) throw FlashError(K::input, problem + " (--force writes it anyway)");
   warnings.push_back(problem + "; written anyway (--force)");
 }
 
@@ -274,31 +275,30 @@ void check_settings(FlashPlan& plan) {
 }  // namespace
 
 void check_plan(FlashPlan& plan, bool force) {
-  using K = FlashError::Kind;
   if (plan.images.empty())
     throw FlashError(K::input, "nothing to flash: give FILE [--offset], OFFSET FILE pairs or --build-dir");
   std::sort(plan.images.begin(), plan.images.end(), [](const auto& a, const auto& b) { return a.offset < b.offset; });
   for (std::size_t i = 0; i < plan.images.size(); ++i) {
     const auto& img = plan.images[i];
     if (img.offset % esp::kSectorSize != 0)
-      throw FlashError(K::input, fmt::format("{}: offset 0x{:X} is not on a 4 KiB sector boundary (the flash is erased "
-                                             "by whole sectors): use a multiple of 0x1000",
-                                             img.name, img.offset));
+      fail(K::input,
+           "{}: offset 0x{:X} is not on a 4 KiB sector boundary (the flash is erased by whole sectors): use a multiple "
+           "of 0x1000",
+           img.name, img.offset);
     if (i > 0) {
       const auto& prev = plan.images[i - 1];
       const std::uint64_t prev_end = prev.offset + static_cast<std::uint64_t>(prev.data.size());
       if (prev_end > img.offset)
-        throw FlashError(K::input, fmt::format("{} (0x{:X}..0x{:X}) overlaps {} at 0x{:X}: fix the offsets (or the "
-                                               "wrong file)",
-                                               prev.name, prev.offset, prev_end, img.name, img.offset));
+        fail(K::input, "{} (0x{:X}..0x{:X}) overlaps {} at 0x{:X}: fix the offsets (or the wrong file)", prev.name,
+             prev.offset, prev_end, img.name, img.offset);
     }
     check_kind(img, force, plan.warnings);
     if (auto h = esp::parse_image_header(img.data); h && h->chip_id != esp::kChipIdEsp32s3) {
       const char* name = esp::chip_name(h->chip_id);
-      throw FlashError(K::wrong_chip,
-                       fmt::format("{}: is an image for the {} (image chip id {}), not for the ESP32-S3: "
-                                   "wrong build (idf.py set-target esp32s3)",
-                                   img.name, name ? name : "unknown chip", h->chip_id));
+      fail(K::wrong_chip,
+           "{}: is an image for the {} (image chip id {}), not for the ESP32-S3: wrong build (idf.py set-target "
+           "esp32s3)",
+           img.name, name ? name : "unknown chip", h->chip_id);
     }
   }
   if (const auto h = bootloader_header(plan); plan.flash_size == 0 && h) {
@@ -313,12 +313,10 @@ void check_plan(FlashPlan& plan, bool force) {
   for (const auto& img : plan.images) {
     const std::uint64_t end = img.offset + static_cast<std::uint64_t>(padded_for_flash(img.data).size());
     if (end > plan.flash_size)
-      throw FlashError(
-          K::too_large,
-          fmt::format("{} ({}) at 0x{:X} ends at 0x{:X}, beyond the {} flash ({}): wrong file or offset, or "
-                      "pass --flash-size if the board's flash is larger",
-                      img.name, size_text(img.data.size()), img.offset, end, size_text(plan.flash_size),
-                      plan.flash_size_source));
+      fail(K::too_large,
+           "{} ({}) at 0x{:X} ends at 0x{:X}, beyond the {} flash ({}): wrong file or offset, or pass --flash-size if "
+           "the board's flash is larger",
+           img.name, size_text(img.data.size()), img.offset, end, size_text(plan.flash_size), plan.flash_size_source);
   }
 }
 
@@ -404,7 +402,7 @@ EspFlasher::EspFlasher(SerialPort& port, FlasherOptions options)
 std::optional<esp::Response> EspFlasher::exchange(const Result<std::size_t>& built, milliseconds timeout,
                                                   esp::Loader loader) {
   auto n = esp::slip_encode(std::span<const std::uint8_t>(packet_.data(), *built), frame_);
-  if (!n) throw FlashError(FlashError::Kind::protocol, "internal: request does not fit its frame buffer");
+  if (!n) throw FlashError(K::protocol, "internal: request does not fit its frame buffer");
   // Long enough for the frame at the current rate, twice over, plus a second of slack.
   const auto baud = std::max<std::uint32_t>(port_.settings().baud, 9600);
   const milliseconds write_timeout(1000 + static_cast<long long>(*n) * 10 * 2 * 1000 / baud);
@@ -452,15 +450,13 @@ esp::Response EspFlasher::command(const Result<std::size_t>& built, milliseconds
   auto r = exchange(built, timeout, chip_.loader);
   const auto op = static_cast<esp::Op>(packet_[1]);
   if (!r)
-    throw FlashError(FlashError::Kind::no_answer,
-                     fmt::format("{}: no answer to {} within {} ms: the board left download mode or the connection "
-                                 "broke: reset it into download mode (or replug it) and run again",
-                                 port_.path(), esp::to_string(op), timeout.count()));
+    fail(K::no_answer,
+         "{}: no answer to {} within {} ms: the board left download mode or the connection broke: reset it into "
+         "download mode (or replug it) and run again",
+         port_.path(), esp::to_string(op), timeout.count());
   if (!r->ok())
-    throw FlashError(
-        FlashError::Kind::refused,
-        fmt::format("{}: {} refused by the {} loader: {}", port_.path(), esp::to_string(op),
-                    chip_.loader == esp::Loader::rom ? "ROM" : "stub", refusal_text(r->error)));
+    fail(K::refused, "{}: {} refused by the {} loader: {}", port_.path(), esp::to_string(op),
+         chip_.loader == esp::Loader::rom ? "ROM" : "stub", refusal_text(r->error));
   return *r;
 }
 
@@ -501,14 +497,14 @@ const ChipInfo& EspFlasher::connect() {
       run_line_sequence(port_, bootloader_reset_sequence(options_.reset, attempt), options_.sleep);
     drain(milliseconds(0));
     for (int i = 0; i < 5 && !synced; ++i) {
-      if (cancelled()) throw FlashError(FlashError::Kind::interrupted, "interrupted while connecting: nothing was written; run again");
+      if (cancelled()) throw FlashError(K::interrupted, "interrupted while connecting: nothing was written; run again");
       // Read with the 2-byte status layout: it fits both the ROM's answer (4 status bytes) and a stub's.
       const auto r = exchange(esp::build_sync(packet_), options_.sync_timeout, esp::Loader::stub);
       synced = r && r->ok();
       if (synced) chip_.loader = r->value == 0 ? esp::Loader::stub : esp::Loader::rom;  // the ROM answers SYNC non-zero
     }
   }
-  if (!synced) throw FlashError(FlashError::Kind::no_answer, diagnose_silence());
+  if (!synced) throw FlashError(K::no_answer, diagnose_silence());
   connected_ = true;
   detect_chip();
   return chip_;
@@ -535,15 +531,15 @@ void EspFlasher::detect_chip() {
     chip_.detected_by = fmt::format("READ_REG 0x{:08X}", esp::kChipDetectMagicAddress);
   }
   if (chip_.name != "ESP32-S3")
-    throw FlashError(FlashError::Kind::wrong_chip,
-                     fmt::format("{}: this is an {}, not an ESP32-S3 (found by {}): both SAUL-TEE boards carry an "
-                                 "ESP32-S3, so this is another board or the wrong port ('saulctl ports' lists them)",
-                                 port_.path(), chip_.name, chip_.detected_by));
+    fail(K::wrong_chip,
+         "{}: this is an {}, not an ESP32-S3 (found by {}): both SAUL-TEE boards carry an ESP32-S3, so this is another "
+         "board or the wrong port ('saulctl ports' lists them)",
+         port_.path(), chip_.name, chip_.detected_by);
   if (chip_.security_flags & esp::kSecureDownloadFlag)
-    throw FlashError(FlashError::Kind::unsupported,
-                     fmt::format("{}: the ESP32-S3 is in secure download mode: its ROM will not compute the flash MD5 "
-                                 "saulctl verifies every write with; flash it with esptool's secure-download options",
-                                 port_.path()));
+    fail(K::unsupported,
+         "{}: the ESP32-S3 is in secure download mode: its ROM will not compute the flash MD5 saulctl verifies every "
+         "write with; flash it with esptool's secure-download options",
+         port_.path());
   chip_.usb_serial_jtag = (read_reg(esp::s3::kUartDevBufNo) & 0xFF) == esp::s3::kBufNoUsbSerialJtag;
   if (chip_.usb_serial_jtag) {
     // A reset over USB-Serial/JTAG leaves the RTC domain running: a watchdog armed by the application would
@@ -638,10 +634,9 @@ esp::Md5 EspFlasher::flash_md5(std::uint32_t offset, std::uint32_t size) {
   auto r = command(esp::build_spi_flash_md5(offset, size, packet_), per_mb(8, size));
   auto md5 = esp::parse_md5(r.data);
   if (!md5)
-    throw FlashError(FlashError::Kind::protocol,
-                     fmt::format("{}: SPI_FLASH_MD5 answered {} bytes, not an MD5 ({}): reset the board into "
-                                 "download mode and run again",
-                                 port_.path(), r.data.size(), saul::to_string(md5.reason())));
+    fail(K::protocol,
+         "{}: SPI_FLASH_MD5 answered {} bytes, not an MD5 ({}): reset the board into download mode and run again",
+         port_.path(), r.data.size(), saul::to_string(md5.reason()));
   return *md5;
 }
 
@@ -667,10 +662,10 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
   std::vector<std::uint8_t> chunk(block, 0xFF);
   for (std::uint32_t seq = 0; seq < blocks; ++seq) {
     if (cancelled())
-      throw FlashError(FlashError::Kind::interrupted,
-                       fmt::format("interrupted while writing {} at 0x{:X}: that region is UNVERIFIED and the board "
-                                   "may not boot; flash it again",
-                                   image.name, image.offset));
+      fail(K::interrupted,
+           "interrupted while writing {} at 0x{:X}: that region is UNVERIFIED and the board may not boot; flash it "
+           "again",
+           image.name, image.offset);
     const std::uint32_t from = seq * block;
     const std::uint32_t len = std::min(block, payload_size - from);
     std::span<const std::uint8_t> slice = payload.subspan(from, len);
@@ -685,15 +680,13 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
       if (r && r->ok()) break;
       if (attempt == kBlockAttempts) {
         if (!r)
-          throw FlashError(FlashError::Kind::no_answer,
-                           fmt::format("{}: no answer to block {} of {} of {} after {} tries: the board left download "
-                                       "mode or the connection broke mid-write, the region at 0x{:X} is UNVERIFIED: "
-                                       "reset the board into download mode (or replug it) and flash again",
-                                       port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset));
-        throw FlashError(FlashError::Kind::refused,
-                         fmt::format("{}: block {} of {} of {} refused {} times, the region at 0x{:X} is UNVERIFIED: {}",
-                                     port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset,
-                                     refusal_text(r->error)));
+          fail(K::no_answer,
+               "{}: no answer to block {} of {} of {} after {} tries: the board left download mode or the connection "
+               "broke mid-write, the region at 0x{:X} is UNVERIFIED: reset the board into download mode (or replug it) "
+               "and flash again",
+               port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset);
+        fail(K::refused, "{}: block {} of {} of {} refused {} times, the region at 0x{:X} is UNVERIFIED: {}",
+             port_.path(), seq + 1, blocks, image.name, kBlockAttempts, image.offset, refusal_text(r->error));
       }
       ++out.retries;
     }
@@ -712,7 +705,7 @@ void EspFlasher::write_blocks(const FlashImage& image, std::uint32_t size, std::
 }
 
 RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
-  if (!connected_) throw FlashError(FlashError::Kind::protocol, "internal: write() before connect()");
+  if (!connected_) throw FlashError(K::protocol, "internal: write() before connect()");
   const std::vector<std::uint8_t> data = padded_for_flash(image.data);
   const auto size = static_cast<std::uint32_t>(data.size());
   const esp::Md5 expected = md5_of(data);
@@ -740,19 +733,19 @@ RegionOutcome EspFlasher::write(const FlashImage& image, std::size_t index) {
     const esp::Md5 got = flash_md5(image.offset, size);
     slot.seconds = duration<double>(steady_clock::now() - t0).count();
     if (got != expected)
-      throw FlashError(FlashError::Kind::verify_failed,
-                       fmt::format("{} at 0x{:X}: the flash MD5 after writing is {}, the file's is {}: the region is "
-                                   "UNVERIFIED; flash again, and if it repeats suspect the flash size/mode or the chip",
-                                   image.name, image.offset, to_hex(got), to_hex(expected)));
+      fail(K::verify_failed,
+           "{} at 0x{:X}: the flash MD5 after writing is {}, the file's is {}: the region is UNVERIFIED; flash again, "
+           "and if it repeats suspect the flash size/mode or the chip",
+           image.name, image.offset, to_hex(got), to_hex(expected));
     slot.state = RegionOutcome::State::written;
     return slot;
   } catch (const SerialError& e) {
     slot.seconds = duration<double>(steady_clock::now() - t0).count();
     if (e.kind() == SerialError::Kind::gone)
-      throw FlashError(FlashError::Kind::port_gone,
-                       fmt::format("{}: the port went away while flashing {} at 0x{:X}: that region is UNVERIFIED and "
-                                   "the board may not boot; reconnect it and flash again",
-                                   port_.path(), image.name, image.offset));
+      fail(K::port_gone,
+           "{}: the port went away while flashing {} at 0x{:X}: that region is UNVERIFIED and the board may not boot; "
+           "reconnect it and flash again",
+           port_.path(), image.name, image.offset);
     throw;
   }
 }
