@@ -99,9 +99,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
                                   "send every byte as captured",
                                   link->name));
 
-  const SerialReplayOptions options{.speed = can_options.speed, .loops = can_options.loops,
-                                    .max_gap_ns = can_options.max_gap_ns, .allow_motion = opt.yes,
-                                    .link = link->name, .protocol = link->protocol};
+  const SerialReplayOptions options{can_options, link->name, link->protocol};  // allow_motion: --yes
 
   LinkSpec spec;
   try {
@@ -205,6 +203,9 @@ int run_replay(const ReplayCliOptions& opt) {
   if (!opt.max_gap.empty())
     options.max_gap_ns = static_cast<std::uint64_t>(parse_duration(opt.max_gap).count()) * 1'000'000ULL;
   if (opt.yes && opt.no_motion) throw CLI::ValidationError("--no-motion", "give --yes (--allow-motion) or --no-motion, not both");
+  // The rule, for CAN and serial captures alike: what can move motors is left out unless --allow-motion, and
+  // the user is told how many before anything is sent (no question: a replay in a script behaves as on a terminal).
+  options.allow_motion = opt.yes;
 
   // Replay reads the capture more than once, so a pipe would replay nothing: refused before it is touched.
   if (refuse_read_once("replay", opt.file, "once to show what it will send and again for each pass")) return kUsage;
@@ -232,11 +233,8 @@ int run_replay(const ReplayCliOptions& opt) {
                                                     "(select CAN ids with --id)");
 
   auto open_pass = [&opt]() { return open_capture_reader(opt.file, serial_read_options(opt.serial).format); };
-  ReplayPreview preview = preview_replay(opened.frames, options);
+  ReplayPreview preview = preview_replay(opened.frames, options);  // (motion allowed: it counts what moves)
   opened.frames.reset();
-  // The rule, the same as for serial captures: motion frames are left out unless --allow-motion, and the
-  // user is told how many before anything is sent (no question: a replay in a script behaves as on a terminal).
-  options.allow_motion = opt.yes;
   if (preview.motion > 0 && !opt.yes && !opt.json)
     fmt::print(stderr, "replay: dropping {} frame(s) that can move motors ({} per pass: 0x300, 0x302 balance/manual, "
                        "VESC set commands); --allow-motion sends them\n",

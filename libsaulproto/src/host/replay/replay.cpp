@@ -163,7 +163,7 @@ void replay_passes(ReplayTotals& totals, unsigned loops, ReplayPacer& pacer, con
 ReplayReport replay(const std::function<std::unique_ptr<CaptureReader>()>& open_pass, const ReplayOptions& options,
                     ReplayClock& clock, const ReplayHooks& hooks) {
   ReplayReport report;
-  ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
+  ReplayPacer pacer(clock, options, static_cast<bool>(hooks.step));
   replay_passes(report, options.loops, pacer, hooks.stop, [&] {
     auto reader = open_pass();
     read_in_order(reader, {}, [&](const FrameBatch& batch) {

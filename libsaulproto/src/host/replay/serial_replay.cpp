@@ -235,7 +235,7 @@ SerialReplayReport replay_serial(const std::function<std::unique_ptr<SerialCaptu
                                  const SerialReplayOptions& options, ReplayClock& clock,
                                  const SerialReplayHooks& hooks) {
   SerialReplayReport report;
-  ReplayPacer pacer(clock, options.speed, options.max_gap_ns, static_cast<bool>(hooks.step));
+  ReplayPacer pacer(clock, options, static_cast<bool>(hooks.step));
   report.link = options.link;
   bool have_protocol = false;
 

@@ -37,14 +37,18 @@ struct IdMapping {
 /// means 29-bit. Throws std::invalid_argument with the accepted form.
 IdMapping parse_id_mapping(std::string_view text);
 
-struct ReplayOptions {
-  double speed = 1.0;                     ///< 2 = twice as fast, 0.5 = half speed, 0 = as fast as possible
-  unsigned loops = 1;                     ///< passes over the file
+/// How every replay goes, of CAN frames or serial chunks.
+struct ReplayPacing {
+  double speed = 1.0;                       ///< 2 = twice as fast, 0.5 = half speed, 0 = as fast as possible
+  unsigned loops = 1;                       ///< passes over the file
   std::optional<std::uint64_t> max_gap_ns;  ///< longer silences of the file are shortened to this
-  std::vector<CanFilter> include;         ///< only these logged ids (empty = all)
-  std::vector<CanFilter> exclude;         ///< never these logged ids
-  std::vector<IdMapping> mappings;        ///< applied after the filters
-  bool allow_motion = false;              ///< otherwise frames that can move motors are dropped
+  bool allow_motion = false;                ///< otherwise what can move motors is dropped
+};
+
+struct ReplayOptions : ReplayPacing {
+  std::vector<CanFilter> include;   ///< only these logged ids (empty = all)
+  std::vector<CanFilter> exclude;   ///< never these logged ids
+  std::vector<IdMapping> mappings;  ///< applied after the filters
 };
 
 enum class ReplayVerdict : std::uint8_t { send, filtered, motion_dropped, error_frame };
@@ -103,8 +107,8 @@ class MonotonicReplayClock final : public ReplayClock {
 /// anchor_clock + (T - anchor_T) / speed, anchored at the first item (and, single-stepping, at every item).
 class ReplayPacer {
  public:
-  ReplayPacer(ReplayClock& clock, double speed, std::optional<std::uint64_t> max_gap_ns, bool stepping)
-      : clock_(clock), speed_(speed), max_gap_ns_(max_gap_ns), stepping_(stepping) {}
+  ReplayPacer(ReplayClock& clock, const ReplayPacing& pacing, bool stepping)
+      : clock_(clock), speed_(pacing.speed), max_gap_ns_(pacing.max_gap_ns), stepping_(stepping) {}
   /// Starts the next pass over the file.
   void next_pass();
   /// Waits until the item logged at timestamp_ns (nullopt: the time of the one before) is due, and records how late

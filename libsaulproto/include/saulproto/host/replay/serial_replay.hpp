@@ -81,11 +81,7 @@ std::optional<SerialSettings> replay_serial_settings(std::string_view captured_l
 /// forms, also when no baud rate is given and there is no default.
 LinkSpec parse_serial_replay_link(const std::string& text, const std::optional<SerialSettings>& defaults);
 
-struct SerialReplayOptions {
-  double speed = 1.0;                       ///< as ReplayOptions::speed (0 = as fast as possible)
-  unsigned loops = 1;                       ///< passes over the file
-  std::optional<std::uint64_t> max_gap_ns;  ///< longer silences of the file are shortened to this
-  bool allow_motion = false;                ///< otherwise messages that can move motors are left out
+struct SerialReplayOptions : ReplayPacing {
   /// The captured link to replay; chunks of other links are not sent. Empty: the first link of the file.
   std::string link;
   /// How to cut the link's bytes into frames; empty: the protocol its first chunk names. A raw link is sent as it
