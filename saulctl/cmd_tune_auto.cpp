@@ -374,8 +374,9 @@ int run_tune_auto(const TuneAutoOptions& o) {
 }  // namespace
 
 void add_tune_auto_command(CLI::App& tune, Runner& run) {
-  auto o = std::make_shared<TuneAutoOptions>();
-  auto* cmd = tune.add_subcommand("auto", "Propose balance gains from experiments on the simulated or the armed live robot (never applied)");
+  auto [cmd, o] = add_verb<TuneAutoOptions>(
+      tune, run, "auto",
+      "Propose balance gains from experiments on the simulated or the armed live robot (never applied)", run_tune_auto);
   cmd->add_flag("--sim", o->sim, "run the experiment on the simulated robot, in this process, on simulated time");
   cmd->add_option("--seed", o->seed, "noise seed of the experiment")->capture_default_str();
   cmd->add_option("--verify-seeds", o->verify_seeds, "verify on seeds 1..N, 60 s each")
@@ -396,7 +397,6 @@ void add_tune_auto_command(CLI::App& tune, Runner& run) {
               "Ctrl-C and on any error. The proposal is printed, never applied.\n"
               "\nExit codes: 0 gains proposed (or the live plan printed), 1 refused (not armed in BALANCE, or the speed cap\n"
               "below 50 %), interrupted or the gains not restored, 2 usage, 3 no gains passed (or no answer from BALANCE).\n");
-  attach_runner(cmd, o, run, run_tune_auto);
 }
 
 }  // namespace saulctl

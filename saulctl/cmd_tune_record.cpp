@@ -118,8 +118,8 @@ int run_tune_record(const TuneRecordOptions& o) {
 }  // namespace
 
 void add_tune_record_command(CLI::App& tune, Runner& run) {
-  auto o = std::make_shared<TuneRecordOptions>();
-  auto* cmd = tune.add_subcommand("record", "Record BALANCE's 1 kHz loop trace into a trace file");
+  auto [cmd, o] = add_verb<TuneRecordOptions>(tune, run, "record",
+                                              "Record BALANCE's 1 kHz loop trace into a trace file", run_tune_record);
   cmd->add_option("-o,--output", o->out, "the trace file to write")->required();
   add_duration_option(cmd, o->duration, "how long to trace, on the robot's clock (its records' time)")->capture_default_str();
   cmd->add_option("--excite", o->excite, "add a test signal to the pitch setpoint while tracing")
@@ -158,7 +158,6 @@ void add_tune_record_command(CLI::App& tune, Runner& run) {
       "  saulctl tune record --console-balance /dev/ttyACM1 --dump -o fall.trace     the 5 s before the last latch\n"
       "  saulctl stats run.trace; saulctl convert run.trace run.csv\n"
       "\nExit codes: 0 recorded, 1 nothing recorded or BALANCE refused (the reason is printed), 2 usage.\n");
-  attach_runner(cmd, o, run, run_tune_record);
 }
 
 }  // namespace saulctl

@@ -47,24 +47,20 @@ int report_errors(Body&& body) {
 /// Installs the handlers that set g_interrupted (live.hpp) on SIGINT and SIGTERM, and ignores SIGPIPE.
 void install_signal_handlers();
 
-/// Makes `verb(*options)` what main() runs when `cmd` is chosen (main() says what it throws: report_error). A live
-/// verb (the default) handles Ctrl-C itself (install_signal_handlers); a file verb dies of it, and of SIGPIPE.
+/// Adds the verb `name` to `parent` with a new Options for its options; when it is chosen, `verb(options)` is what
+/// main() runs (main() says what it throws: report_error). A live verb (the default) handles Ctrl-C itself
+/// (install_signal_handlers); a file verb dies of it, and of SIGPIPE.
 template <class Options, class Verb>
-void attach_runner(CLI::App* cmd, std::shared_ptr<Options> options, Runner& run, Verb verb, bool live = true) {
+std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::string name, std::string what, Verb verb,
+                                        bool live = true) {
+  auto options = std::make_shared<Options>();
+  CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(what));
   cmd->callback([options, &run, verb, live] {
     run = [options, verb, live] {
       if (live) install_signal_handlers();
       return verb(*options);
     };
   });
-}
-/// Adds the verb `name` to `parent` with a new Options for its options, run as `verb(options)` (attach_runner).
-template <class Options, class Verb>
-std::pair<CLI::App*, Options*> add_verb(CLI::App& parent, Runner& run, std::string name, std::string what, Verb verb,
-                                        bool live = true) {
-  auto options = std::make_shared<Options>();
-  CLI::App* cmd = parent.add_subcommand(std::move(name), std::move(what));
-  attach_runner(cmd, options, run, verb, live);
   return {cmd, options.get()};
 }
 
