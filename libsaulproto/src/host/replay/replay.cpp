@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <time.h>
 
-#include <cerrno>
 #include <cmath>
 #include <stdexcept>
 #include <string>

@@ -10,7 +10,6 @@
 #include <map>
 #include <sstream>
 
-#include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/core/saul_can.hpp"
 #include "saulproto/host/suite/tune_expect.hpp"

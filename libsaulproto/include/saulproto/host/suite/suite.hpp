@@ -7,14 +7,12 @@
 
 #include <cstdint>
 #include <istream>
-#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "saulproto/core/can_frame.hpp"
-#include "saulproto/core/dispatch.hpp"
 #include "saulproto/core/trace.hpp"
 
 namespace saul::host::suite {
