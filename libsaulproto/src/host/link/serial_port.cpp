@@ -115,6 +115,7 @@ class DeviceClaim {
     ::close(fd_);
   }
   void make_exclusive() { exclusive_ = fd_ >= 0 && ::ioctl(fd_, TIOCEXCL) == 0; }
+  [[nodiscard]] int fd() const { return fd_; }
 
  private:
   int fd_ = -1;
@@ -149,20 +150,11 @@ bool wait_fd(int fd, short events, milliseconds timeout, const std::string& path
 
 class TermiosPort final : public SerialPort {
  public:
+  // The claim's descriptor is the port's: it closes with the claim, also when configure() throws.
   TermiosPort(std::string path, const SerialSettings& s)
-      : path_(std::move(path)), settings_(s), claim_(path_) {
-    fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-    if (fd_ < 0) throw open_error(path_, errno);
-    try {
-      configure(s);
-    } catch (...) {
-      ::close(fd_);
-      throw;
-    }
+      : path_(std::move(path)), settings_(s), claim_(path_), fd_(claim_.fd()) {
+    configure(s);
     claim_.make_exclusive();
-  }
-  ~TermiosPort() override {
-    if (fd_ >= 0) ::close(fd_);
   }
 
   void configure(const SerialSettings& s) {
