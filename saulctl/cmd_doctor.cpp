@@ -175,7 +175,7 @@ void check_slcan(Checks& c, const saul::host::LinkSpec& spec, milliseconds wait)
   if (sharing == Sharing::refused) return;
   try {
     if (sharing == Sharing::none) {
-      auto port = saul::host::open_serial(dev, saul::host::SerialSettings{}, spec.backend);
+      auto port = saul::host::open_serial(dev, saul::host::SerialSettings{});
       c.ok("port exists", dev);
       c.ok("permission", "can open " + dev);
       c.ok("not busy", dev + " is free");

@@ -111,7 +111,7 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
     fmt::print(stderr, "replay: dropping {} message(s) that can move motors ({} per pass: {}); --allow-motion sends "
                        "them\n",
                link->motion * opt.loops, link->motion, format_motion_by_type(link->motion_by_type));
-  auto port = open_serial(spec.device, spec.serial, spec.backend);
+  auto port = open_serial(spec.device, spec.serial);
   const std::string protocol_text =
       fmt::format("{}{}", to_string(link->protocol), link->guessed ? ", guessed from the bytes" : "");
   if (!opt.json)

@@ -93,8 +93,7 @@ std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptio
     case LinkSpec::Kind::socketcan: return open_socketcan(spec.device, {.filters = options.filters});
     case LinkSpec::Kind::slcan: {
       if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters, options.paced);
-      auto link = open_slcan(spec.device,
-                             {.bitrate = spec.bitrate, .listen_only = options.listen_only, .backend = spec.backend});
+      auto link = open_slcan(spec.device, {.bitrate = spec.bitrate, .listen_only = options.listen_only});
       link->set_filters(options.filters);
       return link;
     }
@@ -106,7 +105,7 @@ std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptio
 std::unique_ptr<SerialPort> open_serial_link(const LinkSpec& spec) {
   if (spec.kind != LinkSpec::Kind::serial)
     throw std::invalid_argument(fmt::format("'{}' is a CAN link, not a serial byte link", spec.text()));
-  return open_shared_serial(spec.device, spec.serial, spec.backend);
+  return open_shared_serial(spec.device, spec.serial);
 }
 
 }  // namespace saul::host

@@ -278,8 +278,7 @@ class SharedCanLink final : public CanLink, private ShareEnd {
 
  private:
   int open_device() override {
-    const SlcanOptions o{.bitrate = spec_.bitrate, .listen_only = listen_only_, .backend = spec_.backend};
-    real_ = open_slcan(spec_.device, o);
+    real_ = open_slcan(spec_.device, {.bitrate = spec_.bitrate, .listen_only = listen_only_});
     return real_->poll_handle();
   }
   void close_device() override { real_.reset(); }  // closes the channel and the device
@@ -407,13 +406,12 @@ auto as_serial(F&& f) { return rethrow_as(to_serial_error, std::forward<F>(f)); 
 
 class SharedSerialPort final : public SerialPort, private ShareEnd {
  public:
-  SharedSerialPort(const std::string& path, const SerialSettings& settings, SerialBackend backend)
+  SharedSerialPort(const std::string& path, const SerialSettings& settings)
       : ShareEnd(path, fmt::format("serial:{}@{}:{}", path, settings.baud, to_string(settings)),
                  {.kind = Kind::serial, .command = self_command(), .rate = settings.baud,
                   .format = to_string(settings)}),
         path_(path),
-        settings_(settings),
-        backend_(backend) {
+        settings_(settings) {
     as_serial([&] { attach(); });
   }
   ~SharedSerialPort() override { shutdown(); }
@@ -454,7 +452,7 @@ class SharedSerialPort final : public SerialPort, private ShareEnd {
 
  private:
   int open_device() override {
-    real_ = open_serial(path_, settings_, backend_);
+    real_ = open_serial(path_, settings_);
     return real_->poll_handle();
   }
   void close_device() override { real_.reset(); }
@@ -501,7 +499,6 @@ class SharedSerialPort final : public SerialPort, private ShareEnd {
 
   const std::string path_;
   const SerialSettings settings_;
-  const SerialBackend backend_;
   std::unique_ptr<SerialPort> real_;  ///< the owner's port
   std::deque<std::uint8_t> bytes_;    ///< inbox_mu_ guards it
 };
@@ -520,9 +517,8 @@ std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_onl
   return std::make_unique<share::SharedCanLink>(spec, listen_only, filters, paced);
 }
 
-std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,
-                                               SerialBackend backend) {
-  return std::make_unique<share::SharedSerialPort>(path, settings, backend);
+std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings) {
+  return std::make_unique<share::SharedSerialPort>(path, settings);
 }
 
 }  // namespace saul::host

@@ -152,7 +152,7 @@ class SlcanLink final : public CanLink {
 std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options) {
   SerialSettings s;
   s.baud = 115200;  // USB CDC ignores it; a real UART adapter would need the right value
-  return as_link([&] { return std::make_unique<SlcanLink>(open_serial(path, s, options.backend), options); });
+  return as_link([&] { return std::make_unique<SlcanLink>(open_serial(path, s), options); });
 }
 
 }  // namespace saul::host

@@ -22,7 +22,6 @@ struct LinkSpec {
   std::string device;             ///< interface name or serial device path
   std::uint32_t bitrate = 500'000;  ///< slcan CAN bitrate
   SerialSettings serial;          ///< serial links
-  SerialBackend backend = SerialBackend::automatic;
   [[nodiscard]] bool is_can() const { return kind != Kind::serial; }
   [[nodiscard]] std::string text() const;
 };

@@ -58,8 +58,7 @@ std::unique_ptr<CanLink> open_shared_slcan(const LinkSpec& spec, bool listen_onl
                                            const std::vector<CanFilter>& filters, bool paced = false);
 
 /// Opens a serial byte link shared as described above.
-std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings,
-                                               SerialBackend backend = SerialBackend::automatic);
+std::unique_ptr<SerialPort> open_shared_serial(const std::string& path, const SerialSettings& settings);
 
 /// Where the sharing's one-line notices go ("the owner stopped; this saulctl now holds ..."). The default writes
 /// "saulctl: <text>" lines on stderr; a full-screen view puts them in its status line instead. Thread-safe.

@@ -7,7 +7,6 @@
 #include <string>
 
 #include "saulproto/host/link/can_link.hpp"
-#include "saulproto/host/link/serial_port.hpp"
 
 namespace saul::host {
 
@@ -16,7 +15,6 @@ struct SlcanOptions {
   /// Listen only (no ACKs, no transmissions). Sent as "L" (Lawicel) when the adapter's version reply looks
   /// Lawicel, else "M1" (CANable stock firmware); the version is asked for first.
   bool listen_only = false;
-  SerialBackend backend = SerialBackend::automatic;
 };
 
 std::unique_ptr<CanLink> open_slcan(const std::string& path, const SlcanOptions& options = {});
