@@ -338,9 +338,8 @@ class LibSerialPort final : public SerialPort {
 };
 
 bool is_pty(const std::string& path) {
-  char resolved[PATH_MAX];
-  const char* p = ::realpath(path.c_str(), resolved) ? resolved : path.c_str();
-  return std::strncmp(p, "/dev/pts/", 9) == 0 || std::strcmp(p, "/dev/ptmx") == 0;
+  const std::string p = canonical_device(path);
+  return p.starts_with("/dev/pts/") || p == "/dev/ptmx";
 }
 
 // What a USB vendor/product pair is on this bench, or "" when unknown.
