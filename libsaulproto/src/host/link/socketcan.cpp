@@ -40,7 +40,6 @@ const char* to_string(ControllerState s) {
 const char* to_string(TimestampSource s) {
   switch (s) {
     case TimestampSource::kernel: return "kernel";
-    case TimestampSource::device: return "device";
     case TimestampSource::host_read: return "host-read";
   }
   return "?";

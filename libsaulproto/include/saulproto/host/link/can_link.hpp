@@ -32,7 +32,6 @@ const char* to_string(ControllerState s);
 /// Where a received frame's timestamp came from.
 enum class TimestampSource : std::uint8_t {
   kernel,     ///< SocketCAN SO_TIMESTAMPNS (CLOCK_REALTIME at reception in the kernel)
-  device,     ///< the adapter's own clock (slcan Z1/Z2), anchored to the host's realtime clock at first use
   host_read,  ///< the host's realtime clock when read() returned: the stock CANable firmwares send no stamps
 };
 const char* to_string(TimestampSource s);
