@@ -7,11 +7,10 @@ namespace saul::host {
 
 using namespace std::chrono;
 
-PrideVcu::PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command, PrideVcuOptions options)
-    : port_(port), clock_(std::move(clock)), command_(command), previous_command_(command), options_(options) {
+PrideVcu::PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command)
+    : port_(port), clock_(std::move(clock)), command_(command), previous_command_(command) {
   if (!command.in_range())
     throw std::invalid_argument("pride: speed level must be 0..14 and FB, LR -100..+100");
-  if (options_.period.count() <= 0) throw std::invalid_argument("pride: the frame period must be positive");
   next_ = clock_();  // the first frame goes out at once
 }
 
@@ -25,17 +24,16 @@ void PrideVcu::begin_neutral() {
 
 bool PrideVcu::finished() const {
   if (!neutral_) return false;
-  const auto needed = (duration_cast<microseconds>(options_.neutral_time) + options_.period - microseconds(1)) /
-                      options_.period;
-  return counters_.neutral_frames_sent >= static_cast<std::uint64_t>(needed);
+  constexpr auto kNeeded = (kNeutralTime + kPeriod - microseconds(1)) / kPeriod;
+  return counters_.neutral_frames_sent >= static_cast<std::uint64_t>(kNeeded);
 }
 
 void PrideVcu::send_frame(TimePoint now) {
   std::array<std::uint8_t, pride::kFrameSize> frame{};
   const auto n = pride::encode(command_, frame);
   if (!n) throw std::logic_error("pride: cannot encode the VCU frame");
-  // On one wire every byte comes straight back; an echo that made no progress for echo_timeout is not coming.
-  if (echo_.expected() > 0 && now - echo_progress_ > options_.echo_timeout) echo_.clear();
+  // On one wire every byte comes straight back; an echo that made no progress for kEchoTimeout is not coming.
+  if (echo_.expected() > 0 && now - echo_progress_ > kEchoTimeout) echo_.clear();
   if (echo_.expected() == 0) echo_progress_ = now;
   port_.write(std::span<const std::uint8_t>(frame.data(), *n), milliseconds(5));
   const std::span<const std::uint8_t> sent(frame.data(), *n);
@@ -48,9 +46,9 @@ void PrideVcu::send_frame(TimePoint now) {
   if (neutral_) ++counters_.neutral_frames_sent;
   // Absolute deadlines: the next frame is one period after this slot, not after now. When we are late by a
   // whole period or more, the missed slots are skipped (counted), never sent in a burst.
-  next_ += options_.period;
+  next_ += kPeriod;
   while (next_ <= now) {
-    next_ += options_.period;
+    next_ += kPeriod;
     ++counters_.missed_slots;
   }
 }

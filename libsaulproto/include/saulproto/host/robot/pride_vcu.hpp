@@ -18,14 +18,6 @@ namespace saul::host {
 /// Where the VCU takes the time from: the steady clock in saulctl, a fake one in tests.
 using VcuClock = std::function<std::chrono::steady_clock::time_point()>;
 
-struct PrideVcuOptions {
-  std::chrono::microseconds period{pride::kFramePeriodUs};
-  std::chrono::milliseconds neutral_time{100};  ///< neutral frames sent before finished()
-  /// An expected echo that made no progress for this long is forgotten (hardware that does not echo). On one
-  /// wire the echo returns within ~2 ms; a loaded USB serial adapter can hold it back for a few frames.
-  std::chrono::milliseconds echo_timeout{15};
-};
-
 struct PrideVcuCounters {
   std::uint64_t frames_sent = 0;
   std::uint64_t neutral_frames_sent = 0;    ///< since begin_neutral()
@@ -41,9 +33,9 @@ class PrideVcu {
   using StatusHandler = std::function<void(const pride::ControllerStatus&)>;
 
   /// Throws std::invalid_argument when the command is outside the manual's ranges.
-  PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command, PrideVcuOptions options = {});
+  PrideVcu(SerialPort& port, VcuClock clock, pride::VcuCommand command);
 
-  /// From now on only neutral frames (same speed level, FB 0, LR 0); finished() after options.neutral_time
+  /// From now on only neutral frames (same speed level, FB 0, LR 0); finished() after kNeutralTime
   /// worth of them. Calling it again does not restart the neutral period.
   void begin_neutral();
   [[nodiscard]] bool neutral() const { return neutral_; }
@@ -62,6 +54,12 @@ class PrideVcu {
   [[nodiscard]] TimePoint next_deadline() const { return next_; }
 
  private:
+  static constexpr std::chrono::microseconds kPeriod{pride::kFramePeriodUs};
+  static constexpr std::chrono::milliseconds kNeutralTime{100};  // neutral frames sent before finished()
+  // An expected echo that made no progress for this long is forgotten (hardware that does not echo). On one
+  // wire the echo returns within ~2 ms; a loaded USB serial adapter can hold it back for a few frames.
+  static constexpr std::chrono::milliseconds kEchoTimeout{15};
+
   void send_frame(TimePoint now);
   void take(std::span<const std::uint8_t> bytes, TimePoint now, const StatusHandler& on_status);
 
@@ -69,7 +67,6 @@ class PrideVcu {
   VcuClock clock_;
   pride::VcuCommand command_;
   pride::VcuCommand previous_command_;  // what the frames before neutral carried
-  PrideVcuOptions options_;
   TimePoint next_;
   TimePoint echo_progress_{};  // last time an echo byte came back, or a send began an echo
   bool neutral_ = false;
