@@ -148,35 +148,10 @@ bool wait_fd(int fd, short events, milliseconds timeout, const std::string& path
   }
 }
 
-class TermiosPort final : public SerialPort {
+// What both backends share: reads and writes on the port's descriptor, which polls for them (and reports hang-up).
+class FdPort : public SerialPort {
  public:
-  // The claim's descriptor is the port's: it closes with the claim, also when configure() throws.
-  TermiosPort(std::string path, const SerialSettings& s)
-      : path_(std::move(path)), settings_(s), claim_(path_), fd_(claim_.fd()) {
-    configure(s);
-    claim_.make_exclusive();
-  }
-
-  void configure(const SerialSettings& s) {
-    termios t{};
-    if (::tcgetattr(fd_, &t) != 0)
-      throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(errno)));
-    ::cfmakeraw(&t);
-    t.c_cflag |= CLOCAL | CREAD;
-    t.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
-    t.c_cflag |= s.data_bits == 7 ? CS7 : s.data_bits == 6 ? CS6 : s.data_bits == 5 ? CS5 : CS8;
-    if (s.parity != Parity::none) t.c_cflag |= PARENB;
-    if (s.parity == Parity::odd) t.c_cflag |= PARODD;
-    if (s.stop_bits == 2) t.c_cflag |= CSTOPB;
-    t.c_cc[VMIN] = 0;
-    t.c_cc[VTIME] = 0;
-    const speed_t sp = standard_speed(s.baud);
-    if (sp != 0) ::cfsetspeed(&t, sp);
-    if (::tcsetattr(fd_, TCSANOW, &t) != 0)
-      throw SerialError(SerialError::Kind::config,
-                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(errno)));
-    check_rate(s.baud, sp != 0);
-  }
+  FdPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {}
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
     if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
@@ -205,6 +180,46 @@ class TermiosPort final : public SerialPort {
     }
   }
 
+  [[nodiscard]] const std::string& path() const override { return path_; }
+  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
+  [[nodiscard]] int poll_handle() const override { return fd_; }
+
+ protected:
+  std::string path_;
+  SerialSettings settings_;
+  int fd_ = -1;
+};
+
+class TermiosPort final : public FdPort {
+ public:
+  // The claim's descriptor is the port's: it closes with the claim, also when configure() throws.
+  TermiosPort(std::string path, const SerialSettings& s) : FdPort(std::move(path), s), claim_(path_) {
+    fd_ = claim_.fd();
+    configure(s);
+    claim_.make_exclusive();
+  }
+
+  void configure(const SerialSettings& s) {
+    termios t{};
+    if (::tcgetattr(fd_, &t) != 0)
+      throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(errno)));
+    ::cfmakeraw(&t);
+    t.c_cflag |= CLOCAL | CREAD;
+    t.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
+    t.c_cflag |= s.data_bits == 7 ? CS7 : s.data_bits == 6 ? CS6 : s.data_bits == 5 ? CS5 : CS8;
+    if (s.parity != Parity::none) t.c_cflag |= PARENB;
+    if (s.parity == Parity::odd) t.c_cflag |= PARODD;
+    if (s.stop_bits == 2) t.c_cflag |= CSTOPB;
+    t.c_cc[VMIN] = 0;
+    t.c_cc[VTIME] = 0;
+    const speed_t sp = standard_speed(s.baud);
+    if (sp != 0) ::cfsetspeed(&t, sp);
+    if (::tcsetattr(fd_, TCSANOW, &t) != 0)
+      throw SerialError(SerialError::Kind::config,
+                        fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(errno)));
+    check_rate(s.baud, sp != 0);
+  }
+
   void set_modem_lines(bool dtr, bool rts) override {
     int bits = 0;
     if (::ioctl(fd_, TIOCMGET, &bits) != 0) return;  // a pty has no modem lines
@@ -226,10 +241,7 @@ class TermiosPort final : public SerialPort {
     settings_.baud = baud;
   }
 
-  [[nodiscard]] const std::string& path() const override { return path_; }
-  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
   [[nodiscard]] const char* backend() const override { return "termios"; }
-  [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
   // After tcsetattr: a rate termios has no constant for goes through BOTHER; then what the driver set is checked.
@@ -241,15 +253,14 @@ class TermiosPort final : public SerialPort {
       throw SerialError(SerialError::Kind::config, why);
   }
 
-  std::string path_;
-  SerialSettings settings_;
   DeviceClaim claim_;
-  int fd_ = -1;
 };
 
-class LibSerialPort final : public SerialPort {
+// Opened and configured by libserialport (its descriptor is non-blocking, as FdPort needs), its modem lines set
+// through it.
+class LibSerialPort final : public FdPort {
  public:
-  LibSerialPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {
+  LibSerialPort(std::string path, const SerialSettings& s) : FdPort(std::move(path), s) {
     sp_port* found = nullptr;
     if (sp_get_port_by_name(path_.c_str(), &found) != SP_OK) {
       // libserialport finds ports through sysfs; a path it cannot find is either absent or not a tty.
@@ -279,22 +290,6 @@ class LibSerialPort final : public SerialPort {
     claim_->make_exclusive();
   }
 
-  std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
-    // Wait with poll on the handle (reports hang-up), then take everything available in one call.
-    if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
-    const int n = sp_nonblocking_read(port_, buf.data(), buf.size());
-    if (n > 0) return static_cast<std::size_t>(n);
-    throw gone_error(path_);  // an error, or readable but nothing to read: hang-up
-  }
-
-  void write(std::span<const std::uint8_t> data, milliseconds timeout) override {
-    const int n = sp_blocking_write(port_, data.data(), data.size(), static_cast<unsigned>(timeout.count()));
-    if (n < 0) throw gone_error(path_);
-    if (static_cast<std::size_t>(n) != data.size())
-      throw SerialError(SerialError::Kind::io,
-                        fmt::format("{}: write timed out (the device is not reading; is it stuck?)", path_));
-  }
-
   void set_modem_lines(bool dtr, bool rts) override {
     // Two calls, so the line passes through a mixed state for a fraction of a millisecond. The one to avoid is
     // DTR off with RTS on: a reset request on the ESP32-S3's USB-Serial/JTAG and EN low on a bridge. DTR first
@@ -316,14 +311,9 @@ class LibSerialPort final : public SerialPort {
     settings_.baud = baud;
   }
 
-  [[nodiscard]] const std::string& path() const override { return path_; }
-  [[nodiscard]] const SerialSettings& settings() const override { return settings_; }
   [[nodiscard]] const char* backend() const override { return "libserialport"; }
-  [[nodiscard]] int poll_handle() const override { return fd_; }
 
  private:
-  std::string path_;
-  SerialSettings settings_;
   // Closes the port (a port not open refuses that harmlessly) and frees it, also when the constructor throws.
   struct PortFree {
     void operator()(sp_port* p) const {
@@ -334,7 +324,6 @@ class LibSerialPort final : public SerialPort {
   std::unique_ptr<DeviceClaim> claim_;
   std::unique_ptr<sp_port, PortFree> holder_;  // after claim_: the port closes before the claim lets the device go
   sp_port* port_ = nullptr;                   // holder_'s
-  int fd_ = -1;
 };
 
 bool is_pty(const std::string& path) {
