@@ -148,10 +148,11 @@ bool wait_fd(int fd, short events, milliseconds timeout, const std::string& path
   }
 }
 
-// What both backends share: reads and writes on the port's descriptor, which polls for them (and reports hang-up).
+// What both backends share: the claim on the device, taken before either configures it, and reads and writes on
+// the port's descriptor, which polls for them (and reports hang-up).
 class FdPort : public SerialPort {
  public:
-  FdPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s) {}
+  FdPort(std::string path, const SerialSettings& s) : path_(std::move(path)), settings_(s), claim_(path_) {}
 
   std::size_t read(std::span<std::uint8_t> buf, milliseconds timeout) override {
     if (!wait_fd(fd_, POLLIN, timeout, path_)) return 0;
@@ -187,13 +188,14 @@ class FdPort : public SerialPort {
  protected:
   std::string path_;
   SerialSettings settings_;
+  DeviceClaim claim_;
   int fd_ = -1;
 };
 
 class TermiosPort final : public FdPort {
  public:
   // The claim's descriptor is the port's: it closes with the claim, also when configure() throws.
-  TermiosPort(std::string path, const SerialSettings& s) : FdPort(std::move(path), s), claim_(path_) {
+  TermiosPort(std::string path, const SerialSettings& s) : FdPort(std::move(path), s) {
     fd_ = claim_.fd();
     configure(s);
     claim_.make_exclusive();
@@ -252,8 +254,6 @@ class TermiosPort final : public FdPort {
     if (const auto why = baud_mismatch(fd_, path_, baud); !why.empty())
       throw SerialError(SerialError::Kind::config, why);
   }
-
-  DeviceClaim claim_;
 };
 
 // Opened and configured by libserialport (its descriptor is non-blocking, as FdPort needs), its modem lines set
@@ -268,7 +268,6 @@ class LibSerialPort final : public FdPort {
     }
     holder_.reset(found);
     port_ = found;
-    claim_ = std::make_unique<DeviceClaim>(path_);  // before sp_open, which configures the port
     if (sp_open(port_, SP_MODE_READ_WRITE) != SP_OK) throw open_error(path_, sp_last_error_code());
     const bool ok = sp_set_baudrate(port_, static_cast<int>(s.baud)) == SP_OK &&
                     sp_set_bits(port_, s.data_bits) == SP_OK &&
@@ -287,7 +286,7 @@ class LibSerialPort final : public FdPort {
     sp_get_port_handle(port_, &fd_);
     if (const auto why = baud_mismatch(fd_, path_, s.baud); !why.empty())
       throw SerialError(SerialError::Kind::config, why);
-    claim_->make_exclusive();
+    claim_.make_exclusive();
   }
 
   void set_modem_lines(bool dtr, bool rts) override {
@@ -321,8 +320,7 @@ class LibSerialPort final : public FdPort {
       sp_free_port(p);
     }
   };
-  std::unique_ptr<DeviceClaim> claim_;
-  std::unique_ptr<sp_port, PortFree> holder_;  // after claim_: the port closes before the claim lets the device go
+  std::unique_ptr<sp_port, PortFree> holder_;  // after FdPort's claim_: the port closes before the claim lets it go
   sp_port* port_ = nullptr;                   // holder_'s
 };
 
