@@ -194,14 +194,9 @@ class FdPort : public SerialPort {
 
 class TermiosPort final : public FdPort {
  public:
-  // The claim's descriptor is the port's: it closes with the claim, also when configure() throws.
+  // The claim's descriptor is the port's: it closes with the claim, also when configuring throws.
   TermiosPort(std::string path, const SerialSettings& s) : FdPort(std::move(path), s) {
     fd_ = claim_.fd();
-    configure(s);
-    claim_.make_exclusive();
-  }
-
-  void configure(const SerialSettings& s) {
     termios t{};
     if (::tcgetattr(fd_, &t) != 0)
       throw SerialError(SerialError::Kind::config, fmt::format("{}: not a serial port: {}", path_, std::strerror(errno)));
@@ -220,6 +215,7 @@ class TermiosPort final : public FdPort {
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: cannot configure {} {}: {}", path_, s.baud, to_string(s), std::strerror(errno)));
     check_rate(s.baud, sp != 0);
+    claim_.make_exclusive();
   }
 
   void set_modem_lines(bool dtr, bool rts) override {
