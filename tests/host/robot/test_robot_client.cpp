@@ -31,7 +31,6 @@ struct QueueLink final : saul::host::CanLink {
     return f;
   }
   void set_filters(const std::vector<saul::host::CanFilter>&) override {}
-  bool recover(std::string&) override { return false; }
   saul::host::LinkStats stats() const override { return {}; }
   const std::string& name() const override { return n; }
   saul::host::TimestampSource timestamp_source() const override { return saul::host::TimestampSource::host_read; }

@@ -255,15 +255,6 @@ class SharedCanLink final : public CanLink, private ShareEnd {
     std::lock_guard lock(inbox_mu_);
     filters_ = filters;
   }
-  bool recover(std::string& hint) override {
-    if (sock_) {
-      hint = fmt::format("{} holds the adapter: recovery is its to do (or stop it and run this again)",
-                         sock_->owner().owner_text());
-      return false;
-    }
-    std::lock_guard lock(io_);
-    return real_->recover(hint);
-  }
   [[nodiscard]] LinkStats stats() const override {
     LinkStats s = sock_ ? owner_stats_ : device_stats();
     std::lock_guard lock(inbox_mu_);
@@ -323,8 +314,7 @@ class SharedCanLink final : public CanLink, private ShareEnd {
   }
 
   void leave_listen_only(const std::string& who) {
-    std::string hint;
-    real_->recover(hint);  // slcan: "C\rO\r", the channel reopened in normal mode
+    real_->reopen();  // slcan: "C\rO\r", the channel reopened in normal mode
     listen_only_ = false;
     notice(fmt::format("{}: left listen-only to put an ESTOP from {} on the bus", real_->name(), who));
   }

@@ -64,12 +64,10 @@ class SlcanLink final : public CanLink {
 
   void set_filters(const std::vector<CanFilter>& filters) override { filters_ = filters; }
 
-  bool recover(std::string& hint) override {
+  void reopen() override {
     as_link([&] { port_->write(std::string("C\rO\r"), milliseconds(200)); });
     ++stats_.recoveries;
     stats_.state = ControllerState::unknown;
-    hint = "closed and reopened the slcan channel";
-    return true;
   }
 
   [[nodiscard]] LinkStats stats() const override {

@@ -229,13 +229,6 @@ class SocketCanLink final : public CanLink {
     ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, k.data(), static_cast<socklen_t>(k.size() * sizeof(can_filter)));
   }
 
-  bool recover(std::string& hint) override {
-    // A restart goes through netlink and needs CAP_NET_ADMIN; offer the command rather than half-doing it.
-    hint = fmt::format("sudo ip link set {} type can restart   (or enable automatic recovery: "
-                       "sudo ip link set {} type can restart-ms 100)", name_, name_);
-    return false;
-  }
-
   [[nodiscard]] LinkStats stats() const override { return stats_; }
   [[nodiscard]] const std::string& name() const override { return name_; }
   [[nodiscard]] TimestampSource timestamp_source() const override { return TimestampSource::kernel; }

@@ -42,7 +42,7 @@ struct LinkStats {
   std::uint64_t rx_dropped = 0;      ///< frames the kernel or adapter lost (SO_RXQ_OVFL, overflow flags)
   std::uint64_t error_frames = 0;    ///< error frames received
   std::uint64_t bus_off_events = 0;  ///< transitions into bus-off
-  std::uint64_t recoveries = 0;      ///< restarts after bus-off
+  std::uint64_t recoveries = 0;      ///< channel reopenings (reopen())
   std::uint64_t tx_retries = 0;      ///< sends that met a full queue (ENOBUFS) and waited
   std::uint64_t rejected_input = 0;  ///< adapter output that could not be parsed (slcan)
   std::uint64_t filtered_late = 0;   ///< frames the kernel passed that the filters refuse (re-checked in software)
@@ -70,9 +70,9 @@ class CanLink {
   virtual std::optional<CanFrame> receive(std::chrono::milliseconds timeout) = 0;
   /// Restricts what receive() returns (where the transport can, in the kernel). Empty = everything.
   virtual void set_filters(const std::vector<CanFilter>& filters) = 0;
-  /// Tries to leave bus-off (netlink restart for SocketCAN needs root: returns false with a hint instead;
-  /// slcan closes and reopens the channel). Counted in stats().recoveries.
-  virtual bool recover(std::string& hint) = 0;
+  /// slcan: closes and reopens the channel, in normal mode (out of listen-only or bus-off); counted in
+  /// stats().recoveries. Other links do nothing (a SocketCAN restart goes through netlink and needs root).
+  virtual void reopen() {}
   [[nodiscard]] virtual LinkStats stats() const = 0;
   [[nodiscard]] virtual const std::string& name() const = 0;
   [[nodiscard]] virtual TimestampSource timestamp_source() const = 0;
