@@ -4,7 +4,6 @@
 
 #include "saulproto/core/quantity.hpp"
 #include "saulproto/host/link/shared_link.hpp"
-#include "saulproto/host/link/slcan_link.hpp"
 #include "saulproto/host/link/socketcan.hpp"
 
 namespace saul::host {
@@ -91,12 +90,7 @@ LinkSpec parse_link_spec(const std::string& text) {
 std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options) {
   switch (spec.kind) {
     case LinkSpec::Kind::socketcan: return open_socketcan(spec.device, {.filters = options.filters});
-    case LinkSpec::Kind::slcan: {
-      if (options.share) return open_shared_slcan(spec, options.listen_only, options.filters, options.paced);
-      auto link = open_slcan(spec.device, {.bitrate = spec.bitrate, .listen_only = options.listen_only});
-      link->set_filters(options.filters);
-      return link;
-    }
+    case LinkSpec::Kind::slcan: return open_shared_slcan(spec, options.listen_only, options.filters, options.paced);
     case LinkSpec::Kind::serial: break;
   }
   throw std::invalid_argument(fmt::format("'{}' is a serial byte link, not a CAN bus", spec.text()));

@@ -45,16 +45,14 @@ LinkSpec parse_link_spec(const std::string& text);
 struct LinkOpenOptions {
   bool listen_only = false;        ///< slcan: open the adapter silent
   std::vector<CanFilter> filters{};  ///< in force before the first frame is received (SocketCAN: set before bind)
-  /// slcan: share the adapter with other saulctl processes (shared_link.hpp): join its owner or become it.
-  /// Off: hold it alone (a second saulctl gets "busy", naming this one).
-  bool share = true;
   /// slcan: this process takes every frame it receives (sniff, record): while it owns the adapter with no other
   /// saulctl attached, the adapter is read only as fast as it takes the frames (shared_link.hpp). Off (commands that
   /// mostly send): the adapter is always read, and the oldest frames unread are dropped, counted.
   bool paced = false;
 };
 
-/// Opens a CAN link (SocketCAN or slcan). Throws LinkError; std::invalid_argument for a serial spec.
+/// Opens a CAN link (SocketCAN, or slcan shared: shared_link.hpp). Throws LinkError; std::invalid_argument for a
+/// serial spec.
 std::unique_ptr<CanLink> open_can_link(const LinkSpec& spec, const LinkOpenOptions& options = {});
 
 /// Opens a serial byte link (LinkSpec::Kind::serial), shared with other saulctl processes (shared_link.hpp).
