@@ -24,6 +24,7 @@
 #include "saulproto/host/capture/pcap.hpp"
 #include "saulproto/host/capture/mcap.hpp"
 #include "saulproto/host/capture/pcapng.hpp"
+#include "saulproto/host/capture/recorder.hpp"
 #include "saulproto/host/capture/serial_capture.hpp"
 #include "saulproto/host/capture/trc.hpp"
 #include "../util.hpp"
@@ -318,56 +319,6 @@ std::unique_ptr<FileSource> open_source(const std::string& path, std::optional<C
   }
   return source;
 }
-
-/// A writer that owns its file and closes it.
-class FileWriter final : public CaptureWriter {
- public:
-  FileWriter(std::string path, std::unique_ptr<char[]> buffer, std::unique_ptr<std::ofstream> file,
-             CaptureFormat format, Compression compression,
-             const std::function<std::unique_ptr<CaptureWriter>(std::ostream&)>& make)
-      : path_(std::move(path)), buffer_(std::move(buffer)), file_(std::move(file)) {
-    if (compression != Compression::none) {
-      packer_ = make_compressing_buf(*file_->rdbuf(), compression);
-      packed_ = std::make_unique<std::ostream>(packer_.get());
-    }
-    std::ostream& out = packed_ ? *packed_ : *file_;
-    inner_ = make ? make(out) : make_capture_writer(out, format);
-  }
-  ~FileWriter() override {
-    try {
-      close();
-    } catch (...) {  // a destructor must not throw; call close() to see the error
-    }
-  }
-
-  void write(const CanFrame& frame, std::string_view interface) override {
-    detail::naming_file(path_, [&] { inner_->write(frame, interface); });
-  }
-  McapCaptureWriter* mcap() noexcept override { return inner_->mcap(); }
-  void flush() override {
-    detail::naming_file(path_, [&] { inner_->flush(); });
-  }
-  void close() override {
-    if (closed_) return;
-    closed_ = true;
-    detail::close_with_file(
-        [&] {
-          inner_->close();
-          if (packer_) packer_->finish();
-        },
-        *file_, path_);
-  }
-  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
-
- private:
-  std::string path_;
-  std::unique_ptr<char[]> buffer_;  // file_'s buffer: outlives it
-  std::unique_ptr<std::ofstream> file_;
-  std::unique_ptr<CompressingBuf> packer_;  // .gz/.zst: between the format writer and the file
-  std::unique_ptr<std::ostream> packed_;
-  std::unique_ptr<CaptureWriter> inner_;    // declared last: destroyed first
-  bool closed_ = false;
-};
 
 }  // namespace
 
@@ -694,20 +645,11 @@ std::unique_ptr<CaptureWriter> open_capture_writer(
   if (holds_serial_bytes(*format))
     throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
                                        to_string(*format)));
-  // Written in 1 MiB writes, not the stream's 8 KiB: fewer calls, and the kernel keeps the file's pages in large
-  // folios, which are quicker to read back (a pcapng file written 8 KiB at a time decoded ~7 % slower).
-  constexpr std::size_t kBuffer = std::size_t{1} << 20;
-  auto buffer = std::make_unique<char[]>(kBuffer);
-  auto file = std::make_unique<std::ofstream>();
-  file->rdbuf()->pubsetbuf(buffer.get(), kBuffer);
   // Standard output is opened again by its name (/dev/stdout), so it is appended to: a pipe does not mind, and
   // "convert ... - >> all.log" keeps what was there. Not for BLF, which seeks back to its header at the end: in
   // append mode that header would be written at the end instead (a pipe cannot seek, and BLF then leaves it).
   const bool append = to_stdout && *format != CaptureFormat::blf;
-  const auto mode = std::ios::binary | (append ? std::ios::app : std::ios::out | std::ios::trunc);
-  file->open(to_stdout ? "/dev/stdout" : path.c_str(), mode);
-  if (!*file) throw CaptureOpenError(fmt::format("cannot create '{}': {}", path, std::strerror(errno)));
-  return std::make_unique<FileWriter>(path, std::move(buffer), std::move(file), *format, compression, make);
+  return std::make_unique<RotatingCaptureWriter>(path, *format, RotationOptions{}, nullptr, make, compression, append);
 }
 
 namespace {

@@ -2,7 +2,8 @@
 // the files are NAME-000.EXT, NAME-001.EXT, ...; a new file starts before the frame that would go into a file that
 // holds max_bytes already, or whose first frame is max_duration older (by the frames' timestamps). Each file is
 // complete and readable on its own. With RotationOptions::compress each finished file is compressed on another
-// thread (NAME-000.EXT.gz or .zst, the plain file removed); close() waits for the last.
+// thread (NAME-000.EXT.gz or .zst, the plain file removed); close() waits for the last. open_capture_writer()'s
+// file is such a writer without rotation.
 #pragma once
 
 #include <cstdint>
@@ -37,12 +38,13 @@ std::uint64_t parse_size(const std::string& text);
 
 /// What the rotating writers of CAN frames and of serial chunks share (Writer: CaptureWriter or
 /// SerialCaptureWriter). `on_new_file(path)` is told of every file opened; `make` builds each file's format writer.
+/// The path "-" is standard output, appended to when `append`; `packing` compresses as it writes (run.log.gz).
 template <class Writer>
 class RotatingFiles : public Writer {
  public:
   using MakeWriter = std::function<std::unique_ptr<Writer>(std::ostream&)>;
   RotatingFiles(const std::string& path, RotationOptions rotation, std::function<void(const std::string&)> on_new_file,
-                MakeWriter make);
+                MakeWriter make, Compression packing = Compression::none, bool append = false);
   ~RotatingFiles() override;
   void flush() override;
   void close() override;
@@ -54,7 +56,8 @@ class RotatingFiles : public Writer {
  protected:
   /// Writes one item at `timestamp_ns` with write(format writer), into a new file first when the plan says so.
   void write_item(std::optional<std::uint64_t> timestamp_ns, const std::function<void(Writer&)>& write);
-  [[nodiscard]] const Writer& writer() const { return *inner_; }
+  [[nodiscard]] Writer& writer() const { return *inner_; }
+  RotationOptions rotation_;
 
  private:
   /// Path of the file with this index (the path itself when rotation is off).
@@ -66,14 +69,18 @@ class RotatingFiles : public Writer {
   /// Closes the current file and hands it to the compressor; after the last (closed_), waits for the compressor.
   void close_current();
   std::string path_;
-  RotationOptions rotation_;
   /// With RotationOptions::compress: the compression (compress_file) of the files closed so far, each on a thread of
   /// its own that first waits for the file before; the first failure up to the last ("": none).
   std::future<std::string> compressed_;
   std::function<void(const std::string&)> on_new_file_;
   MakeWriter make_;
+  Compression packing_;
+  bool append_;
+  std::unique_ptr<char[]> buffer_;  // file_'s buffer: outlives it
   std::unique_ptr<std::ofstream> file_;
-  std::unique_ptr<Writer> inner_;
+  std::unique_ptr<CompressingBuf> packer_;  // with packing_: between the format writer and the file
+  std::unique_ptr<std::ostream> packed_;
+  std::unique_ptr<Writer> inner_;           // declared last: destroyed first
   std::string current_path_;
   unsigned index_ = 0;
   std::uint64_t items_in_file_ = 0;
@@ -87,10 +94,13 @@ class RotatingCaptureWriter final : public RotatingFiles<CaptureWriter> {
   /// `make`, when given, builds each file's format writer on its stream (an MCAP writer with options and decoded
   /// channels, report/mcap_signals.hpp); otherwise make_capture_writer(stream, format).
   RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation = {},
-                        std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {});
+                        std::function<void(const std::string&)> on_new_file = {}, MakeWriter make = {},
+                        Compression packing = Compression::none, bool append = false);
   void write(const CanFrame& frame, std::string_view interface) override {
     write_item(frame.timestamp_ns, [&](CaptureWriter& w) { w.write(frame, interface); });
   }
+  /// Without rotation only: copy_frames writes into it past write().
+  McapCaptureWriter* mcap() noexcept override { return rotation_.enabled() ? nullptr : writer().mcap(); }
   [[nodiscard]] CaptureFormat format() const override { return format_; }
 
  private:
