@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <span>
 #include <stdexcept>
 
 #include "saulproto/host/capture/uart_export.hpp"
@@ -90,19 +91,20 @@ bool parse_serial_line(std::string_view line, SerialChunk& out, CaptureError& er
   return true;
 }
 
-/// One serial-log line, without newline, for a chunk of at most 64 bytes (the writer splits longer ones).
-std::string format_serial_line(const SerialChunk& chunk) {
+/// One serial-log line, without newline: at most 64 `bytes` of a chunk (the writer splits longer ones), with the
+/// uart_error marks `errors`.
+std::string format_serial_line(const SerialChunk& chunk, std::span<const std::uint8_t> bytes, std::uint8_t errors) {
   const std::uint64_t ns = chunk.timestamp_ns.value_or(0);
   std::string s = fmt::format("({:010}.{:06}) {} {} ", ns / 1'000'000'000ULL, (ns % 1'000'000'000ULL) / 1000,
                               chunk.link, to_string(chunk.protocol));
-  for (std::uint8_t b : chunk.bytes) {
+  for (std::uint8_t b : bytes) {
     s += hex::kUpperDigits[b >> 4];
     s += hex::kUpperDigits[b & 0xF];
   }
-  if (chunk.bytes.empty()) s += '-';
-  if (chunk.errors & uart_error::kParity) s += " !parity";
-  if (chunk.errors & uart_error::kFraming) s += " !framing";
-  if (chunk.errors & uart_error::kBreak) s += " !break";
+  if (bytes.empty()) s += '-';
+  if (errors & uart_error::kParity) s += " !parity";
+  if (errors & uart_error::kFraming) s += " !framing";
+  if (errors & uart_error::kBreak) s += " !break";
   return s;
 }
 
@@ -124,21 +126,14 @@ void SerialLogWriter::write(const SerialChunk& chunk) {
   if (chunk.link.empty() || chunk.link.find_first_of(" \t\r\n") != std::string::npos)
     throw std::invalid_argument(fmt::format("serial log: link name '{}' is empty or has white space", chunk.link));
   if (chunk.bytes.empty() && chunk.errors == 0) return;  // nothing to say
-  if (chunk.bytes.size() <= kMaxBytesPerLine) {
-    out_ << format_serial_line(chunk) << '\n';
-  } else {
-    SerialChunk part;
-    part.timestamp_ns = chunk.timestamp_ns;
-    part.link = chunk.link;
-    part.protocol = chunk.protocol;
-    for (std::size_t at = 0; at < chunk.bytes.size(); at += kMaxBytesPerLine) {
-      const std::size_t n = std::min(kMaxBytesPerLine, chunk.bytes.size() - at);
-      part.bytes.assign(chunk.bytes.begin() + static_cast<std::ptrdiff_t>(at),
-                        chunk.bytes.begin() + static_cast<std::ptrdiff_t>(at + n));
-      part.errors = at + n == chunk.bytes.size() ? chunk.errors : 0;  // marks go with the last line
-      out_ << format_serial_line(part) << '\n';
-    }
-  }
+  const std::span<const std::uint8_t> bytes(chunk.bytes);
+  std::size_t at = 0;
+  do {  // lines of at most kMaxBytesPerLine bytes with the same time; the marks go with the last
+    const std::size_t n = std::min(kMaxBytesPerLine, bytes.size() - at);
+    const std::uint8_t errors = at + n == bytes.size() ? chunk.errors : 0;
+    out_ << format_serial_line(chunk, bytes.subspan(at, n), errors) << '\n';
+    at += n;
+  } while (at < bytes.size());
   if (!out_) throw std::runtime_error("serial log: write failed");
 }
 
