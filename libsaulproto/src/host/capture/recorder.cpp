@@ -167,7 +167,6 @@ RotatingCaptureWriter::MakeWriter can_writer(CaptureFormat format, RotatingCaptu
 RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
                                              std::function<void(const std::string&)> on_new_file, MakeWriter make,
                                              Compression packing, bool append)
-    : RotatingFiles(path, rotation, std::move(on_new_file), can_writer(format, std::move(make)), packing, append),
-      format_(format) {}
+    : RotatingFiles(path, rotation, std::move(on_new_file), can_writer(format, std::move(make)), packing, append) {}
 
 }  // namespace saul::host

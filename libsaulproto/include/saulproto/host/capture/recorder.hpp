@@ -48,6 +48,7 @@ class RotatingFiles : public Writer {
   ~RotatingFiles() override;
   void flush() override;
   void close() override;
+  [[nodiscard]] CaptureFormat format() const override { return inner_->format(); }
   /// The file being written; after close() the last file's final name (with .gz/.zst when compressed).
   [[nodiscard]] const std::string& current_path() const { return current_path_; }
   [[nodiscard]] unsigned files() const { return index_ + 1; }
@@ -101,10 +102,6 @@ class RotatingCaptureWriter final : public RotatingFiles<CaptureWriter> {
   }
   /// Without rotation only: copy_frames writes into it past write().
   McapCaptureWriter* mcap() noexcept override { return rotation_.enabled() ? nullptr : writer().mcap(); }
-  [[nodiscard]] CaptureFormat format() const override { return format_; }
-
- private:
-  CaptureFormat format_;
 };
 
 /// Serial chunks into one serial log or a rotating series.
@@ -119,7 +116,6 @@ class RotatingSerialWriter final : public RotatingFiles<SerialCaptureWriter> {
   void write(const SerialChunk& chunk) override {
     write_item(chunk.timestamp_ns, [&](SerialCaptureWriter& w) { w.write(chunk); });
   }
-  [[nodiscard]] CaptureFormat format() const override { return writer().format(); }
 };
 
 }  // namespace saul::host
