@@ -1,5 +1,5 @@
 // saulctl decode and stats stage by stage, on a generated robot-bus candump log (the mix of bench_capture_decode.cpp
-// with payloads that vary): scan (CandumpScanner: big reads, lines in place, batches), parse (parse_candump_line
+// with payloads that vary): scan (CandumpReader: big reads, lines in place, batches), parse (parse_candump_line
 // alone), decode (decode_bus_frame), emit (FrameEmitter text / CSV / JSON into one buffer; a message's JSON by
 // append_message and by nlohmann's dump), stuff bits (table-driven against the bit-by-bit count), and the whole decode_capture on one thread
 // and two. Run: build/bench/saul_bench --benchmark_filter='Scan|Parse|Emit|Stuff|Decode'
@@ -98,7 +98,7 @@ void BM_Scan(benchmark::State& state) {
   FrameBatch batch;
   for (auto _ : state) {
     std::ifstream in(log_file().path, std::ios::binary);
-    CandumpScanner scanner(in);
+    CandumpReader scanner(in);
     while (scanner.next_batch(batch)) frames += batch.frames.size();
   }
   rate(state, frames);

@@ -115,7 +115,7 @@ ReadCounts read_capture(const std::string& path, std::unique_ptr<CaptureReader>&
       CaptureTextBlocks blocks(*text, o.block);
       in_blocks([&](std::size_t k, Thread& t, Piece& p) {
         if (!blocks.take(k, t.text, p.bytes)) return false;
-        CandumpScanner scanner(std::string_view(t.text), o.block);
+        CandumpReader scanner(std::string_view(t.text), o.block);
         while (scanner.next_batch(t.scratch.batch, work.taker(t.worker))) add(t, p, t.scratch.batch);
         p.lines = scanner.lines();
         return true;

@@ -257,9 +257,6 @@ class CandumpReader final : public CaptureReader {
   std::string first_other_;
 };
 
-/// The name the read path and the benchmarks know the candump reader by.
-using CandumpScanner = CandumpReader;
-
 /// The starts of ranges of about `block` bytes (never empty) that cut [0, size) of a regular file at line starts:
 /// 0, ..., then `size`. Reads only near the cuts. Throws std::runtime_error when reading fails.
 std::vector<std::uint64_t> split_candump_blocks(int fd, std::uint64_t size, std::uint64_t block);
