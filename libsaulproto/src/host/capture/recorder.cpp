@@ -41,11 +41,6 @@ std::uint64_t parse_size(const std::string& text) {
 // ---- the files of both writers --------------------------------------------------------------------------------
 
 template <class Writer>
-std::string RotatingFiles<Writer>::path_for(unsigned index) const {
-  return rotation_.enabled() ? numbered_path(path_, index) : path_;
-}
-
-template <class Writer>
 bool RotatingFiles<Writer>::due(std::optional<std::uint64_t> timestamp_ns) {
   if (!rotation_.enabled() || items_in_file_ == 0) return false;  // never leave a file empty
   if (rotation_.max_bytes > 0 && position(*file_) >= rotation_.max_bytes) return true;
@@ -108,7 +103,7 @@ void RotatingFiles<Writer>::close_current() {
 template <class Writer>
 void RotatingFiles<Writer>::open(unsigned index) {
   index_ = index;
-  current_path_ = path_for(index);
+  current_path_ = rotation_.enabled() ? numbered_path(path_, index) : path_;
   file_ = std::make_unique<std::ofstream>();
   file_->rdbuf()->pubsetbuf(buffer_.get(), kBuffer);
   // "-" (never a numbered path) is opened again by its name, /dev/stdout

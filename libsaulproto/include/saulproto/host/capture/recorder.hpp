@@ -61,11 +61,9 @@ class RotatingFiles : public Writer {
   RotationOptions rotation_;
 
  private:
-  /// Path of the file with this index (the path itself when rotation is off).
-  [[nodiscard]] std::string path_for(unsigned index) const;
   /// Whether an item at timestamp_ns must go into a new file, given what the current file holds.
   [[nodiscard]] bool due(std::optional<std::uint64_t> timestamp_ns);
-  /// Opens file `index` (a new, empty one).
+  /// Opens file `index` (a new, empty one): NAME-<index>.EXT, or the path itself when rotation is off.
   void open(unsigned index);
   /// Closes the current file and hands it to the compressor; after the last (closed_), waits for the compressor.
   void close_current();
