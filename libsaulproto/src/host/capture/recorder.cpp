@@ -17,11 +17,6 @@ namespace {
 // folios, which are quicker to read back (a pcapng file written 8 KiB at a time decoded ~7 % slower).
 constexpr std::size_t kBuffer = std::size_t{1} << 20;
 
-std::uint64_t position(std::ofstream& file) {
-  const auto p = file.tellp();
-  return p < 0 ? 0 : static_cast<std::uint64_t>(p);
-}
-
 }  // namespace
 
 std::string numbered_path(const std::string& path, unsigned index) {
@@ -43,7 +38,7 @@ std::uint64_t parse_size(const std::string& text) {
 template <class Writer>
 bool RotatingFiles<Writer>::due(std::optional<std::uint64_t> timestamp_ns) {
   if (!rotation_.enabled() || items_in_file_ == 0) return false;  // never leave a file empty
-  if (rotation_.max_bytes > 0 && position(*file_) >= rotation_.max_bytes) return true;
+  if (rotation_.max_bytes > 0 && bytes_in_file() >= rotation_.max_bytes) return true;
   return rotation_.max_duration_ns > 0 && file_start_ns_ && timestamp_ns && *timestamp_ns >= *file_start_ns_ &&
          *timestamp_ns - *file_start_ns_ >= rotation_.max_duration_ns;
 }
@@ -72,7 +67,8 @@ RotatingFiles<Writer>::~RotatingFiles() {
 
 template <class Writer>
 std::uint64_t RotatingFiles<Writer>::bytes_in_file() {
-  return file_ ? position(*file_) : 0;
+  const auto p = file_->tellp();  // file_ is made by the constructor; -1 once closed
+  return p < 0 ? 0 : static_cast<std::uint64_t>(p);
 }
 
 template <class Writer>
