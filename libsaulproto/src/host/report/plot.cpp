@@ -108,19 +108,16 @@ nlohmann::json page_data(const PlotDocument& doc) {
     }
     std::stable_sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     json rows = json::array();
-    // Rows without values at both ends: every panel spans the whole run, so they line up before any zoom.
-    auto empty_row = [&](double t) {
+    // A row at t: series `at` has the value v, the others null (all of them without `at`).
+    auto add_row = [&](double t, std::size_t at = SIZE_MAX, double v = 0) {
       json row = json::array({t});
-      for (std::size_t i = 0; i < panel.series.size(); ++i) row.push_back(nullptr);
-      return row;
-    };
-    if (points.empty() || points.front().first > doc.t0) rows.push_back(empty_row(doc.t0));
-    for (const auto& [t, sv] : points) {
-      json row = json::array({std::round(t * 1e6) / 1e6});
-      for (std::size_t i = 0; i < panel.series.size(); ++i) row.push_back(i == sv.first ? json(sv.second) : json(nullptr));
+      for (std::size_t i = 0; i < panel.series.size(); ++i) row.push_back(i == at ? json(v) : json(nullptr));
       rows.push_back(std::move(row));
-    }
-    if (points.empty() || points.back().first < doc.t1) rows.push_back(empty_row(doc.t1));
+    };
+    // Rows without values at both ends: every panel spans the whole run, so they line up before any zoom.
+    if (points.empty() || points.front().first > doc.t0) add_row(doc.t0);
+    for (const auto& [t, sv] : points) add_row(std::round(t * 1e6) / 1e6, sv.first, sv.second);
+    if (points.empty() || points.back().first < doc.t1) add_row(doc.t1);
     p["labels"] = std::move(labels);
     p["rows"] = std::move(rows);
     p["sparse"] = sparse;
@@ -359,17 +356,17 @@ std::string render_html(const PlotDocument& doc, const DygraphsAssets& dygraphs)
   std::string s = fmt::format(
       "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{0}</title>\n"
-      "<!-- dygraphs{1} (MIT licence), from Debian's libjs-dygraphs, inlined: nothing is fetched -->\n"
-      "<style>\n{2}\n</style>\n<style>\n"
+      "<!-- dygraphs (MIT licence), from Debian's libjs-dygraphs, inlined: nothing is fetched -->\n"
+      "<style>\n{1}\n</style>\n<style>\n"
       "body {{ font-family: sans-serif; margin: 8px 12px; color: #222; }}\n"
       "h1 {{ font-size: 18px; margin: 4px 0; }} h2 {{ font-size: 15px; margin-top: 24px; }}\n"
       ".panel {{ width: 100%; height: 250px; }} .legend {{ font-size: 12px; min-height: 16px; margin: 10px 0 2px; }}\n"
       ".dygraph-title {{ font-size: 14px; font-weight: normal; text-align: left; padding-left: 60px; }}\n"
       "table {{ border-collapse: collapse; }} th, td {{ border: 1px solid #ccc; padding: 2px 8px; text-align: left; }}\n"
       "td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}\n"
-      ".state {{ color: {3}; }} .faults {{ color: {4}; }} .note {{ color: #555; }}\n"
-      "</style>\n<script>\n{7}\n</script>\n<script>\n{5}\n</script>\n<script>\n{6}\n</script>\n</head>\n<body>\n<h1>{0}</h1>\n",
-      detail::markup_escape(title), "", dygraphs.style, kStateColour, kFaultColour, script_safe(dygraphs.script),
+      ".state {{ color: {2}; }} .faults {{ color: {3}; }} .note {{ color: #555; }}\n"
+      "</style>\n<script>\n{6}\n</script>\n<script>\n{4}\n</script>\n<script>\n{5}\n</script>\n</head>\n<body>\n<h1>{0}</h1>\n",
+      detail::markup_escape(title), dygraphs.style, kStateColour, kFaultColour, script_safe(dygraphs.script),
       script_safe(dygraphs.synchronizer), kErrorWatch);
   s += "<p class=\"note\">Drag across a chart to zoom in (every panel follows), shift-drag to pan, double-click to "
        "zoom out; the strip under the last panel moves the window. Sample points appear once zoomed in.";
