@@ -199,17 +199,7 @@ void SerialStreamDecoder::finish(const Callback& on_message) {
 
 SerialDecodeCounters SerialStreamDecoder::counters() const {
   SerialDecodeCounters c = extra_;
-  auto framing = [&c](const auto& k) {  // interboard and CRSF count the same framing errors
-    c.frames = k.frames;
-    c.crc_errors = k.crc_errors;
-    c.length_errors = k.length_errors;
-    c.unknown_types = k.unknown_types;
-  };
   std::visit(detail::Overload{[](const std::monostate&) {},
-                      [&](const interboard::StreamDecoder& d) {
-                        framing(d.counters());
-                        c.bytes_skipped = d.counters().bytes_skipped - skip_adjust_;
-                      },
                       [&](const pride::StreamDecoder& d) {
                         const auto& k = d.counters();
                         c.frames = k.frames;
@@ -217,10 +207,14 @@ SerialDecodeCounters SerialStreamDecoder::counters() const {
                         c.out_of_range = k.out_of_range;
                         c.bytes_skipped = k.bytes_skipped - skip_adjust_;
                       },
-                      [&](const crsf::StreamDecoder& d) {
-                        framing(d.counters());
-                        c.bytes_skipped = d.counters().bytes_skipped;
-                        c.incomplete = d.counters().incomplete;
+                      [&](const auto& d) {  // interboard and CRSF count the same framing errors
+                        const auto& k = d.counters();
+                        c.frames = k.frames;
+                        c.crc_errors = k.crc_errors;
+                        c.length_errors = k.length_errors;
+                        c.unknown_types = k.unknown_types;
+                        c.bytes_skipped = k.bytes_skipped - skip_adjust_;  // (0 for CRSF, which rescans itself)
+                        if constexpr (requires { k.incomplete; }) c.incomplete = k.incomplete;  // CRSF's own count
                       }},
              decoder_);
   return c;
