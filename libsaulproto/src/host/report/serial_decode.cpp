@@ -12,22 +12,6 @@
 namespace saul::host {
 namespace {
 
-/// feed(on_frame) runs the core's noexcept CRSF decoder, each frame to deliver: an exception from deliver is held
-/// (the frames after it not delivered) and thrown again once the core has returned, not through it.
-template <class Feed, class Deliver>
-void crsf_frames(Feed&& feed, Deliver&& deliver) {
-  std::exception_ptr error;
-  feed([&](const crsf::Frame& f) noexcept {
-    if (error) return;
-    try {
-      deliver(f);
-    } catch (...) {
-      error = std::current_exception();
-    }
-  });
-  if (error) std::rethrow_exception(error);
-}
-
 /// A protocol's nominal baud rate, for a chunk's time on the wire (10 bits a byte; Pride's 11 are within the idle
 /// gap's margin), and its idle gap (idle_gap_ns()).
 struct Pace {
@@ -111,18 +95,30 @@ SerialStreamDecoder::SerialStreamDecoder(SerialProtocol protocol) : protocol_(pr
   }
 }
 
-void SerialStreamDecoder::deliver_crsf(const crsf::StreamDecoder& d, const crsf::Frame& f, const Callback& on_message) {
-  // Every byte before this frame is in an earlier frame or was skipped: the frame ends right after them.
-  const std::uint64_t size = f.payload_size + 4U;  // SYNC, LEN, TYPE, payload, CRC
-  frame_end_ = std::min<std::uint64_t>(d.counters().bytes_skipped + frame_bytes_ + size, extra_.bytes);
-  frame_bytes_ += size;
-  const auto r = crsf::decode(f);
-  if (r) {
-    on_message(SerialMessage(CrsfMessage{f.address, r.value()}));
-  } else {
-    ++extra_.undecoded;
-    on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
-  }
+/// feed(on_frame) runs the core's noexcept CRSF decoder, each frame to on_message: an exception from on_message is
+/// held (the frames after it not delivered) and thrown again once the core has returned, not through it.
+template <class Feed>
+void SerialStreamDecoder::crsf_frames(const crsf::StreamDecoder& d, Feed&& feed, const Callback& on_message) {
+  std::exception_ptr error;
+  feed([&](const crsf::Frame& f) noexcept {
+    if (error) return;
+    try {
+      // Every byte before this frame is in an earlier frame or was skipped: the frame ends right after them.
+      const std::uint64_t size = f.payload_size + 4U;  // SYNC, LEN, TYPE, payload, CRC
+      frame_end_ = std::min<std::uint64_t>(d.counters().bytes_skipped + frame_bytes_ + size, extra_.bytes);
+      frame_bytes_ += size;
+      const auto r = crsf::decode(f);
+      if (r) {
+        on_message(SerialMessage(CrsfMessage{f.address, r.value()}));
+      } else {
+        ++extra_.undecoded;
+        on_message(SerialMessage(CrsfUndecoded{f, r.reason()}));
+      }
+    } catch (...) {
+      error = std::current_exception();
+    }
+  });
+  if (error) std::rethrow_exception(error);
 }
 
 void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callback& on_message) {
@@ -140,8 +136,7 @@ void SerialStreamDecoder::push(std::span<const std::uint8_t> bytes, const Callba
   std::visit(detail::Overload{[&](std::monostate&) { extra_.bytes += bytes.size(); },
                       [&](crsf::StreamDecoder& d) {
                         extra_.bytes += bytes.size();
-                        crsf_frames([&](const auto& on_frame) { d.push(bytes, on_frame); },
-                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                        crsf_frames(d, [&](const auto& on_frame) { d.push(bytes, on_frame); }, on_message);
                       },
                       per_byte},  // interboard, Pride
              decoder_);
@@ -174,8 +169,7 @@ void SerialStreamDecoder::abandon(const Callback& on_message) {
   };
   std::visit(detail::Overload{[](std::monostate&) {},
                       [&](crsf::StreamDecoder& d) {
-                        crsf_frames([&](const auto& on_frame) { d.flush(on_frame); },
-                                    [&](const crsf::Frame& f) { deliver_crsf(d, f, on_message); });
+                        crsf_frames(d, [&](const auto& on_frame) { d.flush(on_frame); }, on_message);
                       },
                       rescan},  // interboard, Pride
              decoder_);

@@ -94,7 +94,8 @@ class SerialStreamDecoder {
   [[nodiscard]] nlohmann::json counters_json() const;
 
  private:
-  void deliver_crsf(const crsf::StreamDecoder& d, const crsf::Frame& f, const Callback& on_message);
+  template <class Feed>  // the CRSF frames that feed() finds, delivered
+  void crsf_frames(const crsf::StreamDecoder& d, Feed&& feed, const Callback& on_message);
   SerialProtocol protocol_;
   std::variant<std::monostate, interboard::StreamDecoder, crsf::StreamDecoder, pride::StreamDecoder> decoder_;
   SerialDecodeCounters extra_;  // bytes, undecoded, incomplete, uart errors: what the core decoders do not count
