@@ -102,26 +102,6 @@ char* put_decimal_g(char* w, std::int64_t raw, std::int32_t den) {
 
 }  // namespace
 
-char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
-  if (s.kind == Kind::string) return put_chars(w, chars);
-  if (signals::text_in_unit(s)) return put_physical_text(w, s, raw);
-  switch (s.text) {
-    case Text::raw:
-      if (s.kind == Kind::float32)
-        return fmt::format_to(w, FMT_COMPILE("{:g}"), std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
-      return put_int(w, raw);
-    case Text::name:
-      if (const char* name = signals::value_name(s, raw)) return put_chars(w, name);
-      return put_int(w, raw);
-    case Text::physical:
-      if (s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0)
-        if (char* end = put_decimal_g(w, raw, s.scale_den)) return end;
-      return fmt::format_to(w, FMT_COMPILE("{:g}"), signals::raw_to_physical(s, raw));
-    case Text::physical_int: return put_int(w, std::llround(signals::raw_to_physical(s, raw)));
-  }
-  return put_int(w, raw);
-}
-
 std::string raw_key(const signals::SignalDesc& s) { return std::string(s.name) + "_raw"; }
 
 std::string csv_quote(std::string_view s) {
@@ -187,17 +167,26 @@ char* put_json_physical(char* w, const signals::SignalDesc& s, std::int64_t raw)
   return put_json_double(w, static_cast<double>(scaled) / static_cast<double>(ten_k));
 }
 
-char* put_json_value(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
-  if (s.kind == Kind::string) return put_json_string(w, chars);
+/// A signal's value as text shows it (write_value_text()) or, `Json`, as JSON holds it.
+template <bool Json>
+char* put_value(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  const auto string = [w](std::string_view v) { return Json ? put_json_string(w, v) : put_chars(w, v); };
+  const auto real = [w](auto x) {  // (a float32 as text: fmt's {:g} of the float)
+    return Json ? put_json_double(w, static_cast<double>(x)) : fmt::format_to(w, FMT_COMPILE("{:g}"), x);
+  };
+  if (s.kind == Kind::string) return string(chars);
+  if (signals::text_in_unit(s)) return Json ? put_json_physical(w, s, raw) : put_physical_text(w, s, raw);
   switch (s.text) {
     case Text::raw:
-      if (s.kind == Kind::float32)
-        return put_json_double(w, static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(raw))));
+      if (s.kind == Kind::float32) return real(std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
       return put_int(w, raw);
     case Text::name:
-      if (const char* name = signals::value_name(s, raw)) return put_json_string(w, name);
+      if (const char* name = signals::value_name(s, raw)) return string(name);
       return put_int(w, raw);
-    case Text::physical: return put_json_double(w, signals::raw_to_physical(s, raw));
+    case Text::physical:
+      if (!Json && s.kind != Kind::float32 && s.scale_num == 1 && s.offset == 0)
+        if (char* end = put_decimal_g(w, raw, s.scale_den)) return end;
+      return real(signals::raw_to_physical(s, raw));
     case Text::physical_int: return put_int(w, std::llround(signals::raw_to_physical(s, raw)));
   }
   return put_int(w, raw);
@@ -332,7 +321,7 @@ char* write_text(char* w, const MessageDesc& d, const Readings& r) {
   for (std::size_t i = 0; i < d.signals.size(); ++i) {
     if (!r[i].present) continue;
     w = put_chars(w, l.text_keys[i]);
-    w = write_value_text(w, d.signals[i], r[i].raw, r[i].text());
+    w = put_value<false>(w, d.signals[i], r[i].raw, r[i].text());
   }
   return w;
 }
@@ -352,10 +341,8 @@ char* write_json(char* w, const MessageDesc& d, const Readings& r, bool mcap = f
       w = put_chars(w, l.type_value);
     } else if (m.raw) {
       w = put_int(w, r[i].raw);
-    } else if (signals::text_in_unit(d.signals[i])) {
-      w = put_json_physical(w, d.signals[i], r[i].raw);
     } else {
-      w = put_json_value(w, d.signals[i], r[i].raw, r[i].text());
+      w = put_value<true>(w, d.signals[i], r[i].raw, r[i].text());
     }
   }
   *w++ = '}';
@@ -423,6 +410,10 @@ nlohmann::json json_of(const MessageDesc& d, const Readings& r) {
 }
 
 }  // namespace
+
+char* write_value_text(char* w, const signals::SignalDesc& s, std::int64_t raw, std::string_view chars) {
+  return put_value<false>(w, s, raw, chars);
+}
 
 std::size_t message_chars_max(const MessageDesc& message) { return layout_of(message).max_chars; }
 
