@@ -36,35 +36,6 @@ std::string_view unit_symbol(std::string_view unit) {
   return unit;
 }
 
-/// raw's physical value times 10^k, exact in integers for a decimal resolution k = text_decimals(s) >= 0.
-std::int64_t scaled_by_ten_k(const signals::SignalDesc& s, std::int64_t raw, int k, std::int64_t& ten_k) {
-  ten_k = 1;
-  for (int i = 0; i < k; ++i) ten_k *= 10;
-  return raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
-}
-
-// A scaled wire integer's physical value and unit (signals::text_in_unit): exact in integers for a decimal
-// resolution (1234 x 1/100 -> "12.34"), whole units rounded down otherwise.
-char* put_physical_text(char* w, const signals::SignalDesc& s, std::int64_t raw) {
-  const int k = signals::text_decimals(s);
-  if (k < 0) {
-    w = put_int(w, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
-  } else {
-    std::int64_t ten_k = 1;
-    const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
-    const std::uint64_t magnitude = scaled < 0 ? 0 - static_cast<std::uint64_t>(scaled) : static_cast<std::uint64_t>(scaled);
-    if (scaled < 0) *w++ = '-';
-    w = std::to_chars(w, w + 24, magnitude / static_cast<std::uint64_t>(ten_k)).ptr;
-    if (k > 0) {  // the fraction, k digits with its leading zeros
-      *w++ = '.';
-      auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
-      for (int i = k - 1; i >= 0; --i, frac /= 10) w[i] = static_cast<char>('0' + frac % 10);
-      w += k;
-    }
-  }
-  return put_chars(w, unit_symbol(s.unit));
-}
-
 /// fmt's "{:g}" of raw / den (den a power of ten up to 10^4) written as the exact decimal when it has at most 6
 /// significant digits and lies in [1e-4, 1e6), as %g then prints it; nullptr (nothing written) otherwise.
 char* put_decimal_g(char* w, std::int64_t raw, std::int32_t den) {
@@ -155,16 +126,33 @@ char* put_json_double(char* w, double x) {
   return nlohmann::detail::to_chars(w, w + 64, x);
 }
 
-/// A scaled wire integer's physical value as JSON holds it: the double nearest to the decimal text prints
-/// (1234 x 1/100 -> 12.34), or an integer where text shows whole units (rounded down).
-char* put_json_physical(char* w, const signals::SignalDesc& s, std::int64_t raw) {
+/// A scaled wire integer's physical value (signals::text_in_unit), exact in integers for a decimal resolution
+/// (1234 x 1/100 -> "12.34"), whole units rounded down otherwise: as text with its unit or, `Json`, as JSON holds
+/// it (the double nearest to the decimal text, or an integer where text shows whole units).
+template <bool Json>
+char* put_physical(char* w, const signals::SignalDesc& s, std::int64_t raw) {
   const int k = signals::text_decimals(s);
-  if (k < 0) return put_int(w, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
-  std::int64_t ten_k = 1;
-  const std::int64_t scaled = scaled_by_ten_k(s, raw, k, ten_k);
-  if (k == 0) return put_int(w, scaled);
-  // Both exact in a double (|scaled| < 2^53), so the division is the double nearest to the decimal text shows.
-  return put_json_double(w, static_cast<double>(scaled) / static_cast<double>(ten_k));
+  if (k < 0) {
+    w = put_int(w, static_cast<std::int64_t>(std::floor(signals::raw_to_physical(s, raw))));
+    return Json ? w : put_chars(w, unit_symbol(s.unit));
+  }
+  std::int64_t ten_k = 1;  // the physical value times 10^k, exact in integers
+  for (int i = 0; i < k; ++i) ten_k *= 10;
+  const std::int64_t scaled =
+      raw * (std::int64_t{s.scale_num} * ten_k / s.scale_den) + std::llround(s.offset * static_cast<double>(ten_k));
+  if constexpr (Json) {  // both exact in a double (|scaled| < 2^53): the division is the double nearest to the text
+    return k == 0 ? put_int(w, scaled) : put_json_double(w, static_cast<double>(scaled) / static_cast<double>(ten_k));
+  }
+  const std::uint64_t magnitude = scaled < 0 ? 0 - static_cast<std::uint64_t>(scaled) : static_cast<std::uint64_t>(scaled);
+  if (scaled < 0) *w++ = '-';
+  w = std::to_chars(w, w + 24, magnitude / static_cast<std::uint64_t>(ten_k)).ptr;
+  if (k > 0) {  // the fraction, k digits with its leading zeros
+    *w++ = '.';
+    auto frac = magnitude % static_cast<std::uint64_t>(ten_k);
+    for (int i = k - 1; i >= 0; --i, frac /= 10) w[i] = static_cast<char>('0' + frac % 10);
+    w += k;
+  }
+  return put_chars(w, unit_symbol(s.unit));
 }
 
 /// A signal's value as text shows it (write_value_text()) or, `Json`, as JSON holds it.
@@ -175,7 +163,7 @@ char* put_value(char* w, const signals::SignalDesc& s, std::int64_t raw, std::st
     return Json ? put_json_double(w, static_cast<double>(x)) : fmt::format_to(w, FMT_COMPILE("{:g}"), x);
   };
   if (s.kind == Kind::string) return string(chars);
-  if (signals::text_in_unit(s)) return Json ? put_json_physical(w, s, raw) : put_physical_text(w, s, raw);
+  if (signals::text_in_unit(s)) return put_physical<Json>(w, s, raw);
   switch (s.text) {
     case Text::raw:
       if (s.kind == Kind::float32) return real(std::bit_cast<float>(static_cast<std::uint32_t>(raw)));
