@@ -18,17 +18,6 @@ constexpr std::uint16_t crc_bit(std::uint16_t crc, unsigned bit) noexcept {
   return next ? static_cast<std::uint16_t>(crc ^ 0x4599) : crc;
 }
 
-constexpr std::array<std::uint16_t, 256> kCrcTable = [] {
-  std::array<std::uint16_t, 256> t{};
-  for (unsigned b = 0; b < 256; ++b) {
-    // the register's top 8 bits are XORed with the byte: start from the byte as the register's top bits
-    auto crc = static_cast<std::uint16_t>(b << 7);
-    for (int i = 0; i < 8; ++i) crc = crc_bit(crc, 0);
-    t[b] = crc;
-  }
-  return t;
-}();
-
 // ---- stuffing state machine -----------------------------------------------------------------------------------
 
 // State: 0 = no bit yet; 1 + 2 * (run - 1) + last for run 1..4 and last 0/1 (states 1..8).
@@ -74,25 +63,26 @@ constexpr std::array<std::array<Step, 1U << Bits>, 9> stuff_table() {
 constexpr auto kStuffTable = stuff_table<8>();   // a byte
 constexpr auto kStuffTable7 = stuff_table<7>();  // the CRC's last 7 bits (15 = 8 + 7)
 
-constexpr std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t byte) noexcept {
-  return static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]);
-}
-
 // The CRC is linear: the register after the header and the data is the register after the header and as many zero
 // bytes (CanStuffStart::crc, once per id and DLC), XORed with each data byte's own share. kCrcAfter[k][b] is the
 // register after byte b and then k zero bytes, from a zero register: the data's CRC is 8 independent lookups
-// instead of a chain of 8 dependent ones.
+// instead of a chain of 8 dependent ones. kCrcAfter[0] is the table of the CRC a byte at a time.
 constexpr std::array<std::array<std::uint16_t, 256>, CanFrame::kMaxDlc> kCrcAfter = [] {
   std::array<std::array<std::uint16_t, 256>, CanFrame::kMaxDlc> t{};
   for (unsigned b = 0; b < 256; ++b) {
-    std::uint16_t crc = crc_byte(0, static_cast<std::uint8_t>(b));
+    std::uint16_t crc = 0;
+    for (unsigned i = 8; i-- > 0;) crc = crc_bit(crc, (b >> i) & 1U);  // the byte b, bit by bit
     for (std::size_t k = 0; k < t.size(); ++k) {
       t[k][b] = crc;
-      crc = crc_byte(crc, 0);
+      for (int i = 0; i < 8; ++i) crc = crc_bit(crc, 0);  // a zero byte
     }
   }
   return t;
 }();
+
+constexpr std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t byte) noexcept {
+  return static_cast<std::uint16_t>(((crc << 8) & 0x7FFF) ^ kCrcAfter[0][((crc >> 7) ^ byte) & 0xFF]);
+}
 
 /// The stuff bits of the CRC's 15 bits, the last to be stuffed, from the machine's state after the data.
 inline unsigned crc_stuff_bits(std::uint8_t state, std::uint16_t crc) noexcept {
