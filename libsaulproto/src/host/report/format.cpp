@@ -351,19 +351,6 @@ SignalValues values_of(const MessageDesc& d, const Readings& r) {
   return out;
 }
 
-// The wire bytes of an inter-board message: the payload of the frame its encoder writes.
-struct InterboardWire {
-  std::array<std::uint8_t, interboard::kMaxFrameSize> frame{};
-  signals::Wire wire;
-};
-InterboardWire interboard_wire(const interboard::Message& m) {
-  InterboardWire w;
-  const auto n = interboard::encode(m, w.frame);
-  const std::size_t size = n ? n.value() : interboard::kOverhead;
-  w.wire.payload = std::span<const std::uint8_t>(w.frame).subspan(3, size - interboard::kOverhead);
-  return w;
-}
-
 /// with(description, readings) of a message.
 template <class With>
 auto render(const BusMessage& message, With&& with) {
@@ -375,8 +362,11 @@ template <class With>
 auto render(const interboard::Message& message, With&& with) {
   const MessageDesc& d =
       *signals::find(signals::Protocol::interboard, static_cast<std::uint8_t>(interboard::type_of(message)));
-  const InterboardWire w = interboard_wire(message);
-  return with(d, read_wire(d, w.wire));
+  // its wire bytes: the payload of the frame its encoder writes
+  std::array<std::uint8_t, interboard::kMaxFrameSize> frame{};
+  const auto n = interboard::encode(message, frame);
+  const std::size_t size = n ? n.value() : interboard::kOverhead;
+  return with(d, read_wire(d, {0, std::span<const std::uint8_t>(frame).subspan(3, size - interboard::kOverhead)}));
 }
 template <class With>
 auto render(const crsf::Message& message, With&& with) {
