@@ -42,10 +42,16 @@ struct ReplayCliOptions {
 
 std::string micros(std::uint64_t ns) { return fmt::format("{:.0f} us", static_cast<double>(ns) / 1e3); }
 
-/// The final report with how late the `unit`s left: `j` on stdout for --json, else `line` on stderr.
-void print_report(bool json, nlohmann::json j, const std::string& line, const saul::host::LatenessStats& l,
-                  const char* unit) {
+/// The final report with the totals and how late the `unit`s left: `j` on stdout for --json, else on stderr "replay:
+/// `sent` in S s (N pass(es)); `rest`".
+void print_report(bool json, nlohmann::json j, const std::string& sent, const std::string& rest,
+                  const saul::host::ReplayTotals& totals, const char* unit) {
+  const auto& l = totals.lateness;
+  const double secs = static_cast<double>(totals.elapsed_ns) / 1e9;
   if (json) {
+    j["passes"] = totals.passes;
+    j["elapsed_s"] = secs;
+    j["stopped"] = totals.stopped;
     if (l.count() > 0)
       j["lateness"] = {{unit, l.count()},
                        {"p50_us", static_cast<double>(l.percentile_ns(50)) / 1e3},
@@ -55,7 +61,8 @@ void print_report(bool json, nlohmann::json j, const std::string& line, const sa
     fmt::print("{}\n", saul::host::json_line(j));
     return;
   }
-  fmt::print(stderr, "{}", line);
+  fmt::print(stderr, "replay: {} in {:.3f} s ({} pass(es){}); {}\n", sent, secs, totals.passes,
+             totals.stopped ? ", stopped early" : "", rest);
   if (l.count() > 0)
     fmt::print(stderr, "replay: lateness p50 {}, p99 {}, max {}; {} of {} {} later than 1 ms\n",
                micros(l.percentile_ns(50)), micros(l.percentile_ns(99)), micros(l.max_ns()), l.over_1ms(), l.count(),
@@ -153,7 +160,6 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
                 {"captured_link", report.link},
                 {"protocol", std::string(to_string(report.protocol))},
                 {"protocol_guessed", link->guessed},
-                {"passes", report.passes},
                 {"chunks", report.chunks},
                 {"bytes", report.bytes},
                 {"writes", report.writes},
@@ -164,15 +170,12 @@ int run_serial_replay(const ReplayCliOptions& opt, const saul::host::ReplayOptio
                 {"motion_dropped_by_type", report.motion_by_type},
                 {"motion_sent", report.motion_sent},
                 {"other_links", report.other_links},
-                {"corrupt", report.corrupt},
-                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                {"stopped", report.stopped}},
-               fmt::format("replay: {} chunks written of {} read ({} of {} bytes) in {:.3f} s ({} pass(es){}); {}, {} "
-                           "chunks of other links, {} corrupt records\n",
-                           report.writes, report.chunks, report.bytes_sent, report.bytes,
-                           static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
-                           report.stopped ? ", stopped early" : "", motion, report.other_links, report.corrupt),
-               report.lateness, "chunks");
+                {"corrupt", report.corrupt}},
+               fmt::format("{} chunks written of {} read ({} of {} bytes)", report.writes, report.chunks,
+                           report.bytes_sent, report.bytes),
+               fmt::format("{}, {} chunks of other links, {} corrupt records", motion, report.other_links,
+                           report.corrupt),
+               report, "chunks");
   return status;
 }
 
@@ -263,22 +266,18 @@ int run_replay(const ReplayCliOptions& opt) {
   print_report(opt.json,
                {{"file", opt.file},
                 {"link", link->name()},
-                {"passes", report.passes},
                 {"frames", report.frames},
                 {"sent", report.sent},
                 {"filtered", report.filtered},
                 {"motion_dropped", report.motion_dropped},
                 {"error_frames", report.error_frames},
-                {"corrupt", report.corrupt},
-                {"elapsed_s", static_cast<double>(report.elapsed_ns) / 1e9},
-                {"stopped", report.stopped}},
-               fmt::format("replay: {} frames sent of {} read in {:.3f} s ({} pass(es){}); not sent: {} filtered, {} "
-                           "that can move motors{}, {} error frames, {} corrupt records\n",
-                           report.sent, report.frames, static_cast<double>(report.elapsed_ns) / 1e9, report.passes,
-                           report.stopped ? ", stopped early" : "", report.filtered, report.motion_dropped,
+                {"corrupt", report.corrupt}},
+               fmt::format("{} frames sent of {} read", report.sent, report.frames),
+               fmt::format("not sent: {} filtered, {} that can move motors{}, {} error frames, {} corrupt records",
+                           report.filtered, report.motion_dropped,
                            report.motion_dropped ? " (--allow-motion sends them)" : "", report.error_frames,
                            report.corrupt),
-               report.lateness, "frames");
+               report, "frames");
   return status;
 }
 
