@@ -39,10 +39,13 @@ std::string hint_for(saul::saulcan::AckResult r, std::uint8_t command) {
   return "";
 }
 
-int report(const CommandOptions& opt, const std::string& what, const saul::host::CanLink& link,
-           const CommandOutcome& out, std::uint8_t command, milliseconds timeout, double written_ms = -1,
-           const std::optional<saul::host::StateCheck>& state = std::nullopt) {
+/// Says how `command` went; for a mode change that was applied, first waits for the 0x400 to show `expected`.
+int report(const CommandOptions& opt, const std::string& what, saul::host::RobotClient& client,
+           const saul::host::CanLink& link, const CommandOutcome& out, std::uint8_t command, milliseconds timeout,
+           double written_ms = -1, std::optional<saul::saulcan::RobotState> expected = std::nullopt) {
   using saul::host::StateCheck;
+  std::optional<StateCheck> state;
+  if (expected && out.status == CommandOutcome::Status::applied) state = client.confirm_state(*expected);
   const double ms = static_cast<double>(out.latency.count()) / 1000.0;
   const bool differs = state && state->result == StateCheck::Result::differs;
   if (opt.json) {
@@ -95,9 +98,7 @@ int run_mode(const CommandOptions& opt) {
   const auto out = mode == saul::saulcan::Mode::estop
                        ? client.wait_for_ack(0x02, std::nullopt, steady_clock::now(), timeout)
                        : client.set_mode(mode, timeout);
-  std::optional<saul::host::StateCheck> state;
-  if (out.status == CommandOutcome::Status::applied) state = client.confirm_state(saul::host::state_for(mode));
-  return report(opt, "mode " + opt.mode, *link, out, 0x02, timeout, -1, state);
+  return report(opt, "mode " + opt.mode, client, *link, out, 0x02, timeout, -1, saul::host::state_for(mode));
 }
 
 int run_estop(const CommandOptions& opt) {
@@ -119,10 +120,7 @@ int run_estop(const CommandOptions& opt) {
                open_ms + send_ms, open_ms, send_ms, how.empty() ? "" : "; " + how);
   }
   const auto out = client.wait_for_ack(0x02, std::nullopt, t0, timeout);
-  std::optional<saul::host::StateCheck> state;
-  if (out.status == CommandOutcome::Status::applied)
-    state = client.confirm_state(saul::saulcan::RobotState::estop);
-  return report(opt, "estop", *link, out, 0x02, timeout, open_ms + send_ms, state);
+  return report(opt, "estop", client, *link, out, 0x02, timeout, open_ms + send_ms, saul::saulcan::RobotState::estop);
 }
 
 int run_pid(const CommandOptions& opt) {
@@ -135,7 +133,7 @@ int run_pid(const CommandOptions& opt) {
                                   static_cast<float>(opt.gains[2]), timeout);
   return report(opt, fmt::format("pid kp={:g} ki={:g} kd={:g} (set {})", opt.gains[0], opt.gains[1], opt.gains[2],
                                  client.last_sequence()),
-                *link, out, 0x01, timeout);
+                client, *link, out, 0x01, timeout);
 }
 
 int run_config(const CommandOptions& opt) {
@@ -146,8 +144,8 @@ int run_config(const CommandOptions& opt) {
   saul::host::RobotClient client(*link);
   const auto tilt = static_cast<std::uint16_t>(std::lround(opt.tilt_limit * 100));
   const auto out = client.set_config(tilt, static_cast<std::uint16_t>(opt.max_speed), timeout);
-  return report(opt, fmt::format("config tilt_limit={:.2f} max_speed={}", opt.tilt_limit, opt.max_speed), *link, out,
-                0x03, timeout);
+  return report(opt, fmt::format("config tilt_limit={:.2f} max_speed={}", opt.tilt_limit, opt.max_speed), client,
+                *link, out, 0x03, timeout);
 }
 
 void common(CLI::App* cmd, CommandOptions& o) {
