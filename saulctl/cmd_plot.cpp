@@ -128,9 +128,8 @@ void add_plot_command(CLI::App& app, Runner& run) {
   const auto plot = [](const PlotOptions& o) {
     try {
       return run_plot(o);
-    } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: the verb's own usage error
-      say("{}", e.what());
-      return static_cast<int>(kUsage);
+    } catch (const saul::host::PlotUsageError& e) {  // a bad --id or --field: a usage error (report_error: exit 2)
+      throw CLI::ValidationError(e.what());
     }
   };
   auto [cmd, opt] = add_verb<PlotOptions>(
