@@ -26,16 +26,15 @@ void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options) {
                   "to turn samples into time");
 }
 
-bool refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads) {
+void refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads) {
   std::error_code error;
   const auto status = std::filesystem::status(saul::host::capture_open_name(file), error);  // "-": standard input
   if (error || !std::filesystem::exists(status) || std::filesystem::is_regular_file(status) ||
       std::filesystem::is_directory(status))
-    return false;
-  say("{}: not a regular file (a pipe?), which can be read only once: {} reads the capture {}; save it to a file "
-      "first (... > run.log)",
-      file, verb, reads);
-  return true;
+    return;
+  throw CLI::ValidationError(fmt::format("{}: not a regular file (a pipe?), which can be read only once: {} reads the "
+                                         "capture {}; save it to a file first (... > run.log)",
+                                         file, verb, reads));
 }
 
 std::uint64_t parse_rate_hz(const std::string& text) {

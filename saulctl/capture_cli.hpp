@@ -27,9 +27,9 @@ void add_serial_read_options(CLI::App* cmd, SerialCliOptions& options);
 /// The reader options they give (the forced format, and .protocol for links whose capture names none); throws
 /// CLI::ValidationError for a bad sample rate.
 saul::host::SerialReadOptions serial_read_options(const SerialCliOptions& options);
-/// For a verb that reads its capture more than once (replay, plot): prints why a file that can be read only once (a
-/// pipe, "-" on a pipe) will not do and returns true. A missing file or a directory is left to open_capture().
-bool refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads);
+/// For a verb that reads its capture more than once (replay, plot): throws CLI::ValidationError saying why a file that
+/// can be read only once (a pipe, "-" on a pipe) will not do. A missing file or a directory is left to open_capture().
+void refuse_read_once(std::string_view verb, const std::string& file, std::string_view reads);
 /// "10M", "10MHz", "200k", "1000000", "1e6" -> Hz. Throws CLI::ValidationError.
 std::uint64_t parse_rate_hz(const std::string& text);
 

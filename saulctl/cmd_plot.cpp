@@ -50,8 +50,7 @@ std::string output_format(const PlotOptions& opt) {
 int run_plot(const PlotOptions& opt) {
   using namespace saul::host;
   const std::string format = output_format(opt);
-  if (refuse_read_once("plot", opt.file, "once for the time range and panels and again for the points"))
-    return kUsage;
+  refuse_read_once("plot", opt.file, "once for the time range and panels and again for the points");
   std::string output = opt.output;
   if (output.empty()) {
     std::string base = base_name(opt.file);

@@ -211,7 +211,7 @@ int run_replay(const ReplayCliOptions& opt) {
   options.allow_motion = opt.yes;
 
   // Replay reads the capture more than once, so a pipe would replay nothing: refused before it is touched.
-  if (refuse_read_once("replay", opt.file, "once to show what it will send and again for each pass")) return kUsage;
+  refuse_read_once("replay", opt.file, "once to show what it will send and again for each pass");
   OpenedCapture opened = open_capture(opt.file, serial_read_options(opt.serial));  // CaptureOpenError: main says it
   // The kind of link --link names: a serial link may leave its rate out (it follows the capture), so it is parsed
   // later; anything else is resolved now (--to, $SAUL_LINK, the config file).
