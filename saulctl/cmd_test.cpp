@@ -49,9 +49,8 @@ int run_tests(const TestOptions& opt) {
   for (const auto& path : opt.suites) {
     try {
       suites.push_back(bt::load_suite(path));
-    } catch (const bt::ParseError& e) {
-      say("{}", e.what());
-      return kUsage;
+    } catch (const bt::ParseError& e) {  // a usage error (report_error: exit 2)
+      throw CLI::ValidationError(e.what());
     }
   }
   std::vector<bt::SuiteResult> results;
