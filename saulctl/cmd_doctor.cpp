@@ -64,13 +64,14 @@ struct Checks {
   }
 };
 
-void check_ports(Checks& c, bool needed) {
+/// Returns the ports listed (none when listing failed), for find_adapter.
+std::vector<saul::host::PortInfo> check_ports(Checks& c, bool needed) {
   std::vector<saul::host::PortInfo> ports;
   try {
     ports = saul::host::list_serial_ports();
   } catch (const std::exception& e) {
     c.fail("serial ports", e.what(), "check that libserialport can read /sys/class/tty");
-    return;
+    return ports;
   }
   if (ports.empty()) {
     if (needed)
@@ -78,12 +79,13 @@ void check_ports(Checks& c, bool needed) {
              "plug in the CANable2 / the boards' USB cables (a data cable, not a charge-only one); dmesg shows them");
     else
       c.skip("serial ports", "none found (not needed for a SocketCAN link)");
-    return;
+    return ports;
   }
   std::string list;
   for (const auto& p : ports)
     list += fmt::format("{}{}{}", list.empty() ? "" : ", ", p.path, p.role.empty() ? "" : " (" + p.role + ")");
   c.ok("serial ports", fmt::format("{} found: {}", ports.size(), list));
+  return ports;
 }
 
 // Bus traffic, and the robot in it: BALANCE's 0x400 telemetry (10 Hz) within the wait.
@@ -216,17 +218,14 @@ std::string usb_text(int vid, int pid) { return vid < 0 ? "" : fmt::format(" {:0
 
 // Without a link: the CANable2s plugged in, by USB id, on either firmware. The one adapter found is checked as the
 // link; none is a failure (today's robot needs one), several are listed for --link.
-std::optional<saul::host::LinkSpec> find_adapter(Checks& c) {
+std::optional<saul::host::LinkSpec> find_adapter(Checks& c, const std::vector<saul::host::PortInfo>& ports) {
   std::vector<std::string> found;
   std::vector<std::string> links;
-  try {
-    for (const auto& p : saul::host::list_serial_ports())
-      if (p.role.find("slcan firmware") != std::string::npos) {
-        found.push_back(fmt::format("{} ({:04x}:{:04x}, slcan firmware)", p.path, p.usb_vid, p.usb_pid));
-        links.push_back("slcan:" + p.path);
-      }
-  } catch (const std::exception&) {  // check_ports has said so
-  }
+  for (const auto& p : ports)
+    if (p.role.find("slcan firmware") != std::string::npos) {
+      found.push_back(fmt::format("{} ({:04x}:{:04x}, slcan firmware)", p.path, p.usb_vid, p.usb_pid));
+      links.push_back("slcan:" + p.path);
+    }
   for (const auto& i : saul::host::list_can_interfaces()) {
     if (i.usb_vid < 0) continue;  // vcan and other virtual interfaces are no adapter
     found.push_back(fmt::format("{} ({}{}, candleLight firmware{}{})", i.name, i.driver.empty() ? "?" : i.driver,
@@ -348,9 +347,9 @@ int run_doctor(const DoctorOptions& opt) {
     if (!opt.link.empty()) throw;
   }
   Checks c{.json = opt.json};
-  check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
+  const auto ports = check_ports(c, !spec || spec->kind != saul::host::LinkSpec::Kind::socketcan);
   check_modemmanager(c, opt.sysroot.empty() ? "/" : opt.sysroot);
-  if (!spec) spec = find_adapter(c);
+  if (!spec) spec = find_adapter(c, ports);
   if (!spec) {
     c.skip("link", "none given (--link or SAUL_LINK) and no single adapter to check");
   } else if (spec->kind == saul::host::LinkSpec::Kind::slcan) {
