@@ -268,6 +268,22 @@ TEST_CASE("share: the owner leaving hands the adapter to a client, which says so
   CHECK(f->data[0] == 0xCC);
 }
 
+TEST_CASE("share: a take-over that fails (the adapter went with its owner) throws, then and on every later call", "[link][share]") {
+  Held h;
+  auto& [dir, pty, log, owner] = h;
+  auto client = h.client();
+  owner.reset();  // "C\r", the client is told the owner left
+  REQUIRE(pty.read_until_ends("C\r"));
+  ::close(pty.master);  // ... and the adapter is unplugged before the client takes over: its pty is gone
+  ::close(pty.slave);
+  pty.master = pty.slave = -1;
+  CHECK_THROWS_AS(client->receive(milliseconds(500)), LinkError);  // meets the owner's exit; opening fails
+  // neither a client nor the device's owner now: each call says so again (this crashed on a null device)
+  CHECK_THROWS_AS(client->receive(milliseconds(10)), LinkError);
+  CHECK_THROWS_AS(client->send(frame(0x300, {0, 0, 0, 0}), milliseconds(10)), LinkError);
+  CHECK_NOTHROW(client->stats());
+}
+
 TEST_CASE("share: an ESTOP goes through an owner opened listen-only; nothing else does", "[link][share]") {
   LinkOpenOptions silent;
   silent.listen_only = true;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <exception>
 #include <span>
 
 #include "saulproto/host/link/device_holders.hpp"
@@ -23,7 +24,7 @@ constexpr std::size_t kMaxQueuedFrames = 8192;
 constexpr std::size_t kHoldFrames = 2048;
 constexpr std::size_t kMaxQueuedBytes = 1 << 16;
 
-// The queues of what was read for a process; when one is full its oldest goes (frames counted).
+// A process's queue of bytes read for it; when full its oldest bytes go.
 void push_bytes(std::deque<std::uint8_t>& q, std::span<const std::uint8_t> data) {
   q.insert(q.end(), data.begin(), data.end());
   if (q.size() > kMaxQueuedBytes)
@@ -71,15 +72,23 @@ class ShareEnd : protected OwnerCore {
   }
 
   /// Runs `f`; when it meets the owner's exit, takes over (attach()) and runs it again.
+  /// A take-over that failed (the device went with its owner) leaves neither an owner's device nor a client's
+  /// socket: every later call throws its error again instead of reaching a device not there.
   template <class F>
   auto call(F&& f) {
     for (int attempt = 0;; ++attempt) {
+      if (lost_) std::rethrow_exception(lost_);
       try {
         return f();
       } catch (const OwnerLeft& e) {
         if (attempt >= 3) throw LinkError(LinkError::Kind::gone, std::string(e.what()) + ", and taking over failed");
         sock_.reset();
-        attach();
+        try {
+          attach();
+        } catch (...) {
+          lost_ = std::current_exception();
+          throw;
+        }
         notice(fmt::format("{}; {}", e.what(),
                            sock_ ? "now " + sharing_line()
                                  : fmt::format("{} now holds {} and shares it", self_text(), device_)));
@@ -182,6 +191,7 @@ class ShareEnd : protected OwnerCore {
   virtual void take(Msg type, In& in) = 0;
 
   std::unique_ptr<ClientSocket> sock_;  ///< a client's connection to the owner; null while this process owns
+  std::exception_ptr lost_;             ///< the error of a take-over that failed: the link is gone
   mutable std::mutex inbox_mu_;         ///< guards the derived end's queue
   std::uint32_t token_ = 0;             ///< a client's last send
 
@@ -256,7 +266,7 @@ class SharedCanLink final : public CanLink, private ShareEnd {
     filters_ = filters;
   }
   [[nodiscard]] LinkStats stats() const override {
-    LinkStats s = sock_ ? owner_stats_ : device_stats();
+    LinkStats s = sock_ || lost_ ? owner_stats_ : device_stats();
     std::lock_guard lock(inbox_mu_);
     s.rx_dropped += owner_dropped_ + dropped_;
     s.last_send_ns = last_send_ns_;
@@ -426,11 +436,13 @@ class SharedSerialPort final : public SerialPort, private ShareEnd {
       throw SerialError(SerialError::Kind::config,
                         fmt::format("{}: the modem lines belong to {}, which holds the port", path_,
                                     sock_->owner().owner_text()));
+    if (lost_) std::rethrow_exception(lost_);
     std::lock_guard lock(io_);
     real_->set_modem_lines(dtr, rts);
   }
   void set_baud(std::uint32_t baud) override {
     if (sock_) return SerialPort::set_baud(baud);
+    if (lost_) std::rethrow_exception(lost_);
     std::lock_guard lock(io_);
     real_->set_baud(baud);
   }
