@@ -139,8 +139,13 @@ ReadCounts read_capture(const std::string& path, std::unique_ptr<CaptureReader>&
   std::array<std::array<FrameBatch, kAhead>, 2> groups;
   std::array<std::array<std::uint64_t, kAhead>, 2> read_bytes{};
   std::array<std::size_t, 2> held{};
+  bool ended = false;  // the reader said so: it is not asked again (a pipe would wait for more)
   auto read = [&](std::size_t g) {
-    for (held[g] = 0; held[g] < (ahead ? kAhead : 1) && reader->next_batch(groups[g][held[g]]); ++held[g]) {
+    for (held[g] = 0; held[g] < (ahead ? kAhead : 1) && !ended; ++held[g]) {
+      if (!reader->next_batch(groups[g][held[g]])) {
+        ended = true;
+        break;
+      }
       if (ahead) groups[g][held[g]].own();  // the reader's next batch reuses its buffer
       read_bytes[g][held[g]] = reader->bytes_read();
     }
