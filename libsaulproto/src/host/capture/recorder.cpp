@@ -55,6 +55,8 @@ RotatingFiles<Writer>::RotatingFiles(const std::string& path, RotationOptions ro
       append_(append),
       buffer_(std::make_unique<char[]>(kBuffer)) {
   open(0);
+  // without rotation no other file is made: `make` may hold references its caller's scope ends (open_mcap_writer)
+  if (!rotation_.enabled()) make_ = nullptr;
 }
 
 template <class Writer>

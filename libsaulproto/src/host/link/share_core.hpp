@@ -39,7 +39,7 @@ enum class Msg : std::uint8_t { hello = 1, welcome, refuse, frame, sent, bytes, 
 enum class Kind : std::uint8_t { can = 0, serial = 1 };
 enum class ByeReason : std::uint8_t { exit = 0, gone = 1 };
 
-/// A client's owner left without the device going away: the handle takes over.
+/// A client's owner left without the device going away: the client takes over (ShareEnd::call()).
 struct OwnerLeft : std::runtime_error {
   explicit OwnerLeft(const std::string& who) : std::runtime_error(who) {}
 };
