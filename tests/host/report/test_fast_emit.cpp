@@ -822,3 +822,76 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
     check_stats_of_text(cut.path, reader_stats);
   }
 }
+
+TEST_CASE("memo judge: a cache with too few hits is skipped for a while, then judged again") {
+  MemoJudge judge;
+  const auto misses = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      REQUIRE(judge.use());
+      judge.looked(false);
+    }
+  };
+  misses(256);  // judged: no hits
+  int skipped = 0;
+  while (!judge.use()) ++skipped;
+  CHECK(skipped == 4096);
+  judge.looked(false);
+  // 16 hits in 256 (1 in 16) keep it
+  for (int i = 0; i < 255; ++i) {
+    REQUIRE(judge.use());
+    judge.looked(i < 16);
+  }
+  CHECK(judge.use());
+  judge.looked(false);
+  for (int i = 0; i < 255; ++i) {  // 15 in 256 do not
+    REQUIRE(judge.use());
+    judge.looked(i < 15);
+  }
+  CHECK_FALSE(judge.use());
+}
+
+TEST_CASE("frame emitter: its cache, on, skipped by its judge where contents never repeat, then on again, changes no line") {
+  // Phases: 5 contents over and over (the cache answers), then contents that never repeat (a counter: the judge
+  // turns the cache off), the first 5 again (still off, then on), random frames of every kind, a counter again.
+  std::mt19937_64 rng(34);
+  const auto varied = random_frames(rng, 3000);
+  std::vector<CanFrame> frames;
+  std::uint64_t ns = 1'763'800'000'000'000'000ULL;
+  const auto add = [&](CanFrame f) {
+    f.timestamp_ns = ns += 1000;
+    frames.push_back(f);
+  };
+  const auto counter = [&](std::uint32_t n) {
+    for (std::uint32_t i = 0; i < n; ++i) {
+      CanFrame f;
+      f.id = (27u << 8) | 68;  // VESC STATUS_5
+      f.extended = true;
+      f.dlc = 8;
+      for (std::size_t b = 0; b < 4; ++b) f.data[b] = static_cast<std::uint8_t>(i >> (8 * b));
+      add(f);
+    }
+  };
+  for (int i = 0; i < 2000; ++i) add(varied[static_cast<std::size_t>(i % 5)]);
+  counter(6000);
+  for (int i = 0; i < 6000; ++i) add(varied[static_cast<std::size_t>(i % 5)]);
+  for (const auto& f : varied) add(f);
+  counter(5000);
+  for (auto format : {DecodeFormat::text, DecodeFormat::csv, DecodeFormat::jsonl}) {
+    INFO("format " << static_cast<int>(format));
+    FrameEmitter emitter(format, TimeMode::absolute);
+    DecodeCounts counts, cold_counts;
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      fmt::memory_buffer line, cold_line;
+      emitter.add(frames[i], "can0", line, counts);
+      FrameEmitter cold(format, TimeMode::absolute);  // the reference: an emitter that has seen nothing
+      cold.add(frames[i], "can0", cold_line, cold_counts);
+      if (fmt::to_string(line) != fmt::to_string(cold_line) && differ++ < 3)
+        CHECK(fmt::to_string(line) == fmt::to_string(cold_line));
+    }
+    CHECK(differ == 0);
+    CHECK(counts.frames == cold_counts.frames);
+    CHECK(counts.decoded == cold_counts.decoded);
+    CHECK(counts.rejected == cold_counts.rejected);
+  }
+}
