@@ -215,9 +215,13 @@ void BusStats::add(const CanFrame& f, std::string_view interface, const FrameFac
   if (f.error) {
     ++error_frames_;
     // by class bit (frame_text.hpp), so the table stays small whatever the counters say
+    bool any = false;
     for (const auto& c : kErrorClasses)
-      if (f.id & c.bit) ++error_kinds_[c.kind];
-    if ((f.id & 0x3FF) == 0) ++error_kinds_["unspecified"];  // none of the classes' bits
+      if (f.id & c.bit) {
+        ++error_kinds_[c.kind];
+        any = true;
+      }
+    if (!any) ++error_kinds_["unspecified"];  // none of the classes' bits
     return;
   }
   count(content_of(f, facts), f.timestamp_ns.has_value(), f.timestamp_ns.value_or(0),
