@@ -68,5 +68,10 @@ check "an empty standard input (stats -): exit 1, 'not a capture (empty: not one
 "$saulctl" decode "$root/captures/robot_bus.log" >/dev/null 2>"$out/e"
 check "a real capture is no error (exit 0)" test $? -eq 0
 
+# The other way round: CAN frames written to a format of serial bytes are refused before a file is made.
+"$saulctl" convert "$root/captures/robot_bus.log" "$out/bus.serial" >/dev/null 2>"$out/e"
+check "convert CAN frames to .serial: exit 1, one line naming the file and why, no file made" \
+  bash -c "test $? -eq 1 && test \$(wc -l <'$out/e') -eq 1 && test ! -e '$out/bus.serial' && grep -qF \"cannot write CAN frames to '$out/bus.serial' as serial: that format holds serial bytes\" '$out/e'"
+
 echo "$fails failed"
 exit $((fails > 0))

@@ -642,9 +642,7 @@ std::unique_ptr<CaptureWriter> open_capture_writer(
     throw CaptureOpenError(fmt::format("standard output is a terminal and {} is binary: redirect it (> run.{}) or "
                                        "pipe it (| wireshark -k -i -)",
                                        to_string(*format), to_string(*format)));
-  if (holds_serial_bytes(*format))
-    throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
-                                       to_string(*format)));
+  // (RotatingCaptureWriter refuses a format of serial bytes)
   // Standard output is opened again by its name (/dev/stdout), so it is appended to: a pipe does not mind, and
   // "convert ... - >> all.log" keeps what was there. Not for BLF, which seeks back to its header at the end: in
   // append mode that header would be written at the end instead (a pipe cannot seek, and BLF then leaves it).

@@ -148,10 +148,11 @@ template class RotatingFiles<SerialCaptureWriter>;
 
 namespace {
 /// `make`, or the format's own writer; throws CaptureOpenError for a format of serial bytes (before any file is made).
-RotatingCaptureWriter::MakeWriter can_writer(CaptureFormat format, RotatingCaptureWriter::MakeWriter make) {
+RotatingCaptureWriter::MakeWriter can_writer(const std::string& path, CaptureFormat format,
+                                             RotatingCaptureWriter::MakeWriter make) {
   if (holds_serial_bytes(format))
-    throw CaptureOpenError(
-        fmt::format("cannot write CAN frames as {}: that format holds serial bytes", to_string(format)));
+    throw CaptureOpenError(fmt::format("cannot write CAN frames to '{}' as {}: that format holds serial bytes", path,
+                                       to_string(format)));
   if (make) return make;
   return [format](std::ostream& out) { return make_capture_writer(out, format); };
 }
@@ -160,6 +161,6 @@ RotatingCaptureWriter::MakeWriter can_writer(CaptureFormat format, RotatingCaptu
 RotatingCaptureWriter::RotatingCaptureWriter(const std::string& path, CaptureFormat format, RotationOptions rotation,
                                              std::function<void(const std::string&)> on_new_file, MakeWriter make,
                                              Compression packing, bool append)
-    : RotatingFiles(path, rotation, std::move(on_new_file), can_writer(format, std::move(make)), packing, append) {}
+    : RotatingFiles(path, rotation, std::move(on_new_file), can_writer(path, format, std::move(make)), packing, append) {}
 
 }  // namespace saul::host
