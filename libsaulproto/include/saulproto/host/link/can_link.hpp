@@ -71,7 +71,9 @@ class CanLink {
   /// Restricts what receive() returns (where the transport can, in the kernel). Empty = everything.
   virtual void set_filters(const std::vector<CanFilter>& filters) = 0;
   /// slcan: closes and reopens the channel, in normal mode (out of listen-only or bus-off); counted in
-  /// stats().recoveries. Other links do nothing (a SocketCAN restart goes through netlink and needs root).
+  /// stats().recoveries. Other links do nothing (a SocketCAN restart goes through netlink and needs root), and so
+  /// does the shared link open_can_link() gives: its owner reopens the device's own link itself, when an ESTOP must
+  /// leave listen-only (shared_link.cpp).
   virtual void reopen() {}
   [[nodiscard]] virtual LinkStats stats() const = 0;
   [[nodiscard]] virtual const std::string& name() const = 0;
