@@ -50,7 +50,7 @@ struct DecodeCounts {
 };
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache of
-/// rendered lines by content (skipped by its MemoJudge while contents do not repeat).
+/// rendered lines by content.
 class FrameEmitter {
  public:
   /// `first`: the first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
@@ -75,7 +75,6 @@ class FrameEmitter {
   DecodeFormat format_;
   TimeColumn time_;
   std::vector<Entry> cache_;
-  MemoJudge judge_;  // random payloads: cache_ only costs
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
   bool error_detail_ = false;
 };
