@@ -101,6 +101,22 @@ TEST_CASE("CAN frame lengths on the wire") {
   CHECK(can_frame_bits(zeros29, StuffBits::exact) == 151);
 }
 
+TEST_CASE("bus statistics: error frames counted by class bit, none of them 'unspecified'") {
+  // linux/can/error.h: CAN_ERR_LOSTARB 0x002, CAN_ERR_CRTL 0x004, CAN_ERR_BUSOFF 0x040, CAN_ERR_CNT 0x200; bits
+  // above 0x3FF name no class.
+  BusStats stats;
+  for (std::uint32_t id : {0x000u, 0x046u, 0x200u, 0x400u, 0x002u}) {
+    CanFrame e = frame(id, false, {0, 0, 0, 0, 0, 0, 0, 0});
+    e.error = true;
+    stats.add(e, "can0");
+  }
+  CHECK(stats.error_frames() == 5);
+  const std::map<std::string, std::uint64_t> expected = {{"unspecified", 2},    {"lost_arbitration", 2},
+                                                         {"controller", 1},     {"bus_off", 1},
+                                                         {"error_counters", 1}};
+  CHECK(stats.error_kinds() == expected);
+}
+
 TEST_CASE("bus statistics of a hand-made capture") {
   // t (ms): 0 and 50: 0x300 (4 bytes); 650: 0x300 (a 600 ms silence, over the 500 ms Orin timeout);
   // 700: 0x123 (2 bytes, unknown id); 800: an error frame (bus-off); 1000: 0x300 with 3 bytes (wrong DLC).
