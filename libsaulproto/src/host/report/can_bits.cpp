@@ -44,10 +44,17 @@ constexpr Step stuff_bit(std::uint8_t state, unsigned bit) noexcept {
   return {static_cast<std::uint8_t>(1 + 2 * (run - 1) + last), stuff};
 }
 
-/// The machine stepped over `Bits` bits at once (most significant first), from each of the 9 states.
+/// The machine stepped over `Bits` bits at once (most significant first), from each of the 9 states: next[b][s] and
+/// stuff[b][s]. Indexed by the bits first, so a step's address is the bits' row (known ahead) plus the state just
+/// read: the chain of steps over a frame waits on one load per byte, no multiplication or unpacking between.
 template <unsigned Bits>
-constexpr std::array<std::array<Step, 1U << Bits>, 9> stuff_table() {
-  std::array<std::array<Step, 1U << Bits>, 9> t{};
+struct StuffSteps {
+  std::array<std::array<std::uint8_t, 16>, 1U << Bits> next{};
+  std::array<std::array<std::uint8_t, 16>, 1U << Bits> stuff{};
+};
+template <unsigned Bits>
+constexpr StuffSteps<Bits> stuff_table() {
+  StuffSteps<Bits> t{};
   for (std::uint8_t s = 0; s < 9; ++s)
     for (unsigned b = 0; b < (1U << Bits); ++b) {
       Step step{s, 0};
@@ -56,7 +63,8 @@ constexpr std::array<std::array<Step, 1U << Bits>, 9> stuff_table() {
         step.state = next.state;
         step.stuff = static_cast<std::uint8_t>(step.stuff + next.stuff);
       }
-      t[s][b] = step;
+      t.next[b][s] = step.state;
+      t.stuff[b][s] = step.stuff;
     }
   return t;
 }
@@ -86,8 +94,8 @@ constexpr std::uint16_t crc_byte(std::uint16_t crc, std::uint8_t byte) noexcept 
 
 /// The stuff bits of the CRC's 15 bits, the last to be stuffed, from the machine's state after the data.
 inline unsigned crc_stuff_bits(std::uint8_t state, std::uint16_t crc) noexcept {
-  const Step high = kStuffTable[state][static_cast<std::uint8_t>(crc >> 7)];
-  return high.stuff + kStuffTable7[high.state][crc & 0x7F].stuff;
+  const auto high = static_cast<std::uint8_t>(crc >> 7);
+  return kStuffTable.stuff[high][state] + kStuffTable7.stuff[crc & 0x7F][kStuffTable.next[high][state]];
 }
 
 }  // namespace
@@ -119,9 +127,9 @@ CanStuffStart can_stuff_start(std::uint32_t id, bool extended, bool remote, std:
   start.bytes = static_cast<std::uint8_t>(remote ? 0 : code);
   for (unsigned k = header_bytes; k-- > 0;) {
     start.crc = crc_byte(start.crc, static_cast<std::uint8_t>(header >> (8 * k)));
-    const Step st = kStuffTable[start.state][static_cast<std::uint8_t>(stuffed_header >> (8 * k))];
-    start.state = st.state;
-    start.stuff = static_cast<std::uint8_t>(start.stuff + st.stuff);
+    const auto b = static_cast<std::uint8_t>(stuffed_header >> (8 * k));
+    start.stuff = static_cast<std::uint8_t>(start.stuff + kStuffTable.stuff[b][start.state]);
+    start.state = kStuffTable.next[b][start.state];
   }
   for (unsigned i = 0; i < start.bytes; ++i) start.crc = crc_byte(start.crc, 0);
   return start;
@@ -134,9 +142,8 @@ unsigned can_stuff_bits(const CanStuffStart& start, const std::uint8_t* data) no
   std::uint8_t state = start.state;
   for (unsigned i = 0; i < n; ++i) {
     crc = static_cast<std::uint16_t>(crc ^ kCrcAfter[n - 1 - i][data[i]]);
-    const Step st = kStuffTable[state][data[i]];
-    state = st.state;
-    stuff += st.stuff;
+    stuff += kStuffTable.stuff[data[i]][state];
+    state = kStuffTable.next[data[i]][state];
   }
   return stuff + crc_stuff_bits(state, crc);
 }
