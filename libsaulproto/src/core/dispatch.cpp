@@ -12,8 +12,8 @@ Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept {
 Result<DecodedName> decode_bus_name(const CanFrame& frame) noexcept {
   if (frame.error) return Reason::error_frame;
   if (!frame.valid()) return Reason::invalid_frame;
-  if (!frame.extended) return saulcan::decode_as<DecodedName>(frame);
-  return vesc::decode_as<DecodedName>(frame);
+  if (!frame.extended) return saulcan::decode_name(frame);
+  return vesc::decode_name(frame);
 }
 
 const char* name_of(const BusMessage& message) noexcept {

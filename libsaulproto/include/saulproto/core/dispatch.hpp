@@ -30,13 +30,6 @@ Result<BusMessage> decode_bus_frame(const CanFrame& frame) noexcept;
 /// The message's short name, e.g. "velocity_cmd".
 const char* name_of(const BusMessage& message) noexcept;
 
-/// Of a decoded message, only its name: what a counter of frames keeps (saulctl stats). Made from any message type.
-struct DecodedName {
-  const char* name = nullptr;
-  DecodedName() = default;
-  template <class Message>
-  constexpr DecodedName(const Message&) noexcept : name(Message::kName) {}  // NOLINT: implicit, as a variant's
-};
 /// decode_bus_frame()'s outcome with the message's name in place of the message: the same reason when it fails,
 /// name_of() of its message when it decodes. The codecs' checks all run; no BusMessage is built, copied or visited.
 Result<DecodedName> decode_bus_name(const CanFrame& frame) noexcept;

@@ -62,6 +62,15 @@ class [[nodiscard]] Result {
   Reason reason_;
 };
 
+/// Of a decoded message, only its name: what a counter of frames keeps (saulctl stats, through the codecs'
+/// decode_name() and decode_bus_name()). Made from any message type.
+struct DecodedName {
+  const char* name = nullptr;
+  DecodedName() = default;
+  template <class Message>
+  constexpr DecodedName(const Message&) noexcept : name(Message::kName) {}  // NOLINT: implicit, as a variant's
+};
+
 /// The Result of one message type as the Result of a variant that holds that type (the codecs' decode_as()).
 template <class Variant, class T>
 constexpr Result<Variant> widen_to(const Result<T>& r) noexcept {

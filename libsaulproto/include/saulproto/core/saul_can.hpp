@@ -175,6 +175,8 @@ Result<CommandAck> decode_command_ack(const CanFrame& f) noexcept;
 
 /// Any SAUL frame by its id; unknown_id when the id is not one of 0x300..0x303, 0x400..0x402.
 Result<Message> decode(const CanFrame& f) noexcept;
+/// decode() with only the message's name kept: the same checks and reasons (decode_bus_name()).
+Result<DecodedName> decode_name(const CanFrame& f) noexcept;
 /// decode() into any variant that holds the SAUL messages (decode_bus_frame()'s BusMessage): the message is built
 /// once, in the variant it is wanted in, rather than in Message and then copied over.
 template <class Variant>

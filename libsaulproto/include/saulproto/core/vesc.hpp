@@ -416,6 +416,8 @@ Result<Pong> decode_pong(const CanFrame& f) noexcept;
 
 /// Any VESC frame by the command bits of its id; unknown_id for a command not in the table above.
 Result<Message> decode(const CanFrame& f) noexcept;
+/// decode() with only the message's name kept: the same checks and reasons (decode_bus_name()).
+Result<DecodedName> decode_name(const CanFrame& f) noexcept;
 /// decode() into any variant that holds the VESC messages (decode_bus_frame()'s BusMessage): the message is built
 /// once, in the variant it is wanted in.
 template <class Variant>
