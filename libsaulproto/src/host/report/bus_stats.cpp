@@ -205,7 +205,7 @@ inline void BusStats::count(const Content& c, bool timed, std::uint64_t ns, cons
 
 void BusStats::count_failure(IdStats& s, Reason reason) {
   ++s.decode_errors;
-  ++failures_[to_string(reason)];
+  ++failures_[static_cast<std::uint8_t>(reason)];
   if (s.type.empty()) s.type = std::string("!") + to_string(reason);
 }
 
@@ -335,7 +335,7 @@ void BusStats::append(const BusStats& later) {
   if (later.first_ns_ && (!first_ns_ || *later.first_ns_ < *first_ns_)) first_ns_ = later.first_ns_;
   if (later.last_ns_ && (!last_ns_ || *later.last_ns_ > *last_ns_)) last_ns_ = later.last_ns_;
   for (const auto& [kind, count] : later.error_kinds_) error_kinds_[kind] += count;
-  for (const auto& [reason, count] : later.failures_) failures_[reason] += count;
+  for (std::size_t r = 0; r < failures_.size(); ++r) failures_[r] += later.failures_[r];
   for (const std::string& name : later.interface_order_) {  // in file order: the first ones are listed
     const Load& from = later.interfaces_.find(name)->second;
     Load& load = load_of(name);  // beyond the listed ones, *unlisted_load_: only its frames are reported
@@ -358,8 +358,15 @@ void BusStats::append(const BusStats& later) {
 
 std::uint64_t BusStats::decode_errors() const {
   std::uint64_t n = 0;
-  for (const auto& [reason, count] : failures_) n += count;
+  for (const std::uint64_t count : failures_) n += count;
   return n;
+}
+
+std::map<std::string, std::uint64_t> BusStats::decode_failures() const {
+  std::map<std::string, std::uint64_t> by_name;
+  for (std::size_t r = 0; r < failures_.size(); ++r)
+    if (failures_[r] > 0) by_name[to_string(static_cast<Reason>(r))] = failures_[r];
+  return by_name;
 }
 
 double BusStats::load_percent(const Load& load, StuffBits stuffing) const {
@@ -403,7 +410,7 @@ std::string BusStats::text(std::string_view name) const {
     return by_kind.empty() ? fmt::format("{}", total) : fmt::format("{} ({})", total, kinds);
   };
   out += fmt::format("error frames: {}\ndecode errors: {}\n", counted(error_frames_, error_kinds_),
-                     counted(decode_errors(), failures_));
+                     counted(decode_errors(), decode_failures()));
   const auto velocity = ids_.find(IdKey{false, saulcan::kVelocityCmdId});
   if (velocity == ids_.end()) {
     out += "0x300 velocity_cmd: none in the capture (the BALANCE board would not drive)\n";
@@ -436,7 +443,7 @@ std::string BusStats::text(std::string_view name) const {
 nlohmann::json BusStats::json(std::string_view name) const {
   nlohmann::json j{{"file", name}, {"kind", "can"}, {"frames", frames_}, {"corrupt", corrupt_},
                    {"bitrate", options_.bitrate}, {"error_frames", error_frames_}, {"error_kinds", error_kinds_},
-                   {"decode_errors", decode_errors()}, {"decode_failures", failures_},
+                   {"decode_errors", decode_errors()}, {"decode_failures", decode_failures()},
                    {"load", nlohmann::json::object()}};
   if (first_ns_) {
     j["first_ns"] = *first_ns_;

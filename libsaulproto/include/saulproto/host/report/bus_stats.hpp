@@ -238,7 +238,7 @@ class BusStats {
   [[nodiscard]] std::uint64_t decode_errors() const;  ///< data/remote frames that did not decode (error frames not)
   [[nodiscard]] const std::map<IdKey, IdStats>& ids() const { return ids_; }
   [[nodiscard]] const std::map<std::string, Load, std::less<>>& interfaces() const { return interfaces_; }
-  [[nodiscard]] const std::map<std::string, std::uint64_t>& decode_failures() const { return failures_; }
+  [[nodiscard]] std::map<std::string, std::uint64_t> decode_failures() const;  ///< reason -> count
   [[nodiscard]] const std::map<std::string, std::uint64_t>& error_kinds() const { return error_kinds_; }
   /// Load of one interface over its span at options().bitrate, in percent; 0 when the span is 0.
   [[nodiscard]] double load_percent(const Load& load, StuffBits stuffing) const;
@@ -286,7 +286,7 @@ class BusStats {
   // (pointers to them are kept, so they do not move with this object)
   std::unique_ptr<IdStats> unlisted_id_ = std::make_unique<IdStats>();
   std::unique_ptr<Load> unlisted_load_ = std::make_unique<Load>();
-  std::map<std::string, std::uint64_t> failures_;     // decode failure reason -> count
+  std::array<std::uint64_t, 256> failures_{};         // decode failures by Reason (a byte): no name looked up per frame
   std::map<std::string, std::uint64_t> error_kinds_;  // error frame description -> count
   FrameFactsCache facts_;
   // the last interface and ids looked up (map nodes stay put)
