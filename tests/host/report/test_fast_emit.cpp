@@ -823,10 +823,36 @@ TEST_CASE("fast decode: a compressed candump log cut into blocks as it inflates 
   }
 }
 
-TEST_CASE("frame emitter: its cache of rendered lines changes no line (contents over and over, a counter, random frames)") {
-  // Phases: 5 contents over and over (the cache answers), then contents that never repeat (a counter: every slot
-  // taken over), the first 5 again, random frames of every kind (some twice in a row), a counter again. The
-  // reference renders each frame in an emitter that has seen nothing (its cache empty).
+TEST_CASE("memo judge: a cache with too few hits is skipped for a while, then judged again") {
+  MemoJudge judge;
+  const auto misses = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      REQUIRE(judge.use());
+      judge.looked(false);
+    }
+  };
+  misses(256);  // judged: no hits
+  int skipped = 0;
+  while (!judge.use()) ++skipped;
+  CHECK(skipped == 4096);
+  judge.looked(false);
+  // 16 hits in 256 (1 in 16) keep it
+  for (int i = 0; i < 255; ++i) {
+    REQUIRE(judge.use());
+    judge.looked(i < 16);
+  }
+  CHECK(judge.use());
+  judge.looked(false);
+  for (int i = 0; i < 255; ++i) {  // 15 in 256 do not
+    REQUIRE(judge.use());
+    judge.looked(i < 15);
+  }
+  CHECK_FALSE(judge.use());
+}
+
+TEST_CASE("frame emitter: its cache, on, skipped by its judge where contents never repeat, then on again, changes no line") {
+  // Phases: 5 contents over and over (the cache answers), then contents that never repeat (a counter: the judge
+  // turns the cache off), the first 5 again (still off, then on), random frames of every kind, a counter again.
   std::mt19937_64 rng(34);
   const auto varied = random_frames(rng, 3000);
   std::vector<CanFrame> frames;

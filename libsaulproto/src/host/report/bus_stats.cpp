@@ -555,11 +555,8 @@ class LineMemo final : public CandumpLineTaker {
     std::array<CanStuffStart, 9> stuff_start{};  // by DLC: a new content's stuff bits cost its data bytes only
     BusStats::Known known;
     Content last;  // of this head's last line: most lines repeat their id's last data (no table lookup then)
-    std::uint16_t table_probes = 0;  // lookups in the contents' table since it was last judged
-    std::uint16_t table_hits = 0;    // ... that found the content there
-    std::uint16_t skip_table = 0;    // lines with new data still to be worked out without the table
+    MemoJudge table;  // whether this id's new data are worth looking for in the contents' table
   };
-  static constexpr std::uint16_t kProbesJudged = 256, kSkipped = 4096;
 
   /// Counts the line (time `ns`; `words` from the text after the time; its first '#' at `hash`, 40 when none) from
   /// the tables, filling in what they lack; false for a line of another shape.
@@ -589,25 +586,16 @@ class LineMemo final : public CandumpLineTaker {
     const std::uint32_t tag = tag_of(head, dlc);
     auto same = [&](const Content& c) { return c.tag == tag && ((c.text[0] ^ text[0]) | (c.text[1] ^ text[1])) == 0; };
     if (!same(head.last)) {  // most lines repeat their id's last data: no table lookup then
-      if (head.skip_table > 0) {
-        // this id's data rarely repeat (a counter, a timestamp): the table would only be probed in vain and
-        // filled with contents that push out those that do repeat
-        --head.skip_table;
+      if (!head.table.use()) {  // this id's data rarely repeat (a counter, a timestamp)
         if (!learn(head.last, head, dlc, data_text, text)) return false;
       } else {
         const std::uint64_t c = text[0] * 0x9E3779B97F4A7C15ULL + text[1] * 0xC2B2AE3D27D4EB4FULL +
                                 std::uint64_t{tag} * 0xD6E8FEB86659FD93ULL;
         Content& slot = contents_[c >> (64 - kContentBits)];
-        if (same(slot)) {
-          ++head.table_hits;
-        } else if (!learn(slot, head, dlc, data_text, text)) {
-          return false;
-        }
+        const bool hit = same(slot);
+        if (!hit && !learn(slot, head, dlc, data_text, text)) return false;
         head.last = slot;
-        if (++head.table_probes == kProbesJudged) {  // too few hits: skip the table for a while, then look again
-          if (head.table_hits < kProbesJudged / 16) head.skip_table = kSkipped;
-          head.table_probes = head.table_hits = 0;
-        }
+        head.table.looked(hit);
       }
     }
     const Content& content = head.last;
@@ -650,7 +638,7 @@ class LineMemo final : public CandumpLineTaker {
     }
     head.known = {};
     head.last = {};
-    head.table_probes = head.table_hits = head.skip_table = 0;
+    head.table = {};
     head.serial = ++serial_;
     return true;
   }

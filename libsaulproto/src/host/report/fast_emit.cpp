@@ -121,15 +121,19 @@ std::string frame_text(const CanFrame& f) {
 }
 
 void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memory_buffer& out, DecodeCounts& counts) {
-  const FrameKey key = frame_key(f);
-  Entry& e = cache_[key.slot(cache_.size())];  // robot buses repeat payloads: the content's text from before
-  const bool hit = e.used && e.key == key;
-  Result<DecodedName> result = Reason::ok;
-  if (!hit) {
-    result = decode_bus_name(f);
-    e.reason = result ? Reason::ok : result.reason();
+  // robot buses repeat payloads: the content's text from before, in its slot of the cache (none while the judge
+  // finds that the frames do not repeat)
+  Entry* e = nullptr;
+  FrameKey key;
+  if (judge_.use()) {
+    key = frame_key(f);
+    e = &cache_[key.slot(cache_.size())];
   }
-  counts.count(e.reason);
+  const bool hit = e && e->used && e->key == key;
+  if (e) judge_.looked(hit);
+  Result<DecodedName> result = Reason::ok;
+  if (!hit) result = decode_bus_name(f);
+  counts.count(hit ? e->reason : result.reason());
   const bool text = format_ == DecodeFormat::text;
   const bool json = format_ == DecodeFormat::jsonl;
   if (text && interface.empty()) interface = "can0";
@@ -148,7 +152,7 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   const std::string detail = !hit && f.error && error_detail_ ? describe_error_frame(f) : std::string();
   const signals::MessageDesc* d = !hit && result ? signals::find_can(f.id, f.extended) : nullptr;
   // One line in one go: room for all of it, then written in place.
-  const std::size_t room = hit ? e.text.size() : 6 * detail.size() + (d ? 2 * message_chars_max(*d) : 0);
+  const std::size_t room = hit ? e->text.size() : 6 * detail.size() + (d ? 2 * message_chars_max(*d) : 0);
   const std::size_t at = out.size();
   out.resize(at + 2 * TimeColumn::kMaxChars + interface_column_.size() + room + 320);
   char* w = out.data() + at;
@@ -159,9 +163,9 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
     w = put_chars(w, interface_column_);
     *w++ = text ? ' ' : ',';
   }
-  const std::string_view cached = e.text;
+  const std::string_view line = hit ? std::string_view(e->text) : std::string_view();
   char* const head = w;
-  w = hit ? put_chars(w, cached.substr(0, e.split)) : head_chars(w, format_, f, result.reason(), detail);
+  w = hit ? put_chars(w, line.substr(0, e->split)) : head_chars(w, format_, f, result.reason(), detail);
   const auto head_size = static_cast<std::size_t>(w - head);
   if (json) {
     if (f.timestamp_ns) {
@@ -173,14 +177,17 @@ void FrameEmitter::add(const CanFrame& f, std::string_view interface, fmt::memor
   }
   char* const tail = w;
   if (hit) {
-    w = put_chars(w, cached.substr(e.split));
+    w = put_chars(w, line.substr(e->split));
   } else {
     if (d) w = message_chars(w, format_, *d, f);
-    e.used = true;
-    e.key = key;
-    e.split = head_size;
-    e.text.assign(head, head_size);
-    e.text.append(tail, static_cast<std::size_t>(w - tail));
+    if (e) {
+      e->used = true;
+      e->key = key;
+      e->reason = result.reason();
+      e->split = head_size;
+      e->text.assign(head, head_size);
+      e->text.append(tail, static_cast<std::size_t>(w - tail));
+    }
   }
   if (json) {
     w = put_chars(w, ",\"time\":\"");

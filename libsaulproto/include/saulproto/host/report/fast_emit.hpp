@@ -75,6 +75,7 @@ class FrameEmitter {
   DecodeFormat format_;
   TimeColumn time_;
   std::vector<Entry> cache_;
+  MemoJudge judge_;  // random payloads: cache_ only costs
   std::string interface_, interface_column_;  // the last interface seen, and as its column writes it
   bool error_detail_ = false;
 };

@@ -1,6 +1,7 @@
 // A CAN frame's content (id, format, flags, DLC and the 8 data bytes; not its time) as two words, and a hash of it
 // for direct-mapped caches of what is computed from the content alone (a rendered line, a decode, stuff bits):
-// robot buses repeat the same frames, so such a cache answers most frames without computing anything.
+// robot buses repeat the same frames, so such a cache answers most frames without computing anything. MemoJudge
+// turns such a cache off where the frames do not repeat.
 #pragma once
 
 #include <cstddef>
@@ -28,5 +29,29 @@ inline FrameKey frame_key(const CanFrame& f) noexcept {
   for (std::size_t i = 0; i < 8; ++i) k.k2 |= std::uint64_t{f.data[i]} << (8 * i);
   return k;
 }
+
+/// Whether a cache of frame contents is worth its lookups. Where contents never repeat (a counter, a timestamp,
+/// random payloads) a lookup only costs: storing what will not be asked for again takes 1/10 of decode's time and
+/// pushes out entries that would be. After kJudged lookups with fewer than 1 in 16 hits, use() says no for the next
+/// kSkipped frames, then the cache is judged again. O(1), two compares per frame.
+class MemoJudge {
+ public:
+  /// Whether to look in the cache for this frame (then say how it went to looked()).
+  [[nodiscard]] bool use() noexcept {
+    if (skip_ == 0) return true;
+    --skip_;
+    return false;
+  }
+  void looked(bool hit) noexcept {
+    hits_ = static_cast<std::uint16_t>(hits_ + (hit ? 1 : 0));
+    if (++probes_ < kJudged) return;
+    if (hits_ < kJudged / 16) skip_ = kSkipped;
+    probes_ = hits_ = 0;
+  }
+
+ private:
+  static constexpr std::uint16_t kJudged = 256, kSkipped = 4096;
+  std::uint16_t probes_ = 0, hits_ = 0, skip_ = 0;
+};
 
 }  // namespace saul::host
