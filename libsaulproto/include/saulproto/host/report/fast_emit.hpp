@@ -50,7 +50,7 @@ struct DecodeCounts {
 };
 
 /// Writes decode's lines of CAN frames. Keeps the time column's state (first and previous frame) and a cache of
-/// rendered lines by content.
+/// rendered lines by content (skipped by its MemoJudge while contents do not repeat).
 class FrameEmitter {
  public:
   /// `first`: the first frame's time, for TimeMode::relative when this emitter starts in the middle of a file.
