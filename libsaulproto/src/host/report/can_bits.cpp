@@ -49,8 +49,9 @@ constexpr Step stuff_bit(std::uint8_t state, unsigned bit) noexcept {
 /// read: the chain of steps over a frame waits on one load per byte, no multiplication or unpacking between.
 template <unsigned Bits>
 struct StuffSteps {
-  std::array<std::array<std::uint8_t, 16>, 1U << Bits> next{};
-  std::array<std::array<std::uint8_t, 16>, 1U << Bits> stuff{};
+  static constexpr std::size_t kRow = 16;  // the 9 states, a row padded to 16 bytes (the index a shift, not a multiply)
+  std::array<std::array<std::uint8_t, kRow>, 1U << Bits> next{};
+  std::array<std::array<std::uint8_t, kRow>, 1U << Bits> stuff{};
 };
 template <unsigned Bits>
 constexpr StuffSteps<Bits> stuff_table() {
